@@ -1,0 +1,48 @@
+//! The one error type of the library. Every variant renders as a single line that names the
+//! file, field or line at fault; the CLI prints it and exits with code 2.
+
+use std::path::PathBuf;
+
+/// Anything that stops a render: bad input, an unwritable output folder, no usable GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The scene JSON is not well-formed or does not match the format.
+    #[error("{}:{line}:{column}: {message}", file.display())]
+    SceneSyntax {
+        file: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// A scene value is out of its valid range (`field` is a path such as `objects[2].radius`).
+    #[error("{}: {field}: {message}", file.display())]
+    SceneValue {
+        file: PathBuf,
+        field: String,
+        message: String,
+    },
+    /// A mesh file is missing, unreadable or corrupt.
+    #[error("{}: {message}", file.display())]
+    Mesh { file: PathBuf, message: String },
+    /// A file or folder could not be read or written.
+    #[error("{}: {message}", path.display())]
+    Io { path: PathBuf, message: String },
+    /// A command-line value is out of range (`option` names it, e.g. `--size`).
+    #[error("{option}: {message}")]
+    Argument { option: String, message: String },
+    /// No GPU adapter, or the device could not run the request.
+    #[error("{0}")]
+    Device(String),
+}
+
+/// The library's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub(crate) fn io(path: impl Into<PathBuf>, err: impl std::fmt::Display) -> Self {
+        Error::Io {
+            path: path.into(),
+            message: err.to_string(),
+        }
+    }
+}

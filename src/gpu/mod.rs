@@ -1,0 +1,129 @@
+//! The GPU side: getting a device ([`Gpu::new`]) is separate from running on one
+//! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
+
+pub mod layout;
+mod render;
+pub mod shader;
+
+pub use render::{max_tile_rows, render};
+
+use crate::error::{Error, Result};
+
+/// The package that provides a software Vulkan driver on Debian and Ubuntu.
+pub const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` \
+     (Mesa's lavapipe runs on any CPU)";
+
+/// Features used when the adapter offers them (never required).
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
+    .union(wgpu::Features::TIMESTAMP_QUERY)
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
+
+/// An adapter with an open device and queue.
+pub struct Gpu {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+}
+
+impl Gpu {
+    /// Opens the best adapter, honouring `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and
+    /// `WGPU_ADAPTER_NAME` (a case-insensitive substring of the adapter name, e.g. `llvmpipe`).
+    /// Without `WGPU_BACKEND` only the primary backends (Vulkan, Metal, DX12) are tried.
+    pub fn new() -> Result<Gpu> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Gpu> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = instance.enumerate_adapters(backends).await;
+        let adapter = choose_adapter(adapters, std::env::var("WGPU_ADAPTER_NAME").ok())?;
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("raycast"),
+                required_features: adapter.features() & OPTIONAL_FEATURES,
+                // The adapter's own limits: lavapipe allows larger storage bindings than the
+                // WebGPU defaults.
+                required_limits: adapter.limits(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| Error::Device(format!("cannot open the GPU device: {e}")))?;
+        Ok(Gpu::from_parts(adapter, device, queue))
+    }
+
+    /// Wraps a device the caller opened itself.
+    pub fn from_parts(adapter: wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+        Gpu {
+            adapter,
+            device,
+            queue,
+        }
+    }
+
+    pub fn info(&self) -> wgpu::AdapterInfo {
+        self.adapter.get_info()
+    }
+}
+
+fn choose_adapter(adapters: Vec<wgpu::Adapter>, wanted: Option<String>) -> Result<wgpu::Adapter> {
+    if adapters.is_empty() {
+        return Err(Error::Device(format!(
+            "no GPU adapter found; {DRIVER_HINT}"
+        )));
+    }
+    if let Some(wanted) = wanted {
+        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+        let lower = wanted.to_lowercase();
+        return adapters
+            .into_iter()
+            .find(|a| a.get_info().name.to_lowercase().contains(&lower))
+            .ok_or_else(|| {
+                Error::Device(format!(
+                    "WGPU_ADAPTER_NAME={wanted:?} matches no adapter (found: {})",
+                    names.join(", ")
+                ))
+            });
+    }
+    // Prefer real GPUs; a software adapter (lavapipe) is the fallback.
+    let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    Ok(adapters.into_iter().min_by_key(rank).expect("non-empty"))
+}
+
+/// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
+pub fn describe(gpu: &Gpu) -> String {
+    let info = gpu.info();
+    let features = gpu.device.features();
+    let limits = gpu.device.limits();
+    let has = |f: wgpu::Features| if features.contains(f) { "yes" } else { "no" };
+    let mut s = String::new();
+    s += &format!("adapter:      {}\n", info.name);
+    s += &format!("backend:      {:?}\n", info.backend);
+    s += &format!("device type:  {:?}\n", info.device_type);
+    s += &format!("driver:       {}\n", info.driver);
+    s += &format!("driver info:  {}\n", info.driver_info);
+    s += &format!("shader f64:   {}\n", has(wgpu::Features::SHADER_F64));
+    s += &format!("timestamps:   {}\n", has(wgpu::Features::TIMESTAMP_QUERY));
+    s += &format!(
+        "max storage buffer binding: {} bytes\n",
+        limits.max_storage_buffer_binding_size
+    );
+    s += &format!("max buffer size: {} bytes\n", limits.max_buffer_size);
+    s += &format!(
+        "max workgroups per dimension: {}\n",
+        limits.max_compute_workgroups_per_dimension
+    );
+    s += &format!(
+        "max invocations per workgroup: {}\n",
+        limits.max_compute_invocations_per_workgroup
+    );
+    s
+}

@@ -1,0 +1,52 @@
+//! The result of a render: per-pixel object id, distance and normal, in row-major order
+//! (row 0 at the top). Both the GPU kernel and the CPU reference produce this.
+
+use crate::math::Real;
+
+/// Id of a pixel whose ray hits nothing.
+pub const MISS: i32 = -1;
+
+/// Per-pixel render outputs in precision `T` (`f32` from the GPU, `f32` or `f64` from the CPU).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Images<T> {
+    pub width: u32,
+    pub height: u32,
+    /// Object index, or [`MISS`].
+    pub id: Vec<i32>,
+    /// Euclidean distance from the ray origin to the hit, `t * |dir|`; `+inf` on a miss.
+    pub distance: Vec<T>,
+    /// Unit surface normal at the hit (outward for spheres, as stored for planes, by corner
+    /// order for triangles); zero on a miss.
+    pub normal: Vec<[T; 3]>,
+    /// The camera's focal length: the distance that `depth.png` maps to full white.
+    pub focal_length: f64,
+}
+
+impl<T: Real> Images<T> {
+    /// An image of `width * height` misses.
+    pub fn new_miss(width: u32, height: u32, focal_length: f64) -> Self {
+        let n = width as usize * height as usize;
+        Images {
+            width,
+            height,
+            id: vec![MISS; n],
+            distance: vec![T::INFINITY; n],
+            normal: vec![[T::ZERO; 3]; n],
+            focal_length,
+        }
+    }
+
+    /// Number of pixels.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.id.is_empty()
+    }
+
+    /// Row-major index of pixel (`row`, `col`).
+    pub fn index(&self, row: u32, col: u32) -> usize {
+        row as usize * self.width as usize + col as usize
+    }
+}

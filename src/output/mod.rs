@@ -1,0 +1,148 @@
+//! Writers: [`Images`] to png, ppm or npy files. Every file of a request is encoded in memory
+//! first, written under a temporary name and renamed into place only when all were written, so
+//! a failed render leaves no partial output.
+
+mod npy;
+mod pictures;
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use crate::error::{Error, Result};
+use crate::images::Images;
+use crate::math::Real;
+
+pub use npy::encode_npy;
+pub use pictures::{PALETTE, depth_level, id_color, normal_color};
+
+/// An output format of `raycast render --format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// `id.png`, `depth.png`, `normal.png` (the course's mappings).
+    Png,
+    /// `id.ppm` (P3), `depth.ppm` (P2), `normal.ppm` (P3), ASCII, max value 255.
+    Ppm,
+    /// `id.npy` (int32), `distance.npy` (float32/float64), `normal.npy` (HxWx3).
+    Npy,
+}
+
+impl FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim() {
+            "png" => Ok(Format::Png),
+            "ppm" => Ok(Format::Ppm),
+            "npy" => Ok(Format::Npy),
+            other => Err(format!(
+                "unknown format `{other}` (expected png, ppm or npy)"
+            )),
+        }
+    }
+}
+
+/// One output file: its name in the output folder and its bytes.
+pub struct EncodedFile {
+    pub name: &'static str,
+    pub bytes: Vec<u8>,
+}
+
+/// Encodes `images` in each of `formats`.
+pub fn encode<T: Real>(images: &Images<T>, formats: &[Format]) -> Vec<EncodedFile> {
+    let mut files = Vec::new();
+    for format in formats {
+        match format {
+            Format::Png => files.extend(pictures::encode_png(images)),
+            Format::Ppm => files.extend(pictures::encode_ppm(images)),
+            Format::Npy => files.extend(npy::encode_all(images)),
+        }
+    }
+    files
+}
+
+/// Creates `dir` if needed and checks a file can be created in it, before any rendering.
+pub fn check_writable(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::io(dir, format!("cannot create folder: {e}")))?;
+    let probe = dir.join(format!(".raycast-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .map_err(|e| Error::io(dir, format!("folder is not writable: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Writes every file or none: all go to temporary names first, then are renamed into place.
+pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
+    let pid = std::process::id();
+    let mut temps: Vec<(PathBuf, PathBuf)> = Vec::new();
+    let cleanup = |temps: &[(PathBuf, PathBuf)]| {
+        for (tmp, _) in temps {
+            let _ = std::fs::remove_file(tmp);
+        }
+    };
+    for file in files {
+        let tmp = dir.join(format!(".{}.tmp-{pid}", file.name));
+        if let Err(e) = std::fs::write(&tmp, &file.bytes) {
+            let _ = std::fs::remove_file(&tmp);
+            cleanup(&temps);
+            return Err(Error::io(&tmp, format!("cannot write: {e}")));
+        }
+        temps.push((tmp, dir.join(file.name)));
+    }
+    for (k, (tmp, path)) in temps.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            // Take back the files of this request already in place: none or all.
+            for (_, done) in &temps[..k] {
+                let _ = std::fs::remove_file(done);
+            }
+            cleanup(&temps[k..]);
+            return Err(Error::io(path, format!("cannot write: {e}")));
+        }
+    }
+    Ok(temps.into_iter().map(|(_, path)| path).collect())
+}
+
+/// Encodes and writes `images` into `dir` in `formats`; returns the files written.
+pub fn write_images<T: Real>(
+    images: &Images<T>,
+    dir: &Path,
+    formats: &[Format],
+) -> Result<Vec<PathBuf>> {
+    check_writable(dir)?;
+    write_files(dir, &encode(images, formats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_parse() {
+        assert_eq!("npy".parse::<Format>(), Ok(Format::Npy));
+        assert!("jpg".parse::<Format>().unwrap_err().contains("jpg"));
+    }
+
+    #[test]
+    fn write_files_leaves_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        // A folder where the second file should go makes its rename fail.
+        std::fs::create_dir(dir.path().join("b.bin")).unwrap();
+        std::fs::write(dir.path().join("b.bin").join("x"), b"").unwrap();
+        let files = [
+            EncodedFile {
+                name: "a.bin",
+                bytes: vec![1],
+            },
+            EncodedFile {
+                name: "b.bin",
+                bytes: vec![2],
+            },
+        ];
+        assert!(write_files(dir.path(), &files).is_err());
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        // Neither a.bin nor any temporary file is left behind.
+        assert_eq!(names, ["b.bin"]);
+    }
+}

@@ -1,0 +1,148 @@
+//! The course's picture mappings (id palette, depth grey, normal colour) and their png and
+//! ASCII ppm encodings. Mappings are evaluated in f64 whatever the render precision.
+
+use image::ImageEncoder;
+
+use super::EncodedFile;
+use crate::images::{Images, MISS};
+use crate::math::Real;
+
+/// Object colours, `palette[id % 9]` (the course's).
+pub const PALETTE: [[u8; 3]; 9] = [
+    [228, 26, 28],
+    [55, 126, 184],
+    [77, 175, 74],
+    [152, 78, 163],
+    [255, 127, 0],
+    [255, 255, 51],
+    [166, 86, 40],
+    [247, 129, 191],
+    [153, 153, 153],
+];
+
+/// Palette colour of an object id; black for a miss.
+pub fn id_color(id: i32) -> [u8; 3] {
+    if id == MISS {
+        [0, 0, 0]
+    } else {
+        PALETTE[id as usize % PALETTE.len()]
+    }
+}
+
+/// `255 * min(1, focal_length / distance)` truncated toward zero; 0 for a miss (+inf).
+pub fn depth_level(distance: f64, focal_length: f64) -> u8 {
+    if !distance.is_finite() {
+        return 0;
+    }
+    (255.0 * (focal_length / distance).min(1.0)) as u8
+}
+
+/// Each channel `255 * (n * 0.5 + 0.5)` truncated toward zero (a miss has n = 0 but is black).
+pub fn normal_color(id: i32, n: [f64; 3]) -> [u8; 3] {
+    if id == MISS {
+        return [0, 0, 0];
+    }
+    n.map(|c| (255.0 * (c * 0.5 + 0.5)) as u8)
+}
+
+/// The three pictures as 8-bit channels: (id RGB, depth grey, normal RGB).
+fn pictures<T: Real>(images: &Images<T>) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    let n = images.len();
+    let (mut id, mut depth, mut normal) = (
+        Vec::with_capacity(3 * n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(3 * n),
+    );
+    for k in 0..n {
+        let object = images.id[k];
+        id.extend(id_color(object));
+        depth.push(depth_level(
+            images.distance[k].to_f64(),
+            images.focal_length,
+        ));
+        normal.extend(normal_color(object, images.normal[k].map(T::to_f64)));
+    }
+    (id, depth, normal)
+}
+
+fn png(width: u32, height: u32, pixels: &[u8], color: image::ExtendedColorType) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(pixels, width, height, color)
+        .expect("encoding a png into memory cannot fail");
+    bytes
+}
+
+pub(super) fn encode_png<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
+    let (id, depth, normal) = pictures(images);
+    let (w, h) = (images.width, images.height);
+    use image::ExtendedColorType::{L8, Rgb8};
+    [
+        EncodedFile {
+            name: "id.png",
+            bytes: png(w, h, &id, Rgb8),
+        },
+        EncodedFile {
+            name: "depth.png",
+            bytes: png(w, h, &depth, L8),
+        },
+        EncodedFile {
+            name: "normal.png",
+            bytes: png(w, h, &normal, Rgb8),
+        },
+    ]
+}
+
+/// ASCII netpbm: `P3` (RGB) or `P2` (grey), max value 255, one pixel per line.
+fn ppm(magic: &str, width: u32, height: u32, channels: usize, pixels: &[u8]) -> Vec<u8> {
+    use std::fmt::Write;
+    let mut s = format!("{magic}\n{width} {height}\n255\n");
+    for px in pixels.chunks_exact(channels) {
+        let line: Vec<String> = px.iter().map(u8::to_string).collect();
+        let _ = writeln!(s, "{}", line.join(" "));
+    }
+    s.into_bytes()
+}
+
+pub(super) fn encode_ppm<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
+    let (id, depth, normal) = pictures(images);
+    let (w, h) = (images.width, images.height);
+    [
+        EncodedFile {
+            name: "id.ppm",
+            bytes: ppm("P3", w, h, 3, &id),
+        },
+        EncodedFile {
+            name: "depth.ppm",
+            bytes: ppm("P2", w, h, 1, &depth),
+        },
+        EncodedFile {
+            name: "normal.ppm",
+            bytes: ppm("P3", w, h, 3, &normal),
+        },
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn course_spot_values_map_as_documented() {
+        // sphere-and-plane (359, 320): the plane, normal (0, 1, 0) -> 127, 255, 127.
+        assert_eq!(normal_color(1, [0.0, 1.0, 0.0]), [127, 255, 127]);
+        // Inside a sphere looking at its back: outward normal (0, 0, -1) -> 127, 127, 0.
+        assert_eq!(normal_color(4, [0.0, 0.0, -1.0]), [127, 127, 0]);
+        assert_eq!(id_color(0), [228, 26, 28]);
+        assert_eq!(id_color(10), [55, 126, 184]);
+        assert_eq!(depth_level(3.0, 3.0), 255);
+        assert_eq!(depth_level(6.0, 3.0), 127);
+        assert_eq!(depth_level(f64::INFINITY, 3.0), 0);
+    }
+
+    #[test]
+    fn ppm_is_ascii_with_header() {
+        let bytes = ppm("P2", 2, 1, 1, &[0, 255]);
+        assert_eq!(String::from_utf8(bytes).unwrap(), "P2\n2 1\n255\n0\n255\n");
+    }
+}

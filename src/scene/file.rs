@@ -1,0 +1,268 @@
+//! The scene file format (JSON, a superset of the course's) and its validation into [`Scene`].
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::{Camera, DEFAULT_RESOLUTION, Object, Projection, Scene, Triangle};
+use crate::error::{Error, Result};
+use crate::math::{Vec3, cross, length, normalize};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: CameraFile,
+    objects: Vec<ObjectFile>,
+    /// Free text: what the scene is for. Ignored by the renderer.
+    #[serde(default)]
+    #[allow(dead_code)]
+    comment: Option<serde_json::Value>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+enum ProjectionFile {
+    #[default]
+    Perspective,
+    Orthographic,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    #[serde(rename = "type", default)]
+    projection: ProjectionFile,
+    eye: [f64; 3],
+    look: [f64; 3],
+    up: [f64; 3],
+    focal_length: f64,
+    width: f64,
+    height: f64,
+    resolution: Option<[u32; 2]>,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum ObjectFile {
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+        #[serde(default)]
+        #[allow(dead_code)]
+        comment: Option<serde_json::Value>,
+    },
+    Plane {
+        point: [f64; 3],
+        normal: [f64; 3],
+        #[serde(default)]
+        #[allow(dead_code)]
+        comment: Option<serde_json::Value>,
+    },
+    Triangle {
+        corners: [[f64; 3]; 3],
+        #[serde(default)]
+        #[allow(dead_code)]
+        comment: Option<serde_json::Value>,
+    },
+    Soup {
+        stl: Option<String>,
+        obj: Option<String>,
+        #[serde(default)]
+        #[allow(dead_code)]
+        comment: Option<serde_json::Value>,
+    },
+}
+
+/// Parses and validates scene JSON. `file` names the source in error messages.
+pub(super) fn parse(
+    text: &str,
+    file: &Path,
+    load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
+) -> Result<Scene> {
+    let raw: SceneFile = deserialize(text, file)?;
+    let checker = Checker { file };
+    let camera = checker.camera(&raw.camera)?;
+    let objects = raw
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| checker.object(i, o, load_mesh))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Scene { camera, objects })
+}
+
+fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let raw = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let message = strip_position(&inner.to_string());
+        let message = if path.is_empty() || path == "." {
+            message
+        } else {
+            format!("{path}: {message}")
+        };
+        Error::SceneSyntax {
+            file: file.to_owned(),
+            line: inner.line(),
+            column: inner.column(),
+            message,
+        }
+    })?;
+    Ok(raw)
+}
+
+/// serde_json appends " at line L column C"; we print the position up front instead.
+fn strip_position(message: &str) -> String {
+    match message.rfind(" at line ") {
+        Some(i) => message[..i].to_owned(),
+        None => message.to_owned(),
+    }
+}
+
+/// Largest coordinate magnitude accepted: beyond it f32 (the GPU's precision) overflows
+/// as soon as two values are multiplied.
+const MAX_MAGNITUDE: f64 = 1e18;
+
+struct Checker<'a> {
+    file: &'a Path,
+}
+
+impl Checker<'_> {
+    fn fail(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::SceneValue {
+            file: self.file.to_owned(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    fn number(&self, field: &str, x: f64) -> Result<f64> {
+        if !x.is_finite() {
+            return Err(self.fail(field, format!("must be a finite number (got {x})")));
+        }
+        if x.abs() > MAX_MAGNITUDE {
+            return Err(self.fail(
+                field,
+                format!("magnitude {x:e} exceeds the supported {MAX_MAGNITUDE:e}"),
+            ));
+        }
+        Ok(x)
+    }
+
+    fn positive(&self, field: &str, x: f64) -> Result<f64> {
+        let x = self.number(field, x)?;
+        if x <= 0.0 {
+            return Err(self.fail(field, format!("must be > 0 (got {x})")));
+        }
+        Ok(x)
+    }
+
+    fn vector(&self, field: &str, v: [f64; 3]) -> Result<Vec3<f64>> {
+        for (k, &x) in v.iter().enumerate() {
+            self.number(&format!("{field}[{k}]"), x)?;
+        }
+        Ok(Vec3::from_array(v))
+    }
+
+    fn nonzero(&self, field: &str, v: [f64; 3]) -> Result<Vec3<f64>> {
+        let v = self.vector(field, v)?;
+        let len = length(v);
+        if len == 0.0 || !len.is_finite() {
+            return Err(self.fail(field, "must be a non-zero vector"));
+        }
+        Ok(v)
+    }
+
+    fn camera(&self, c: &CameraFile) -> Result<Camera> {
+        let look = self.nonzero("camera.look", c.look)?;
+        let up = self.nonzero("camera.up", c.up)?;
+        // Relative test: exact or near-exact parallelism leaves no usable horizontal axis.
+        // Nearly parallel vectors (angle above ~1e-12 rad) still give a valid frame.
+        let side = length(cross(normalize(look), normalize(up)));
+        if side <= 1e-12 {
+            return Err(self.fail("camera.up", "is parallel to camera.look"));
+        }
+        let resolution = c.resolution.unwrap_or(DEFAULT_RESOLUTION);
+        if resolution[0] == 0 || resolution[1] == 0 {
+            return Err(self.fail(
+                "camera.resolution",
+                format!(
+                    "must be at least 1x1 pixels (got {}x{})",
+                    resolution[0], resolution[1]
+                ),
+            ));
+        }
+        Ok(Camera {
+            projection: match c.projection {
+                ProjectionFile::Perspective => Projection::Perspective,
+                ProjectionFile::Orthographic => Projection::Orthographic,
+            },
+            eye: self.vector("camera.eye", c.eye)?,
+            look,
+            up,
+            focal_length: self.positive("camera.focal_length", c.focal_length)?,
+            width: self.positive("camera.width", c.width)?,
+            height: self.positive("camera.height", c.height)?,
+            resolution,
+        })
+    }
+
+    fn object(
+        &self,
+        i: usize,
+        o: &ObjectFile,
+        load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
+    ) -> Result<Object> {
+        let field = |name: &str| format!("objects[{i}].{name}");
+        Ok(match o {
+            ObjectFile::Sphere { center, radius, .. } => Object::Sphere {
+                center: self.vector(&field("center"), *center)?,
+                radius: self.positive(&field("radius"), *radius)?,
+            },
+            ObjectFile::Plane { point, normal, .. } => {
+                let n = self.nonzero(&field("normal"), *normal)?;
+                Object::Plane {
+                    point: self.vector(&field("point"), *point)?,
+                    normal: normalize(n),
+                }
+            }
+            ObjectFile::Triangle { corners, .. } => {
+                let mut c = [Vec3::default(); 3];
+                for (k, corner) in corners.iter().enumerate() {
+                    c[k] = self.vector(&field(&format!("corners[{k}]")), *corner)?;
+                }
+                Object::Triangle { corners: c }
+            }
+            ObjectFile::Soup { stl, obj, .. } => {
+                let name = match (stl, obj) {
+                    (Some(s), None) => s,
+                    (None, Some(o)) => o,
+                    _ => {
+                        return Err(self.fail(
+                            format!("objects[{i}]"),
+                            "a soup needs exactly one of \"stl\" or \"obj\"",
+                        ));
+                    }
+                };
+                let triangles = load_mesh(name)?;
+                self.mesh_values(i, &triangles)?;
+                Object::Soup {
+                    path: name.into(),
+                    triangles,
+                }
+            }
+        })
+    }
+
+    fn mesh_values(&self, i: usize, triangles: &[Triangle]) -> Result<()> {
+        for (k, t) in triangles.iter().enumerate() {
+            for c in t {
+                for x in c.to_array() {
+                    self.number(&format!("objects[{i}] triangle {k}"), x)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}

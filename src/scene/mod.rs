@@ -1,0 +1,130 @@
+//! The validated scene: a camera and a list of objects, all in f64, as read from a scene file.
+//!
+//! Flow: scene file --[`load`]--> [`Scene`] --> camera frame + primitives --> GPU or CPU.
+//! Every check that can fail on user input happens here, so later stages can assume
+//! finite numbers, positive sizes and non-degenerate camera vectors.
+
+mod file;
+mod mesh;
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::math::Vec3;
+
+pub use mesh::load_mesh;
+
+/// The image size used when neither the scene nor the command line gives one (the course's).
+pub const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
+
+/// The built-in scene `raycast render` uses when given no scene file.
+pub const DEFAULT_SCENE_JSON: &str = include_str!("../../scenes/default.json");
+/// The mesh the default scene refers to as `bunny.stl` (the course's bunny).
+pub const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny.stl");
+
+/// Perspective (rays from the eye) or orthographic (parallel rays from the image plane).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    Perspective,
+    Orthographic,
+}
+
+/// The camera as the scene file states it (validated, not yet turned into a frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub projection: Projection,
+    pub eye: Vec3<f64>,
+    /// A direction, not a point.
+    pub look: Vec3<f64>,
+    pub up: Vec3<f64>,
+    pub focal_length: f64,
+    /// Image-plane size in scene units.
+    pub width: f64,
+    pub height: f64,
+    /// Pixels `[nx, ny]`.
+    pub resolution: [u32; 2],
+}
+
+/// One triangle by its corners, in the order that fixes its normal.
+pub type Triangle = [Vec3<f64>; 3];
+
+/// A scene object. Its id is its index in [`Scene::objects`]; a soup is one object.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Object {
+    Sphere {
+        center: Vec3<f64>,
+        radius: f64,
+    },
+    /// `normal` is unit length (normalised on load).
+    Plane {
+        point: Vec3<f64>,
+        normal: Vec3<f64>,
+    },
+    Triangle {
+        corners: Triangle,
+    },
+    /// A triangle mesh loaded from `path`.
+    Soup {
+        path: PathBuf,
+        triangles: Vec<Triangle>,
+    },
+}
+
+/// A validated scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub camera: Camera,
+    pub objects: Vec<Object>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file; mesh paths are relative to the file's folder.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        file::parse(&text, path, &mut |name| mesh::load_mesh(&base.join(name)))
+    }
+
+    /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves soup paths.
+    pub fn from_json(
+        text: &str,
+        name: &Path,
+        load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
+    ) -> Result<Scene> {
+        file::parse(text, name, load_mesh)
+    }
+
+    /// The built-in default scene (the course bunny in a room with two spheres).
+    pub fn default_scene() -> Scene {
+        let name = Path::new("<built-in default scene>");
+        Scene::from_json(DEFAULT_SCENE_JSON, name, &mut |file| {
+            assert_eq!(file, "bunny.stl", "the default scene embeds only bunny.stl");
+            mesh::parse_stl(DEFAULT_SCENE_BUNNY, Path::new(file))
+        })
+        .expect("the built-in default scene is valid")
+    }
+
+    /// Total number of triangles (loose triangles plus soups).
+    pub fn triangle_count(&self) -> usize {
+        self.objects
+            .iter()
+            .map(|o| match o {
+                Object::Triangle { .. } => 1,
+                Object::Soup { triangles, .. } => triangles.len(),
+                _ => 0,
+            })
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_scene_loads() {
+        let scene = Scene::default_scene();
+        assert!(scene.triangle_count() >= 1000);
+        assert_eq!(scene.camera.resolution, DEFAULT_RESOLUTION);
+    }
+}
