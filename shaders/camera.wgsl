@@ -1,13 +1,13 @@
 // Per-pixel ray generation (the lecture's viewing ray). CPU mirror: src/cpu/camera.rs.
 #import types
 
-// Row i counts from the top, column j from the left; the ray passes through the pixel centre
-// and reaches the image plane at t = 1.
-fn camera_ray(frame: Frame, i: u32, j: u32) -> Ray {
-    let us = frame.width * (f32(j) + 0.5) / f32(frame.nx) - frame.width / 2.0;
-    let vs = -(frame.height * (f32(i) + 0.5) / f32(frame.ny) - frame.height / 2.0);
+// The ray through the centre of pixel (i, j) of an nx x ny image: row i counts from the top,
+// column j from the left. It reaches the image plane at t = 1.
+fn camera_ray(frame: Frame, projection: u32, nx: u32, ny: u32, i: u32, j: u32) -> Ray {
+    let us = frame.width * (real(j) + 0.5) / real(nx) - frame.width / 2.0;
+    let vs = -(frame.height * (real(i) + 0.5) / real(ny) - frame.height / 2.0);
     var ray: Ray;
-    if (frame.projection == PROJECTION_ORTHOGRAPHIC) {
+    if (projection == PROJECTION_ORTHOGRAPHIC) {
         ray.origin = frame.eye + us * frame.u + vs * frame.v;
         ray.direction = -frame.focal_length * frame.w;
     } else {

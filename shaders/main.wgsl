@@ -8,18 +8,18 @@
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let j = gid.x;
     let row = gid.y;
-    if (j >= params.frame.nx || row >= params.tile_rows) {
+    if (j >= params.nx || row >= params.tile_rows) {
         return;
     }
-    let ray = camera_ray(params.frame, params.row_offset + row, j);
+    let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, params.row_offset + row, j);
     let hit = nearest_hit(ray, params.frame.min_t);
-    let index = row * params.frame.nx + j;
+    let index = row * params.nx + j;
     if (hit.object < 0) {
-        out_surface[index] = vec4<f32>(0.0);
+        out_surface[index] = vec4<real>(0.0);
         out_id[index] = -1;
         return;
     }
     let distance = hit.t * length(ray.direction);
-    out_surface[index] = vec4<f32>(hit_normal(ray, hit), distance);
+    out_surface[index] = vec4<real>(hit_normal(ray, hit), distance);
     out_id[index] = hit.object;
 }

@@ -10,7 +10,7 @@ const KIND_PLANE: u32 = 1u;
 const KIND_TRIANGLE: u32 = 2u;
 
 struct Hit {
-    t: f32,
+    t: real,
     object: i32,          // -1: no hit
     kind: u32,
     index: u32,           // into the buffer of its kind
@@ -18,7 +18,7 @@ struct Hit {
 
 // Ties in t go to the lower object id, then the lower primitive index, so the answer does not
 // depend on the order primitives are visited (the course visits objects in file order).
-fn is_closer(t: f32, object: u32, index: u32, best: Hit) -> bool {
+fn is_closer(t: real, object: u32, index: u32, best: Hit) -> bool {
     if (t == NO_HIT) {
         return false;
     }
@@ -28,31 +28,36 @@ fn is_closer(t: f32, object: u32, index: u32, best: Hit) -> bool {
     return t == best.t && (i32(object) < best.object || (i32(object) == best.object && index < best.index));
 }
 
-fn nearest_hit(ray: Ray, min_t: f32) -> Hit {
+fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     var best = Hit(T_FAR, -1, 0u, 0u);
     for (var k = 0u; k < params.sphere_count; k++) {
         let t = intersect_sphere(ray, spheres[k], min_t);
-        if (is_closer(t, spheres[k].object, k, best)) {
-            best = Hit(t, i32(spheres[k].object), KIND_SPHERE, k);
+        let object = objects[k];
+        if (is_closer(t, object, k, best)) {
+            best = Hit(t, i32(object), KIND_SPHERE, k);
         }
     }
+    let plane_base = params.sphere_count;
     for (var k = 0u; k < params.plane_count; k++) {
         let t = intersect_plane(ray, planes[k], min_t);
-        if (is_closer(t, planes[k].object, k, best)) {
-            best = Hit(t, i32(planes[k].object), KIND_PLANE, k);
+        let object = objects[plane_base + k];
+        if (is_closer(t, object, k, best)) {
+            best = Hit(t, i32(object), KIND_PLANE, k);
         }
     }
+    let triangle_base = plane_base + params.plane_count;
     for (var k = 0u; k < params.triangle_count; k++) {
         let t = intersect_triangle(ray, triangles[k], min_t);
-        if (is_closer(t, triangles[k].object, k, best)) {
-            best = Hit(t, i32(triangles[k].object), KIND_TRIANGLE, k);
+        let object = objects[triangle_base + k];
+        if (is_closer(t, object, k, best)) {
+            best = Hit(t, i32(object), KIND_TRIANGLE, k);
         }
     }
     return best;
 }
 
 // The normal of the nearest hit, computed once rather than for every candidate.
-fn hit_normal(ray: Ray, hit: Hit) -> vec3<f32> {
+fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
     switch (hit.kind) {
         case KIND_SPHERE: {
             return sphere_normal(ray, hit.t, spheres[hit.index]);

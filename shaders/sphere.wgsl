@@ -2,7 +2,7 @@
 #import types
 
 // The near root if it is at or beyond min_t, else the far root, else NO_HIT.
-fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: f32) -> f32 {
+fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let oc = ray.origin - sphere.center;
     let a = dot(ray.direction, ray.direction);
     let b = 2.0 * dot(ray.direction, oc);
@@ -24,7 +24,7 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: f32) -> f32 {
 }
 
 // Outward unit normal at the hit point, never flipped (seen from inside it points away).
-fn sphere_normal(ray: Ray, t: f32, sphere: Sphere) -> vec3<f32> {
+fn sphere_normal(ray: Ray, t: real, sphere: Sphere) -> vec3<real> {
     let p = ray.origin + t * ray.direction;
     return (p - sphere.center) / sphere.radius;
 }

@@ -3,7 +3,7 @@
 
 // Solves origin + t*direction = a + beta*(b - a) + gamma*(c - a) for (beta, gamma, t), i.e. the
 // 3x3 system with columns (a - b, a - c, direction) and right-hand side a - origin.
-fn intersect_triangle(ray: Ray, tri: Triangle, min_t: f32) -> f32 {
+fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
     let rhs = tri.a - ray.origin;
@@ -30,6 +30,6 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: f32) -> f32 {
 }
 
 // Unit normal by corner order: normalize((b - a) x (c - a)), never flipped.
-fn triangle_normal(tri: Triangle) -> vec3<f32> {
+fn triangle_normal(tri: Triangle) -> vec3<real> {
     return normalize(cross(tri.b - tri.a, tri.c - tri.a));
 }

@@ -1,57 +1,52 @@
-// Shared types of the ray-casting kernel.
-// Keep in sync with src/gpu/layout.rs (a test checks sizes and offsets against naga's layout).
+// Shared types of the ray-casting kernel. `real` is f32 or f64: the host prepends
+// `alias real = ...;` (the `precision` module) when it assembles the kernel.
+// Keep in sync with src/gpu/layout.rs (a test checks sizes and offsets against naga's layout,
+// in both precisions). Offsets below are f32 / f64.
+#import precision
 
 const PROJECTION_PERSPECTIVE: u32 = 0u;
 const PROJECTION_ORTHOGRAPHIC: u32 = 1u;
 
 // Returned by the intersect_* functions when the ray misses. Valid hits have t >= min_t >= 1,
 // and WGSL may assume no infinities exist, so a negative sentinel stands for "no hit".
-const NO_HIT: f32 = -1.0;
+const NO_HIT: real = -1.0;
 
 // The largest finite f32: the initial "nearest so far" distance.
-const T_FAR: f32 = 3.40282347e+38;
+const T_FAR: real = 3.40282347e+38;
 
 struct Frame {
-    eye: vec3<f32>,       // offset 0
-    projection: u32,      // offset 12
-    u: vec3<f32>,         // offset 16
-    nx: u32,              // offset 28
-    v: vec3<f32>,         // offset 32
-    ny: u32,              // offset 44
-    w: vec3<f32>,         // offset 48
-    focal_length: f32,    // offset 60
-    width: f32,           // offset 64
-    height: f32,          // offset 68
-    min_t: f32,           // offset 72
-    _pad: u32,            // offset 76
-}                         // size 80
+    eye: vec3<real>,      // offset 0 / 0
+    focal_length: real,   // offset 12 / 24
+    u: vec3<real>,        // offset 16 / 32: right
+    width: real,          // offset 28 / 56: image-plane size in scene units
+    v: vec3<real>,        // offset 32 / 64: up
+    height: real,         // offset 44 / 88
+    w: vec3<real>,        // offset 48 / 96: backward (the camera looks along -w)
+    min_t: real,          // offset 60 / 120
+}                         // size 64 / 128
 
 struct Ray {
-    origin: vec3<f32>,
-    direction: vec3<f32>,
+    origin: vec3<real>,
+    direction: vec3<real>,
 }
 
 struct Sphere {
-    center: vec3<f32>,    // offset 0
-    radius: f32,          // offset 12
-    object: u32,          // offset 16
-    _pad0: u32,           // offset 20
-    _pad1: u32,           // offset 24
-    _pad2: u32,           // offset 28
-}                         // size 32
+    center: vec3<real>,   // offset 0
+    radius: real,         // offset 12 / 24
+}                         // size 16 / 32
 
 struct Plane {
-    point: vec3<f32>,     // offset 0
-    object: u32,          // offset 12
-    normal: vec3<f32>,    // offset 16
-    _pad: u32,            // offset 28
-}                         // size 32
+    point: vec3<real>,    // offset 0
+    _pad0: real,          // offset 12 / 24
+    normal: vec3<real>,   // offset 16 / 32: unit length
+    _pad1: real,          // offset 28 / 56
+}                         // size 32 / 64
 
 struct Triangle {
-    a: vec3<f32>,         // offset 0
-    object: u32,          // offset 12
-    b: vec3<f32>,         // offset 16
-    _pad0: u32,           // offset 28
-    c: vec3<f32>,         // offset 32
-    _pad1: u32,           // offset 44
-}                         // size 48
+    a: vec3<real>,        // offset 0
+    _pad0: real,          // offset 12 / 24
+    b: vec3<real>,        // offset 16 / 32
+    _pad1: real,          // offset 28 / 56
+    c: vec3<real>,        // offset 32 / 64
+    _pad2: real,          // offset 44 / 88
+}                         // size 48 / 96

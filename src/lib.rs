@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! scene file --Scene::load--> Scene (validated, f64)
-//!            --camera::Frame + primitives--> gpu::render --> Images (id, distance, normal)
+//!            --camera::Frame + primitives--> gpu::render::<f32 | f64> --> Images (id, distance, normal)
 //!            --output::write--> png / ppm / npy files
 //! ```
 //!
@@ -15,7 +15,7 @@
 //! use raycast::{Scene, gpu::Gpu, output::{write_images, Format}};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?;
-//! let images = raycast::gpu::render(&gpu, &scene)?;
+//! let images = raycast::gpu::render::<f32>(&gpu, &scene)?;
 //! write_images(&images, "out".as_ref(), &[Format::Png])?;
 //! # Ok::<(), raycast::Error>(())
 //! ```

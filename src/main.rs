@@ -5,7 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use raycast::error::Result;
+use raycast::gpu::layout::GpuReal;
 use raycast::gpu::{self, Gpu};
+use raycast::math::Precision;
 use raycast::output::{self, Format};
 use raycast::scene::Scene;
 
@@ -35,6 +37,9 @@ enum Command {
         /// Comma-separated output formats: png, ppm, npy.
         #[arg(long, value_delimiter = ',', default_value = "png")]
         format: Vec<Format>,
+        /// Arithmetic precision of the kernel: f32, or f64 where the GPU supports it.
+        #[arg(long, default_value = "f32")]
+        precision: Precision,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -53,7 +58,17 @@ fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 
 fn main() -> ExitCode {
     quiet_mesa();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // A bad option value is one line like every other error, without clap's
+        // "For more information" footer; help, usage and other errors stay clap's own.
+        Err(e) if e.kind() == clap::error::ErrorKind::ValueValidation => {
+            let text = e.render().to_string();
+            eprintln!("{}", text.lines().next().unwrap_or_default());
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -79,7 +94,8 @@ fn run(command: Command) -> Result<()> {
             output,
             size,
             format,
-        } => render(scene.as_deref(), &output, size, &format),
+            precision,
+        } => render(scene.as_deref(), &output, size, &format, precision),
         Command::Info => {
             let gpu = Gpu::new()?;
             print!("{}", gpu::describe(&gpu));
@@ -88,11 +104,22 @@ fn run(command: Command) -> Result<()> {
     }
 }
 
+fn render_and_write<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    out_dir: &Path,
+    formats: &[Format],
+) -> Result<Vec<PathBuf>> {
+    let images = gpu::render::<R>(gpu, scene)?;
+    output::write_images(&images, out_dir, formats)
+}
+
 fn render(
     scene_path: Option<&Path>,
     out_dir: &Path,
     size: Option<[u32; 2]>,
     formats: &[Format],
+    precision: Precision,
 ) -> Result<()> {
     let mut scene = match scene_path {
         Some(path) => Scene::load(path)?,
@@ -104,15 +131,16 @@ fn render(
     output::check_writable(out_dir)?;
     let gpu = Gpu::new()?;
     let start = std::time::Instant::now();
-    let images = gpu::render(&gpu, &scene)?;
-    let elapsed = start.elapsed();
-    let written = output::write_images(&images, out_dir, formats)?;
+    let written = match precision {
+        Precision::F32 => render_and_write::<f32>(&gpu, &scene, out_dir, formats)?,
+        Precision::F64 => render_and_write::<f64>(&gpu, &scene, out_dir, formats)?,
+    };
     let [nx, ny] = scene.camera.resolution;
     println!(
-        "rendered {} ({nx}x{ny}) on {} in {:.3} s",
+        "rendered {} ({nx}x{ny}, {precision}) on {} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         gpu.info().name,
-        elapsed.as_secs_f64()
+        start.elapsed().as_secs_f64()
     );
     for path in written {
         println!("wrote {}", path.display());

@@ -22,8 +22,8 @@ pub trait Real:
     + Div<Output = Self>
     + Neg<Output = Self>
 {
-    /// `"f32"` or `"f64"`, as the CLI spells the precision.
-    const NAME: &'static str;
+    /// Which of the two this is.
+    const PRECISION: Precision;
     const ZERO: Self;
     const ONE: Self;
     const HALF: Self;
@@ -41,9 +41,9 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal) => {
+    ($t:ty, $p:expr) => {
         impl Real for $t {
-            const NAME: &'static str = $name;
+            const PRECISION: Precision = $p;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -80,8 +80,42 @@ macro_rules! impl_real {
         }
     };
 }
-impl_real!(f32, "f32");
-impl_real!(f64, "f64");
+impl_real!(f32, Precision::F32);
+impl_real!(f64, Precision::F64);
+
+/// The floating-point precision a render runs in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+impl Precision {
+    /// `"f32"` or `"f64"`, also the WGSL type name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Precision {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "f32" => Ok(Precision::F32),
+            "f64" => Ok(Precision::F64),
+            other => Err(format!("unknown precision `{other}` (expected f32 or f64)")),
+        }
+    }
+}
 
 /// A 3-vector of [`Real`]s with WGSL's `vec3` semantics (component-wise operators).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -1,101 +1,119 @@
-//! GPU-side structs, byte for byte as WGSL lays them out.
-//! Keep in sync with shaders/types.wgsl and shaders/bindings.wgsl; the tests below compare
-//! every size and offset with naga's layout of the WGSL structs.
+//! GPU-side structs, byte for byte as WGSL lays them out, generic over the kernel's scalar `R`
+//! (`f32` or `f64`, WGSL's `real`). Keep in sync with shaders/types.wgsl and
+//! shaders/bindings.wgsl; the tests below compare every size and offset with naga's layout of
+//! the WGSL structs, in both precisions.
+//!
+//! Every struct is `vec3<real>` + `real` pairs (or all `u32` after a `Frame`), which packs
+//! without implicit padding in both precisions, so one generic Rust struct fits both.
 
 use bytemuck::{Pod, Zeroable};
 
 use crate::camera::Frame;
-use crate::math::Vec3;
+use crate::math::{Real, Vec3};
 use crate::scene::Projection;
 
-/// `struct Frame` in shaders/types.wgsl.
+/// A scalar the GPU kernel can run in.
+pub trait GpuReal: Real + Pod {}
+impl GpuReal for f32 {}
+impl GpuReal for f64 {}
+
+/// `struct Frame` in shaders/types.wgsl. Offsets f32 / f64.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuFrame {
-    pub eye: [f32; 3],     // offset 0
-    pub projection: u32,   // offset 12
-    pub u: [f32; 3],       // offset 16
-    pub nx: u32,           // offset 28
-    pub v: [f32; 3],       // offset 32
-    pub ny: u32,           // offset 44
-    pub w: [f32; 3],       // offset 48
-    pub focal_length: f32, // offset 60
-    pub width: f32,        // offset 64
-    pub height: f32,       // offset 68
-    pub min_t: f32,        // offset 72
-    pub _pad: u32,         // offset 76
-} // size 80
+#[derive(Clone, Copy, Debug)]
+pub struct GpuFrame<R> {
+    pub eye: [R; 3],     // offset 0 / 0
+    pub focal_length: R, // offset 12 / 24
+    pub u: [R; 3],       // offset 16 / 32
+    pub width: R,        // offset 28 / 56
+    pub v: [R; 3],       // offset 32 / 64
+    pub height: R,       // offset 44 / 88
+    pub w: [R; 3],       // offset 48 / 96
+    pub min_t: R,        // offset 60 / 120
+} // size 64 / 128
 
 /// `struct Params` in shaders/bindings.wgsl.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuParams {
-    pub frame: GpuFrame,     // offset 0
-    pub row_offset: u32,     // offset 80
-    pub tile_rows: u32,      // offset 84
-    pub sphere_count: u32,   // offset 88
-    pub plane_count: u32,    // offset 92
-    pub triangle_count: u32, // offset 96
-    pub _pad: [u32; 3],      // offset 100
-} // size 112
+#[derive(Clone, Copy, Debug)]
+pub struct GpuParams<R> {
+    pub frame: GpuFrame<R>,  // offset 0
+    pub projection: u32,     // offset 64 / 128
+    pub nx: u32,             // offset 68 / 132
+    pub ny: u32,             // offset 72 / 136
+    pub row_offset: u32,     // offset 76 / 140
+    pub tile_rows: u32,      // offset 80 / 144
+    pub sphere_count: u32,   // offset 84 / 148
+    pub plane_count: u32,    // offset 88 / 152
+    pub triangle_count: u32, // offset 92 / 156
+} // size 96 / 160
 
 /// `struct Sphere` in shaders/types.wgsl.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuSphere {
-    pub center: [f32; 3], // offset 0
-    pub radius: f32,      // offset 12
-    pub object: u32,      // offset 16
-    pub _pad: [u32; 3],   // offset 20
-} // size 32
+#[derive(Clone, Copy, Debug)]
+pub struct GpuSphere<R> {
+    pub center: [R; 3], // offset 0
+    pub radius: R,      // offset 12 / 24
+} // size 16 / 32
 
 /// `struct Plane` in shaders/types.wgsl.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuPlane {
-    pub point: [f32; 3],  // offset 0
-    pub object: u32,      // offset 12
-    pub normal: [f32; 3], // offset 16
-    pub _pad: u32,        // offset 28
-} // size 32
+#[derive(Clone, Copy, Debug)]
+pub struct GpuPlane<R> {
+    pub point: [R; 3],  // offset 0
+    pub _pad0: R,       // offset 12 / 24
+    pub normal: [R; 3], // offset 16 / 32
+    pub _pad1: R,       // offset 28 / 56
+} // size 32 / 64
 
 /// `struct Triangle` in shaders/types.wgsl.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuTriangle {
-    pub a: [f32; 3], // offset 0
-    pub object: u32, // offset 12
-    pub b: [f32; 3], // offset 16
-    pub _pad0: u32,  // offset 28
-    pub c: [f32; 3], // offset 32
-    pub _pad1: u32,  // offset 44
-} // size 48
+#[derive(Clone, Copy, Debug)]
+pub struct GpuTriangle<R> {
+    pub a: [R; 3], // offset 0
+    pub _pad0: R,  // offset 12 / 24
+    pub b: [R; 3], // offset 16 / 32
+    pub _pad1: R,  // offset 28 / 56
+    pub c: [R; 3], // offset 32 / 64
+    pub _pad2: R,  // offset 44 / 88
+} // size 48 / 96
 
-/// Rounds an f64 vector to the GPU's f32.
-pub fn f32x3(v: Vec3<f64>) -> [f32; 3] {
-    v.cast::<f32>().to_array()
+// SAFETY: each struct is `repr(C)` and made only of `R` (4- or 8-byte floats) and `u32`s whose
+// offsets are multiples of their size, with a total size that is a multiple of the alignment:
+// no padding bytes in either precision (the layout test checks the sizes), and any bit
+// pattern is a valid value.
+macro_rules! pod_for_gpu_real {
+    ($($t:ident),*) => {$(
+        unsafe impl<R: GpuReal> Zeroable for $t<R> {}
+        unsafe impl<R: GpuReal> Pod for $t<R> {}
+    )*};
+}
+pod_for_gpu_real!(GpuFrame, GpuParams, GpuSphere, GpuPlane, GpuTriangle);
+
+/// Rounds an f64 vector to the kernel's precision.
+pub fn real3<R: Real>(v: Vec3<f64>) -> [R; 3] {
+    v.cast::<R>().to_array()
 }
 
-impl GpuFrame {
+impl<R: GpuReal> GpuFrame<R> {
     pub fn new(frame: &Frame<f64>) -> Self {
-        let f = frame.cast::<f32>();
+        let f = frame.cast::<R>();
         GpuFrame {
             eye: f.eye.to_array(),
-            projection: match f.projection {
-                Projection::Perspective => 0,
-                Projection::Orthographic => 1,
-            },
-            u: f.u.to_array(),
-            nx: f.nx,
-            v: f.v.to_array(),
-            ny: f.ny,
-            w: f.w.to_array(),
             focal_length: f.focal_length,
+            u: f.u.to_array(),
             width: f.width,
+            v: f.v.to_array(),
             height: f.height,
+            w: f.w.to_array(),
             min_t: f.min_t,
-            _pad: 0,
         }
+    }
+}
+
+/// The `projection` code of shaders/types.wgsl.
+pub fn projection_code(p: Projection) -> u32 {
+    match p {
+        Projection::Perspective => 0,
+        Projection::Orthographic => 1,
     }
 }
 
@@ -106,7 +124,7 @@ mod tests {
     use super::*;
     use crate::gpu::shader;
 
-    /// (WGSL struct name, Rust size, [(member, Rust offset)]) checked against naga's layout.
+    /// Checks a WGSL struct's size and member offsets (naga's layout) against Rust's.
     fn check(module: &naga::Module, name: &str, size: usize, fields: &[(&str, usize)]) {
         let (_, ty) = module
             .types
@@ -117,6 +135,7 @@ mod tests {
             panic!("{name} is not a struct");
         };
         assert_eq!(*span as usize, size, "size of {name}");
+        assert_eq!(members.len(), fields.len(), "member count of {name}");
         for (field, offset) in fields {
             let m = members
                 .iter()
@@ -126,71 +145,52 @@ mod tests {
         }
     }
 
-    #[test]
-    fn rust_structs_match_naga_layout() {
-        let source = shader::kernel_source().unwrap();
+    fn check_precision<R: GpuReal>() {
+        let source = shader::kernel_source(R::PRECISION).unwrap();
         let m = shader::validate(&source, "kernel").unwrap();
+        macro_rules! fields {
+            ($t:ty: $($f:ident),*) => { &[$((stringify!($f), offset_of!($t, $f))),*] };
+        }
         check(
             &m,
             "Frame",
-            size_of::<GpuFrame>(),
-            &[
-                ("eye", offset_of!(GpuFrame, eye)),
-                ("projection", offset_of!(GpuFrame, projection)),
-                ("u", offset_of!(GpuFrame, u)),
-                ("nx", offset_of!(GpuFrame, nx)),
-                ("v", offset_of!(GpuFrame, v)),
-                ("ny", offset_of!(GpuFrame, ny)),
-                ("w", offset_of!(GpuFrame, w)),
-                ("focal_length", offset_of!(GpuFrame, focal_length)),
-                ("width", offset_of!(GpuFrame, width)),
-                ("height", offset_of!(GpuFrame, height)),
-                ("min_t", offset_of!(GpuFrame, min_t)),
-            ],
+            size_of::<GpuFrame<R>>(),
+            fields!(GpuFrame<R>: eye, focal_length, u, width, v, height, w, min_t),
         );
         check(
             &m,
             "Params",
-            size_of::<GpuParams>(),
-            &[
-                ("frame", offset_of!(GpuParams, frame)),
-                ("row_offset", offset_of!(GpuParams, row_offset)),
-                ("tile_rows", offset_of!(GpuParams, tile_rows)),
-                ("sphere_count", offset_of!(GpuParams, sphere_count)),
-                ("plane_count", offset_of!(GpuParams, plane_count)),
-                ("triangle_count", offset_of!(GpuParams, triangle_count)),
-            ],
+            size_of::<GpuParams<R>>(),
+            fields!(GpuParams<R>: frame, projection, nx, ny, row_offset, tile_rows,
+                sphere_count, plane_count, triangle_count),
         );
         check(
             &m,
             "Sphere",
-            size_of::<GpuSphere>(),
-            &[
-                ("center", offset_of!(GpuSphere, center)),
-                ("radius", offset_of!(GpuSphere, radius)),
-                ("object", offset_of!(GpuSphere, object)),
-            ],
+            size_of::<GpuSphere<R>>(),
+            fields!(GpuSphere<R>: center, radius),
         );
         check(
             &m,
             "Plane",
-            size_of::<GpuPlane>(),
-            &[
-                ("point", offset_of!(GpuPlane, point)),
-                ("object", offset_of!(GpuPlane, object)),
-                ("normal", offset_of!(GpuPlane, normal)),
-            ],
+            size_of::<GpuPlane<R>>(),
+            fields!(GpuPlane<R>: point, _pad0, normal, _pad1),
         );
         check(
             &m,
             "Triangle",
-            size_of::<GpuTriangle>(),
-            &[
-                ("a", offset_of!(GpuTriangle, a)),
-                ("object", offset_of!(GpuTriangle, object)),
-                ("b", offset_of!(GpuTriangle, b)),
-                ("c", offset_of!(GpuTriangle, c)),
-            ],
+            size_of::<GpuTriangle<R>>(),
+            fields!(GpuTriangle<R>: a, _pad0, b, _pad1, c, _pad2),
         );
+    }
+
+    #[test]
+    fn rust_structs_match_naga_layout_f32() {
+        check_precision::<f32>();
+    }
+
+    #[test]
+    fn rust_structs_match_naga_layout_f64() {
+        check_precision::<f64>();
     }
 }

@@ -7,7 +7,11 @@ pub mod shader;
 
 pub use render::{max_tile_rows, render};
 
+use std::collections::HashMap;
+use std::sync::Mutex;
+
 use crate::error::{Error, Result};
+use crate::math::Precision;
 
 /// The package that provides a software Vulkan driver on Debian and Ubuntu.
 pub const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` \
@@ -18,11 +22,12 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::TIMESTAMP_QUERY)
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
 
-/// An adapter with an open device and queue.
+/// An adapter with an open device and queue, and the kernels compiled on it so far.
 pub struct Gpu {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
+    pipelines: Mutex<HashMap<Precision, wgpu::ComputePipeline>>,
 }
 
 impl Gpu {
@@ -60,6 +65,7 @@ impl Gpu {
             adapter,
             device,
             queue,
+            pipelines: Mutex::default(),
         }
     }
 

@@ -5,90 +5,133 @@ use bytemuck::Pod;
 use wgpu::util::DeviceExt;
 
 use super::Gpu;
-use super::layout::{GpuFrame, GpuParams, GpuPlane, GpuSphere, GpuTriangle, f32x3};
+use super::layout::{
+    GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code, real3,
+};
 use super::shader;
 use crate::camera::Frame;
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
+use crate::math::Precision;
 use crate::scene::{Object, Scene};
 
 /// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/main.wgsl).
 const WORKGROUP: u32 = 8;
-/// Bytes of output per pixel: `vec4<f32>` surface + `i32` id.
-const SURFACE_BYTES: u64 = 16;
+/// Bytes of output per pixel and unit of precision: `vec4<real>` surface.
+const SURFACE_REALS: u64 = 4;
+/// Bytes of output per pixel: `i32` id.
 const ID_BYTES: u64 = 4;
 
-/// The primitives of a scene in the GPU's layout, each tagged with its object id.
-#[derive(Default)]
-struct Primitives {
-    spheres: Vec<GpuSphere>,
-    planes: Vec<GpuPlane>,
-    triangles: Vec<GpuTriangle>,
+/// The primitives of a scene in the GPU's layout, with the object id of each.
+struct Primitives<R> {
+    spheres: Vec<GpuSphere<R>>,
+    planes: Vec<GpuPlane<R>>,
+    triangles: Vec<GpuTriangle<R>>,
+    /// Object ids: spheres first, then planes, then triangles (shaders/bindings.wgsl).
+    sphere_ids: Vec<u32>,
+    plane_ids: Vec<u32>,
+    triangle_ids: Vec<u32>,
 }
 
-impl Primitives {
-    fn new(scene: &Scene) -> Primitives {
-        let mut p = Primitives::default();
-        for id in 0..scene.objects.len() {
-            let object = id as u32;
-            let push_triangle = |p: &mut Primitives, t: &crate::scene::Triangle| {
-                p.triangles.push(GpuTriangle {
-                    a: f32x3(t[0]),
-                    object,
-                    b: f32x3(t[1]),
-                    _pad0: 0,
-                    c: f32x3(t[2]),
-                    _pad1: 0,
-                })
-            };
-            match &scene.objects[id] {
-                Object::Sphere { center, radius } => p.spheres.push(GpuSphere {
-                    center: f32x3(*center),
-                    radius: *radius as f32,
-                    object,
-                    _pad: [0; 3],
-                }),
-                Object::Plane { point, normal } => p.planes.push(GpuPlane {
-                    point: f32x3(*point),
-                    object,
-                    normal: f32x3(*normal),
-                    _pad: 0,
-                }),
-                Object::Triangle { corners } => push_triangle(&mut p, corners),
+impl<R: GpuReal> Primitives<R> {
+    fn new(scene: &Scene) -> Primitives<R> {
+        let mut p = Primitives {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            triangles: Vec::new(),
+            sphere_ids: Vec::new(),
+            plane_ids: Vec::new(),
+            triangle_ids: Vec::new(),
+        };
+        for (id, object) in scene.objects.iter().enumerate() {
+            let id = id as u32;
+            match object {
+                Object::Sphere { center, radius } => {
+                    p.spheres.push(GpuSphere {
+                        center: real3(*center),
+                        radius: R::from_f64(*radius),
+                    });
+                    p.sphere_ids.push(id);
+                }
+                Object::Plane { point, normal } => {
+                    p.planes.push(GpuPlane {
+                        point: real3(*point),
+                        _pad0: R::ZERO,
+                        normal: real3(*normal),
+                        _pad1: R::ZERO,
+                    });
+                    p.plane_ids.push(id);
+                }
+                Object::Triangle { corners } => p.push_triangle(id, corners),
                 Object::Soup { triangles, .. } => {
-                    triangles.iter().for_each(|t| push_triangle(&mut p, t))
+                    triangles.iter().for_each(|t| p.push_triangle(id, t))
                 }
             }
         }
         p
     }
+
+    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle) {
+        self.triangles.push(GpuTriangle {
+            a: real3(t[0]),
+            _pad0: R::ZERO,
+            b: real3(t[1]),
+            _pad1: R::ZERO,
+            c: real3(t[2]),
+            _pad2: R::ZERO,
+        });
+        self.triangle_ids.push(id);
+    }
+
+    fn object_ids(&self) -> Vec<u32> {
+        [&self.sphere_ids, &self.plane_ids, &self.triangle_ids]
+            .into_iter()
+            .flatten()
+            .copied()
+            .collect()
+    }
+}
+
+fn surface_bytes(precision: Precision) -> u64 {
+    SURFACE_REALS
+        * match precision {
+            Precision::F32 => 4,
+            Precision::F64 => 8,
+        }
 }
 
 /// The most image rows one dispatch can cover at `width` pixels per row under `limits`
 /// (output binding size and workgroups per dimension); 0 if not even one row fits.
-pub fn max_tile_rows(limits: &wgpu::Limits, width: u32) -> u32 {
+pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Precision) -> u32 {
     let binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
-    let by_memory = binding / (width as u64 * SURFACE_BYTES);
+    let by_memory = binding / (width as u64 * surface_bytes(precision));
     let by_dispatch = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
     by_memory.min(by_dispatch).min(u32::MAX as u64) as u32
 }
 
-fn check_limits(gpu: &Gpu, scene: &Scene, prims: &Primitives) -> Result<u32> {
+fn check_limits<R: GpuReal>(gpu: &Gpu, scene: &Scene, prims: &Primitives<R>) -> Result<u32> {
+    if R::PRECISION == Precision::F64 && !gpu.device.features().contains(wgpu::Features::SHADER_F64)
+    {
+        return Err(Error::Device(format!(
+            "--precision f64: the adapter {} has no f64 shader support (SHADER_F64); use --precision f32",
+            gpu.info().name
+        )));
+    }
     let limits = gpu.device.limits();
     let [nx, ny] = scene.camera.resolution;
     let max_width = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
-    let rows = max_tile_rows(&limits, nx);
+    let rows = max_tile_rows(&limits, nx, R::PRECISION);
     if nx as u64 > max_width || rows == 0 {
         return Err(Error::Argument {
             option: "resolution".into(),
             message: format!(
                 "{nx}x{ny} is wider than this device can dispatch (at most {} pixels per row)",
-                max_width.min(limits.max_storage_buffer_binding_size / SURFACE_BYTES)
+                max_width.min(limits.max_storage_buffer_binding_size / surface_bytes(R::PRECISION))
             ),
         });
     }
     let binding = limits.max_storage_buffer_binding_size;
-    let bytes = (prims.triangles.len() * size_of::<GpuTriangle>()) as u64;
+    let bytes = (prims.triangles.len() * size_of::<GpuTriangle<R>>()) as u64;
     if bytes > binding {
         return Err(Error::Device(format!(
             "{} triangles need {bytes} bytes, more than this device's largest storage binding ({binding} bytes)",
@@ -115,8 +158,19 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
         })
 }
 
-fn create_pipeline(gpu: &Gpu) -> Result<wgpu::ComputePipeline> {
-    let source = shader::kernel_source()?;
+/// The kernel pipeline for `precision`, compiled once per [`Gpu`].
+fn pipeline(gpu: &Gpu, precision: Precision) -> Result<wgpu::ComputePipeline> {
+    let mut cache = gpu.pipelines.lock().expect("pipeline cache lock");
+    if let Some(p) = cache.get(&precision) {
+        return Ok(p.clone());
+    }
+    let p = create_pipeline(gpu, precision)?;
+    cache.insert(precision, p.clone());
+    Ok(p)
+}
+
+fn create_pipeline(gpu: &Gpu, precision: Precision) -> Result<wgpu::ComputePipeline> {
+    let source = shader::kernel_source(precision)?;
     // Validate with naga first so a shader error reads as WGSL line and column.
     shader::validate(&source, "kernel")?;
     let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -144,26 +198,29 @@ fn create_pipeline(gpu: &Gpu) -> Result<wgpu::ComputePipeline> {
     Ok(pipeline)
 }
 
-/// Renders `scene` at `scene.camera.resolution` on `gpu`, in f32.
-pub fn render(gpu: &Gpu, scene: &Scene) -> Result<Images<f32>> {
-    let prims = Primitives::new(scene);
+/// Renders `scene` at `scene.camera.resolution` on `gpu`, in precision `R` (`f32`, or `f64`
+/// where the adapter has `SHADER_F64`).
+pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene) -> Result<Images<R>> {
+    let prims = Primitives::<R>::new(scene);
     let tile_rows = check_limits(gpu, scene, &prims)?;
     let [nx, ny] = scene.camera.resolution;
     let frame = Frame::new(&scene.camera, [nx, ny]);
-    let pipeline = create_pipeline(gpu)?;
+    let pipeline = pipeline(gpu, R::PRECISION)?;
     let device = &gpu.device;
 
     let spheres = storage_buffer(gpu, "spheres", &prims.spheres);
     let planes = storage_buffer(gpu, "planes", &prims.planes);
     let triangles = storage_buffer(gpu, "triangles", &prims.triangles);
+    let objects = storage_buffer(gpu, "objects", &prims.object_ids());
     let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
-        size: size_of::<GpuParams>() as u64,
+        size: size_of::<GpuParams<R>>() as u64,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let tile_pixels = tile_rows as u64 * nx as u64;
-    let surface_size = tile_pixels * SURFACE_BYTES;
+    let surface_bytes = surface_bytes(R::PRECISION);
+    let surface_size = tile_pixels * surface_bytes;
     let id_size = tile_pixels * ID_BYTES;
     let output = |label, size| {
         device.create_buffer(&wgpu::BufferDescriptor {
@@ -189,8 +246,9 @@ pub fn render(gpu: &Gpu, scene: &Scene) -> Result<Images<f32>> {
             (1, &spheres),
             (2, &planes),
             (3, &triangles),
-            (4, &surface),
-            (5, &ids),
+            (4, &objects),
+            (5, &surface),
+            (6, &ids),
         ]
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
             binding,
@@ -202,14 +260,16 @@ pub fn render(gpu: &Gpu, scene: &Scene) -> Result<Images<f32>> {
     let mut row = 0;
     while row < ny {
         let rows = tile_rows.min(ny - row);
-        let params = GpuParams {
+        let params = GpuParams::<R> {
             frame: GpuFrame::new(&frame),
+            projection: projection_code(frame.projection),
+            nx,
+            ny,
             row_offset: row,
             tile_rows: rows,
             sphere_count: prims.spheres.len() as u32,
             plane_count: prims.planes.len() as u32,
             triangle_count: prims.triangles.len() as u32,
-            _pad: [0; 3],
         };
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
@@ -221,7 +281,7 @@ pub fn render(gpu: &Gpu, scene: &Scene) -> Result<Images<f32>> {
             pass.dispatch_workgroups(nx.div_ceil(WORKGROUP), rows.div_ceil(WORKGROUP), 1);
         }
         let pixels = rows as u64 * nx as u64;
-        encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, pixels * SURFACE_BYTES);
+        encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, pixels * surface_bytes);
         encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, pixels * ID_BYTES);
         gpu.queue.submit([encoder.finish()]);
         read_tile(
@@ -238,13 +298,13 @@ pub fn render(gpu: &Gpu, scene: &Scene) -> Result<Images<f32>> {
 }
 
 /// Copies one tile's results out of the mapped readback buffer into `images`.
-fn read_tile(
+fn read_tile<R: GpuReal>(
     gpu: &Gpu,
     readback: &wgpu::Buffer,
     id_offset: u64,
     pixels: usize,
     row: u32,
-    images: &mut Images<f32>,
+    images: &mut Images<R>,
 ) -> Result<()> {
     let (tx, rx) = std::sync::mpsc::channel();
     readback.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -260,7 +320,8 @@ fn read_tile(
         let view = readback
             .get_mapped_range(..)
             .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
-        let surface: &[[f32; 4]] = bytemuck::cast_slice(&view[..pixels * SURFACE_BYTES as usize]);
+        let surface_len = pixels * SURFACE_REALS as usize * size_of::<R>();
+        let surface: &[[R; 4]] = bytemuck::cast_slice(&view[..surface_len]);
         let id_start = id_offset as usize;
         let ids: &[i32] =
             bytemuck::cast_slice(&view[id_start..id_start + pixels * ID_BYTES as usize]);

@@ -3,8 +3,10 @@
 //! validates before any pipeline is made.
 
 use crate::error::{Error, Result};
+use crate::math::Precision;
 
-/// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time.
+/// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. One more module,
+/// `precision`, is generated: `alias real = f32;` or `alias real = f64;`.
 pub const MODULES: &[(&str, &str)] = &[
     ("types", include_str!("../../shaders/types.wgsl")),
     ("bindings", include_str!("../../shaders/bindings.wgsl")),
@@ -21,23 +23,33 @@ pub const ENTRY_MODULE: &str = "main";
 /// The kernel's entry point function.
 pub const ENTRY_POINT: &str = "main";
 
-fn module_source(name: &str) -> Option<&'static str> {
-    MODULES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+/// The generated module that fixes the kernel's scalar type.
+const PRECISION_MODULE: &str = "precision";
+
+fn module_source(name: &str, precision: Precision) -> Option<String> {
+    if name == PRECISION_MODULE {
+        return Some(format!("alias real = {};\n", precision.name()));
+    }
+    MODULES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| s.to_string())
 }
 
-/// Assembles `root` and everything it imports into one WGSL source.
+/// Assembles `root` and everything it imports into one WGSL source, with `real` = `precision`.
 ///
 /// Each module appears once, after its imports, under a `// ---- shaders/NAME.wgsl` banner so a
 /// reader of the emitted shader can find the file it came from.
-pub fn assemble(root: &str) -> Result<String> {
+pub fn assemble(root: &str, precision: Precision) -> Result<String> {
     let mut out = String::new();
     let mut done = Vec::new();
-    include(root, &mut done, &mut Vec::new(), &mut out)?;
+    include(root, precision, &mut done, &mut Vec::new(), &mut out)?;
     Ok(out)
 }
 
 fn include(
     name: &str,
+    precision: Precision,
     done: &mut Vec<String>,
     stack: &mut Vec<String>,
     out: &mut String,
@@ -51,11 +63,11 @@ fn include(
             stack.join(" -> ")
         )));
     }
-    let source = module_source(name)
+    let source = module_source(name, precision)
         .ok_or_else(|| Error::Device(format!("shaders: unknown module `{name}`")))?;
     stack.push(name.to_owned());
-    for import in imports(source) {
-        include(import, done, stack, out)?;
+    for import in imports(&source) {
+        include(import, precision, done, stack, out)?;
     }
     stack.pop();
     out.push_str(&format!("// ---- shaders/{name}.wgsl\n"));
@@ -98,9 +110,9 @@ pub fn validate(source: &str, label: &str) -> Result<naga::Module> {
     Ok(module)
 }
 
-/// The full kernel source.
-pub fn kernel_source() -> Result<String> {
-    assemble(ENTRY_MODULE)
+/// The full kernel source in `precision`.
+pub fn kernel_source(precision: Precision) -> Result<String> {
+    assemble(ENTRY_MODULE, precision)
 }
 
 #[cfg(test)]
@@ -124,22 +136,26 @@ mod tests {
         listed.sort();
         assert_eq!(on_disk, listed, "shaders/ and MODULES differ");
         for (name, _) in MODULES {
-            let source = assemble(name).unwrap();
-            if let Err(e) = validate(&source, &format!("shaders/{name}.wgsl")) {
-                panic!("{e}");
+            for precision in [Precision::F32, Precision::F64] {
+                let source = assemble(name, precision).unwrap();
+                let label = format!("shaders/{name}.wgsl ({precision})");
+                if let Err(e) = validate(&source, &label) {
+                    panic!("{e}");
+                }
             }
         }
     }
 
     #[test]
     fn kernel_has_its_entry_point() {
-        let module = validate(&kernel_source().unwrap(), "kernel").unwrap();
+        let module = validate(&kernel_source(Precision::F32).unwrap(), "kernel").unwrap();
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
     }
 
     #[test]
     fn each_module_is_included_once() {
-        let source = kernel_source().unwrap();
+        let source = kernel_source(Precision::F64).unwrap();
+        assert!(source.contains("alias real = f64;"));
         for (name, _) in MODULES {
             let banner = format!("// ---- shaders/{name}.wgsl\n");
             assert_eq!(source.matches(&banner).count(), 1, "{name}");

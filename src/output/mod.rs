@@ -13,7 +13,7 @@ use crate::images::Images;
 use crate::math::Real;
 
 pub use npy::encode_npy;
-pub use pictures::{PALETTE, depth_level, id_color, normal_color};
+pub use pictures::{PALETTE, Pictures, depth_level, id_color, normal_color, pictures};
 
 /// An output format of `raycast render --format`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

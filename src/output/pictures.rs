@@ -45,24 +45,40 @@ pub fn normal_color(id: i32, n: [f64; 3]) -> [u8; 3] {
     n.map(|c| (255.0 * (c * 0.5 + 0.5)) as u8)
 }
 
-/// The three pictures as 8-bit channels: (id RGB, depth grey, normal RGB).
-fn pictures<T: Real>(images: &Images<T>) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+/// The three course pictures as 8-bit channels, row-major from the top row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pictures {
+    pub width: u32,
+    pub height: u32,
+    /// RGB, 3 bytes a pixel.
+    pub id: Vec<u8>,
+    /// Grey, 1 byte a pixel.
+    pub depth: Vec<u8>,
+    /// RGB, 3 bytes a pixel.
+    pub normal: Vec<u8>,
+}
+
+/// Maps `images` to the course's id, depth and normal pictures.
+pub fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     let n = images.len();
-    let (mut id, mut depth, mut normal) = (
-        Vec::with_capacity(3 * n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(3 * n),
-    );
+    let mut p = Pictures {
+        width: images.width,
+        height: images.height,
+        id: Vec::with_capacity(3 * n),
+        depth: Vec::with_capacity(n),
+        normal: Vec::with_capacity(3 * n),
+    };
     for k in 0..n {
         let object = images.id[k];
-        id.extend(id_color(object));
-        depth.push(depth_level(
+        p.id.extend(id_color(object));
+        p.depth.push(depth_level(
             images.distance[k].to_f64(),
             images.focal_length,
         ));
-        normal.extend(normal_color(object, images.normal[k].map(T::to_f64)));
+        p.normal
+            .extend(normal_color(object, images.normal[k].map(T::to_f64)));
     }
-    (id, depth, normal)
+    p
 }
 
 fn png(width: u32, height: u32, pixels: &[u8], color: image::ExtendedColorType) -> Vec<u8> {
@@ -74,8 +90,13 @@ fn png(width: u32, height: u32, pixels: &[u8], color: image::ExtendedColorType) 
 }
 
 pub(super) fn encode_png<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
-    let (id, depth, normal) = pictures(images);
-    let (w, h) = (images.width, images.height);
+    let Pictures {
+        width: w,
+        height: h,
+        id,
+        depth,
+        normal,
+    } = pictures(images);
     use image::ExtendedColorType::{L8, Rgb8};
     [
         EncodedFile {
@@ -105,8 +126,13 @@ fn ppm(magic: &str, width: u32, height: u32, channels: usize, pixels: &[u8]) -> 
 }
 
 pub(super) fn encode_ppm<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
-    let (id, depth, normal) = pictures(images);
-    let (w, h) = (images.width, images.height);
+    let Pictures {
+        width: w,
+        height: h,
+        id,
+        depth,
+        normal,
+    } = pictures(images);
     [
         EncodedFile {
             name: "id.ppm",

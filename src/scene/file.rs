@@ -93,8 +93,10 @@ pub(super) fn parse(
 
 fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    let raw = serde_path_to_error::deserialize(de).map_err(|e| {
+    let raw = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
         let path = e.path().to_string();
+        // `?` stands for a position between fields, which the line and column already give.
+        let path = path.trim_end_matches('?').trim_end_matches('.');
         let inner = e.into_inner();
         let message = strip_position(&inner.to_string());
         let message = if path.is_empty() || path == "." {
@@ -108,6 +110,13 @@ fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
             column: inner.column(),
             message,
         }
+    })?;
+    // Anything but whitespace after the scene object is an error, not ignored.
+    de.end().map_err(|e| Error::SceneSyntax {
+        file: file.to_owned(),
+        line: e.line(),
+        column: e.column(),
+        message: strip_position(&e.to_string()),
     })?;
     Ok(raw)
 }

@@ -1,0 +1,487 @@
+//! The `raycast` binary on bad input: every failure exits with code 2, prints exactly one
+//! `error: ` line naming the file and field (or line:column, or option) at fault, and leaves
+//! no files in the output folder. One valid render checks the harness itself.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use tempfile::TempDir;
+
+/// A small valid scene; the cases below edit it with [`edit`].
+const VALID: &str = r#"{"camera":{"type":"perspective","eye":[0,0,5],"look":[0,0,-1],"up":[0,1,0],"focal_length":3,"width":1.6,"height":0.9,"resolution":[32,18]},"objects":[{"type":"sphere","center":[0,0,0],"radius":0.5}]}"#;
+
+/// `VALID` with `from` (which must occur exactly once) replaced by `to`.
+fn edit(from: &str, to: &str) -> String {
+    assert_eq!(VALID.matches(from).count(), 1, "`{from}` must occur once");
+    VALID.replace(from, to)
+}
+
+/// `VALID` with its object list replaced by `objects` (a JSON array).
+fn with_objects(objects: &str) -> String {
+    edit(
+        r#"[{"type":"sphere","center":[0,0,0],"radius":0.5}]"#,
+        objects,
+    )
+}
+
+/// A scratch folder holding `scene.json`; `out` (not created) is where output goes.
+struct Case {
+    dir: TempDir,
+    scene: PathBuf,
+    out: PathBuf,
+}
+
+impl Case {
+    fn new(scene_json: &str) -> Case {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.json");
+        std::fs::write(&scene, scene_json).unwrap();
+        let out = dir.path().join("out");
+        Case { dir, scene, out }
+    }
+
+    /// Writes a further file (a mesh) next to the scene.
+    fn file(&self, name: &str, bytes: &[u8]) -> &Case {
+        std::fs::write(self.dir.path().join(name), bytes).unwrap();
+        self
+    }
+
+    /// The scene file as error messages print it, followed by `:`.
+    fn scene_prefix(&self) -> String {
+        format!("error: {}:", self.scene.display())
+    }
+
+    /// Runs `raycast render scene.json -o out ARGS` with extra environment variables.
+    fn run(&self, args: &[&str], envs: &[(&str, &str)]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .arg("render")
+            .arg(&self.scene)
+            .arg("-o")
+            .arg(&self.out)
+            .args(args)
+            .envs(envs.iter().copied())
+            .output()
+            .expect("the raycast binary runs")
+    }
+
+    /// Runs and checks the failure contract; returns the one stderr line.
+    fn fail(&self, args: &[&str], envs: &[(&str, &str)]) -> String {
+        let output = self.run(args, envs);
+        let stderr = String::from_utf8(output.stderr).expect("stderr is UTF-8");
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "exit status {:?}\nstderr:\n{stderr}",
+            output.status
+        );
+        assert!(
+            stdout.is_empty(),
+            "nothing on stdout on failure, got:\n{stdout}"
+        );
+        assert!(
+            stderr.starts_with("error: ") && stderr.ends_with('\n') && stderr.lines().count() == 1,
+            "stderr must be one `error: ` line, got:\n{stderr}"
+        );
+        assert_no_output(&self.out);
+        stderr.trim_end().to_owned()
+    }
+}
+
+/// The output folder either does not exist or is empty (no partial or temporary files).
+fn assert_no_output(out: &Path) {
+    if out.exists() {
+        let names = file_names(out);
+        assert!(names.is_empty(), "{} holds {names:?}", out.display());
+    }
+}
+
+fn file_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Runs `scene_json` with `extra_args`, checks the failure contract and that the message starts
+/// with the scene file's path; returns the message.
+fn run_err(scene_json: &str, extra_args: &[&str]) -> String {
+    let case = Case::new(scene_json);
+    let message = case.fail(extra_args, &[]);
+    assert!(
+        message.starts_with(&case.scene_prefix()),
+        "message must start with the scene file: {message}"
+    );
+    message
+}
+
+/// Asserts `message` contains every one of `parts`.
+fn assert_has(message: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(message.contains(part), "`{part}` missing from: {message}");
+    }
+}
+
+// 1. Malformed JSON.
+
+#[test]
+fn malformed_json_names_file_line_and_column() {
+    // The comma between "type" and "center" of the sphere (line 2) is missing.
+    let line2 = r#""objects":[{"type":"sphere" "center":[0,0,0],"radius":0.5}]}"#;
+    let camera = &VALID[..VALID.find(r#""objects""#).unwrap()];
+    let text = format!("{camera}\n{line2}");
+    let column = line2.find(r#""center""#).unwrap() + 1;
+    let message = run_err(&text, &[]);
+    assert_has(
+        &message,
+        &[&format!(
+            "scene.json:2:{column}: objects[0]: expected `,` or `}}`"
+        )],
+    );
+}
+
+#[test]
+fn trailing_characters_after_the_scene_are_an_error() {
+    let text = format!("{VALID}\n  x\n");
+    let message = run_err(&text, &[]);
+    assert_has(&message, &["scene.json:2:3: ", "trailing characters"]);
+}
+
+#[test]
+fn empty_scene_file_is_an_error() {
+    let message = run_err("", &[]);
+    assert_has(&message, &["scene.json:1:0: ", "EOF"]);
+}
+
+// 2. Unknown object type.
+
+#[test]
+fn unknown_object_type() {
+    let message = run_err(&edit(r#""type":"sphere""#, r#""type":"cone""#), &[]);
+    assert_has(&message, &["objects[0].type", "`cone`", "`sphere`"]);
+}
+
+// 3. Unknown fields.
+
+#[test]
+fn unknown_field_in_an_object() {
+    let message = run_err(
+        &edit(r#""radius":0.5"#, r#""radius":0.5,"colour":[1,0,0]"#),
+        &[],
+    );
+    assert_has(&message, &["objects[0]", "unknown field `colour`"]);
+}
+
+#[test]
+fn unknown_field_in_the_camera() {
+    let message = run_err(
+        &edit(r#""focal_length":3"#, r#""focal_length":3,"fov":40"#),
+        &[],
+    );
+    assert_has(&message, &["camera.fov", "unknown field `fov`"]);
+}
+
+// 4. Missing fields.
+
+#[test]
+fn sphere_without_radius() {
+    let message = run_err(&edit(r#","radius":0.5"#, ""), &[]);
+    assert_has(&message, &["objects[0]", "missing field `radius`"]);
+}
+
+#[test]
+fn camera_without_eye() {
+    let message = run_err(&edit(r#""eye":[0,0,5],"#, ""), &[]);
+    assert_has(&message, &["camera", "missing field `eye`"]);
+}
+
+// 5. Numbers that are not finite or too large.
+
+#[test]
+fn non_finite_number() {
+    // serde_json rejects 1e999 itself ("number out of range") at its line and column.
+    let text = edit(r#""radius":0.5"#, r#""radius":1e999"#);
+    let column = text.find("1e999").unwrap() + "1e999".len();
+    let message = run_err(&text, &[]);
+    assert_has(
+        &message,
+        &[
+            &format!("scene.json:1:{column}: "),
+            "objects[0].radius",
+            "out of range",
+        ],
+    );
+
+    let message = run_err(
+        &edit(r#""focal_length":3"#, r#""focal_length":-1e999"#),
+        &[],
+    );
+    assert_has(&message, &["camera.focal_length", "out of range"]);
+}
+
+#[test]
+fn too_large_magnitude() {
+    let message = run_err(&edit(r#""center":[0,0,0]"#, r#""center":[0,1e30,0]"#), &[]);
+    assert_has(&message, &["objects[0].center[1]", "1e30", "1e18"]);
+
+    let message = run_err(&edit(r#""eye":[0,0,5]"#, r#""eye":[0,0,-1e30]"#), &[]);
+    assert_has(&message, &["camera.eye[2]", "1e30"]);
+}
+
+// 6. Radius.
+
+#[test]
+fn radius_must_be_positive() {
+    for radius in ["0", "-1"] {
+        let text = edit(r#""radius":0.5"#, &format!(r#""radius":{radius}"#));
+        let message = run_err(&text, &[]);
+        assert_has(&message, &["objects[0].radius", "must be > 0"]);
+    }
+}
+
+// 7. Plane normal.
+
+#[test]
+fn zero_plane_normal() {
+    let text = with_objects(
+        r#"[{"type":"sphere","center":[0,0,0],"radius":0.5},
+            {"type":"plane","point":[0,-1,0],"normal":[0,0,0]}]"#,
+    );
+    let message = run_err(&text, &[]);
+    assert_has(&message, &["objects[1].normal", "non-zero"]);
+}
+
+// 8. Look direction.
+
+#[test]
+fn zero_look() {
+    let message = run_err(&edit(r#""look":[0,0,-1]"#, r#""look":[0,0,0]"#), &[]);
+    assert_has(&message, &["camera.look", "non-zero"]);
+}
+
+// 9. Up parallel to look.
+
+#[test]
+fn up_parallel_to_look() {
+    let message = run_err(&edit(r#""up":[0,1,0]"#, r#""up":[0,0,2]"#), &[]);
+    assert_has(&message, &["camera.up", "parallel", "camera.look"]);
+}
+
+// 10. Image-plane sizes.
+
+#[test]
+fn focal_length_width_and_height_must_be_positive() {
+    for (from, to, field) in [
+        (
+            r#""focal_length":3"#,
+            r#""focal_length":0"#,
+            "camera.focal_length",
+        ),
+        (
+            r#""focal_length":3"#,
+            r#""focal_length":-2"#,
+            "camera.focal_length",
+        ),
+        (r#""width":1.6"#, r#""width":0"#, "camera.width"),
+        (r#""width":1.6"#, r#""width":-1.6"#, "camera.width"),
+        (r#""height":0.9"#, r#""height":0"#, "camera.height"),
+        (r#""height":0.9"#, r#""height":-0.9"#, "camera.height"),
+    ] {
+        let message = run_err(&edit(from, to), &[]);
+        assert_has(&message, &[field, "must be > 0"]);
+    }
+}
+
+// 11. Resolution.
+
+#[test]
+fn zero_resolution_in_the_scene() {
+    let message = run_err(&edit("[32,18]", "[0,10]"), &[]);
+    assert_has(&message, &["camera.resolution", "0x10"]);
+}
+
+#[test]
+fn zero_size_on_the_command_line() {
+    // Rejected by clap's value parser, which exits with 2 as well.
+    let case = Case::new(VALID);
+    let message = case.fail(&["--size", "0x10"], &[]);
+    assert_has(&message, &["--size", "0x10"]);
+}
+
+#[test]
+fn malformed_size_and_format_on_the_command_line() {
+    let case = Case::new(VALID);
+    let message = case.fail(&["--size", "wide"], &[]);
+    assert_has(&message, &["--size", "wide", "WIDTHxHEIGHT"]);
+    let message = case.fail(&["--format", "png,jpg"], &[]);
+    assert_has(&message, &["--format", "jpg"]);
+}
+
+#[test]
+fn size_wider_than_the_device_can_dispatch() {
+    // 600000 pixels need more than the 65535 workgroups of 8 pixels a row can have.
+    let case = Case::new(VALID);
+    let message = case.fail(&["--size", "600000x1"], &[]);
+    assert_has(&message, &["resolution", "600000x1"]);
+}
+
+// 12. Mesh files.
+
+fn soup(kind: &str, file: &str) -> String {
+    with_objects(&format!(r#"[{{"type":"soup","{kind}":"{file}"}}]"#))
+}
+
+/// Runs a scene whose only object is the mesh `name` (written with `bytes` unless `None`);
+/// the message must name the mesh file.
+fn mesh_err(kind: &str, name: &str, bytes: Option<&[u8]>) -> String {
+    let case = Case::new(&soup(kind, name));
+    if let Some(bytes) = bytes {
+        case.file(name, bytes);
+    }
+    let message = case.fail(&[], &[]);
+    let mesh = case.dir.path().join(name);
+    assert!(
+        message.starts_with(&format!("error: {}: ", mesh.display())),
+        "message must start with the mesh file: {message}"
+    );
+    message
+}
+
+#[test]
+fn missing_mesh_file() {
+    let message = mesh_err("stl", "nope.stl", None);
+    assert_has(&message, &["nope.stl", "cannot read"]);
+    let message = mesh_err("obj", "nope.obj", None);
+    assert_has(&message, &["nope.obj", "cannot read"]);
+}
+
+#[test]
+fn corrupt_stl_files() {
+    // Fixed pseudo-random bytes: an 80-byte header, then a huge triangle count.
+    let mut state = 0x2545_f491_u32;
+    let noise: Vec<u8> = (0..300)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 24) as u8
+        })
+        .collect();
+    let count = u32::from_le_bytes(noise[80..84].try_into().unwrap());
+    assert!(
+        count > 4,
+        "the noise must promise more triangles than it holds"
+    );
+    let message = mesh_err("stl", "noise.stl", Some(&noise));
+    assert_has(&message, &["STL"]);
+
+    // A binary STL promising 5 triangles and holding one.
+    let mut truncated = vec![0u8; 80];
+    truncated.extend_from_slice(&5u32.to_le_bytes());
+    truncated.extend_from_slice(&[0u8; 50]);
+    let message = mesh_err("stl", "truncated.stl", Some(&truncated));
+    assert_has(&message, &["STL"]);
+
+    // ASCII STL cut off in the middle of a facet.
+    let ascii = b"solid broken\n facet normal 0 0 1\n  outer loop\n   vertex 0 0\n";
+    let message = mesh_err("stl", "cut.stl", Some(ascii));
+    assert_has(&message, &["STL"]);
+}
+
+#[test]
+fn corrupt_obj_file() {
+    // A face that refers to vertices the file never defines.
+    let message = mesh_err("obj", "garbage.obj", Some(b"f 1 2 3\n"));
+    assert_has(&message, &["OBJ"]);
+}
+
+// 13. Output folder.
+
+#[test]
+fn output_folder_under_a_regular_file() {
+    let case = Case::new(VALID);
+    let afile = case.dir.path().join("afile");
+    std::fs::write(&afile, b"").unwrap();
+    let out = afile.join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .arg("render")
+        .arg(&case.scene)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8(output.stderr).unwrap();
+    assert_eq!(output.status.code(), Some(2), "stderr:\n{stderr}");
+    assert!(output.stdout.is_empty());
+    assert_eq!(stderr.lines().count(), 1, "one line, got:\n{stderr}");
+    assert!(
+        stderr.starts_with(&format!("error: {}: ", out.display())),
+        "message must name the output folder: {stderr}"
+    );
+    // Nothing else written: the scratch folder holds what the test put there, unchanged.
+    assert_eq!(file_names(case.dir.path()), ["afile", "scene.json"]);
+    assert_eq!(std::fs::read(&afile).unwrap(), b"");
+}
+
+// 14. No adapter.
+
+#[test]
+fn no_adapter() {
+    let case = Case::new(VALID);
+    let message = case.fail(
+        &[],
+        &[
+            ("VK_ICD_FILENAMES", "/nonexistent.json"),
+            ("VK_DRIVER_FILES", "/nonexistent.json"),
+            ("WGPU_BACKEND", "vulkan"),
+        ],
+    );
+    assert_has(&message, &["no GPU adapter", "mesa-vulkan-drivers"]);
+}
+
+#[test]
+fn adapter_name_matching_nothing() {
+    let case = Case::new(VALID);
+    let message = case.fail(&[], &[("WGPU_ADAPTER_NAME", "no-such-gpu")]);
+    assert_has(&message, &["WGPU_ADAPTER_NAME", "no-such-gpu"]);
+}
+
+// 15. The harness itself: a valid scene renders.
+
+/// Renders `VALID` with `args`; returns the sorted names of the files written.
+fn render_ok(args: &[&str]) -> Vec<String> {
+    let case = Case::new(VALID);
+    let output = case.run(args, &[]);
+    assert_eq!(
+        output.status.code(),
+        Some(0),
+        "stderr:\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    file_names(&case.out)
+}
+
+#[test]
+fn valid_scene_renders_png() {
+    assert_eq!(render_ok(&[]), ["depth.png", "id.png", "normal.png"]);
+}
+
+#[test]
+fn valid_scene_renders_every_format() {
+    assert_eq!(
+        render_ok(&["--format", "png,npy,ppm"]),
+        [
+            "depth.png",
+            "depth.ppm",
+            "distance.npy",
+            "id.npy",
+            "id.png",
+            "id.ppm",
+            "normal.npy",
+            "normal.png",
+            "normal.ppm",
+        ]
+    );
+}
