@@ -21,11 +21,14 @@
 //! ```
 
 pub mod camera;
+pub mod compare;
+pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod images;
 pub mod math;
 pub mod output;
+pub mod render;
 pub mod scene;
 
 pub use error::{Error, Result};

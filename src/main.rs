@@ -4,11 +4,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use raycast::compare;
 use raycast::error::Result;
-use raycast::gpu::layout::GpuReal;
 use raycast::gpu::{self, Gpu};
 use raycast::math::Precision;
 use raycast::output::{self, Format};
+use raycast::render::{self, AnyImages, Device, Mode};
 use raycast::scene::Scene;
 
 #[derive(Parser)]
@@ -37,9 +38,36 @@ enum Command {
         /// Comma-separated output formats: png, ppm, npy.
         #[arg(long, value_delimiter = ',', default_value = "png")]
         format: Vec<Format>,
-        /// Arithmetic precision of the kernel: f32, or f64 where the GPU supports it.
-        #[arg(long, default_value = "f32")]
-        precision: Precision,
+        /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
+        #[arg(long, default_value = "gpu")]
+        device: Device,
+        /// Arithmetic precision: f32 or f64 (f64 on the GPU needs SHADER_F64).
+        /// Default: f32 on the GPU, f64 on the CPU.
+        #[arg(long)]
+        precision: Option<Precision>,
+    },
+    /// Render a scene two ways and print how they differ, as one JSON object.
+    Compare {
+        /// Scene file (JSON).
+        scene: PathBuf,
+        /// Image size in pixels (overrides the scene's resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// First render, DEVICE[:PRECISION].
+        #[arg(long, default_value = "gpu:f32")]
+        a: Mode,
+        /// Second render, the reference for relative errors.
+        #[arg(long, default_value = "cpu:f64")]
+        b: Mode,
+        /// Render side b from this scene instead (same camera size), to compare two scenes.
+        #[arg(long)]
+        b_scene: Option<PathBuf>,
+        /// Also write mismatch.png and distance_error.png into this folder.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Exit with code 1 when a metric exceeds its bound, e.g. hit_mismatch=0,distance.rel_max=1e-5.
+        #[arg(long, value_delimiter = ',', value_parser = compare::parse_bound)]
+        fail_above: Vec<(String, f64)>,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -70,7 +98,7 @@ fn main() -> ExitCode {
         Err(e) => e.exit(),
     };
     match run(cli.command) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
@@ -87,31 +115,65 @@ fn quiet_mesa() {
     }
 }
 
-fn run(command: Command) -> Result<()> {
+fn run(command: Command) -> Result<ExitCode> {
     match command {
         Command::Render {
             scene,
             output,
             size,
             format,
+            device,
             precision,
-        } => render(scene.as_deref(), &output, size, &format, precision),
+        } => {
+            let mode = Mode {
+                device,
+                precision: precision.unwrap_or(device.default_precision()),
+            };
+            render(scene.as_deref(), &output, size, &format, mode)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare {
+            scene,
+            size,
+            a,
+            b,
+            b_scene,
+            output,
+            fail_above,
+        } => compare(
+            &scene,
+            b_scene.as_deref(),
+            size,
+            [a, b],
+            output.as_deref(),
+            &fail_above,
+        ),
         Command::Info => {
             let gpu = Gpu::new()?;
             print!("{}", gpu::describe(&gpu));
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }
 
-fn render_and_write<R: GpuReal>(
-    gpu: &Gpu,
-    scene: &Scene,
-    out_dir: &Path,
-    formats: &[Format],
-) -> Result<Vec<PathBuf>> {
-    let images = gpu::render::<R>(gpu, scene)?;
-    output::write_images(&images, out_dir, formats)
+fn load(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
+    let mut scene = match path {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default_scene(),
+    };
+    if let Some(size) = size {
+        scene.camera.resolution = size;
+    }
+    Ok(scene)
+}
+
+/// Opens the GPU only when some mode needs it.
+fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
+    if modes.iter().any(|m| m.device == Device::Gpu) {
+        Ok(Some(Gpu::new()?))
+    } else {
+        Ok(None)
+    }
 }
 
 fn render(
@@ -119,31 +181,89 @@ fn render(
     out_dir: &Path,
     size: Option<[u32; 2]>,
     formats: &[Format],
-    precision: Precision,
+    mode: Mode,
 ) -> Result<()> {
-    let mut scene = match scene_path {
-        Some(path) => Scene::load(path)?,
-        None => Scene::default_scene(),
-    };
-    if let Some(size) = size {
-        scene.camera.resolution = size;
-    }
+    let scene = load(scene_path, size)?;
     output::check_writable(out_dir)?;
-    let gpu = Gpu::new()?;
-    let start = std::time::Instant::now();
-    let written = match precision {
-        Precision::F32 => render_and_write::<f32>(&gpu, &scene, out_dir, formats)?,
-        Precision::F64 => render_and_write::<f64>(&gpu, &scene, out_dir, formats)?,
-    };
+    let gpu = gpu_for(&[mode])?;
+    let (images, elapsed) = render::timed(|| render::render(&scene, mode, gpu.as_ref(), true));
+    let written = images?.write(out_dir, formats)?;
     let [nx, ny] = scene.camera.resolution;
+    let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
     println!(
-        "rendered {} ({nx}x{ny}, {precision}) on {} in {:.3} s",
+        "rendered {} ({nx}x{ny}, {mode}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
-        gpu.info().name,
-        start.elapsed().as_secs_f64()
+        elapsed.as_secs_f64()
     );
     for path in written {
         println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn compare(
+    scene_path: &Path,
+    b_scene_path: Option<&Path>,
+    size: Option<[u32; 2]>,
+    modes: [Mode; 2],
+    out_dir: Option<&Path>,
+    bounds: &[(String, f64)],
+) -> Result<ExitCode> {
+    let scene_a = load(Some(scene_path), size)?;
+    let mut scene_b = load(Some(b_scene_path.unwrap_or(scene_path)), size)?;
+    // Side b must be comparable pixel for pixel.
+    scene_b.camera.resolution = scene_a.camera.resolution;
+    if let Some(dir) = out_dir {
+        output::check_writable(dir)?;
+    }
+    let gpu = gpu_for(&modes)?;
+    let (a, time_a) = render::timed(|| render::render(&scene_a, modes[0], gpu.as_ref(), true));
+    let (b, time_b) = render::timed(|| render::render(&scene_b, modes[1], gpu.as_ref(), true));
+    let (a, b) = (a?, b?);
+    let c = compare::compare(&a, &b);
+    let mut json = serde_json::json!({
+        "scene": scene_path.display().to_string(),
+        "size": scene_a.camera.resolution,
+        "a": {"mode": modes[0].to_string(), "time_s": time_a.as_secs_f64()},
+        "b": {"mode": modes[1].to_string(), "time_s": time_b.as_secs_f64()},
+    });
+    if let Some(p) = b_scene_path {
+        json["b"]["scene"] = p.display().to_string().into();
+    }
+    let report = serde_json::to_value(&c.report).expect("a report serialises");
+    json.as_object_mut()
+        .expect("an object")
+        .extend(report.as_object().expect("an object").clone());
+    println!("{json}");
+    if let Some(dir) = out_dir {
+        write_compare_pictures(&c, &b, dir)?;
+    }
+    let crossed = compare::exceeded(&c.report, bounds);
+    for line in &crossed {
+        eprintln!("fail-above: {line}");
+    }
+    Ok(if crossed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+fn write_compare_pictures(c: &compare::Comparison, b: &AnyImages, dir: &Path) -> Result<()> {
+    let base = match b {
+        AnyImages::F32(i) => output::pictures(i).normal,
+        AnyImages::F64(i) => output::pictures(i).normal,
+    };
+    let files = [
+        ("mismatch.png", compare::mismatch_picture(c, &base)),
+        ("distance_error.png", compare::distance_error_picture(c)),
+    ]
+    .map(|(name, img)| output::EncodedFile {
+        name,
+        bytes: output::encode_png_rgb(&img),
+    });
+    for path in output::write_files(dir, &files)? {
+        eprintln!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -9,7 +9,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::camera::Frame;
-use crate::math::{Real, Vec3};
+use crate::math::Real;
 use crate::scene::Projection;
 
 /// A scalar the GPU kernel can run in.
@@ -87,11 +87,6 @@ macro_rules! pod_for_gpu_real {
     )*};
 }
 pod_for_gpu_real!(GpuFrame, GpuParams, GpuSphere, GpuPlane, GpuTriangle);
-
-/// Rounds an f64 vector to the kernel's precision.
-pub fn real3<R: Real>(v: Vec3<f64>) -> [R; 3] {
-    v.cast::<R>().to_array()
-}
 
 impl<R: GpuReal> GpuFrame<R> {
     pub fn new(frame: &Frame<f64>) -> Self {

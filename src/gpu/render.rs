@@ -6,14 +6,15 @@ use wgpu::util::DeviceExt;
 
 use super::Gpu;
 use super::layout::{
-    GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code, real3,
+    GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
 use super::shader;
 use crate::camera::Frame;
+use crate::cpu;
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
 use crate::math::Precision;
-use crate::scene::{Object, Scene};
+use crate::scene::Scene;
 
 /// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/main.wgsl).
 const WORKGROUP: u32 = 8;
@@ -22,73 +23,51 @@ const SURFACE_REALS: u64 = 4;
 /// Bytes of output per pixel: `i32` id.
 const ID_BYTES: u64 = 4;
 
-/// The primitives of a scene in the GPU's layout, with the object id of each.
+/// A scene's primitives in the GPU's layout (from the same rounded values the CPU reference
+/// uses), and the object id of each: spheres first, then planes, then triangles.
 struct Primitives<R> {
     spheres: Vec<GpuSphere<R>>,
     planes: Vec<GpuPlane<R>>,
     triangles: Vec<GpuTriangle<R>>,
-    /// Object ids: spheres first, then planes, then triangles (shaders/bindings.wgsl).
-    sphere_ids: Vec<u32>,
-    plane_ids: Vec<u32>,
-    triangle_ids: Vec<u32>,
+    objects: Vec<u32>,
 }
 
 impl<R: GpuReal> Primitives<R> {
     fn new(scene: &Scene) -> Primitives<R> {
-        let mut p = Primitives {
-            spheres: Vec::new(),
-            planes: Vec::new(),
-            triangles: Vec::new(),
-            sphere_ids: Vec::new(),
-            plane_ids: Vec::new(),
-            triangle_ids: Vec::new(),
-        };
-        for (id, object) in scene.objects.iter().enumerate() {
-            let id = id as u32;
-            match object {
-                Object::Sphere { center, radius } => {
-                    p.spheres.push(GpuSphere {
-                        center: real3(*center),
-                        radius: R::from_f64(*radius),
-                    });
-                    p.sphere_ids.push(id);
-                }
-                Object::Plane { point, normal } => {
-                    p.planes.push(GpuPlane {
-                        point: real3(*point),
-                        _pad0: R::ZERO,
-                        normal: real3(*normal),
-                        _pad1: R::ZERO,
-                    });
-                    p.plane_ids.push(id);
-                }
-                Object::Triangle { corners } => p.push_triangle(id, corners),
-                Object::Soup { triangles, .. } => {
-                    triangles.iter().for_each(|t| p.push_triangle(id, t))
-                }
-            }
+        let p = cpu::types::Primitives::<R>::new(scene);
+        Primitives {
+            spheres: p
+                .spheres
+                .iter()
+                .map(|s| GpuSphere {
+                    center: s.center.to_array(),
+                    radius: s.radius,
+                })
+                .collect(),
+            planes: p
+                .planes
+                .iter()
+                .map(|q| GpuPlane {
+                    point: q.point.to_array(),
+                    _pad0: R::ZERO,
+                    normal: q.normal.to_array(),
+                    _pad1: R::ZERO,
+                })
+                .collect(),
+            triangles: p
+                .triangles
+                .iter()
+                .map(|t| GpuTriangle {
+                    a: t.a.to_array(),
+                    _pad0: R::ZERO,
+                    b: t.b.to_array(),
+                    _pad1: R::ZERO,
+                    c: t.c.to_array(),
+                    _pad2: R::ZERO,
+                })
+                .collect(),
+            objects: [p.sphere_objects, p.plane_objects, p.triangle_objects].concat(),
         }
-        p
-    }
-
-    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle) {
-        self.triangles.push(GpuTriangle {
-            a: real3(t[0]),
-            _pad0: R::ZERO,
-            b: real3(t[1]),
-            _pad1: R::ZERO,
-            c: real3(t[2]),
-            _pad2: R::ZERO,
-        });
-        self.triangle_ids.push(id);
-    }
-
-    fn object_ids(&self) -> Vec<u32> {
-        [&self.sphere_ids, &self.plane_ids, &self.triangle_ids]
-            .into_iter()
-            .flatten()
-            .copied()
-            .collect()
     }
 }
 
@@ -211,7 +190,7 @@ pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene) -> Result<Images<R>> {
     let spheres = storage_buffer(gpu, "spheres", &prims.spheres);
     let planes = storage_buffer(gpu, "planes", &prims.planes);
     let triangles = storage_buffer(gpu, "triangles", &prims.triangles);
-    let objects = storage_buffer(gpu, "objects", &prims.object_ids());
+    let objects = storage_buffer(gpu, "objects", &prims.objects);
     let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: size_of::<GpuParams<R>>() as u64,

@@ -59,6 +59,16 @@ pub fn encode<T: Real>(images: &Images<T>, formats: &[Format]) -> Vec<EncodedFil
     files
 }
 
+/// PNG bytes of an RGB image.
+pub fn encode_png_rgb(img: &image::RgbImage) -> Vec<u8> {
+    pictures::png(
+        img.width(),
+        img.height(),
+        img.as_raw(),
+        image::ExtendedColorType::Rgb8,
+    )
+}
+
 /// Creates `dir` if needed and checks a file can be created in it, before any rendering.
 pub fn check_writable(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)

@@ -81,7 +81,12 @@ pub fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     p
 }
 
-fn png(width: u32, height: u32, pixels: &[u8], color: image::ExtendedColorType) -> Vec<u8> {
+pub(super) fn png(
+    width: u32,
+    height: u32,
+    pixels: &[u8],
+    color: image::ExtendedColorType,
+) -> Vec<u8> {
     let mut bytes = Vec::new();
     image::codecs::png::PngEncoder::new(&mut bytes)
         .write_image(pixels, width, height, color)

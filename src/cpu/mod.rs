@@ -1,0 +1,59 @@
+//! The CPU reference renderer: the same algorithms as the WGSL kernel, file for file and name
+//! for name (`shaders/sphere.wgsl` <-> `src/cpu/sphere.rs`), generic over f32 (to reproduce the
+//! GPU) and f64 (the truth), multi-threaded with rayon, needing no GPU device.
+//!
+//! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
+//! differ, so the two can be read side by side and f32 results compared bit for bit.
+
+pub mod camera;
+pub mod main;
+pub mod plane;
+pub mod scene;
+pub mod sphere;
+pub mod triangle;
+pub mod types;
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use rayon::prelude::*;
+
+use crate::camera::Frame;
+use crate::images::Images;
+use crate::math::Real;
+use crate::scene::Scene;
+use types::Primitives;
+
+/// Renders `scene` at `scene.camera.resolution` on the CPU in precision `T`.
+pub fn render<T: Real>(scene: &Scene) -> Images<T> {
+    render_with_progress(scene, &AtomicU32::new(0))
+}
+
+/// As [`render`], counting finished rows in `rows_done` (for a progress display).
+pub fn render_with_progress<T: Real>(scene: &Scene, rows_done: &AtomicU32) -> Images<T> {
+    let frame = Frame::new(&scene.camera, scene.camera.resolution).cast::<T>();
+    let prims = Primitives::<T>::new(scene);
+    let mut images = Images::new_miss(frame.nx, frame.ny, scene.camera.focal_length);
+    let width = frame.nx as usize;
+    let Images {
+        id,
+        distance,
+        normal,
+        ..
+    } = &mut images;
+    id.par_chunks_mut(width)
+        .zip(distance.par_chunks_mut(width))
+        .zip(normal.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(i, ((id, distance), normal))| {
+            for j in 0..width {
+                let out = main::main(&frame, &prims, i as u32, j as u32);
+                id[j] = out.id;
+                if let Some((n, d)) = out.surface {
+                    normal[j] = n;
+                    distance[j] = d;
+                }
+            }
+            rows_done.fetch_add(1, Ordering::Relaxed);
+        });
+    images
+}
