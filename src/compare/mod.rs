@@ -19,9 +19,11 @@ pub struct Report {
     pub hit_mismatch: usize,
     /// Pixels where both hit, but different objects.
     pub id_mismatch: usize,
-    /// Over pixels where both hit; `None` (JSON null) when there are none.
+    /// Over pixels where both hit the same object; `None` (JSON null) when there are none.
+    /// (Where they hit different objects the difference measures the scene, not the
+    /// arithmetic; those pixels are counted in `id_mismatch`.)
     pub distance: DistanceError,
-    /// Angle between the two normals in degrees, over pixels where both hit.
+    /// Angle between the two normals in degrees, over pixels where both hit the same object.
     pub normal_angle_deg: AngleError,
 }
 
@@ -63,7 +65,7 @@ pub struct Comparison {
     pub height: u32,
     pub report: Report,
     pub per_pixel: Vec<PixelMatch>,
-    /// |a - b| / |b| where both hit, else `None`.
+    /// |a - b| / |b| where both hit the same object, else `None`.
     pub rel_error: Vec<Option<f64>>,
 }
 
@@ -158,7 +160,7 @@ pub fn compare(a: &AnyImages, b: &AnyImages) -> Comparison {
             PixelMatch::IdMismatch => id_mismatch += 1,
             _ => {}
         }
-        if ia == MISS || ib == MISS {
+        if m != PixelMatch::Same {
             continue;
         }
         let (da, db) = (sa.distance[k], sb.distance[k]);

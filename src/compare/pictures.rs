@@ -96,7 +96,8 @@ fn decades(errors: &[Option<f64>]) -> (i32, i32) {
 }
 
 /// Relative distance error |a - b| / |b| per pixel on a log colour scale, exact agreement in
-/// grey, pixels where not both hit in black; a colour bar with its decades on the right.
+/// grey, pixels not hit by both on the same object in black; a colour bar with its decades on
+/// the right.
 pub fn distance_error_picture(c: &Comparison) -> RgbImage {
     let (w, h) = (c.width, c.height);
     let (lo, hi) = decades(&c.rel_error);
