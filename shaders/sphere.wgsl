@@ -1,7 +1,57 @@
-// Ray/sphere intersection, the lecture's quadratic. CPU mirror: src/cpu/sphere.rs.
+// Ray/sphere intersection. CPU mirror: src/cpu/sphere.rs.
 #import types
 
-// The near root if it is at or beyond min_t, else the far root, else NO_HIT.
+#if ROBUST
+// The discriminant from the squared distance between the centre and the ray line (as in
+// pbrt-v4 and Ray Tracing Gems I, ch. 7): its rounding error is about EPS * r^2 instead of
+// EPS * b^2, so far and small spheres keep their silhouettes. The root pair q/a, c/q never
+// subtracts nearly equal numbers.
+fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
+    let f = ray.origin - sphere.center;
+    let d = ray.direction;
+    let a = dot(d, d);
+    let b = dot(f, d);
+    let l = f - (b / a) * d;
+    let r2 = sphere.radius * sphere.radius;
+    let discriminant = a * (r2 - dot(l, l));
+    if (discriminant < 0.0) {
+        return NO_HIT;
+    }
+    let root = sqrt(discriminant);
+    let q = -(b + select(root, -root, b < 0.0));
+    // Only a ray tangent at its own origin: t = 0, never beyond min_t.
+    if (q == 0.0) {
+        return NO_HIT;
+    }
+    let c = dot(f, f) - r2;
+    let t0 = q / a;
+    let t1 = c / q;
+    let t_near = min(t0, t1);
+    let t_far = max(t0, t1);
+    if (is_beyond(t_near, min_t)) {
+        return t_near;
+    }
+    if (is_beyond(t_far, min_t)) {
+        return t_far;
+    }
+    return NO_HIT;
+}
+
+// Outward unit normal. p - c is rebuilt from two small, accurate vectors: the perpendicular l
+// from the centre to the ray line, and the half-chord along the ray (backwards for the near
+// root, forwards for the far one). The direct p - c loses digits when the sphere is far.
+fn sphere_normal(ray: Ray, t: real, sphere: Sphere) -> vec3<real> {
+    let f = ray.origin - sphere.center;
+    let d = ray.direction;
+    let a = dot(d, d);
+    let b = dot(f, d);
+    let l = f - (b / a) * d;
+    let half_chord = sqrt(max(sphere.radius * sphere.radius - dot(l, l), 0.0) / a);
+    let along = select(half_chord, -half_chord, t < -b / a);
+    return normalize(l + along * d);
+}
+#else
+// The lecture's quadratic: the near root if it is at or beyond min_t, else the far root.
 fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let oc = ray.origin - sphere.center;
     let a = dot(ray.direction, ray.direction);
@@ -28,3 +78,4 @@ fn sphere_normal(ray: Ray, t: real, sphere: Sphere) -> vec3<real> {
     let p = ray.origin + t * ray.direction;
     return (p - sphere.center) / sphere.radius;
 }
+#endif

@@ -1,8 +1,81 @@
-// Ray/triangle intersection by Cramer's rule, as in the lecture. CPU mirror: src/cpu/triangle.rs.
+// Ray/triangle intersection. CPU mirror: src/cpu/triangle.rs.
 #import types
 
-// Solves origin + t*direction = a + beta*(b - a) + gamma*(c - a) for (beta, gamma, t), i.e. the
-// 3x3 system with columns (a - b, a - c, direction) and right-hand side a - origin.
+#if ROBUST
+#if RECHECK_F64
+// a*b - c*d with its exact sign. `approx` is the f32 value; when it is too close to zero for
+// its sign to be certain (fused or not), the difference is recomputed in f64, where products
+// of f32 values are exact: one rounding is left, which keeps the sign, and a fused
+// multiply-add would give the same value. So an edge shared by two triangles gets exactly
+// opposite signs from both, on any driver.
+fn edge_exact(a: real, b: real, c: real, d: real, approx: real) -> real {
+    if (abs(approx) > 2.0 * EPS * (abs(a * b) + abs(c * d))) {
+        return approx;
+    }
+    return real(f64(a) * f64(b) - f64(c) * f64(d));
+}
+#endif
+
+// The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the
+// ray's frame (ray along +z through the origin) and decide with 2D edge functions, which
+// neighbouring triangles evaluate with exactly opposite signs on a shared edge.
+fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
+    let d = ray.direction;
+    let ad = abs(d);
+    var kz = 2u;
+    if (ad.x >= ad.y && ad.x >= ad.z) {
+        kz = 0u;
+    } else if (ad.y >= ad.z) {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    // Keep the winding (and so the sign convention) when the ray points down its main axis.
+    if (d[kz] < 0.0) {
+        let swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    let sx = d[kx] / d[kz];
+    let sy = d[ky] / d[kz];
+    let sz = 1.0 / d[kz];
+    let pa = tri.a - ray.origin;
+    let pb = tri.b - ray.origin;
+    let pc = tri.c - ray.origin;
+    // One vector expression for all three corners, so a corner shared with a neighbouring
+    // triangle is transformed by the same instructions there.
+    let zs = vec3<real>(pa[kz], pb[kz], pc[kz]);
+    let xs = vec3<real>(pa[kx], pb[kx], pc[kx]) - sx * zs;
+    let ys = vec3<real>(pa[ky], pb[ky], pc[ky]) - sy * zs;
+    // Edge functions: u of edge b-c, v of edge c-a, w of edge a-b.
+    var u = xs.z * ys.y - ys.z * xs.y;
+    var v = xs.x * ys.z - ys.x * xs.z;
+    var w = xs.y * ys.x - ys.y * xs.x;
+#if RECHECK_F64
+    u = edge_exact(xs.z, ys.y, ys.z, xs.y, u);
+    v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
+    w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
+#endif
+    // Inside (or on an edge) iff no edge function has a sign opposite to another's.
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+        return NO_HIT;
+    }
+    let determinant = u + v + w;
+    // Degenerate (zero-area as seen along the ray): no hit.
+    if (determinant == 0.0) {
+        return NO_HIT;
+    }
+    let t_scaled = u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z);
+    let t = t_scaled / determinant;
+    if (is_beyond(t, min_t)) {
+        return t;
+    }
+    return NO_HIT;
+}
+#else
+// Cramer's rule, as in the lecture: solves origin + t*direction = a + beta*(b - a) +
+// gamma*(c - a), the 3x3 system with columns (a - b, a - c, direction) and right-hand side
+// a - origin.
 fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
@@ -28,8 +101,19 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
     }
     return NO_HIT;
 }
+#endif
 
 // Unit normal by corner order: normalize((b - a) x (c - a)), never flipped.
 fn triangle_normal(tri: Triangle) -> vec3<real> {
-    return normalize(cross(tri.b - tri.a, tri.c - tri.a));
+    let n = cross(tri.b - tri.a, tri.c - tri.a);
+#if ROBUST
+    // Scale first: the squared length of a tiny triangle's normal can underflow to zero.
+    let m = max(abs(n.x), max(abs(n.y), abs(n.z)));
+    if (m == 0.0) {
+        return vec3<real>(0.0);
+    }
+    return normalize(n / m);
+#else
+    return normalize(n);
+#endif
 }

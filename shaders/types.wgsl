@@ -14,6 +14,12 @@ const NO_HIT: real = -1.0;
 // The largest finite f32: the initial "nearest so far" distance.
 const T_FAR: real = 3.40282347e+38;
 
+// Conservative `t >= min_t`: a hit within its own error bound of the ray's start is no hit.
+// T_TOLERANCE (16 EPS, from the precision module) bounds the relative error of a computed t.
+fn is_beyond(t: real, min_t: real) -> bool {
+    return t - T_TOLERANCE * abs(t) >= min_t;
+}
+
 struct Frame {
     eye: vec3<real>,      // offset 0 / 0
     focal_length: real,   // offset 12 / 24

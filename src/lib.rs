@@ -20,6 +20,7 @@
 //! # Ok::<(), raycast::Error>(())
 //! ```
 
+pub mod algorithm;
 pub mod camera;
 pub mod compare;
 pub mod cpu;
@@ -31,6 +32,7 @@ pub mod output;
 pub mod render;
 pub mod scene;
 
+pub use algorithm::Algorithm;
 pub use error::{Error, Result};
 pub use images::Images;
 pub use scene::Scene;

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
@@ -45,6 +46,10 @@ enum Command {
         /// Default: f32 on the GPU, f64 on the CPU.
         #[arg(long)]
         precision: Option<Precision>,
+        /// Intersection algorithms: robust (camera-relative, watertight) or textbook (the
+        /// lecture's formulas in world coordinates).
+        #[arg(long, default_value = "robust")]
+        algorithm: Algorithm,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -53,11 +58,11 @@ enum Command {
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = parse_size)]
         size: Option<[u32; 2]>,
-        /// First render, DEVICE[:PRECISION].
-        #[arg(long, default_value = "gpu:f32")]
+        /// First render, DEVICE[:PRECISION][:ALGORITHM].
+        #[arg(long, default_value = "gpu:f32:robust")]
         a: Mode,
         /// Second render, the reference for relative errors.
-        #[arg(long, default_value = "cpu:f64")]
+        #[arg(long, default_value = "cpu:f64:robust")]
         b: Mode,
         /// Render side b from this scene instead (same camera size), to compare two scenes.
         #[arg(long)]
@@ -124,10 +129,12 @@ fn run(command: Command) -> Result<ExitCode> {
             format,
             device,
             precision,
+            algorithm,
         } => {
             let mode = Mode {
                 device,
                 precision: precision.unwrap_or(device.default_precision()),
+                algorithm,
             };
             render(scene.as_deref(), &output, size, &format, mode)?;
             Ok(ExitCode::SUCCESS)

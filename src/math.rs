@@ -38,6 +38,9 @@ pub trait Real:
     fn abs(self) -> Self;
     fn is_finite(self) -> bool;
     fn min(self, other: Self) -> Self;
+    fn max(self, other: Self) -> Self;
+    /// Machine epsilon (WGSL's `EPS` in the generated precision module).
+    const EPS: Self;
 }
 
 macro_rules! impl_real {
@@ -77,6 +80,11 @@ macro_rules! impl_real {
             fn min(self, other: Self) -> Self {
                 <$t>::min(self, other)
             }
+            #[inline]
+            fn max(self, other: Self) -> Self {
+                <$t>::max(self, other)
+            }
+            const EPS: Self = <$t>::EPSILON;
         }
     };
 }
@@ -151,6 +159,18 @@ impl<T: Real> Vec3<T> {
     }
     pub fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
+    }
+    /// Component `k` (0, 1, 2), like WGSL's `v[k]`.
+    pub fn get(self, k: usize) -> T {
+        match k {
+            0 => self.x,
+            1 => self.y,
+            _ => self.z,
+        }
+    }
+    /// Component-wise absolute value.
+    pub fn abs(self) -> Self {
+        vec3(self.x.abs(), self.y.abs(), self.z.abs())
     }
 }
 

@@ -1,11 +1,13 @@
 //! One entry point for every way of rendering: device (GPU kernel or CPU reference) x
-//! precision (f32 or f64), as the CLI spells them (`gpu:f32`, `cpu:f64`).
+//! precision (f32 or f64) x algorithm (textbook or robust), as the CLI spells them
+//! (`gpu:f32`, `cpu:f64:textbook`).
 
 use std::fmt;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
+use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu};
@@ -44,25 +46,39 @@ impl FromStr for Device {
     }
 }
 
-/// A device and a precision, written `gpu:f32`, `cpu:f64`, or just `gpu` / `cpu` for the
-/// device's default precision.
+/// The algorithm set used unless one is named.
+pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
+
+/// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
+/// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the device's default precision
+/// and the robust set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mode {
     pub device: Device,
     pub precision: Precision,
+    pub algorithm: Algorithm,
 }
 
 impl FromStr for Mode {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let (device, precision) = match s.split_once(':') {
-            Some((d, p)) => (d.parse::<Device>()?, Some(p.parse::<Precision>()?)),
-            None => (s.parse::<Device>()?, None),
-        };
-        Ok(Mode {
+        let mut parts = s.split(':');
+        let device: Device = parts.next().unwrap_or_default().parse()?;
+        let mut mode = Mode {
             device,
-            precision: precision.unwrap_or(device.default_precision()),
-        })
+            precision: device.default_precision(),
+            algorithm: DEFAULT_ALGORITHM,
+        };
+        if let Some(p) = parts.next() {
+            mode.precision = p.parse()?;
+        }
+        if let Some(a) = parts.next() {
+            mode.algorithm = a.parse()?;
+        }
+        if parts.next().is_some() {
+            return Err(format!("`{s}`: expected DEVICE[:PRECISION][:ALGORITHM]"));
+        }
+        Ok(mode)
     }
 }
 
@@ -72,7 +88,7 @@ impl fmt::Display for Mode {
             Device::Gpu => "gpu",
             Device::Cpu => "cpu",
         };
-        write!(f, "{device}:{}", self.precision)
+        write!(f, "{device}:{}:{}", self.precision, self.algorithm)
     }
 }
 
@@ -104,28 +120,32 @@ pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> R
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             Ok(match mode.precision {
-                Precision::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene)?),
-                Precision::F64 => AnyImages::F64(gpu::render::<f64>(gpu, scene)?),
+                Precision::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene, mode.algorithm)?),
+                Precision::F64 => AnyImages::F64(gpu::render::<f64>(gpu, scene, mode.algorithm)?),
             })
         }
         Device::Cpu => Ok(match mode.precision {
-            Precision::F32 => AnyImages::F32(cpu_with_progress(scene, progress)),
-            Precision::F64 => AnyImages::F64(cpu_with_progress(scene, progress)),
+            Precision::F32 => AnyImages::F32(cpu_with_progress(scene, mode.algorithm, progress)),
+            Precision::F64 => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
         }),
     }
 }
 
 /// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
 /// shows a progress bar of finished rows.
-fn cpu_with_progress<T: crate::math::Real>(scene: &Scene, progress: bool) -> Images<T> {
+fn cpu_with_progress<T: crate::math::Real>(
+    scene: &Scene,
+    algorithm: Algorithm,
+    progress: bool,
+) -> Images<T> {
     use std::io::IsTerminal;
     if !progress || !std::io::stderr().is_terminal() {
-        return cpu::render(scene);
+        return cpu::render(scene, algorithm);
     }
     let rows = scene.camera.resolution[1];
     let done = AtomicU32::new(0);
     std::thread::scope(|s| {
-        let worker = s.spawn(|| cpu::render_with_progress::<T>(scene, &done));
+        let worker = s.spawn(|| cpu::render_with_progress::<T>(scene, algorithm, &done));
         let start = Instant::now();
         let mut bar: Option<indicatif::ProgressBar> = None;
         while !worker.is_finished() {
@@ -164,16 +184,17 @@ mod tests {
     #[test]
     fn modes_parse_with_device_defaults() {
         let m: Mode = "cpu".parse().unwrap();
-        assert_eq!(
-            m,
-            Mode {
-                device: Device::Cpu,
-                precision: Precision::F64
-            }
-        );
-        let m: Mode = "gpu:f64".parse().unwrap();
-        assert_eq!(m.to_string(), "gpu:f64");
+        let expected = Mode {
+            device: Device::Cpu,
+            precision: Precision::F64,
+            algorithm: Algorithm::Robust,
+        };
+        assert_eq!(m, expected);
+        let m: Mode = "gpu:f64:textbook".parse().unwrap();
+        assert_eq!(m.to_string(), "gpu:f64:textbook");
         assert!("tpu:f32".parse::<Mode>().is_err());
         assert!("gpu:f16".parse::<Mode>().is_err());
+        assert!("gpu:f32:fast".parse::<Mode>().is_err());
+        assert!("gpu:f32:robust:x".parse::<Mode>().is_err());
     }
 }

@@ -267,8 +267,14 @@ fn build(cam: &Cam, objs: &[Obj]) -> (Scene, Cam, Vec<Obj>) {
     (scene, got, got_objs)
 }
 
+thread_local! {
+    /// The algorithm set of the running test (each test runs on its own thread).
+    static ALGORITHM: std::cell::Cell<raycast::Algorithm> =
+        const { std::cell::Cell::new(raycast::Algorithm::Robust) };
+}
+
 fn render<R: GpuReal>(scene: &Scene) -> Images<R> {
-    raycast::gpu::render::<R>(gpu(), scene).unwrap()
+    raycast::gpu::render::<R>(gpu(), scene, ALGORITHM.get()).unwrap()
 }
 
 /// What a pixel must show.
@@ -545,16 +551,30 @@ fn check<R: GpuReal>(label: &str, cam: &Cam, img: &Images<R>, expect: &[Expect])
 }
 
 /// Runs a generic test body once per precision, as `name::f32` and `name::f64`.
+/// Each test in both precisions and both algorithm sets.
 macro_rules! both_precisions {
     ($($name:ident),* $(,)?) => {$(
         mod $name {
-            #[test]
-            fn f32() {
-                super::$name::<f32>()
+            use raycast::Algorithm::{Robust, Textbook};
+            fn run<R: raycast::gpu::layout::GpuReal>(a: raycast::Algorithm) {
+                super::ALGORITHM.set(a);
+                super::$name::<R>()
             }
             #[test]
-            fn f64() {
-                super::$name::<f64>()
+            fn f32_textbook() {
+                run::<f32>(Textbook)
+            }
+            #[test]
+            fn f64_textbook() {
+                run::<f64>(Textbook)
+            }
+            #[test]
+            fn f32_robust() {
+                run::<f32>(Robust)
+            }
+            #[test]
+            fn f64_robust() {
+                run::<f64>(Robust)
             }
         }
     )*};

@@ -71,8 +71,8 @@ fn planted_square_is_counted_exactly_and_drawn() {
     assert_eq!(r["pixels"], 1200);
     assert_eq!(r["hit_mismatch"], 12);
     assert_eq!(r["id_mismatch"], 0);
-    assert_eq!(r["a"]["mode"], "gpu:f32");
-    assert_eq!(r["b"]["mode"], "cpu:f64");
+    assert_eq!(r["a"]["mode"], "gpu:f32:robust");
+    assert_eq!(r["b"]["mode"], "cpu:f64:robust");
     assert!(r["a"]["time_s"].as_f64().unwrap() > 0.0);
     // The sphere: f32 against f64, tiny but non-zero errors.
     let rel = r["distance"]["rel_max"].as_f64().unwrap();

@@ -1,5 +1,6 @@
 //! The course's six scenes rendered on the GPU (lavapipe in CI) against the course's 18
-//! reference renders (made in f64 by the course's own program).
+//! reference renders (made in f64 by the course's own program), with the lecture's (textbook)
+//! algorithms.
 //!
 //! - f64 kernel: every pixel of all 18 pictures is identical.
 //! - f32 kernel, tolerances of the foundation issue: the id picture differs on at most 0.01% of
@@ -16,6 +17,7 @@
 mod common;
 
 use common::*;
+use raycast::Algorithm::Textbook;
 use raycast::gpu::layout::GpuReal;
 use raycast::output::{Pictures, pictures};
 
@@ -34,7 +36,7 @@ struct Comparison {
 fn compare_with_course<R: GpuReal>(name: &str) -> (Comparison, Pictures) {
     let scene = course_scene(name);
     assert_eq!(scene.camera.resolution, [640, 360]);
-    let ours = pictures(&raycast::gpu::render::<R>(gpu(), &scene).unwrap());
+    let ours = pictures(&raycast::gpu::render::<R>(gpu(), &scene, Textbook).unwrap());
     let pixels = (ours.width * ours.height) as usize;
     let id_ref = course_render(name, "id");
     let same_id: Vec<bool> = ours
@@ -181,7 +183,7 @@ fn two_spheres_and_plane() {
 fn course_spot_pixels() {
     let at = |name: &str, row: u32, col: u32| {
         let scene = course_scene(name);
-        let p = pictures(&raycast::gpu::render::<f64>(gpu(), &scene).unwrap());
+        let p = pictures(&raycast::gpu::render::<f64>(gpu(), &scene, Textbook).unwrap());
         let k = (row * p.width + col) as usize;
         (
             [p.id[3 * k], p.id[3 * k + 1], p.id[3 * k + 2]],

@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::compare::{PixelMatch, compare};
 use raycast::images::{Images, MISS};
 use raycast::output::pictures;
@@ -13,7 +14,7 @@ use raycast::render::AnyImages;
 #[test]
 fn cpu_f64_reproduces_every_course_render_exactly() {
     for name in COURSE_SCENES {
-        let p = pictures(&raycast::cpu::render::<f64>(&course_scene(name)));
+        let p = pictures(&raycast::cpu::render::<f64>(&course_scene(name), Textbook));
         for (kind, ours) in [("id", &p.id), ("depth", &p.depth), ("normal", &p.normal)] {
             let reference = course_render(name, kind);
             let differing = ours.iter().zip(&reference).filter(|(a, b)| a != b).count();
@@ -38,8 +39,14 @@ fn ulps(a: f32, b: f32) -> u32 {
 /// a*b+c into an FMA, so a conforming GPU need not round like the CPU. lavapipe does not fuse
 /// and rounds div and sqrt correctly; there the measured difference is 0 ulps everywhere.
 fn check_cpu_f32_matches_gpu(label: &str, scene: &raycast::Scene) {
-    let cpu = raycast::cpu::render::<f32>(scene);
-    let gpu = raycast::gpu::render::<f32>(gpu(), scene).unwrap();
+    for algorithm in [Textbook, Robust] {
+        check_cpu_f32_matches_gpu_with(&format!("{label} ({algorithm})"), scene, algorithm);
+    }
+}
+
+fn check_cpu_f32_matches_gpu_with(label: &str, scene: &raycast::Scene, algorithm: Algorithm) {
+    let cpu = raycast::cpu::render::<f32>(scene, algorithm);
+    let gpu = raycast::gpu::render::<f32>(gpu(), scene, algorithm).unwrap();
     let pixels = cpu.len();
     let id_differs = (0..pixels).filter(|&k| cpu.id[k] != gpu.id[k]).count();
     let (mut max_ulps, mut hits) = (0, 0);
@@ -78,7 +85,7 @@ fn cpu_f32_reproduces_gpu_f32_on_random_scenes() {
     }
 }
 
-/// GPU f32 against the f64 truth (CPU f64) on random scenes.
+/// GPU f32 (textbook, the weaker set) against the f64 truth (CPU f64 robust) on random scenes.
 ///
 /// Tolerances, for these scenes (sizes 0.1..2, distances 3..10, so no catastrophic
 /// cancellation beyond what the textbook formulas always have):
@@ -93,8 +100,8 @@ fn cpu_f32_reproduces_gpu_f32_on_random_scenes() {
 fn gpu_f32_agrees_with_cpu_f64_on_random_scenes() {
     for seed in 1..=6 {
         let scene = random_scene(seed, [160, 120]);
-        let a = AnyImages::F32(raycast::gpu::render::<f32>(gpu(), &scene).unwrap());
-        let b = AnyImages::F64(raycast::cpu::render::<f64>(&scene));
+        let a = AnyImages::F32(raycast::gpu::render::<f32>(gpu(), &scene, Textbook).unwrap());
+        let b = AnyImages::F64(raycast::cpu::render::<f64>(&scene, Robust));
         let r = compare(&a, &b).report;
         println!("random {seed}: {}", serde_json::to_string(&r).unwrap());
         assert!(
@@ -110,7 +117,7 @@ fn gpu_f32_agrees_with_cpu_f64_on_random_scenes() {
 #[test]
 fn compare_counts_planted_differences_exactly() {
     let scene = random_scene(7, [96, 72]);
-    let truth: Images<f64> = raycast::cpu::render(&scene);
+    let truth: Images<f64> = raycast::cpu::render(&scene, Robust);
     let mut planted = truth.clone();
     let hits: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] != MISS).collect();
     let misses: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] == MISS).collect();

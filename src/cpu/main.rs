@@ -13,9 +13,14 @@ pub struct PixelOut<T> {
 }
 
 /// The kernel's entry point for pixel (`i`, `j`) (`main` in shaders/main.wgsl).
-pub fn main<T: Real>(frame: &Frame<T>, prims: &Primitives<T>, i: u32, j: u32) -> PixelOut<T> {
+pub fn main<T: Real, const ROBUST: bool>(
+    frame: &Frame<T>,
+    prims: &Primitives<T>,
+    i: u32,
+    j: u32,
+) -> PixelOut<T> {
     let ray = camera_ray(frame, i, j);
-    let hit = nearest_hit(&ray, frame.min_t, prims);
+    let hit = nearest_hit::<T, ROBUST>(&ray, frame.min_t, prims);
     if hit.object < 0 {
         return PixelOut {
             id: -1,
@@ -25,6 +30,9 @@ pub fn main<T: Real>(frame: &Frame<T>, prims: &Primitives<T>, i: u32, j: u32) ->
     let distance = hit.t * length(ray.direction);
     PixelOut {
         id: hit.object,
-        surface: Some((hit_normal(&ray, &hit, prims).to_array(), distance)),
+        surface: Some((
+            hit_normal::<T, ROBUST>(&ray, &hit, prims).to_array(),
+            distance,
+        )),
     }
 }

@@ -17,21 +17,26 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use rayon::prelude::*;
 
-use crate::camera::Frame;
+use crate::algorithm::Algorithm;
 use crate::images::Images;
 use crate::math::Real;
 use crate::scene::Scene;
 use types::Primitives;
 
-/// Renders `scene` at `scene.camera.resolution` on the CPU in precision `T`.
-pub fn render<T: Real>(scene: &Scene) -> Images<T> {
-    render_with_progress(scene, &AtomicU32::new(0))
+/// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`.
+pub fn render<T: Real>(scene: &Scene, algorithm: Algorithm) -> Images<T> {
+    render_with_progress(scene, algorithm, &AtomicU32::new(0))
 }
 
 /// As [`render`], counting finished rows in `rows_done` (for a progress display).
-pub fn render_with_progress<T: Real>(scene: &Scene, rows_done: &AtomicU32) -> Images<T> {
-    let frame = Frame::new(&scene.camera, scene.camera.resolution).cast::<T>();
-    let prims = Primitives::<T>::new(scene);
+pub fn render_with_progress<T: Real>(
+    scene: &Scene,
+    algorithm: Algorithm,
+    rows_done: &AtomicU32,
+) -> Images<T> {
+    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
+    let prims = Primitives::<T>::new(scene, algorithm);
+    let robust = algorithm == Algorithm::Robust;
     let mut images = Images::new_miss(frame.nx, frame.ny, scene.camera.focal_length);
     let width = frame.nx as usize;
     let Images {
@@ -46,7 +51,11 @@ pub fn render_with_progress<T: Real>(scene: &Scene, rows_done: &AtomicU32) -> Im
         .enumerate()
         .for_each(|(i, ((id, distance), normal))| {
             for j in 0..width {
-                let out = main::main(&frame, &prims, i as u32, j as u32);
+                let out = if robust {
+                    main::main::<T, true>(&frame, &prims, i as u32, j as u32)
+                } else {
+                    main::main::<T, false>(&frame, &prims, i as u32, j as u32)
+                };
                 id[j] = out.id;
                 if let Some((n, d)) = out.surface {
                     normal[j] = n;

@@ -33,7 +33,11 @@ pub fn is_closer<T: Real>(t: T, object: u32, index: u32, best: &Hit<T>) -> bool 
         && ((object as i32) < best.object || (object as i32 == best.object && index < best.index))
 }
 
-pub fn nearest_hit<T: Real>(ray: &Ray<T>, min_t: T, prims: &Primitives<T>) -> Hit<T> {
+pub fn nearest_hit<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+) -> Hit<T> {
     let mut best = Hit {
         t: t_far(),
         object: -1,
@@ -41,7 +45,7 @@ pub fn nearest_hit<T: Real>(ray: &Ray<T>, min_t: T, prims: &Primitives<T>) -> Hi
         index: 0,
     };
     for (k, sphere) in prims.spheres.iter().enumerate() {
-        let t = intersect_sphere(ray, sphere, min_t);
+        let t = intersect_sphere::<T, ROBUST>(ray, sphere, min_t);
         let object = prims.sphere_objects[k];
         if is_closer(t, object, k as u32, &best) {
             best = Hit {
@@ -53,7 +57,7 @@ pub fn nearest_hit<T: Real>(ray: &Ray<T>, min_t: T, prims: &Primitives<T>) -> Hi
         }
     }
     for (k, plane) in prims.planes.iter().enumerate() {
-        let t = intersect_plane(ray, plane, min_t);
+        let t = intersect_plane::<T, ROBUST>(ray, plane, min_t);
         let object = prims.plane_objects[k];
         if is_closer(t, object, k as u32, &best) {
             best = Hit {
@@ -65,7 +69,7 @@ pub fn nearest_hit<T: Real>(ray: &Ray<T>, min_t: T, prims: &Primitives<T>) -> Hi
         }
     }
     for (k, tri) in prims.triangles.iter().enumerate() {
-        let t = intersect_triangle(ray, tri, min_t);
+        let t = intersect_triangle::<T, ROBUST>(ray, tri, min_t);
         let object = prims.triangle_objects[k];
         if is_closer(t, object, k as u32, &best) {
             best = Hit {
@@ -80,11 +84,15 @@ pub fn nearest_hit<T: Real>(ray: &Ray<T>, min_t: T, prims: &Primitives<T>) -> Hi
 }
 
 /// The normal of the nearest hit, computed once rather than for every candidate.
-pub fn hit_normal<T: Real>(ray: &Ray<T>, hit: &Hit<T>, prims: &Primitives<T>) -> Vec3<T> {
+pub fn hit_normal<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    hit: &Hit<T>,
+    prims: &Primitives<T>,
+) -> Vec3<T> {
     let k = hit.index as usize;
     match hit.kind {
-        KIND_SPHERE => sphere_normal(ray, hit.t, &prims.spheres[k]),
+        KIND_SPHERE => sphere_normal::<T, ROBUST>(ray, hit.t, &prims.spheres[k]),
         KIND_PLANE => plane_normal(&prims.planes[k]),
-        _ => triangle_normal(&prims.triangles[k]),
+        _ => triangle_normal::<T, ROBUST>(&prims.triangles[k]),
     }
 }

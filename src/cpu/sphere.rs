@@ -1,10 +1,81 @@
-//! Mirror of shaders/sphere.wgsl: ray/sphere intersection, the lecture's quadratic.
+//! Mirror of shaders/sphere.wgsl: ray/sphere intersection, `ROBUST` choosing the body as
+//! `#if ROBUST` does in WGSL.
 
-use super::types::{Ray, Sphere, no_hit};
-use crate::math::{Real, Vec3, dot};
+use super::types::{Ray, Sphere, is_beyond, no_hit};
+use crate::math::{Real, Vec3, dot, normalize};
 
-/// The near root if it is at or beyond `min_t`, else the far root, else [`no_hit`].
-pub fn intersect_sphere<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
+pub fn intersect_sphere<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    sphere: &Sphere<T>,
+    min_t: T,
+) -> T {
+    if ROBUST {
+        intersect_sphere_robust(ray, sphere, min_t)
+    } else {
+        intersect_sphere_textbook(ray, sphere, min_t)
+    }
+}
+
+pub fn sphere_normal<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    t: T,
+    sphere: &Sphere<T>,
+) -> Vec3<T> {
+    if ROBUST {
+        sphere_normal_robust(ray, t, sphere)
+    } else {
+        sphere_normal_textbook(ray, t, sphere)
+    }
+}
+
+/// The discriminant from the squared distance between the centre and the ray line: error about
+/// EPS * r^2 instead of EPS * b^2. The root pair q/a, c/q never subtracts nearly equal numbers.
+pub fn intersect_sphere_robust<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
+    let f = ray.origin - sphere.center;
+    let d = ray.direction;
+    let a = dot(d, d);
+    let b = dot(f, d);
+    let l = f - d * (b / a);
+    let r2 = sphere.radius * sphere.radius;
+    let discriminant = a * (r2 - dot(l, l));
+    if discriminant < T::ZERO {
+        return no_hit();
+    }
+    let root = discriminant.sqrt();
+    let q = -(b + if b < T::ZERO { -root } else { root });
+    // Only a ray tangent at its own origin: t = 0, never beyond min_t.
+    if q == T::ZERO {
+        return no_hit();
+    }
+    let c = dot(f, f) - r2;
+    let t0 = q / a;
+    let t1 = c / q;
+    let t_near = t0.min(t1);
+    let t_far = t0.max(t1);
+    if is_beyond(t_near, min_t) {
+        return t_near;
+    }
+    if is_beyond(t_far, min_t) {
+        return t_far;
+    }
+    no_hit()
+}
+
+/// Outward unit normal from the perpendicular l and the half-chord along the ray (backwards for
+/// the near root, forwards for the far one): no cancellation for far spheres.
+pub fn sphere_normal_robust<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
+    let f = ray.origin - sphere.center;
+    let d = ray.direction;
+    let a = dot(d, d);
+    let b = dot(f, d);
+    let l = f - d * (b / a);
+    let half_chord = ((sphere.radius * sphere.radius - dot(l, l)).max(T::ZERO) / a).sqrt();
+    let along = if t < -b / a { -half_chord } else { half_chord };
+    normalize(l + d * along)
+}
+
+/// The lecture's quadratic: the near root if it is at or beyond `min_t`, else the far root.
+pub fn intersect_sphere_textbook<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
     let oc = ray.origin - sphere.center;
     let a = dot(ray.direction, ray.direction);
     let b = T::TWO * dot(ray.direction, oc);
@@ -26,7 +97,7 @@ pub fn intersect_sphere<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> 
 }
 
 /// Outward unit normal at the hit point, never flipped (seen from inside it points away).
-pub fn sphere_normal<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
+pub fn sphere_normal_textbook<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
     let p = ray.origin + ray.direction * t;
     (p - sphere.center) / sphere.radius
 }

@@ -1,11 +1,86 @@
-//! Mirror of shaders/triangle.wgsl: ray/triangle intersection by Cramer's rule.
+//! Mirror of shaders/triangle.wgsl: ray/triangle intersection.
 
-use super::types::{Ray, Triangle, no_hit};
-use crate::math::{Real, Vec3, cross, dot, normalize};
+use super::types::{Ray, Triangle, is_beyond, no_hit};
+use crate::math::{Precision, Real, Vec3, cross, dot, normalize, vec3};
 
-/// Solves origin + t*direction = a + beta*(b - a) + gamma*(c - a) for (beta, gamma, t): the
-/// 3x3 system with columns (a - b, a - c, direction) and right-hand side a - origin.
-pub fn intersect_triangle<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
+pub fn intersect_triangle<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    tri: &Triangle<T>,
+    min_t: T,
+) -> T {
+    if ROBUST {
+        intersect_triangle_robust(ray, tri, min_t)
+    } else {
+        intersect_triangle_textbook(ray, tri, min_t)
+    }
+}
+
+/// `a*b - c*d` with its exact sign (`#if RECHECK_F64`, which the CPU always has for f32):
+/// when the f32 value `approx` is too close to zero for its sign to be certain, recompute in
+/// f64, where products of f32 values are exact.
+pub fn edge_exact<T: Real>(a: T, b: T, c: T, d: T, approx: T) -> T {
+    if T::PRECISION == Precision::F64 {
+        return approx;
+    }
+    if approx.abs() > T::TWO * T::EPS * ((a * b).abs() + (c * d).abs()) {
+        return approx;
+    }
+    T::from_f64(a.to_f64() * b.to_f64() - c.to_f64() * d.to_f64())
+}
+
+/// The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the ray's
+/// frame and decide with 2D edge functions, exactly negated on an edge shared by two triangles.
+pub fn intersect_triangle_robust<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
+    let d = ray.direction;
+    let ad = d.abs();
+    let mut kz = 2;
+    if ad.x >= ad.y && ad.x >= ad.z {
+        kz = 0;
+    } else if ad.y >= ad.z {
+        kz = 1;
+    }
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    // Keep the winding (and so the sign convention) when the ray points down its main axis.
+    if d.get(kz) < T::ZERO {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let sx = d.get(kx) / d.get(kz);
+    let sy = d.get(ky) / d.get(kz);
+    let sz = T::ONE / d.get(kz);
+    let pa = tri.a - ray.origin;
+    let pb = tri.b - ray.origin;
+    let pc = tri.c - ray.origin;
+    let zs = vec3(pa.get(kz), pb.get(kz), pc.get(kz));
+    let xs = vec3(pa.get(kx), pb.get(kx), pc.get(kx)) - zs * sx;
+    let ys = vec3(pa.get(ky), pb.get(ky), pc.get(ky)) - zs * sy;
+    // Edge functions: u of edge b-c, v of edge c-a, w of edge a-b.
+    let mut u = xs.z * ys.y - ys.z * xs.y;
+    let mut v = xs.x * ys.z - ys.x * xs.z;
+    let mut w = xs.y * ys.x - ys.y * xs.x;
+    u = edge_exact(xs.z, ys.y, ys.z, xs.y, u);
+    v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
+    w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
+    let zero = T::ZERO;
+    if (u < zero || v < zero || w < zero) && (u > zero || v > zero || w > zero) {
+        return no_hit();
+    }
+    let determinant = u + v + w;
+    if determinant == zero {
+        return no_hit();
+    }
+    let t_scaled = u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z);
+    let t = t_scaled / determinant;
+    if is_beyond(t, min_t) {
+        return t;
+    }
+    no_hit()
+}
+
+/// Cramer's rule, as in the lecture: solves origin + t*direction = a + beta*(b - a) +
+/// gamma*(c - a), the system with columns (a - b, a - c, direction) and right-hand side
+/// a - origin.
+pub fn intersect_triangle_textbook<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
     let rhs = tri.a - ray.origin;
@@ -31,7 +106,16 @@ pub fn intersect_triangle<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) ->
     no_hit()
 }
 
-/// Unit normal by corner order: normalize((b - a) x (c - a)), never flipped.
-pub fn triangle_normal<T: Real>(tri: &Triangle<T>) -> Vec3<T> {
-    normalize(cross(tri.b - tri.a, tri.c - tri.a))
+/// Unit normal by corner order: normalize((b - a) x (c - a)), never flipped. The robust set
+/// scales first, since the squared length of a tiny triangle's normal can underflow.
+pub fn triangle_normal<T: Real, const ROBUST: bool>(tri: &Triangle<T>) -> Vec3<T> {
+    let n = cross(tri.b - tri.a, tri.c - tri.a);
+    if ROBUST {
+        let m = n.x.abs().max(n.y.abs().max(n.z.abs()));
+        if m == T::ZERO {
+            return vec3(T::ZERO, T::ZERO, T::ZERO);
+        }
+        return normalize(n / m);
+    }
+    normalize(n)
 }

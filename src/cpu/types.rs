@@ -1,7 +1,8 @@
 //! Mirror of shaders/types.wgsl: the kernel's value types, and the scene's primitives in the
 //! kernel's precision (the GPU path uploads exactly these values).
 
-use crate::math::{Real, Vec3};
+use crate::algorithm::Algorithm;
+use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Object, Scene};
 
 pub use crate::camera::Frame;
@@ -14,6 +15,16 @@ pub fn no_hit<T: Real>() -> T {
 /// The largest finite f32: the initial "nearest so far" distance (`T_FAR` in WGSL).
 pub fn t_far<T: Real>() -> T {
     T::from_f64(f32::MAX as f64)
+}
+
+/// Relative error allowed for a computed t in the conservative start test (robust set).
+pub fn t_tolerance<T: Real>() -> T {
+    T::from_f64(16.0) * T::EPS
+}
+
+/// Conservative `t >= min_t`: a hit within its own error bound of the ray's start is no hit.
+pub fn is_beyond<T: Real>(t: T, min_t: T) -> bool {
+    t - t_tolerance::<T>() * t.abs() >= min_t
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,10 +65,29 @@ pub struct Primitives<T> {
     pub triangle_objects: Vec<u32>,
 }
 
+/// Where the kernel's coordinates are measured from: the world origin for
+/// [`Algorithm::Textbook`], the eye for [`Algorithm::Robust`] (camera-relative rendering: the
+/// subtraction happens here in f64, so f32 precision sits where the camera is).
+pub fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
+    match algorithm {
+        Algorithm::Textbook => vec3(0.0, 0.0, 0.0),
+        Algorithm::Robust => scene.camera.eye,
+    }
+}
+
+/// The camera frame in the kernel's coordinates (f64, not yet rounded).
+pub fn kernel_frame(scene: &Scene, algorithm: Algorithm) -> Frame<f64> {
+    let mut frame = Frame::new(&scene.camera, scene.camera.resolution);
+    frame.eye = frame.eye - kernel_origin(scene, algorithm);
+    frame
+}
+
 impl<T: Real> Primitives<T> {
-    /// Every object of `scene`, rounded from f64 to `T`; a soup adds all its triangles under
-    /// its one id.
-    pub fn new(scene: &Scene) -> Primitives<T> {
+    /// Every object of `scene` in the kernel's coordinates for `algorithm`, rounded from f64
+    /// to `T`; a soup adds all its triangles under its one id. Robust planes are stored by
+    /// their point nearest the eye, `((p - e).n) n`, computed in f64.
+    pub fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
+        let origin = kernel_origin(scene, algorithm);
         let mut p = Primitives {
             spheres: Vec::new(),
             planes: Vec::new(),
@@ -71,32 +101,36 @@ impl<T: Real> Primitives<T> {
             match object {
                 Object::Sphere { center, radius } => {
                     p.spheres.push(Sphere {
-                        center: center.cast(),
+                        center: (*center - origin).cast(),
                         radius: T::from_f64(*radius),
                     });
                     p.sphere_objects.push(id);
                 }
                 Object::Plane { point, normal } => {
+                    let point = match algorithm {
+                        Algorithm::Textbook => *point,
+                        Algorithm::Robust => *normal * dot(*point - origin, *normal),
+                    };
                     p.planes.push(Plane {
                         point: point.cast(),
                         normal: normal.cast(),
                     });
                     p.plane_objects.push(id);
                 }
-                Object::Triangle { corners } => p.push_triangle(id, corners),
-                Object::Soup { triangles, .. } => {
-                    triangles.iter().for_each(|t| p.push_triangle(id, t))
-                }
+                Object::Triangle { corners } => p.push_triangle(id, corners, origin),
+                Object::Soup { triangles, .. } => triangles
+                    .iter()
+                    .for_each(|t| p.push_triangle(id, t, origin)),
             }
         }
         p
     }
 
-    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle) {
+    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle, origin: Vec3<f64>) {
         self.triangles.push(Triangle {
-            a: t[0].cast(),
-            b: t[1].cast(),
-            c: t[2].cast(),
+            a: (t[0] - origin).cast(),
+            b: (t[1] - origin).cast(),
+            c: (t[2] - origin).cast(),
         });
         self.triangle_objects.push(id);
     }

@@ -141,7 +141,8 @@ mod tests {
     }
 
     fn check_precision<R: GpuReal>() {
-        let source = shader::kernel_source(R::PRECISION).unwrap();
+        let variant = shader::Variant::new(R::PRECISION, crate::Algorithm::Robust);
+        let source = shader::kernel_source(&variant).unwrap();
         let m = shader::validate(&source, "kernel").unwrap();
         macro_rules! fields {
             ($t:ty: $($f:ident),*) => { &[$((stringify!($f), offset_of!($t, $f))),*] };

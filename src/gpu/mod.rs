@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::sync::Mutex;
 
 use crate::error::{Error, Result};
-use crate::math::Precision;
+use shader::Variant;
 
 /// The package that provides a software Vulkan driver on Debian and Ubuntu.
 pub const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` \
@@ -27,10 +27,23 @@ pub struct Gpu {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
-    pipelines: Mutex<HashMap<Precision, wgpu::ComputePipeline>>,
+    pipelines: Mutex<HashMap<Variant, wgpu::ComputePipeline>>,
 }
 
 impl Gpu {
+    /// The kernel variant for `precision` and `algorithm` on this device.
+    pub fn variant(
+        &self,
+        precision: crate::math::Precision,
+        algorithm: crate::Algorithm,
+    ) -> Variant {
+        Variant {
+            precision,
+            algorithm,
+            f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
+        }
+    }
+
     /// Opens the best adapter, honouring `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and
     /// `WGPU_ADAPTER_NAME` (a case-insensitive substring of the adapter name, e.g. `llvmpipe`).
     /// Without `WGPU_BACKEND` only the primary backends (Vulkan, Metal, DX12) are tried.

@@ -8,8 +8,8 @@ use super::Gpu;
 use super::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
-use super::shader;
-use crate::camera::Frame;
+use super::shader::{self, Variant};
+use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
@@ -33,8 +33,8 @@ struct Primitives<R> {
 }
 
 impl<R: GpuReal> Primitives<R> {
-    fn new(scene: &Scene) -> Primitives<R> {
-        let p = cpu::types::Primitives::<R>::new(scene);
+    fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<R> {
+        let p = cpu::types::Primitives::<R>::new(scene, algorithm);
         Primitives {
             spheres: p
                 .spheres
@@ -137,19 +137,19 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
         })
 }
 
-/// The kernel pipeline for `precision`, compiled once per [`Gpu`].
-fn pipeline(gpu: &Gpu, precision: Precision) -> Result<wgpu::ComputePipeline> {
+/// The kernel pipeline for `variant`, compiled once per [`Gpu`].
+fn pipeline(gpu: &Gpu, variant: Variant) -> Result<wgpu::ComputePipeline> {
     let mut cache = gpu.pipelines.lock().expect("pipeline cache lock");
-    if let Some(p) = cache.get(&precision) {
+    if let Some(p) = cache.get(&variant) {
         return Ok(p.clone());
     }
-    let p = create_pipeline(gpu, precision)?;
-    cache.insert(precision, p.clone());
+    let p = create_pipeline(gpu, &variant)?;
+    cache.insert(variant, p.clone());
     Ok(p)
 }
 
-fn create_pipeline(gpu: &Gpu, precision: Precision) -> Result<wgpu::ComputePipeline> {
-    let source = shader::kernel_source(precision)?;
+fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<wgpu::ComputePipeline> {
+    let source = shader::kernel_source(variant)?;
     // Validate with naga first so a shader error reads as WGSL line and column.
     shader::validate(&source, "kernel")?;
     let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -177,14 +177,14 @@ fn create_pipeline(gpu: &Gpu, precision: Precision) -> Result<wgpu::ComputePipel
     Ok(pipeline)
 }
 
-/// Renders `scene` at `scene.camera.resolution` on `gpu`, in precision `R` (`f32`, or `f64`
-/// where the adapter has `SHADER_F64`).
-pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene) -> Result<Images<R>> {
-    let prims = Primitives::<R>::new(scene);
+/// Renders `scene` at `scene.camera.resolution` on `gpu` with `algorithm`, in precision `R`
+/// (`f32`, or `f64` where the adapter has `SHADER_F64`).
+pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Result<Images<R>> {
+    let prims = Primitives::<R>::new(scene, algorithm);
     let tile_rows = check_limits(gpu, scene, &prims)?;
     let [nx, ny] = scene.camera.resolution;
-    let frame = Frame::new(&scene.camera, [nx, ny]);
-    let pipeline = pipeline(gpu, R::PRECISION)?;
+    let frame = cpu::types::kernel_frame(scene, algorithm);
+    let pipeline = pipeline(gpu, gpu.variant(R::PRECISION, algorithm))?;
     let device = &gpu.device;
 
     let spheres = storage_buffer(gpu, "spheres", &prims.spheres);

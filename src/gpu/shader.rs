@@ -1,9 +1,47 @@
 //! Kernel assembly: the WGSL files of `shaders/` are stitched together by `#import NAME` lines,
-//! each module included once, dependencies first. The result is one WGSL source that naga
+//! each module included once, dependencies first, and `#if NAME` / `#else` / `#endif` blocks
+//! are kept or dropped by the kernel's [`Variant`]. The result is one WGSL source that naga
 //! validates before any pipeline is made.
 
+use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::math::Precision;
+
+/// What a kernel is specialised for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Variant {
+    pub precision: Precision,
+    pub algorithm: Algorithm,
+    /// The device has f64 shaders: an f32 robust kernel rechecks near-zero triangle edge
+    /// functions exactly in f64.
+    pub f64_available: bool,
+}
+
+impl Variant {
+    pub fn new(precision: Precision, algorithm: Algorithm) -> Variant {
+        Variant {
+            precision,
+            algorithm,
+            f64_available: true,
+        }
+    }
+
+    /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
+    /// kernel on a device with f64).
+    pub fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        if self.precision == Precision::F64 {
+            d.push("F64");
+        }
+        if self.algorithm == Algorithm::Robust {
+            d.push("ROBUST");
+            if self.precision == Precision::F32 && self.f64_available {
+                d.push("RECHECK_F64");
+            }
+        }
+        d
+    }
+}
 
 /// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. One more module,
 /// `precision`, is generated: `alias real = f32;` or `alias real = f64;`.
@@ -28,7 +66,19 @@ const PRECISION_MODULE: &str = "precision";
 
 fn module_source(name: &str, precision: Precision) -> Option<String> {
     if name == PRECISION_MODULE {
-        return Some(format!("alias real = {};\n", precision.name()));
+        // Written as literals: naga's constant evaluator does no f64 arithmetic.
+        let (eps, t_tolerance) = match precision {
+            Precision::F32 => (f32::EPSILON as f64, 16.0 * f32::EPSILON as f64),
+            Precision::F64 => (f64::EPSILON, 16.0 * f64::EPSILON),
+        };
+        return Some(format!(
+            "alias real = {};\n\
+             // Machine epsilon of real.\n\
+             const EPS: real = {eps:e};\n\
+             // Relative error bound of a computed t (robust set): 16 EPS.\n\
+             const T_TOLERANCE: real = {t_tolerance:e};\n",
+            precision.name()
+        ));
     }
     MODULES
         .iter()
@@ -36,20 +86,57 @@ fn module_source(name: &str, precision: Precision) -> Option<String> {
         .map(|(_, s)| s.to_string())
 }
 
-/// Assembles `root` and everything it imports into one WGSL source, with `real` = `precision`.
+/// Assembles `root` and everything it imports into one WGSL source specialised for `variant`.
 ///
 /// Each module appears once, after its imports, under a `// ---- shaders/NAME.wgsl` banner so a
 /// reader of the emitted shader can find the file it came from.
-pub fn assemble(root: &str, precision: Precision) -> Result<String> {
+pub fn assemble(root: &str, variant: &Variant) -> Result<String> {
     let mut out = String::new();
     let mut done = Vec::new();
-    include(root, precision, &mut done, &mut Vec::new(), &mut out)?;
+    include(root, variant, &mut done, &mut Vec::new(), &mut out)?;
+    Ok(out)
+}
+
+/// Keeps the lines of `source` whose enclosing `#if NAME` / `#else` / `#endif` blocks hold
+/// under `defines` (`#if !NAME` negates); blocks nest.
+pub fn preprocess(source: &str, defines: &[&str], module: &str) -> Result<String> {
+    let fail = |line: usize, m: &str| Error::Device(format!("shaders/{module}.wgsl:{line}: {m}"));
+    // For each open block: (this branch is kept, some enclosing block drops it).
+    let mut stack: Vec<(bool, bool)> = Vec::new();
+    let mut out = String::new();
+    for (k, line) in source.lines().enumerate() {
+        let t = line.trim();
+        let outer_off = stack.iter().any(|&(on, outer)| !on || outer);
+        if let Some(cond) = t.strip_prefix("#if ") {
+            let cond = cond.trim();
+            let on = match cond.strip_prefix('!') {
+                Some(name) => !defines.contains(&name.trim()),
+                None => defines.contains(&cond),
+            };
+            stack.push((on, outer_off));
+        } else if t == "#else" {
+            let top = stack
+                .last_mut()
+                .ok_or_else(|| fail(k + 1, "#else without #if"))?;
+            top.0 = !top.0;
+        } else if t == "#endif" {
+            stack
+                .pop()
+                .ok_or_else(|| fail(k + 1, "#endif without #if"))?;
+        } else if !outer_off {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    if !stack.is_empty() {
+        return Err(fail(source.lines().count(), "#if without #endif"));
+    }
     Ok(out)
 }
 
 fn include(
     name: &str,
-    precision: Precision,
+    variant: &Variant,
     done: &mut Vec<String>,
     stack: &mut Vec<String>,
     out: &mut String,
@@ -63,11 +150,12 @@ fn include(
             stack.join(" -> ")
         )));
     }
-    let source = module_source(name, precision)
+    let source = module_source(name, variant.precision)
         .ok_or_else(|| Error::Device(format!("shaders: unknown module `{name}`")))?;
+    let source = preprocess(&source, &variant.defines(), name)?;
     stack.push(name.to_owned());
     for import in imports(&source) {
-        include(import, precision, done, stack, out)?;
+        include(import, variant, done, stack, out)?;
     }
     stack.pop();
     out.push_str(&format!("// ---- shaders/{name}.wgsl\n"));
@@ -110,9 +198,29 @@ pub fn validate(source: &str, label: &str) -> Result<naga::Module> {
     Ok(module)
 }
 
-/// The full kernel source in `precision`.
-pub fn kernel_source(precision: Precision) -> Result<String> {
-    assemble(ENTRY_MODULE, precision)
+/// The full kernel source for `variant`.
+pub fn kernel_source(variant: &Variant) -> Result<String> {
+    assemble(ENTRY_MODULE, variant)
+}
+
+/// Every variant a device may build: both precisions, both algorithms, with and without f64.
+pub fn all_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
+    for precision in [Precision::F32, Precision::F64] {
+        for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
+            for f64_available in [true, false] {
+                if precision == Precision::F64 && !f64_available {
+                    continue;
+                }
+                v.push(Variant {
+                    precision,
+                    algorithm,
+                    f64_available,
+                });
+            }
+        }
+    }
+    v
 }
 
 #[cfg(test)]
@@ -136,9 +244,9 @@ mod tests {
         listed.sort();
         assert_eq!(on_disk, listed, "shaders/ and MODULES differ");
         for (name, _) in MODULES {
-            for precision in [Precision::F32, Precision::F64] {
-                let source = assemble(name, precision).unwrap();
-                let label = format!("shaders/{name}.wgsl ({precision})");
+            for variant in all_variants() {
+                let source = assemble(name, &variant).unwrap();
+                let label = format!("shaders/{name}.wgsl ({variant:?})");
                 if let Err(e) = validate(&source, &label) {
                     panic!("{e}");
                 }
@@ -148,18 +256,29 @@ mod tests {
 
     #[test]
     fn kernel_has_its_entry_point() {
-        let module = validate(&kernel_source(Precision::F32).unwrap(), "kernel").unwrap();
+        let variant = Variant::new(Precision::F32, Algorithm::Textbook);
+        let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
     }
 
     #[test]
     fn each_module_is_included_once() {
-        let source = kernel_source(Precision::F64).unwrap();
+        let source = kernel_source(&Variant::new(Precision::F64, Algorithm::Robust)).unwrap();
         assert!(source.contains("alias real = f64;"));
         for (name, _) in MODULES {
             let banner = format!("// ---- shaders/{name}.wgsl\n");
             assert_eq!(source.matches(&banner).count(), 1, "{name}");
         }
+    }
+
+    #[test]
+    fn preprocessor_keeps_the_branches_that_hold() {
+        let src = "a\n#if X\nb\n#if !Y\nc\n#else\nd\n#endif\n#else\ne\n#endif\nf\n";
+        assert_eq!(preprocess(src, &["X"], "t").unwrap(), "a\nb\nc\nf\n");
+        assert_eq!(preprocess(src, &["X", "Y"], "t").unwrap(), "a\nb\nd\nf\n");
+        assert_eq!(preprocess(src, &[], "t").unwrap(), "a\ne\nf\n");
+        assert!(preprocess("#if X\n", &[], "t").is_err());
+        assert!(preprocess("#endif\n", &[], "t").is_err());
     }
 
     #[test]
