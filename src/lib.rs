@@ -15,11 +15,12 @@
 //! use raycast::{Scene, gpu::Gpu, output::{write_images, Format}};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?;
-//! let images = raycast::gpu::render::<f32>(&gpu, &scene)?;
+//! let images = raycast::gpu::render::<f32>(&gpu, &scene, raycast::Algorithm::Robust)?;
 //! write_images(&images, "out".as_ref(), &[Format::Png])?;
 //! # Ok::<(), raycast::Error>(())
 //! ```
 
+pub mod accuracy;
 pub mod algorithm;
 pub mod camera;
 pub mod compare;

@@ -74,6 +74,25 @@ enum Command {
         #[arg(long, value_delimiter = ',', value_parser = compare::parse_bound)]
         fail_above: Vec<(String, f64)>,
     },
+    /// Render scenes in every mode and print a markdown table of each against a reference.
+    Accuracy {
+        /// Scene files (JSON).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Image size in pixels (overrides every scene's resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// The mode every other is compared with, DEVICE[:PRECISION][:ALGORITHM].
+        #[arg(long, default_value = "cpu:f64:robust")]
+        reference: Mode,
+        /// Comma-separated modes. Default: gpu|cpu x f32|f64 x textbook|robust, GPU f64 only
+        /// where the adapter has SHADER_F64.
+        #[arg(long, value_delimiter = ',')]
+        modes: Option<Vec<Mode>>,
+        /// Also write the table, with what generated it and the scenes' comments, to this file.
+        #[arg(long)]
+        markdown: Option<PathBuf>,
+    },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
 }
@@ -155,6 +174,13 @@ fn run(command: Command) -> Result<ExitCode> {
             output.as_deref(),
             &fail_above,
         ),
+        Command::Accuracy {
+            scenes,
+            size,
+            reference,
+            modes,
+            markdown,
+        } => accuracy(&scenes, size, reference, modes, markdown.as_deref()),
         Command::Info => {
             let gpu = Gpu::new()?;
             print!("{}", gpu::describe(&gpu));
@@ -273,4 +299,68 @@ fn write_compare_pictures(c: &compare::Comparison, b: &AnyImages, dir: &Path) ->
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+fn accuracy(
+    scenes: &[PathBuf],
+    size: Option<[u32; 2]>,
+    reference: Mode,
+    modes: Option<Vec<Mode>>,
+    markdown: Option<&Path>,
+) -> Result<ExitCode> {
+    use raycast::accuracy;
+    let dir = markdown.map(|f| f.parent().unwrap_or(Path::new("")));
+    if let Some(dir) = dir.filter(|d| !d.as_os_str().is_empty()) {
+        output::check_writable(dir)?;
+    }
+    let needs_gpu = modes
+        .as_ref()
+        .is_none_or(|m| m.iter().any(|m| m.device == Device::Gpu))
+        || reference.device == Device::Gpu;
+    let gpu = if needs_gpu { Some(Gpu::new()?) } else { None };
+    let options = accuracy::Options {
+        size,
+        reference,
+        modes: modes.unwrap_or_else(|| accuracy::default_modes(gpu.as_ref())),
+    };
+    let result = accuracy::run(scenes, &options, gpu.as_ref(), |k, path| {
+        eprintln!("[{}/{}] {}", k + 1, scenes.len(), path.display());
+    })?;
+    print!("{}", accuracy::to_markdown(&result.rows));
+    if let Some(file) = markdown {
+        let provenance = accuracy::Provenance {
+            command: command_line(),
+            adapter: gpu.map(|g| {
+                let info = g.info();
+                (info.name, info.driver_info)
+            }),
+            date: accuracy::utc_date_today(),
+            reference,
+        };
+        let text = accuracy::document(&provenance, &result, dir);
+        let tmp = file.with_extension("md.tmp");
+        std::fs::write(&tmp, text)
+            .and_then(|()| std::fs::rename(&tmp, file))
+            .map_err(|e| raycast::Error::Io {
+                path: file.to_owned(),
+                message: format!("cannot write: {e}"),
+            })?;
+        eprintln!("wrote {}", file.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `raycast ARGS...` as typed (arguments with spaces or quotes quoted).
+fn command_line() -> String {
+    let args = std::env::args().skip(1).map(|a| {
+        if a.is_empty() || a.contains([' ', '"', '\'', '\\']) {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        } else {
+            a
+        }
+    });
+    std::iter::once("raycast".to_owned())
+        .chain(args)
+        .collect::<Vec<_>>()
+        .join(" ")
 }

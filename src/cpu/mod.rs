@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod main;
+pub mod margin;
 pub mod plane;
 pub mod scene;
 pub mod sphere;

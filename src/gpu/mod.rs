@@ -2,6 +2,7 @@
 //! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
 
 pub mod layout;
+pub mod probe;
 mod render;
 pub mod shader;
 
@@ -144,5 +145,7 @@ pub fn describe(gpu: &Gpu) -> String {
         "max invocations per workgroup: {}\n",
         limits.max_compute_invocations_per_workgroup
     );
+    let fusion = probe::fusion_probe(gpu).map_or_else(|e| e.to_string(), |r| r.describe());
+    s += &format!("f32 a*b - c*d: {fusion}\n");
     s
 }

@@ -1,0 +1,168 @@
+//! What the shader compiler does to `a*b - c*d` on this device: evaluated unfused (two
+//! roundings of products, one of the difference) or contracted into a fused multiply-add. The
+//! robust triangle test is built to be right either way; this tells which way a driver goes.
+
+use wgpu::util::DeviceExt;
+
+use super::Gpu;
+use crate::error::{Error, Result};
+
+const PROBE_WGSL: &str = "
+@group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> outputs: array<f32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if (k >= arrayLength(&outputs)) {
+        return;
+    }
+    let q = inputs[k];
+    outputs[k] = q.x * q.y - q.z * q.w;
+}
+";
+
+/// How a device evaluated `a*b - c*d` over inputs chosen so that fused and unfused results
+/// differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FusionReport {
+    pub samples: usize,
+    /// Results equal to the unfused evaluation `(a*b) - (c*d)`.
+    pub unfused: usize,
+    /// Results equal to `fma(a, b, -(c*d))` or `fma(-c, d, a*b)` (and not to the unfused one).
+    pub fused: usize,
+}
+
+impl FusionReport {
+    pub fn describe(&self) -> String {
+        let verdict = if self.unfused == self.samples {
+            "not fused"
+        } else if self.fused + self.unfused == self.samples {
+            "fused (multiply-add contraction)"
+        } else {
+            "neither fused nor unfused f32 rounding"
+        };
+        format!(
+            "{verdict} ({} of {} samples unfused, {} fused)",
+            self.unfused, self.samples, self.fused
+        )
+    }
+}
+
+/// Inputs where a*b and c*d nearly cancel, so the rounding of the products shows.
+fn probe_inputs(samples: usize) -> Vec<[f32; 4]> {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        1.0 + (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..samples)
+        .map(|_| {
+            let (a, b, c) = (next(), next(), next());
+            // d chosen so c*d is within a few ulps of a*b.
+            let d = (a as f64 * b as f64 / c as f64) as f32;
+            [a, b, c, d]
+        })
+        .filter(|[a, b, c, d]| {
+            let unfused = a * b - c * d;
+            unfused != a.mul_add(*b, -(c * d)) && unfused != (-c).mul_add(*d, a * b)
+        })
+        .collect()
+}
+
+/// Runs the probe kernel on `gpu`.
+pub fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
+    let inputs = probe_inputs(4096);
+    let device = &gpu.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("fusion probe"),
+        source: wgpu::ShaderSource::Wgsl(PROBE_WGSL.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("fusion probe"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("probe inputs"),
+        contents: bytemuck::cast_slice(&inputs),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let size = (inputs.len() * 4) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe outputs"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: input.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: output.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((inputs.len() as u32).div_ceil(64), 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, size);
+    gpu.queue.submit([encoder.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    readback.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    let failed = |e: &dyn std::fmt::Display| Error::Device(format!("fusion probe failed: {e}"));
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| failed(&e))?;
+    rx.recv().map_err(|e| failed(&e))?.map_err(|e| failed(&e))?;
+    let view = readback.get_mapped_range(..).map_err(|e| failed(&e))?;
+    let results: &[f32] = bytemuck::cast_slice(&view);
+    let mut report = FusionReport {
+        samples: inputs.len(),
+        unfused: 0,
+        fused: 0,
+    };
+    for ([a, b, c, d], r) in inputs.iter().zip(results) {
+        if *r == a * b - c * d {
+            report.unfused += 1;
+        } else if *r == a.mul_add(*b, -(c * d)) || *r == (-c).mul_add(*d, a * b) {
+            report.fused += 1;
+        }
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn probe_inputs_separate_fused_from_unfused() {
+        let inputs = probe_inputs(4096);
+        // Most near-cancelling pairs show the difference; enough remain to decide.
+        assert!(inputs.len() > 1000, "{}", inputs.len());
+    }
+}

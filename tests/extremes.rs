@@ -1,0 +1,373 @@
+//! The extreme scenes of `scenes/extremes/`, each with the invariant its `comment` states.
+//!
+//! - Every scene, GPU robust f32: hit/miss equals CPU f64 robust on every pixel whose f64
+//!   hit/miss margin is at least 1, and the id on every pixel whose id margin is too (margins
+//!   from `raycast::cpu::margin`: the decision quantity over `64 eps32` times its scale).
+//!   No output holds NaN, and no infinity but `distance` on a miss, in any GPU mode.
+//! - `shared-edges`: robust f32 loses no hit of the f64 reference (no ray through a shared
+//!   edge or vertex falls through); textbook f32 is measured, and on the full-view grid it does
+//!   crack, as the literature says Cramer's rule does.
+//! - `translated`: the same hit/miss and ids as the base scene, distances within 1e-6
+//!   (relative).
+//! - `scaled` by 2^k: the same hit/miss and ids, distances exactly 2^k times the base's.
+//! - `degenerate`: zero-area triangles are never hit.
+//! - `far-sphere` at 1e5: textbook f32 gets hit/miss wrong on certain pixels (the far-sphere
+//!   ring of pbrt-v3 #265), robust f32 does not.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::cpu::margin::{Margins, margins};
+use raycast::cpu::types::{Primitives, kernel_frame};
+use raycast::images::{Images, MISS};
+use raycast::scene::{Object, Scene};
+
+struct Extreme {
+    name: String,
+    path: PathBuf,
+    scene: Scene,
+    comment: serde_json::Value,
+}
+
+fn extremes() -> Vec<Extreme> {
+    let dir = repo_path("scenes/extremes");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 15, "only {} extreme scenes", paths.len());
+    paths
+        .into_iter()
+        .map(|path| {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+            Extreme {
+                name: path.file_stem().unwrap().to_string_lossy().into_owned(),
+                scene: Scene::load(&path).unwrap(),
+                comment: json["comment"].clone(),
+                path,
+            }
+        })
+        .collect()
+}
+
+fn kind(e: &Extreme) -> &str {
+    e.comment["kind"]
+        .as_str()
+        .unwrap_or_else(|| panic!("{}: comment.kind missing", e.name))
+}
+
+fn gpu_render<R: raycast::gpu::layout::GpuReal>(scene: &Scene, a: Algorithm) -> Images<R> {
+    raycast::gpu::render::<R>(gpu(), scene, a).unwrap()
+}
+
+fn truth(scene: &Scene) -> Images<f64> {
+    raycast::cpu::render::<f64>(scene, Robust)
+}
+
+fn f32_margins(scene: &Scene) -> Vec<Margins> {
+    let frame = kernel_frame(scene, Robust);
+    let prims = Primitives::<f64>::new(scene, Robust);
+    margins(&frame, &prims, f32::EPSILON as f64)
+}
+
+/// (pixels where hit/miss differs on a certain pixel, id differs on a certain pixel,
+/// uncertain pixels)
+fn certain_disagreements(
+    ours: &Images<f32>,
+    truth: &Images<f64>,
+    m: &[Margins],
+) -> (usize, usize, usize) {
+    let (mut hit, mut id, mut uncertain) = (0, 0, 0);
+    for (k, margin) in m.iter().enumerate() {
+        let (a, b) = (ours.id[k], truth.id[k]);
+        if !margin.certain() {
+            uncertain += 1;
+        }
+        if margin.hit >= 1.0 && (a == MISS) != (b == MISS) {
+            hit += 1;
+        } else if margin.certain() && a != b {
+            id += 1;
+        }
+    }
+    (hit, id, uncertain)
+}
+
+#[test]
+fn robust_f32_decides_as_f64_wherever_the_margin_allows() {
+    for e in extremes() {
+        let ours = gpu_render::<f32>(&e.scene, Robust);
+        let reference = truth(&e.scene);
+        let m = f32_margins(&e.scene);
+        let (hit, id, uncertain) = certain_disagreements(&ours, &reference, &m);
+        println!(
+            "{}: {uncertain} of {} pixels uncertain; disagreements on certain pixels: {hit} hit/miss, {id} id",
+            e.name,
+            ours.len()
+        );
+        assert_eq!(
+            (hit, id),
+            (0, 0),
+            "{}: robust f32 disagrees on certain pixels",
+            e.name
+        );
+    }
+}
+
+fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
+    for k in 0..images.len() {
+        let d = images.distance[k].to_f64();
+        let n = images.normal[k].map(|c| c.to_f64());
+        if images.id[k] == MISS {
+            assert!(
+                d == f64::INFINITY,
+                "{label}: pixel {k}: a miss has distance {d}"
+            );
+        } else {
+            assert!(d.is_finite(), "{label}: pixel {k}: distance {d}");
+        }
+        assert!(
+            n.iter().all(|c| c.is_finite()),
+            "{label}: pixel {k}: normal {n:?}"
+        );
+    }
+}
+
+#[test]
+fn no_nan_or_infinity_in_any_gpu_mode() {
+    for e in extremes() {
+        for a in [Textbook, Robust] {
+            assert_clean(
+                &format!("{} gpu f32 {a}", e.name),
+                &gpu_render::<f32>(&e.scene, a),
+            );
+            assert_clean(
+                &format!("{} gpu f64 {a}", e.name),
+                &gpu_render::<f64>(&e.scene, a),
+            );
+        }
+    }
+}
+
+/// Pixels where `truth` hits and `ours` misses.
+fn lost_hits<R: raycast::math::Real>(ours: &Images<R>, truth: &Images<f64>) -> usize {
+    (0..ours.len())
+        .filter(|&k| truth.id[k] != MISS && ours.id[k] == MISS)
+        .count()
+}
+
+#[test]
+fn shared_edges_never_crack_in_robust_mode() {
+    let mut textbook_cracks = Vec::new();
+    for e in extremes().into_iter().filter(|e| kind(e) == "shared-edges") {
+        let reference = truth(&e.scene);
+        let robust = gpu_render::<f32>(&e.scene, Robust);
+        let textbook = gpu_render::<f32>(&e.scene, Textbook);
+        let (lost_robust, lost_textbook) = (
+            lost_hits(&robust, &reference),
+            lost_hits(&textbook, &reference),
+        );
+        println!(
+            "{}: lost hits robust f32 {lost_robust}, textbook f32 {lost_textbook}",
+            e.name
+        );
+        assert_eq!(lost_robust, 0, "{}: robust f32 cracks", e.name);
+        assert_eq!(
+            lost_hits(&gpu_render::<f64>(&e.scene, Robust), &reference),
+            0,
+            "{}: robust f64 cracks",
+            e.name
+        );
+        textbook_cracks.push(lost_textbook);
+    }
+    assert!(!textbook_cracks.is_empty(), "no shared-edges scene");
+    assert!(
+        textbook_cracks.iter().any(|&c| c > 0),
+        "textbook f32 was expected to crack on some shared-edge scene: {textbook_cracks:?}"
+    );
+}
+
+fn base_of(e: &Extreme) -> Scene {
+    let base = e.comment["base"]
+        .as_str()
+        .unwrap_or_else(|| panic!("{}: comment.base", e.name));
+    Scene::load(&e.path.parent().unwrap().join(base)).unwrap()
+}
+
+#[test]
+fn translation_changes_nothing() {
+    let mut seen = 0;
+    for e in extremes().into_iter().filter(|e| kind(e) == "translated") {
+        seen += 1;
+        let base = gpu_render::<f32>(&base_of(&e), Robust);
+        let moved = gpu_render::<f32>(&e.scene, Robust);
+        assert_eq!(
+            base.id, moved.id,
+            "{}: ids differ from the base scene",
+            e.name
+        );
+        let worst = (0..base.len())
+            .filter(|&k| base.id[k] != MISS)
+            .map(|k| ((moved.distance[k] - base.distance[k]) / base.distance[k]).abs())
+            .fold(0.0f32, f32::max);
+        println!("{}: max relative distance change {worst:e}", e.name);
+        assert!(worst < 1e-6, "{}: {worst}", e.name);
+    }
+    assert!(seen >= 2, "expected scenes translated by 1e3 and 1e6");
+}
+
+#[test]
+fn scaling_by_a_power_of_two_only_scales_distances() {
+    let mut seen = 0;
+    for e in extremes().into_iter().filter(|e| kind(e) == "scaled") {
+        seen += 1;
+        let s = e.comment["scale"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{}: comment.scale", e.name));
+        assert_eq!(
+            s.log2().fract(),
+            0.0,
+            "{}: scale {s} is not a power of two",
+            e.name
+        );
+        for a in [Textbook, Robust] {
+            let base = gpu_render::<f32>(&base_of(&e), a);
+            let scaled = gpu_render::<f32>(&e.scene, a);
+            assert_eq!(base.id, scaled.id, "{} ({a}): ids differ", e.name);
+            for k in (0..base.len()).filter(|&k| base.id[k] != MISS) {
+                assert_eq!(
+                    scaled.distance[k] as f64,
+                    base.distance[k] as f64 * s,
+                    "{} ({a}) pixel {k}",
+                    e.name
+                );
+                assert_eq!(
+                    scaled.normal[k], base.normal[k],
+                    "{} ({a}) pixel {k}",
+                    e.name
+                );
+            }
+        }
+    }
+    assert!(seen >= 2, "expected scenes scaled by 2^-k and 2^k");
+}
+
+fn is_zero_area(t: &[raycast::math::Vec3<f64>; 3]) -> bool {
+    let n = raycast::math::cross(t[1] - t[0], t[2] - t[0]);
+    raycast::math::dot(n, n) == 0.0
+}
+
+#[test]
+fn degenerate_triangles_are_never_hit() {
+    let mut checked = 0;
+    for e in extremes().into_iter().filter(|e| kind(e) == "degenerate") {
+        let degenerate: Vec<i32> = e
+            .scene
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| matches!(o, Object::Triangle { corners } if is_zero_area(corners)))
+            .map(|(k, _)| k as i32)
+            .collect();
+        assert!(!degenerate.is_empty(), "{}: no zero-area triangle", e.name);
+        for a in [Textbook, Robust] {
+            let f32_ids = gpu_render::<f32>(&e.scene, a).id;
+            let f64_ids = gpu_render::<f64>(&e.scene, a).id;
+            let cpu_ids = raycast::cpu::render::<f64>(&e.scene, a).id;
+            for ids in [&f32_ids, &f64_ids, &cpu_ids] {
+                assert!(
+                    !ids.iter().any(|id| degenerate.contains(id)),
+                    "{} ({a}): a zero-area triangle was hit",
+                    e.name
+                );
+            }
+        }
+        checked += degenerate.len();
+    }
+    assert!(checked > 0);
+}
+
+#[test]
+fn textbook_f32_fails_on_the_far_sphere_where_robust_does_not() {
+    let far: Vec<Extreme> = extremes()
+        .into_iter()
+        .filter(|e| kind(e) == "far-sphere")
+        .collect();
+    assert!(far.len() >= 4, "expected unit spheres at 1e2..1e5");
+    let mut textbook_failures = 0;
+    for e in &far {
+        let reference = truth(&e.scene);
+        let m = f32_margins(&e.scene);
+        let (hit_t, _, _) =
+            certain_disagreements(&gpu_render::<f32>(&e.scene, Textbook), &reference, &m);
+        let (hit_r, _, _) =
+            certain_disagreements(&gpu_render::<f32>(&e.scene, Robust), &reference, &m);
+        println!(
+            "{}: certain hit/miss errors: textbook f32 {hit_t}, robust f32 {hit_r}",
+            e.name
+        );
+        assert_eq!(hit_r, 0);
+        textbook_failures += hit_t;
+    }
+    assert!(
+        textbook_failures > 0,
+        "textbook f32 was expected to lose far-sphere silhouettes"
+    );
+}
+
+/// The margin test is not vacuous: it can tell a wrong answer from an uncertain one.
+#[test]
+fn a_planted_wrong_pixel_on_a_certain_pixel_is_caught() {
+    let e = extremes().into_iter().next().unwrap();
+    let reference = truth(&e.scene);
+    let m = f32_margins(&e.scene);
+    let mut ours = gpu_render::<f32>(&e.scene, Robust);
+    let k = (0..ours.len())
+        .find(|&k| m[k].certain())
+        .expect("a certain pixel");
+    ours.id[k] = if ours.id[k] == MISS { 0 } else { MISS };
+    let (hit, _, _) = certain_disagreements(&ours, &reference, &m);
+    assert_eq!(hit, 1, "{}", Path::new(&e.name).display());
+}
+
+/// Rays lying in a triangle's plane and in a plane (the eye is in both, looking along them)
+/// miss both, in every mode, without NaN; the sphere behind is still seen.
+#[test]
+fn rays_in_a_triangle_plane_or_a_plane_miss_without_nan() {
+    let json = r#"{"camera": {"eye": [0, 0, 0], "look": [0, 0, -1], "up": [0, 1, 0],
+        "focal_length": 1, "width": 1, "height": 1, "resolution": [33, 33]},
+      "objects": [
+        {"type": "sphere", "center": [0, 0, -6], "radius": 1},
+        {"type": "triangle", "corners": [[-1, 0, -2], [1, 0, -2], [0, 0, -4]]},
+        {"type": "plane", "point": [5, 0, 0], "normal": [0, 1, 0]}]}"#;
+    let scene = Scene::from_json(json, Path::new("edge-on.json"), &mut |_| unreachable!()).unwrap();
+    // Row 16 of 33 is the centre row: its rays have vs = 0 and lie in the plane y = 0.
+    let centre_row = |ids: &[i32]| ids[16 * 33..17 * 33].to_vec();
+    for a in [Textbook, Robust] {
+        let images = [
+            ("gpu f32", gpu_render::<f32>(&scene, a).id),
+            ("gpu f64", gpu_render::<f64>(&scene, a).id),
+            ("cpu f64", raycast::cpu::render::<f64>(&scene, a).id),
+        ];
+        for (label, ids) in &images {
+            let row = centre_row(ids);
+            assert!(
+                row.iter().all(|&id| id != 1 && id != 2),
+                "{label} {a}: edge-on hit: {row:?}"
+            );
+            assert_eq!(
+                row[16], 0,
+                "{label} {a}: the sphere straight ahead is hidden"
+            );
+        }
+        assert_clean(
+            &format!("edge-on gpu f32 {a}"),
+            &gpu_render::<f32>(&scene, a),
+        );
+    }
+}
