@@ -130,6 +130,13 @@ fn main() -> ExitCode {
     }
 }
 
+/// Prints a line on stdout. A closed stdout (`raycast ... | head -1`) is not an error worth a
+/// panic: the output is simply not wanted any more.
+fn say(line: impl std::fmt::Display) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
 /// Mesa's device-select layer prints "XDG_RUNTIME_DIR is invalid" lines on headless machines;
 /// raycast chooses its adapter itself, so the layer is not needed.
 fn quiet_mesa() {
@@ -183,7 +190,7 @@ fn run(command: Command) -> Result<ExitCode> {
         } => accuracy(&scenes, size, reference, modes, markdown.as_deref()),
         Command::Info => {
             let gpu = Gpu::new()?;
-            print!("{}", gpu::describe(&gpu));
+            say(gpu::describe(&gpu).trim_end());
             Ok(ExitCode::SUCCESS)
         }
     }
@@ -223,13 +230,13 @@ fn render(
     let written = images?.write(out_dir, formats)?;
     let [nx, ny] = scene.camera.resolution;
     let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
-    println!(
+    say(format!(
         "rendered {} ({nx}x{ny}, {mode}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
-    );
+    ));
     for path in written {
-        println!("wrote {}", path.display());
+        say(format!("wrote {}", path.display()));
     }
     Ok(())
 }
@@ -267,7 +274,7 @@ fn compare(
     json.as_object_mut()
         .expect("an object")
         .extend(report.as_object().expect("an object").clone());
-    println!("{json}");
+    say(json);
     if let Some(dir) = out_dir {
         write_compare_pictures(&c, &b, dir)?;
     }
@@ -326,7 +333,7 @@ fn accuracy(
     let result = accuracy::run(scenes, &options, gpu.as_ref(), |k, path| {
         eprintln!("[{}/{}] {}", k + 1, scenes.len(), path.display());
     })?;
-    print!("{}", accuracy::to_markdown(&result.rows));
+    say(accuracy::to_markdown(&result.rows).trim_end());
     if let Some(file) = markdown {
         let provenance = accuracy::Provenance {
             command: command_line(),

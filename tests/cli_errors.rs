@@ -485,3 +485,23 @@ fn valid_scene_renders_every_format() {
         ]
     );
 }
+
+/// `raycast render ... | head -1`: a reader that goes away early is not a reason to panic.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.json");
+    std::fs::write(&scene, VALID).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.path().join("out"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
