@@ -1,0 +1,55 @@
+//! On a device without `SHADER_F64` (here: lavapipe opened with no optional features), f64
+//! renders fail with a clear error and the robust f32 kernel builds without its f64 edge
+//! recheck.
+
+mod common;
+
+use raycast::Algorithm::{Robust, Textbook};
+use raycast::gpu::Gpu;
+
+fn gpu_without_f64() -> Gpu {
+    let shared = common::gpu();
+    let (device, queue) =
+        pollster::block_on(shared.adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("no f64"),
+            required_features: wgpu::Features::empty(),
+            required_limits: shared.adapter.limits(),
+            ..Default::default()
+        }))
+        .unwrap();
+    Gpu::from_parts(shared.adapter.clone(), device, queue)
+}
+
+#[test]
+fn f64_without_shader_f64_is_a_clear_error() {
+    let gpu = gpu_without_f64();
+    let scene = common::course_scene("triangle");
+    let err = raycast::gpu::render::<f64>(&gpu, &scene, Textbook)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("SHADER_F64") && err.contains("--precision f32"),
+        "{err}"
+    );
+}
+
+#[test]
+fn robust_f32_without_f64_still_renders_the_course_bunny() {
+    let gpu = gpu_without_f64();
+    assert!(
+        !gpu.variant(raycast::math::Precision::F32, Robust)
+            .defines()
+            .contains(&"RECHECK_F64")
+    );
+    let scene = common::course_scene("bunny");
+    let without = raycast::gpu::render::<f32>(&gpu, &scene, Robust).unwrap();
+    let with = raycast::gpu::render::<f32>(common::gpu(), &scene, Robust).unwrap();
+    // Without the recheck only pixels on near-zero edge functions can differ.
+    let differing = (0..with.len())
+        .filter(|&k| with.id[k] != without.id[k])
+        .count();
+    assert!(
+        differing * 10_000 <= with.len(),
+        "{differing} pixels differ"
+    );
+}
