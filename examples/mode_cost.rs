@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ]
         .map(|(precision, algorithm)| Mode {
             device: Device::Gpu,
-            precision,
+            precision: precision.into(),
             algorithm,
         })
         .to_vec();

@@ -8,7 +8,7 @@ struct Params {
     nx: u32,              // offset 68 / 132: image width in pixels
     ny: u32,              // offset 72 / 136: image height in pixels
     row_offset: u32,      // offset 76 / 140: first image row of this dispatch (tiles of rows)
-    tile_rows: u32,       // offset 80 / 144
+    tile_rows: u32,       // offset 80 / 144: rows of this dispatch (PIXEL_LIST: pixels listed)
     sphere_count: u32,    // offset 84 / 148
     plane_count: u32,     // offset 88 / 152
     triangle_count: u32,  // offset 92 / 156
@@ -25,3 +25,7 @@ struct Params {
 @group(0) @binding(5) var<storage, read_write> out_surface: array<vec4<real>>;
 // Per pixel of the tile: object id, -1 on a miss.
 @group(0) @binding(6) var<storage, read_write> out_id: array<i32>;
+#if CERTAINTY
+// Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
+@group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
+#endif

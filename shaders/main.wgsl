@@ -1,19 +1,17 @@
-// Entry point: one invocation per pixel of a tile of image rows.
+// Entry point: one invocation per pixel of a tile of image rows, or (PIXEL_LIST) per listed
+// pixel.
 #import types
 #import bindings
 #import camera
 #import scene
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let j = gid.x;
-    let row = gid.y;
-    if (j >= params.nx || row >= params.tile_rows) {
-        return;
-    }
-    let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, params.row_offset + row, j);
+// Casts the ray of pixel (i, j) and writes its results to output slot `index`.
+fn cast_pixel(i: u32, j: u32, index: u32) {
+    let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
     let hit = nearest_hit(ray, params.frame.min_t);
-    let index = row * params.nx + j;
+#if CERTAINTY
+    out_certain[index] = select(0u, 1u, is_pixel_certain(hit));
+#endif
     if (hit.object < 0) {
         out_surface[index] = vec4<real>(0.0);
         out_id[index] = -1;
@@ -23,3 +21,31 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     out_surface[index] = vec4<real>(hit_normal(ray, hit), distance);
     out_id[index] = hit.object;
 }
+
+#if PIXEL_LIST
+// The pixels to cast, as row-major indices; params.tile_rows holds how many there are.
+@group(0) @binding(7) var<storage, read> pixel_list: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let slot = gid.x + gid.y * groups.x * 64u;
+    if (slot >= params.tile_rows) {
+        return;
+    }
+    let pixel = pixel_list[slot];
+    cast_pixel(pixel / params.nx, pixel % params.nx, slot);
+}
+#else
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let j = gid.x;
+    let row = gid.y;
+    if (j >= params.nx || row >= params.tile_rows) {
+        return;
+    }
+    cast_pixel(params.row_offset + row, j, row * params.nx + j);
+}
+#endif

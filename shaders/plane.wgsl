@@ -5,15 +5,33 @@
 // Point-normal form; the host stores the plane's point nearest the eye, so p - o is small.
 fn intersect_plane(ray: Ray, plane: Plane, min_t: real) -> real {
     let denominator = dot(ray.direction, plane.normal);
+    let length_d = length(ray.direction);
     // Parallel cutoff: within the dot product's rounding error (about 3 EPS |d| |n|) the
     // sign of d.n, and so whether the ray meets the plane, is not known.
-    if (abs(denominator) <= 4.0 * EPS * length(ray.direction)) {
+    let cutoff = 4.0 * EPS * length_d;
+#if CERTAINTY
+    let parallel_certain = is_certain(abs(denominator) - cutoff, 4.0 * length_d);
+#endif
+    if (abs(denominator) <= cutoff) {
+#if CERTAINTY
+        decide(parallel_certain, T_FAR, 1.0);
+#endif
         return NO_HIT;
     }
     let t = dot(plane.point - ray.origin, plane.normal) / denominator;
+#if CERTAINTY
+    let t_condition = 1.0 + length_d / abs(denominator);
+    let t_certain = start_certain(t, min_t, t_condition);
+#endif
     if (is_beyond(t, min_t)) {
+#if CERTAINTY
+        decide(parallel_certain && t_certain, t, t_condition);
+#endif
         return t;
     }
+#if CERTAINTY
+    decide(t_certain, t, t_condition);
+#endif
     return NO_HIT;
 }
 #else

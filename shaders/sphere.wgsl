@@ -13,14 +13,24 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let b = dot(f, d);
     let l = f - (b / a) * d;
     let r2 = sphere.radius * sphere.radius;
-    let discriminant = a * (r2 - dot(l, l));
+    let l2 = dot(l, l);
+    let discriminant = a * (r2 - l2);
+#if CERTAINTY
+    let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * length(f));
+#endif
     if (discriminant < 0.0) {
+#if CERTAINTY
+        decide(disc_certain, -b / a, 1.0);
+#endif
         return NO_HIT;
     }
     let root = sqrt(discriminant);
     let q = -(b + select(root, -root, b < 0.0));
     // Only a ray tangent at its own origin: t = 0, never beyond min_t.
     if (q == 0.0) {
+#if CERTAINTY
+        decide(false, 0.0, 1.0);
+#endif
         return NO_HIT;
     }
     let c = dot(f, f) - r2;
@@ -28,12 +38,30 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let t1 = c / q;
     let t_near = min(t0, t1);
     let t_far = max(t0, t1);
+#if CERTAINTY
+    // c/q, the root of smaller magnitude, inherits the cancellation of c = |f|^2 - r^2 (eye
+    // near the surface); capped so the factor stays finite.
+    let ff = dot(f, f);
+    let c_condition = 1.0 + ff / max(abs(c), ff * 1e-20);
+    let far_condition = select(1.0, c_condition, abs(t_far) <= abs(t_near));
+    let near_condition = select(1.0, c_condition, abs(t_near) < abs(t_far));
+    let far_certain = disc_certain && start_certain(t_far, min_t, far_condition);
+#endif
     if (is_beyond(t_near, min_t)) {
+#if CERTAINTY
+        decide(far_certain, t_near, near_condition);
+#endif
         return t_near;
     }
     if (is_beyond(t_far, min_t)) {
+#if CERTAINTY
+        decide(far_certain, t_far, far_condition);
+#endif
         return t_far;
     }
+#if CERTAINTY
+    decide(start_certain(t_far, min_t, far_condition), t_far, far_condition);
+#endif
     return NO_HIT;
 }
 

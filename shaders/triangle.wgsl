@@ -56,20 +56,54 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
     v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
     w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
 #endif
+#if CERTAINTY
+    // Edge e = x1 y2 - y1 x2 is off by at most about EPS * 2((|x1|+|z1|)(|y2|+|z2|) +
+    // (|y1|+|z1|)(|x2|+|z2|)): vertex rounding, the shear, the products.
+    let mx = abs(xs) + abs(zs);
+    let my = abs(ys) + abs(zs);
+    let u_certain = is_certain(u, 2.0 * (mx.z * my.y + my.z * mx.y));
+    let v_certain = is_certain(v, 2.0 * (mx.x * my.z + my.x * mx.z));
+    let w_certain = is_certain(w, 2.0 * (mx.y * my.x + my.y * mx.x));
+    // Two equal corners stay equal after any rounding: always a miss.
+    let repeated = all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
+    // Where the ray meets the triangle's plane: the hit a flipped decision would give.
+    let det_guess = u + v + w;
+    let t_guess = select(T_FAR, (u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z)) / det_guess, det_guess != 0.0);
+#endif
     // Inside (or on an edge) iff no edge function has a sign opposite to another's.
     if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+#if CERTAINTY
+        // A certain miss needs one edge certainly on the side opposite the determinant's.
+        let positive = det_guess >= 0.0;
+        let wrong_u = u != 0.0 && (u < 0.0) == positive && u_certain;
+        let wrong_v = v != 0.0 && (v < 0.0) == positive && v_certain;
+        let wrong_w = w != 0.0 && (w < 0.0) == positive && w_certain;
+        decide(repeated || wrong_u || wrong_v || wrong_w, t_guess, 1.0);
+#endif
         return NO_HIT;
     }
     let determinant = u + v + w;
     // Degenerate (zero-area as seen along the ray): no hit.
     if (determinant == 0.0) {
+#if CERTAINTY
+        decide(repeated, T_FAR, 1.0);
+#endif
         return NO_HIT;
     }
     let t_scaled = u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z);
     let t = t_scaled / determinant;
+#if CERTAINTY
+    let t_certain = start_certain(t, min_t, 1.0);
+#endif
     if (is_beyond(t, min_t)) {
+#if CERTAINTY
+        decide(u_certain && v_certain && w_certain && t_certain, t, 1.0);
+#endif
         return t;
     }
+#if CERTAINTY
+    decide(repeated || t_certain, t, 1.0);
+#endif
     return NO_HIT;
 }
 #else

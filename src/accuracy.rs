@@ -23,14 +23,14 @@ use crate::compare;
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::images::{Images, MISS};
-use crate::math::{Precision, Real};
-use crate::render::{self, AnyImages, Device, Mode};
+use crate::math::Real;
+use crate::render::{self, AnyImages, Arithmetic, Device, Mode};
 use crate::scene::Scene;
 
 /// The reference mode unless another is named: the CPU in f64 with the robust algorithms.
 pub const DEFAULT_REFERENCE: Mode = Mode {
     device: Device::Cpu,
-    precision: Precision::F64,
+    precision: Arithmetic::F64,
     algorithm: Algorithm::Robust,
 };
 
@@ -132,11 +132,11 @@ pub struct Accuracy {
 }
 
 /// Every combination of device (gpu, cpu), precision (f32, f64) and algorithm (textbook,
-/// robust), in that nesting order.
+/// robust), in that nesting order, and GPU adaptive precision (robust only).
 pub fn all_modes() -> Vec<Mode> {
     let mut modes = Vec::new();
     for device in [Device::Gpu, Device::Cpu] {
-        for precision in [Precision::F32, Precision::F64] {
+        for precision in [Arithmetic::F32, Arithmetic::F64] {
             for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
                 modes.push(Mode {
                     device,
@@ -144,6 +144,13 @@ pub fn all_modes() -> Vec<Mode> {
                     algorithm,
                 });
             }
+        }
+        if device == Device::Gpu {
+            modes.push(Mode {
+                device,
+                precision: Arithmetic::Adaptive,
+                algorithm: Algorithm::Robust,
+            });
         }
     }
     modes
@@ -157,8 +164,8 @@ pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
         .into_iter()
         .filter(|m| match (m.device, m.precision) {
             (Device::Cpu, _) => true,
-            (Device::Gpu, Precision::F32) => gpu.is_some(),
-            (Device::Gpu, Precision::F64) => f64_on_gpu,
+            (Device::Gpu, Arithmetic::F32 | Arithmetic::Adaptive) => gpu.is_some(),
+            (Device::Gpu, Arithmetic::F64) => f64_on_gpu,
         })
         .collect()
 }
@@ -608,11 +615,12 @@ mod tests {
     }
 
     #[test]
-    fn default_modes_are_the_eight_combinations() {
+    fn default_modes_are_the_eight_combinations_and_adaptive() {
         let all: Vec<String> = all_modes().iter().map(Mode::to_string).collect();
-        assert_eq!(all.len(), 8);
+        assert_eq!(all.len(), 9);
         assert_eq!(all[0], "gpu:f32:textbook");
-        assert_eq!(all[7], "cpu:f64:robust");
+        assert_eq!(all[4], "gpu:adaptive:robust");
+        assert_eq!(all[8], "cpu:f64:robust");
         // Without a GPU only the CPU modes remain.
         let cpu: Vec<Mode> = default_modes(None);
         assert_eq!(cpu.len(), 4);

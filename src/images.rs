@@ -6,6 +6,14 @@ use crate::math::Real;
 /// Id of a pixel whose ray hits nothing.
 pub const MISS: i32 = -1;
 
+/// The outputs of one pixel (a miss: id [`MISS`], distance `+inf`, normal zero).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pixel<T> {
+    pub id: i32,
+    pub distance: T,
+    pub normal: [T; 3],
+}
+
 /// Per-pixel render outputs in precision `T` (`f32` from the GPU, `f32` or `f64` from the CPU).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Images<T> {
@@ -43,6 +51,15 @@ impl<T: Real> Images<T> {
 
     pub fn is_empty(&self) -> bool {
         self.id.is_empty()
+    }
+
+    /// The outputs of pixel `k` (row-major index).
+    pub fn pixel(&self, k: usize) -> Pixel<T> {
+        Pixel {
+            id: self.id[k],
+            distance: self.distance[k],
+            normal: self.normal[k],
+        }
     }
 
     /// Row-major index of pixel (`row`, `col`).

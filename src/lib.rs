@@ -21,6 +21,7 @@
 //! ```
 
 pub mod accuracy;
+pub mod adaptive;
 pub mod algorithm;
 pub mod camera;
 pub mod compare;
@@ -32,6 +33,7 @@ pub mod math;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod supersample;
 
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};

@@ -8,10 +8,10 @@ use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
-use raycast::math::Precision;
 use raycast::output::{self, Format};
-use raycast::render::{self, AnyImages, Device, Mode};
+use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
+use raycast::supersample;
 
 #[derive(Parser)]
 #[command(
@@ -42,14 +42,22 @@ enum Command {
         /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
         #[arg(long, default_value = "gpu")]
         device: Device,
-        /// Arithmetic precision: f32 or f64 (f64 on the GPU needs SHADER_F64).
-        /// Default: f32 on the GPU, f64 on the CPU.
+        /// Arithmetic: f32, f64 (on the GPU it needs SHADER_F64), or adaptive (GPU, robust:
+        /// f32 with uncertain pixels cast again in f64). Default: f32 on the GPU, f64 on the CPU.
         #[arg(long)]
-        precision: Option<Precision>,
+        precision: Option<Arithmetic>,
         /// Intersection algorithms: robust (camera-relative, watertight) or textbook (the
         /// lecture's formulas in world coordinates).
         #[arg(long, default_value = "robust")]
         algorithm: Algorithm,
+        /// Samples per pixel, a perfect square s*s (1, 4, 9, 16, 64, 256, ...): one at the
+        /// centre of each of s x s strata; id by majority, coverage alpha. Adds alpha.npy to npy.
+        #[arg(long, value_name = "N", value_parser = parse_spp)]
+        spp: Option<u32>,
+        /// Composite color.png over this opaque colour, R,G,B in 0..255 (default: transparent,
+        /// premultiplied alpha).
+        #[arg(long, value_name = "R,G,B", value_parser = parse_background)]
+        background: Option<[u8; 3]>,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -108,6 +116,31 @@ fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
     Ok([w, h])
 }
 
+/// `--spp N`: a perfect square (see [`supersample::side`]).
+fn parse_spp(s: &str) -> std::result::Result<u32, String> {
+    let n: u32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
+    supersample::side(n).map(|_| n)
+}
+
+/// `--background R,G,B`, each 0..255.
+fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
+    let err = || {
+        format!("expected R,G,B with each of the three in 0..255, such as 255,255,255, got `{s}`")
+    };
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(err());
+    }
+    let mut rgb = [0u8; 3];
+    for (c, part) in rgb.iter_mut().zip(parts) {
+        *c = part.trim().parse().map_err(|_| err())?;
+    }
+    Ok(rgb)
+}
+
 fn main() -> ExitCode {
     quiet_mesa();
     let cli = match Cli::try_parse() {
@@ -156,13 +189,23 @@ fn run(command: Command) -> Result<ExitCode> {
             device,
             precision,
             algorithm,
+            spp,
+            background,
         } => {
             let mode = Mode {
                 device,
                 precision: precision.unwrap_or(device.default_precision()),
                 algorithm,
             };
-            render(scene.as_deref(), &output, size, &format, mode)?;
+            render(
+                scene.as_deref(),
+                &output,
+                size,
+                &format,
+                mode,
+                spp,
+                background,
+            )?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Compare {
@@ -222,16 +265,21 @@ fn render(
     size: Option<[u32; 2]>,
     formats: &[Format],
     mode: Mode,
+    spp: Option<u32>,
+    background: Option<[u8; 3]>,
 ) -> Result<()> {
     let scene = load(scene_path, size)?;
     output::check_writable(out_dir)?;
     let gpu = gpu_for(&[mode])?;
-    let (images, elapsed) = render::timed(|| render::render(&scene, mode, gpu.as_ref(), true));
-    let written = images?.write(out_dir, formats)?;
+    let (images, elapsed) = render::timed(|| {
+        supersample::supersample(&scene, mode, gpu.as_ref(), spp.unwrap_or(1), true)
+    });
+    let written = images?.write(out_dir, formats, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
     let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
+    let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
     say(format!(
-        "rendered {} ({nx}x{ny}, {mode}) on {on} in {:.3} s",
+        "rendered {} ({nx}x{ny}{samples}, {mode}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
     ));

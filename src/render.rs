@@ -27,11 +27,54 @@ pub enum Device {
 
 impl Device {
     /// f32 on the GPU (what GPUs are fast at), f64 on the CPU (the reference).
-    pub fn default_precision(self) -> Precision {
+    pub fn default_precision(self) -> Arithmetic {
         match self {
-            Device::Gpu => Precision::F32,
-            Device::Cpu => Precision::F64,
+            Device::Gpu => Arithmetic::F32,
+            Device::Cpu => Arithmetic::F64,
         }
+    }
+}
+
+/// The arithmetic of a render: one precision throughout, or adaptive (robust f32, with the
+/// pixels it cannot be sure of cast again in f64; see [`crate::adaptive`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Arithmetic {
+    F32,
+    F64,
+    Adaptive,
+}
+
+impl From<Precision> for Arithmetic {
+    fn from(p: Precision) -> Self {
+        match p {
+            Precision::F32 => Arithmetic::F32,
+            Precision::F64 => Arithmetic::F64,
+        }
+    }
+}
+
+impl FromStr for Arithmetic {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "adaptive" => Ok(Arithmetic::Adaptive),
+            other => other
+                .parse::<Precision>()
+                .map(Arithmetic::from)
+                .map_err(|_| {
+                    format!("unknown precision `{other}` (expected f32, f64 or adaptive)")
+                }),
+        }
+    }
+}
+
+impl fmt::Display for Arithmetic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Arithmetic::F32 => "f32",
+            Arithmetic::F64 => "f64",
+            Arithmetic::Adaptive => "adaptive",
+        })
     }
 }
 
@@ -55,7 +98,7 @@ pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mode {
     pub device: Device,
-    pub precision: Precision,
+    pub precision: Arithmetic,
     pub algorithm: Algorithm,
 }
 
@@ -116,17 +159,31 @@ impl AnyImages {
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; with `progress`, a CPU
 /// render that takes over a second shows a progress bar on stderr when it is a terminal.
 pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> Result<AnyImages> {
+    if mode.precision == Arithmetic::Adaptive {
+        let gpu = match (mode.device, mode.algorithm, gpu) {
+            (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
+            _ => {
+                return Err(Error::Argument {
+                    option: "--precision adaptive".into(),
+                    message: "runs on the GPU with the robust algorithm set".into(),
+                });
+            }
+        };
+        return Ok(AnyImages::F64(
+            crate::adaptive::render_adaptive(gpu, scene)?.images,
+        ));
+    }
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             Ok(match mode.precision {
-                Precision::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene, mode.algorithm)?),
-                Precision::F64 => AnyImages::F64(gpu::render::<f64>(gpu, scene, mode.algorithm)?),
+                Arithmetic::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene, mode.algorithm)?),
+                _ => AnyImages::F64(gpu::render::<f64>(gpu, scene, mode.algorithm)?),
             })
         }
         Device::Cpu => Ok(match mode.precision {
-            Precision::F32 => AnyImages::F32(cpu_with_progress(scene, mode.algorithm, progress)),
-            Precision::F64 => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
+            Arithmetic::F32 => AnyImages::F32(cpu_with_progress(scene, mode.algorithm, progress)),
+            _ => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
         }),
     }
 }
@@ -186,10 +243,12 @@ mod tests {
         let m: Mode = "cpu".parse().unwrap();
         let expected = Mode {
             device: Device::Cpu,
-            precision: Precision::F64,
+            precision: Arithmetic::F64,
             algorithm: Algorithm::Robust,
         };
         assert_eq!(m, expected);
+        let m: Mode = "gpu:adaptive".parse().unwrap();
+        assert_eq!(m.precision, Arithmetic::Adaptive);
         let m: Mode = "gpu:f64:textbook".parse().unwrap();
         assert_eq!(m.to_string(), "gpu:f64:textbook");
         assert!("tpu:f32".parse::<Mode>().is_err());

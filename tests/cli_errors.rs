@@ -465,7 +465,10 @@ fn render_ok(args: &[&str]) -> Vec<String> {
 
 #[test]
 fn valid_scene_renders_png() {
-    assert_eq!(render_ok(&[]), ["depth.png", "id.png", "normal.png"]);
+    assert_eq!(
+        render_ok(&[]),
+        ["color.png", "depth.png", "id.png", "normal.png"]
+    );
 }
 
 #[test]
@@ -473,6 +476,7 @@ fn valid_scene_renders_every_format() {
     assert_eq!(
         render_ok(&["--format", "png,npy,ppm"]),
         [
+            "color.png",
             "depth.png",
             "depth.ppm",
             "distance.npy",

@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
-use crate::images::Images;
+use crate::images::{Images, MISS, Pixel};
 use crate::math::Real;
 use crate::scene::Scene;
 use types::Primitives;
@@ -66,4 +66,38 @@ pub fn render_with_progress<T: Real>(
             rows_done.fetch_add(1, Ordering::Relaxed);
         });
     images
+}
+
+/// Renders only the listed pixels (row-major indices) of `scene`, in list order.
+pub fn render_pixels<T: Real>(
+    scene: &Scene,
+    algorithm: Algorithm,
+    pixels: &[usize],
+) -> Vec<Pixel<T>> {
+    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
+    let prims = Primitives::<T>::new(scene, algorithm);
+    let width = frame.nx as usize;
+    pixels
+        .par_iter()
+        .map(|&k| {
+            let (i, j) = ((k / width) as u32, (k % width) as u32);
+            let out = if algorithm == Algorithm::Robust {
+                main::main::<T, true>(&frame, &prims, i, j)
+            } else {
+                main::main::<T, false>(&frame, &prims, i, j)
+            };
+            match out.surface {
+                Some((normal, distance)) => Pixel {
+                    id: out.id,
+                    distance,
+                    normal,
+                },
+                None => Pixel {
+                    id: MISS,
+                    distance: T::INFINITY,
+                    normal: [T::ZERO; 3],
+                },
+            }
+        })
+        .collect()
 }

@@ -6,7 +6,7 @@ pub mod probe;
 mod render;
 pub mod shader;
 
-pub use render::{max_tile_rows, render};
+pub use render::{max_tile_rows, render, render_pixels, render_with_certainty};
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -42,6 +42,8 @@ impl Gpu {
             precision,
             algorithm,
             f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
+            certainty: false,
+            pixel_list: false,
         }
     }
 

@@ -12,7 +12,7 @@ use super::shader::{self, Variant};
 use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
-use crate::images::{Images, MISS};
+use crate::images::{Images, MISS, Pixel};
 use crate::math::Precision;
 use crate::scene::Scene;
 
@@ -180,11 +180,162 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<wgpu::ComputePipeline
 /// Renders `scene` at `scene.camera.resolution` on `gpu` with `algorithm`, in precision `R`
 /// (`f32`, or `f64` where the adapter has `SHADER_F64`).
 pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Result<Images<R>> {
+    let variant = gpu.variant(R::PRECISION, algorithm);
+    Ok(render_variant::<R>(gpu, scene, variant)?.0)
+}
+
+/// Renders only the listed pixels (row-major indices), in list order: one invocation per
+/// listed pixel, so the cost follows the length of the list.
+pub fn render_pixels<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    pixels: &[usize],
+) -> Result<Vec<Pixel<R>>> {
+    if pixels.is_empty() {
+        return Ok(Vec::new());
+    }
+    let prims = Primitives::<R>::new(scene, algorithm);
+    check_limits(gpu, scene, &prims)?;
+    let limits = gpu.device.limits();
+    let max_binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let chunk = (max_binding / surface_bytes(R::PRECISION)) as usize;
+    let mut out = Vec::with_capacity(pixels.len());
+    for part in pixels.chunks(chunk) {
+        out.extend(render_pixel_chunk::<R>(
+            gpu, scene, algorithm, &prims, part,
+        )?);
+    }
+    Ok(out)
+}
+
+fn render_pixel_chunk<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    prims: &Primitives<R>,
+    pixels: &[usize],
+) -> Result<Vec<Pixel<R>>> {
+    let variant = Variant {
+        pixel_list: true,
+        ..gpu.variant(R::PRECISION, algorithm)
+    };
+    let pipeline = pipeline(gpu, variant)?;
+    let device = &gpu.device;
+    let [nx, ny] = scene.camera.resolution;
+    let frame = cpu::types::kernel_frame(scene, algorithm);
+    let n = pixels.len() as u64;
+    let params = GpuParams::<R> {
+        frame: GpuFrame::new(&frame),
+        projection: projection_code(frame.projection),
+        nx,
+        ny,
+        row_offset: 0,
+        tile_rows: pixels.len() as u32,
+        sphere_count: prims.spheres.len() as u32,
+        plane_count: prims.planes.len() as u32,
+        triangle_count: prims.triangles.len() as u32,
+    };
+    let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("params"),
+        contents: bytemuck::bytes_of(&params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let list: Vec<u32> = pixels.iter().map(|&k| k as u32).collect();
+    let list = storage_buffer(gpu, "pixel_list", &list);
+    let surface_size = n * surface_bytes(R::PRECISION);
+    let output = |label, size| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    };
+    let surface = output("out_surface", surface_size);
+    let ids = output("out_id", n * ID_BYTES);
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: surface_size + n * ID_BYTES,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let buffers = [
+        &params_buffer,
+        &storage_buffer(gpu, "spheres", &prims.spheres),
+        &storage_buffer(gpu, "planes", &prims.planes),
+        &storage_buffer(gpu, "triangles", &prims.triangles),
+        &storage_buffer(gpu, "objects", &prims.objects),
+        &surface,
+        &ids,
+        &list,
+    ];
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("raycast pixel list"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    // 64 invocations a workgroup, the workgroups laid out in rows of at most the limit.
+    let groups = pixels.len().div_ceil(64) as u32;
+    let max_groups = device.limits().max_compute_workgroups_per_dimension;
+    let (gx, gy) = (groups.min(max_groups), groups.div_ceil(max_groups));
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(gx, gy, 1);
+    }
+    encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, surface_size);
+    encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, n * ID_BYTES);
+    gpu.queue.submit([encoder.finish()]);
+    // Read back as a one-row image of the listed pixels.
+    let mut row = Images::<R>::new_miss(pixels.len() as u32, 1, scene.camera.focal_length);
+    let layout = TileLayout {
+        id_offset: surface_size,
+        certain_offset: 0,
+    };
+    read_tile(gpu, &readback, layout, pixels.len(), 0, &mut row, None)?;
+    Ok((0..pixels.len()).map(|k| row.pixel(k)).collect())
+}
+
+/// The first pass of adaptive precision: a robust f32 render that also says, per pixel,
+/// whether its hit/miss and id are certain (the bounds of `src/cpu/margin.rs`).
+pub fn render_with_certainty(gpu: &Gpu, scene: &Scene) -> Result<(Images<f32>, Vec<bool>)> {
+    let variant = Variant {
+        certainty: true,
+        ..gpu.variant(Precision::F32, Algorithm::Robust)
+    };
+    let (images, certain) = render_variant::<f32>(gpu, scene, variant)?;
+    Ok((
+        images,
+        certain.expect("a certainty variant reports certainty"),
+    ))
+}
+
+/// Renders with the kernel `variant`; with `variant.certainty` also returns the per-pixel
+/// certainty flags.
+fn render_variant<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+) -> Result<(Images<R>, Option<Vec<bool>>)> {
+    let algorithm = variant.algorithm;
     let prims = Primitives::<R>::new(scene, algorithm);
     let tile_rows = check_limits(gpu, scene, &prims)?;
     let [nx, ny] = scene.camera.resolution;
     let frame = cpu::types::kernel_frame(scene, algorithm);
-    let pipeline = pipeline(gpu, gpu.variant(R::PRECISION, algorithm))?;
+    let pipeline = pipeline(gpu, variant)?;
     let device = &gpu.device;
 
     let spheres = storage_buffer(gpu, "spheres", &prims.spheres);
@@ -211,31 +362,41 @@ pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Res
     };
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", id_size);
+    // Per-pixel certainty flags (u32), only in a certainty variant.
+    let certain = variant.certainty.then(|| output("out_certain", id_size));
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: surface_size + id_size,
+        size: surface_size + id_size * if certain.is_some() { 2 } else { 1 },
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("raycast"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            (0, &params_buffer),
-            (1, &spheres),
-            (2, &planes),
-            (3, &triangles),
-            (4, &objects),
-            (5, &surface),
-            (6, &ids),
-        ]
+    let mut entries = vec![
+        (0, &params_buffer),
+        (1, &spheres),
+        (2, &planes),
+        (3, &triangles),
+        (4, &objects),
+        (5, &surface),
+        (6, &ids),
+    ];
+    if let Some(c) = &certain {
+        entries.push((7, c));
+    }
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .into_iter()
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
             binding,
             resource: buffer.as_entire_binding(),
-        }),
+        })
+        .collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("raycast"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
     });
 
     let mut images = Images::new_miss(nx, ny, scene.camera.focal_length);
+    let mut certainty = certain.as_ref().map(|_| vec![false; images.len()]);
     let mut row = 0;
     while row < ny {
         let rows = tile_rows.min(ny - row);
@@ -262,28 +423,43 @@ pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Res
         let pixels = rows as u64 * nx as u64;
         encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, pixels * surface_bytes);
         encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, pixels * ID_BYTES);
+        if let Some(c) = &certain {
+            let at = surface_size + id_size;
+            encoder.copy_buffer_to_buffer(c, 0, &readback, at, pixels * ID_BYTES);
+        }
         gpu.queue.submit([encoder.finish()]);
         read_tile(
             gpu,
             &readback,
-            surface_size,
+            TileLayout {
+                id_offset: surface_size,
+                certain_offset: surface_size + id_size,
+            },
             pixels as usize,
             row,
             &mut images,
+            certainty.as_deref_mut(),
         )?;
         row += rows;
     }
-    Ok(images)
+    Ok((images, certainty))
+}
+
+/// Where the parts of a tile lie in the readback buffer (the surface starts at 0).
+struct TileLayout {
+    id_offset: u64,
+    certain_offset: u64,
 }
 
 /// Copies one tile's results out of the mapped readback buffer into `images`.
 fn read_tile<R: GpuReal>(
     gpu: &Gpu,
     readback: &wgpu::Buffer,
-    id_offset: u64,
+    layout: TileLayout,
     pixels: usize,
     row: u32,
     images: &mut Images<R>,
+    certainty: Option<&mut [bool]>,
 ) -> Result<()> {
     let (tx, rx) = std::sync::mpsc::channel();
     readback.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -301,10 +477,17 @@ fn read_tile<R: GpuReal>(
             .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
         let surface_len = pixels * SURFACE_REALS as usize * size_of::<R>();
         let surface: &[[R; 4]] = bytemuck::cast_slice(&view[..surface_len]);
-        let id_start = id_offset as usize;
+        let id_start = layout.id_offset as usize;
         let ids: &[i32] =
             bytemuck::cast_slice(&view[id_start..id_start + pixels * ID_BYTES as usize]);
         let start = images.index(row, 0);
+        if let Some(certainty) = certainty {
+            let at = layout.certain_offset as usize;
+            let flags: &[u32] = bytemuck::cast_slice(&view[at..at + pixels * ID_BYTES as usize]);
+            for (k, flag) in flags.iter().enumerate() {
+                certainty[start + k] = *flag != 0;
+            }
+        }
         for k in 0..pixels {
             let id = ids[k];
             let px = start + k;

@@ -15,6 +15,11 @@ pub struct Variant {
     /// The device has f64 shaders: an f32 robust kernel rechecks near-zero triangle edge
     /// functions exactly in f64.
     pub f64_available: bool,
+    /// Also decide, per pixel, whether hit/miss and id are certain (robust set only; the
+    /// first pass of adaptive precision).
+    pub certainty: bool,
+    /// Cast only the pixels of a list (the re-cast of adaptive precision).
+    pub pixel_list: bool,
 }
 
 impl Variant {
@@ -23,11 +28,14 @@ impl Variant {
             precision,
             algorithm,
             f64_available: true,
+            certainty: false,
+            pixel_list: false,
         }
     }
 
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
-    /// kernel on a device with f64).
+    /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
+    /// `PIXEL_LIST` (cast listed pixels only).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -38,6 +46,12 @@ impl Variant {
             if self.precision == Precision::F32 && self.f64_available {
                 d.push("RECHECK_F64");
             }
+            if self.certainty {
+                d.push("CERTAINTY");
+            }
+        }
+        if self.pixel_list {
+            d.push("PIXEL_LIST");
         }
         d
     }
@@ -203,20 +217,26 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
     assemble(ENTRY_MODULE, variant)
 }
 
-/// Every variant a device may build: both precisions, both algorithms, with and without f64.
+/// Every variant a device may build: both precisions, both algorithms, with and without f64,
+/// the robust ones with and without the certainty test, and the pixel-list ones.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
-                if precision == Precision::F64 && !f64_available {
-                    continue;
+                for (certainty, pixel_list) in [(false, false), (true, false), (false, true)] {
+                    let impossible = precision == Precision::F64 && !f64_available;
+                    if impossible || certainty && algorithm != Algorithm::Robust {
+                        continue;
+                    }
+                    v.push(Variant {
+                        precision,
+                        algorithm,
+                        f64_available,
+                        certainty,
+                        pixel_list,
+                    });
                 }
-                v.push(Variant {
-                    precision,
-                    algorithm,
-                    f64_available,
-                });
             }
         }
     }

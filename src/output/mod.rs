@@ -2,6 +2,7 @@
 //! first, written under a temporary name and renamed into place only when all were written, so
 //! a failed render leaves no partial output.
 
+mod color;
 mod npy;
 mod pictures;
 
@@ -11,7 +12,9 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 use crate::images::Images;
 use crate::math::Real;
+use crate::supersample::Supersampled;
 
+pub use color::{PixelCoverage, Rgba, color_rgba8, encode_color_png, opaque, over, to_level};
 pub use npy::encode_npy;
 pub use pictures::{PALETTE, Pictures, depth_level, id_color, normal_color, pictures};
 
@@ -57,6 +60,55 @@ pub fn encode<T: Real>(images: &Images<T>, formats: &[Format]) -> Vec<EncodedFil
         }
     }
     files
+}
+
+/// Encodes supersampled images: in each of `formats` the files [`encode`] writes for the
+/// reduced images, plus `color.png` with `png` (RGBA, premultiplied alpha, or opaque over
+/// `background`; see [`PixelCoverage::to_rgba8`]) and, when `alpha_npy`, `alpha.npy` (float32,
+/// H x W) with `npy`.
+pub fn encode_supersampled<T: Real>(
+    ss: &Supersampled<T>,
+    formats: &[Format],
+    background: Option<[u8; 3]>,
+    alpha_npy: bool,
+) -> Vec<EncodedFile> {
+    let images = &ss.images;
+    let mut files = Vec::new();
+    for &format in formats {
+        files.extend(encode(images, &[format]));
+        match format {
+            Format::Png => {
+                let rgba = color_rgba8(ss.coverage(), background);
+                files.push(encode_color_png(images.width, images.height, &rgba));
+            }
+            Format::Npy if alpha_npy => {
+                let shape = [images.height as usize, images.width as usize];
+                let bytes: Vec<u8> = ss.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
+                files.push(EncodedFile {
+                    name: "alpha.npy",
+                    bytes: encode_npy("<f4", &shape, &bytes),
+                });
+            }
+            _ => {}
+        }
+    }
+    files
+}
+
+/// Encodes (see [`encode_supersampled`]) and writes into `dir`, all files or none; returns the
+/// files written.
+pub fn write_supersampled<T: Real>(
+    ss: &Supersampled<T>,
+    dir: &Path,
+    formats: &[Format],
+    background: Option<[u8; 3]>,
+    alpha_npy: bool,
+) -> Result<Vec<PathBuf>> {
+    check_writable(dir)?;
+    write_files(
+        dir,
+        &encode_supersampled(ss, formats, background, alpha_npy),
+    )
 }
 
 /// PNG bytes of an RGB image.

@@ -1,0 +1,68 @@
+//! Cost and re-cast fraction of adaptive precision against robust f32 and f64, side by side:
+//! median wall time of N warm GPU renders per mode, modes interleaved run by run.
+//!
+//!     cargo run --release --example adaptive_cost -- SCENE... [--runs N]
+
+use std::time::Instant;
+
+use raycast::Algorithm::Robust;
+use raycast::gpu::Gpu;
+
+fn median(mut t: Vec<f64>) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut runs = 5;
+    if let Some(i) = args.iter().position(|a| a == "--runs") {
+        runs = args[i + 1].parse()?;
+        args.drain(i..i + 2);
+    }
+    let gpu = Gpu::new()?;
+    println!("adapter: {} ({})", gpu.info().name, gpu.info().driver_info);
+    println!(
+        "| scene | robust f32 s | robust f64 s | certainty pass s | adaptive s | adaptive / f32 | re-cast |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for path in &args {
+        let scene = raycast::Scene::load(path.as_ref())?;
+        let mut t = [vec![], vec![], vec![], vec![]];
+        let mut fraction = 0.0;
+        for run in 0..=runs {
+            let mut time = |k: usize, f: &mut dyn FnMut() -> Result<(), raycast::Error>| {
+                let start = Instant::now();
+                f()?;
+                if run > 0 {
+                    t[k].push(start.elapsed().as_secs_f64());
+                }
+                Ok::<(), raycast::Error>(())
+            };
+            time(0, &mut || {
+                raycast::gpu::render::<f32>(&gpu, &scene, Robust).map(|_| ())
+            })?;
+            time(1, &mut || {
+                raycast::gpu::render::<f64>(&gpu, &scene, Robust).map(|_| ())
+            })?;
+            time(2, &mut || {
+                raycast::gpu::render_with_certainty(&gpu, &scene).map(|_| ())
+            })?;
+            time(3, &mut || {
+                fraction = raycast::adaptive::render_adaptive(&gpu, &scene)?.recast_fraction();
+                Ok(())
+            })?;
+        }
+        let m: Vec<f64> = t.into_iter().map(median).collect();
+        println!(
+            "| {path} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2}x | {:.3}% |",
+            m[0],
+            m[1],
+            m[2],
+            m[3],
+            m[3] / m[0],
+            100.0 * fraction
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,77 @@
+//! Adaptive precision: f64 answers at close to f32 cost.
+//!
+//! A robust f32 pass also decides, per pixel, whether its hit/miss and id are certain: every
+//! decision it makes (sphere discriminant, plane parallel cutoff, triangle edge functions, the
+//! start test, the order of the two nearest objects) is compared with twice its first-order
+//! error bound (`shaders/types.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
+//! where they are derived). Uncertain pixels are cast again in f64 (on the GPU where it has
+//! `SHADER_F64`, else on the CPU) and merged in. The result is in f64: f32 values widened for
+//! certain pixels, f64 values for re-cast ones.
+
+use crate::algorithm::Algorithm;
+use crate::cpu;
+use crate::error::Result;
+use crate::gpu::{self, Gpu};
+use crate::images::Images;
+use crate::scene::Scene;
+
+/// An adaptive render and what it re-cast.
+pub struct Adaptive {
+    pub images: Images<f64>,
+    /// Pixels cast again in f64.
+    pub recast: usize,
+    /// Whether the re-cast ran on the GPU (else on the CPU).
+    pub recast_on_gpu: bool,
+}
+
+impl Adaptive {
+    /// Fraction of pixels re-cast in f64.
+    pub fn recast_fraction(&self) -> f64 {
+        self.recast as f64 / self.images.len().max(1) as f64
+    }
+}
+
+fn widen(images: Images<f32>) -> Images<f64> {
+    Images {
+        width: images.width,
+        height: images.height,
+        id: images.id,
+        distance: images.distance.into_iter().map(f64::from).collect(),
+        normal: images
+            .normal
+            .into_iter()
+            .map(|n| n.map(f64::from))
+            .collect(),
+        focal_length: images.focal_length,
+    }
+}
+
+/// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
+pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
+    let (first, certain) = gpu::render_with_certainty(gpu, scene)?;
+    let uncertain: Vec<usize> = (0..certain.len()).filter(|&k| !certain[k]).collect();
+    let mut images = widen(first);
+    let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64);
+    if uncertain.is_empty() {
+        return Ok(Adaptive {
+            images,
+            recast: 0,
+            recast_on_gpu,
+        });
+    }
+    let exact = if recast_on_gpu {
+        gpu::render_pixels::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?
+    } else {
+        cpu::render_pixels::<f64>(scene, Algorithm::Robust, &uncertain)
+    };
+    for (k, pixel) in uncertain.iter().zip(exact) {
+        images.id[*k] = pixel.id;
+        images.distance[*k] = pixel.distance;
+        images.normal[*k] = pixel.normal;
+    }
+    Ok(Adaptive {
+        images,
+        recast: uncertain.len(),
+        recast_on_gpu,
+    })
+}

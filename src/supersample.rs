@@ -1,0 +1,506 @@
+//! Supersampling: `N = s * s` stratified samples per pixel, reduced to one id, distance, normal
+//! and a coverage alpha per pixel (`raycast render --spp N`).
+//!
+//! Sampling. The scene is rendered with the ordinary renderer ([`render::render`], any
+//! [`Mode`]) at `s * nx` by `s * ny` pixels over the same image plane. Fine pixel
+//! `(s i + a, s j + b)` then has its centre at the centre of stratum `(a, b)` of coarse pixel
+//! `(i, j)` when the pixel is cut into an `s x s` grid: stratified sampling with one sample at
+//! the centre of each stratum (deterministic, no jitter). No kernel change is needed.
+//!
+//! Reduction ([`reduce`]), per coarse pixel, over its `N` samples:
+//! - `id`: the object hit by the most samples; a tie goes to the lower id; [`MISS`] when no
+//!   sample hits (a pixel half covered by an object keeps the object's id).
+//! - `alpha = hits / N`, the fraction of samples that hit any object (the coverage). `hits` is
+//!   kept as an integer too, so the exact rational is available.
+//! - `distance` and `normal`: means over the samples that hit the majority object (the one `id`
+//!   names), the normal renormalised (kept zero if the mean is zero); `+inf` and zero on a miss.
+//!   Averaging only over that object keeps the three images consistent: they describe one
+//!   surface. Averaging over every hit would blend, at a silhouette, the depth of a foreground
+//!   object with the background behind it into a depth where there is no surface at all. (On a
+//!   curved surface the mean of the samples is still slightly off the surface, by the
+//!   curvature across the pixel.) A pixel whose majority object is hit by one sample only
+//!   keeps that sample's values bit for bit, so `N = 1` reproduces a plain render exactly.
+//! - `color_sum`: the sum of `palette[id % 9]` over the hitting samples, from which
+//!   `color.png` is made (see [`crate::output::PixelCoverage`]).
+//!
+//! Memory: the fine render is held whole before it is reduced, `N` times the memory of a plain
+//! render (20 bytes a sample in f32, 36 in f64: 640x360 at 256 spp is about 1.2 GB in f32).
+//! Rendering and reducing in bands of rows would bound it; that is not done yet.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::gpu::Gpu;
+use crate::images::{Images, MISS};
+use crate::math::Real;
+use crate::output::{self, Format, PixelCoverage};
+use crate::render::{self, AnyImages, Mode};
+use crate::scene::Scene;
+
+/// The largest `s`: `N = s * s` up to 2^24, so that sample counts are exact in f32 and
+/// `255 N` fits the u32 colour sums.
+pub const MAX_SIDE: u32 = 4096;
+
+/// `s` for `spp = s * s`, or why `spp` is not allowed (one line, for `--spp`).
+pub fn side(spp: u32) -> std::result::Result<u32, String> {
+    let s = (spp as f64).sqrt().round() as u32;
+    if spp == 0 || s.checked_mul(s) != Some(spp) {
+        return Err(format!(
+            "samples per pixel must be a perfect square s*s >= 1 (1, 4, 9, 16, 64, 256, ...), got {spp}"
+        ));
+    }
+    if s > MAX_SIDE {
+        return Err(format!(
+            "samples per pixel can be at most {MAX_SIDE}*{MAX_SIDE}, got {spp}"
+        ));
+    }
+    Ok(s)
+}
+
+/// Supersampled images: the reduced [`Images`] plus coverage, for `spp` samples per pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Supersampled<T> {
+    /// Per pixel: majority id, distance and normal averaged over the majority object's samples.
+    pub images: Images<T>,
+    /// Coverage `hits / spp` as f32 (the division of two integers, correctly rounded: exact
+    /// when `spp` is a power of two, i.e. `s` is).
+    pub alpha: Vec<f32>,
+    /// Number of samples of the pixel that hit some object; `alpha = hits / spp` exactly.
+    pub hits: Vec<u32>,
+    /// Sum of `palette[id % 9]` (8-bit levels) over the samples that hit.
+    pub color_sum: Vec<[u32; 3]>,
+    /// Samples per pixel, `s * s`.
+    pub spp: u32,
+}
+
+impl<T: Real> Supersampled<T> {
+    /// One sample per pixel: `images` unchanged, alpha 1 where it hits and 0 where it misses.
+    pub fn from_images(images: Images<T>) -> Self {
+        let hits: Vec<u32> = images.id.iter().map(|&id| u32::from(id != MISS)).collect();
+        let alpha = hits.iter().map(|&h| h as f32).collect();
+        let color_sum = images
+            .id
+            .iter()
+            .map(|&id| output::id_color(id).map(u32::from))
+            .collect();
+        Supersampled {
+            images,
+            alpha,
+            hits,
+            color_sum,
+            spp: 1,
+        }
+    }
+
+    /// Per-pixel coverage, row-major, for [`crate::output::color_rgba8`].
+    pub fn coverage(&self) -> impl Iterator<Item = PixelCoverage> + '_ {
+        self.hits
+            .iter()
+            .zip(&self.color_sum)
+            .map(|(&hits, &color_sum)| PixelCoverage {
+                spp: self.spp,
+                hits,
+                color_sum,
+            })
+    }
+}
+
+/// One reduced pixel.
+struct Pixel<T> {
+    id: i32,
+    distance: T,
+    normal: [T; 3],
+    hits: u32,
+    color_sum: [u32; 3],
+}
+
+/// Reduces a fine render of `s * nx` by `s * ny` samples to `nx` by `ny` pixels, each from its
+/// `s x s` block (module docs). Panics if `s` is 0 or does not divide the fine size.
+pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
+    assert!(
+        s >= 1 && fine.width.is_multiple_of(s) && fine.height.is_multiple_of(s),
+        "a {}x{} image is not made of {s}x{s} blocks",
+        fine.width,
+        fine.height
+    );
+    let (w, h) = (fine.width / s, fine.height / s);
+    let pixels: Vec<Pixel<T>> = (0..w as usize * h as usize)
+        .into_par_iter()
+        .map_init(Vec::new, |ids, k| {
+            let (i, j) = ((k / w as usize) as u32, (k % w as usize) as u32);
+            reduce_block(fine, s, i, j, ids)
+        })
+        .collect();
+    let mut out = Supersampled {
+        images: Images::new_miss(w, h, fine.focal_length),
+        alpha: Vec::with_capacity(pixels.len()),
+        hits: Vec::with_capacity(pixels.len()),
+        color_sum: Vec::with_capacity(pixels.len()),
+        spp: s * s,
+    };
+    for (k, p) in pixels.into_iter().enumerate() {
+        out.images.id[k] = p.id;
+        out.images.distance[k] = p.distance;
+        out.images.normal[k] = p.normal;
+        out.alpha.push(p.hits as f32 / out.spp as f32);
+        out.hits.push(p.hits);
+        out.color_sum.push(p.color_sum);
+    }
+    out
+}
+
+/// Fine-image indices of the samples of coarse pixel (`i`, `j`).
+fn block(fine_width: u32, s: u32, i: u32, j: u32) -> impl Iterator<Item = usize> {
+    (0..s).flat_map(move |a| {
+        let row = (s * i + a) as usize * fine_width as usize;
+        (0..s).map(move |b| row + (s * j + b) as usize)
+    })
+}
+
+fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec<i32>) -> Pixel<T> {
+    let mut hits = 0;
+    let mut color_sum = [0u32; 3];
+    ids.clear();
+    for k in block(fine.width, s, i, j) {
+        let id = fine.id[k];
+        if id != MISS {
+            hits += 1;
+            let c = output::id_color(id);
+            for (sum, c) in color_sum.iter_mut().zip(c) {
+                *sum += u32::from(c);
+            }
+            ids.push(id);
+        }
+    }
+    // The most frequent id; ascending order with a strict `>` keeps the lower id on a tie.
+    ids.sort_unstable();
+    let (mut best, mut best_count) = (MISS, 0usize);
+    let mut run = 0;
+    while run < ids.len() {
+        let id = ids[run];
+        let len = ids[run..].iter().take_while(|&&x| x == id).count();
+        if len > best_count {
+            (best, best_count) = (id, len);
+        }
+        run += len;
+    }
+    let mut pixel = Pixel {
+        id: best,
+        distance: T::INFINITY,
+        normal: [T::ZERO; 3],
+        hits,
+        color_sum,
+    };
+    if best == MISS {
+        return pixel;
+    }
+    let mut count = 0usize;
+    let mut last = 0;
+    let mut distance = 0.0;
+    let mut normal = [0.0f64; 3];
+    for k in block(fine.width, s, i, j).filter(|&k| fine.id[k] == best) {
+        count += 1;
+        last = k;
+        distance += fine.distance[k].to_f64();
+        for (sum, c) in normal.iter_mut().zip(fine.normal[k]) {
+            *sum += c.to_f64();
+        }
+    }
+    if count == 1 {
+        // One sample: its own values, bit for bit.
+        pixel.distance = fine.distance[last];
+        pixel.normal = fine.normal[last];
+    } else {
+        let n = count as f64;
+        pixel.distance = T::from_f64(distance / n);
+        let mean = normal.map(|c| c / n);
+        let length = mean.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if length > 0.0 {
+            pixel.normal = mean.map(|c| T::from_f64(c / length));
+        }
+    }
+    pixel
+}
+
+/// Supersampled images in whichever precision they were rendered in.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnySupersampled {
+    F32(Supersampled<f32>),
+    F64(Supersampled<f64>),
+}
+
+impl AnySupersampled {
+    pub fn spp(&self) -> u32 {
+        match self {
+            AnySupersampled::F32(x) => x.spp,
+            AnySupersampled::F64(x) => x.spp,
+        }
+    }
+
+    /// The reduced images.
+    pub fn images(&self) -> AnyImages {
+        match self {
+            AnySupersampled::F32(x) => AnyImages::F32(x.images.clone()),
+            AnySupersampled::F64(x) => AnyImages::F64(x.images.clone()),
+        }
+    }
+
+    /// The per-pixel majority ids.
+    pub fn id(&self) -> &[i32] {
+        match self {
+            AnySupersampled::F32(x) => &x.images.id,
+            AnySupersampled::F64(x) => &x.images.id,
+        }
+    }
+
+    /// Samples that hit, per pixel.
+    pub fn hits(&self) -> &[u32] {
+        match self {
+            AnySupersampled::F32(x) => &x.hits,
+            AnySupersampled::F64(x) => &x.hits,
+        }
+    }
+
+    /// Coverage per pixel, `hits / spp` as f32.
+    pub fn alpha(&self) -> &[f32] {
+        match self {
+            AnySupersampled::F32(x) => &x.alpha,
+            AnySupersampled::F64(x) => &x.alpha,
+        }
+    }
+
+    /// Encodes and writes (see [`output::encode_supersampled`]).
+    pub fn write(
+        &self,
+        dir: &std::path::Path,
+        formats: &[Format],
+        background: Option<[u8; 3]>,
+        alpha_npy: bool,
+    ) -> Result<Vec<std::path::PathBuf>> {
+        match self {
+            AnySupersampled::F32(x) => {
+                output::write_supersampled(x, dir, formats, background, alpha_npy)
+            }
+            AnySupersampled::F64(x) => {
+                output::write_supersampled(x, dir, formats, background, alpha_npy)
+            }
+        }
+    }
+}
+
+/// Renders `scene` in `mode` with `spp` samples per pixel (a perfect square, else an
+/// [`Error::Argument`] naming `--spp`) and reduces it (module docs). `spp = 1` is a plain
+/// [`render::render`]. The fine render is held whole: `spp` times the memory of a plain one.
+pub fn supersample(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    spp: u32,
+    progress: bool,
+) -> Result<AnySupersampled> {
+    let s = side(spp).map_err(|message| Error::Argument {
+        option: "--spp".into(),
+        message,
+    })?;
+    if s == 1 {
+        return Ok(match render::render(scene, mode, gpu, progress)? {
+            AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
+            AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
+        });
+    }
+    let [nx, ny] = scene.camera.resolution;
+    let too_big = || Error::Argument {
+        option: format!("--spp {spp}"),
+        message: format!("{nx}x{ny} pixels times {s}x{s} samples overflow the image size"),
+    };
+    let fine_resolution = [
+        nx.checked_mul(s).ok_or_else(too_big)?,
+        ny.checked_mul(s).ok_or_else(too_big)?,
+    ];
+    let mut fine_scene = scene.clone();
+    fine_scene.camera.resolution = fine_resolution;
+    let fine = render::render(&fine_scene, mode, gpu, progress).map_err(|e| match e {
+        Error::Argument { option, message } => Error::Argument {
+            option: format!("--spp {spp}"),
+            message: format!("the render of {s}x{s} samples per pixel: {option}: {message}"),
+        },
+        other => other,
+    })?;
+    Ok(match fine {
+        AnyImages::F32(i) => AnySupersampled::F32(reduce(&i, s)),
+        AnyImages::F64(i) => AnySupersampled::F64(reduce(&i, s)),
+    })
+}
+
+/// How far a render at `spp` samples per pixel is from a high-spp reference.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SppError {
+    pub spp: u32,
+    /// Mean over all pixels of `|alpha - alpha_ref|` (alphas as exact `hits / spp`).
+    pub alpha_mean_abs: f64,
+    /// Largest `|alpha - alpha_ref|`.
+    pub alpha_max_abs: f64,
+    /// Fraction of pixels whose id differs from the reference's (hit against miss included).
+    pub id_mismatch: f64,
+    /// Wall time of the render and its reduction.
+    pub time_s: f64,
+}
+
+/// The error of `mode` at each of `spps` samples per pixel against `reference` at
+/// `reference_spp` (e.g. `cpu:f64:robust` at 256), on `scene` at its resolution: mean and
+/// largest absolute alpha error and the fraction of pixels whose majority id differs. The
+/// reference stands in for the exact coverage (its own error is at most one stratum of
+/// `1 / reference_spp` per stratum the boundary crosses). `gpu` is needed for GPU modes.
+pub fn spp_errors(
+    scene: &Scene,
+    mode: Mode,
+    spps: &[u32],
+    reference: Mode,
+    reference_spp: u32,
+    gpu: Option<&Gpu>,
+) -> Result<Vec<SppError>> {
+    let truth = supersample(scene, reference, gpu, reference_spp, false)?;
+    let alpha = |x: &AnySupersampled| -> Vec<f64> {
+        let n = x.spp() as f64;
+        x.hits().iter().map(|&h| h as f64 / n).collect()
+    };
+    let truth_alpha = alpha(&truth);
+    let pixels = truth_alpha.len().max(1) as f64;
+    let mut rows = Vec::new();
+    for &spp in spps {
+        let (result, elapsed) = render::timed(|| supersample(scene, mode, gpu, spp, false));
+        let result = result?;
+        let errors: Vec<f64> = alpha(&result)
+            .iter()
+            .zip(&truth_alpha)
+            .map(|(a, b)| (a - b).abs())
+            .collect();
+        let mismatches = result
+            .id()
+            .iter()
+            .zip(truth.id())
+            .filter(|(a, b)| a != b)
+            .count();
+        rows.push(SppError {
+            spp,
+            alpha_mean_abs: errors.iter().sum::<f64>() / pixels,
+            alpha_max_abs: errors.iter().copied().fold(0.0, f64::max),
+            id_mismatch: mismatches as f64 / pixels,
+            time_s: elapsed.as_secs_f64(),
+        });
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `w x h` fine image from per-sample ids; hits get distance `10 + id` and normal +z.
+    fn fine(w: u32, h: u32, ids: &[i32]) -> Images<f32> {
+        let mut img = Images::new_miss(w, h, 1.0);
+        for (k, &id) in ids.iter().enumerate() {
+            img.id[k] = id;
+            if id != MISS {
+                img.distance[k] = 10.0 + id as f32;
+                img.normal[k] = [0.0, 0.0, 1.0];
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn only_perfect_squares_are_sample_counts() {
+        for (spp, s) in [
+            (1, 1),
+            (4, 2),
+            (9, 3),
+            (16, 4),
+            (64, 8),
+            (256, 16),
+            (65536, 256),
+        ] {
+            assert_eq!(side(spp), Ok(s));
+        }
+        for spp in [0, 2, 3, 5, 8, 15, 17, 255, u32::MAX] {
+            assert!(side(spp).unwrap_err().contains("perfect square"), "{spp}");
+        }
+        assert_eq!(side(MAX_SIDE * MAX_SIDE), Ok(MAX_SIDE));
+        assert!(side(4097 * 4097).unwrap_err().contains("at most"));
+    }
+
+    #[test]
+    fn blocks_reduce_to_majority_id_coverage_and_means() {
+        // Two coarse pixels of 2x2 samples, side by side (fine image 4x2):
+        //   row 0:  0  0 | -1  1
+        //   row 1:  1 -1 | -1 -1
+        let img = fine(4, 2, &[0, 0, -1, 1, 1, -1, -1, -1]);
+        let r = reduce(&img, 2);
+        assert_eq!((r.images.width, r.images.height, r.spp), (2, 1, 4));
+        assert_eq!(r.images.id, [0, 1]);
+        assert_eq!(r.hits, [3, 1]);
+        assert_eq!(r.alpha, [0.75, 0.25]);
+        // Means over the majority object's samples only: object 0's two samples.
+        assert_eq!(r.images.distance, [10.0, 11.0]);
+        assert_eq!(r.images.normal, [[0.0, 0.0, 1.0]; 2]);
+        let [red, blue] = [output::PALETTE[0], output::PALETTE[1]].map(|c| c.map(u32::from));
+        let two_red_one_blue: Vec<u32> = (0..3).map(|c| 2 * red[c] + blue[c]).collect();
+        assert_eq!(r.color_sum[0].to_vec(), two_red_one_blue);
+        assert_eq!(r.color_sum[1], blue);
+    }
+
+    #[test]
+    fn ties_go_to_the_lower_id_and_misses_stay_misses() {
+        // 2 samples of object 3, 2 of object 2: object 2 wins.
+        let r = reduce(&fine(2, 2, &[3, 2, 2, 3]), 2);
+        assert_eq!(r.images.id, [2]);
+        assert_eq!(r.images.distance, [12.0]);
+        assert_eq!(r.hits, [4]);
+        assert_eq!(r.alpha, [1.0]);
+        // A block of misses: MISS, +inf, zero normal, alpha 0.
+        let r = reduce(&fine(3, 3, &[-1; 9]), 3);
+        assert_eq!(r.images.id, [MISS]);
+        assert_eq!(r.images.distance, [f32::INFINITY]);
+        assert_eq!(r.images.normal, [[0.0; 3]]);
+        assert_eq!((r.hits[0], r.alpha[0], r.color_sum[0]), (0, 0.0, [0; 3]));
+        // 1 of 9: alpha is 1/9 rounded to f32; hits keeps it exact.
+        let mut ids = [-1; 9];
+        ids[4] = 7;
+        let r = reduce(&fine(3, 3, &ids), 3);
+        assert_eq!((r.images.id[0], r.hits[0], r.alpha[0]), (7, 1, 1.0 / 9.0));
+    }
+
+    #[test]
+    fn distances_average_and_normals_renormalise() {
+        // Two samples of object 4 on the top row, misses below.
+        let mut img = fine(2, 2, &[4, 4, -1, -1]);
+        img.distance[..2].copy_from_slice(&[1.0, 2.0]);
+        img.normal[..2].copy_from_slice(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let r = reduce(&img, 2);
+        assert_eq!(r.images.distance, [1.5]);
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let n = r.images.normal[0];
+        assert!((n[0] - h).abs() < 1e-7 && (n[1] - h).abs() < 1e-7 && n[2] == 0.0);
+        // Opposite normals average to zero: kept zero, not NaN.
+        img.normal[1] = [-1.0, 0.0, 0.0];
+        assert_eq!(reduce(&img, 2).images.normal, [[0.0; 3]]);
+    }
+
+    #[test]
+    fn one_sample_per_pixel_is_the_plain_render() {
+        let mut img = fine(3, 2, &[0, -1, 2, 9, 1, -1]);
+        img.normal[0] = [0.6, 0.8, 1e-30];
+        img.distance[2] = 0.1 + 0.2;
+        let r = reduce(&img, 1);
+        assert_eq!(r, Supersampled::from_images(img.clone()));
+        assert_eq!(r.images, img);
+        assert_eq!(r.alpha, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    #[should_panic(expected = "not made of 2x2 blocks")]
+    fn reduce_needs_whole_blocks() {
+        reduce(&fine(3, 2, &[0; 6]), 2);
+    }
+}
