@@ -72,6 +72,26 @@ fn start_margin(t: f64, min_t: f64, eps: f64, t_condition: f64) -> f64 {
     (t - min_t).abs() / (eps * (16.0 + 8.0 * K * t_condition) * t.abs())
 }
 
+/// The verdict on a surface the ray meets at `t`: a hit if `t` is beyond the start, certain when
+/// both the start test and the surface's own test (`surface_margin`) are; a miss certain when
+/// the start test is.
+fn started(t: f64, min_t: f64, eps: f64, t_condition: f64, surface_margin: f64) -> Candidate {
+    let margin_t = start_margin(t, min_t, eps, t_condition);
+    let hits = t >= min_t;
+    let margin = if hits {
+        surface_margin.min(margin_t)
+    } else {
+        margin_t
+    };
+    Candidate {
+        hits,
+        margin,
+        t,
+        t_condition,
+        object: 0,
+    }
+}
+
 fn sphere(ray: &Ray<f64>, center: Vec3<f64>, radius: f64, min_t: f64, eps: f64) -> Candidate {
     let f = ray.origin - center;
     let d = ray.direction;
@@ -140,20 +160,7 @@ fn plane(ray: &Ray<f64>, point: Vec3<f64>, normal: Vec3<f64>, min_t: f64, eps: f
             object: 0,
         };
     }
-    let margin_t = start_margin(t, min_t, eps, t_condition);
-    let hits = t >= min_t;
-    let margin = if hits {
-        margin_parallel.min(margin_t)
-    } else {
-        margin_t
-    };
-    Candidate {
-        hits,
-        margin,
-        t,
-        t_condition,
-        object: 0,
-    }
+    started(t, min_t, eps, t_condition, margin_parallel)
 }
 
 fn triangle(ray: &Ray<f64>, corners: [Vec3<f64>; 3], min_t: f64, eps: f64) -> Candidate {
@@ -224,20 +231,7 @@ fn triangle(ray: &Ray<f64>, corners: [Vec3<f64>; 3], min_t: f64, eps: f64) -> Ca
         };
     }
     let edge_margin = edges.iter().map(|(_, m)| *m).fold(f64::INFINITY, f64::min);
-    let margin_t = start_margin(t, min_t, eps, t_condition);
-    let hits = t >= min_t;
-    let margin = if hits {
-        edge_margin.min(margin_t)
-    } else {
-        margin_t
-    };
-    Candidate {
-        hits,
-        margin,
-        t,
-        t_condition,
-        object: 0,
-    }
+    started(t, min_t, eps, t_condition, edge_margin)
 }
 
 /// The margins of pixel (`i`, `j`) for a robust kernel running with machine epsilon `eps`
