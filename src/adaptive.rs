@@ -22,6 +22,10 @@ pub struct Adaptive {
     pub recast: usize,
     /// Whether the re-cast ran on the GPU (else on the CPU).
     pub recast_on_gpu: bool,
+    /// GPU kernel time in seconds of the certainty pass plus the re-cast pass (timestamp
+    /// queries; see [`gpu::render_timed`]), from [`render_adaptive_timed`] only; `None` from
+    /// [`render_adaptive`], without `TIMESTAMP_QUERY`, or when pixels were re-cast on the CPU.
+    pub kernel_s: Option<f64>,
 }
 
 impl Adaptive {
@@ -48,7 +52,21 @@ fn widen(images: Images<f32>) -> Images<f64> {
 
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
 pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
-    let (first, certain) = gpu::render_with_certainty(gpu, scene)?;
+    adaptive(gpu, scene, false)
+}
+
+/// [`render_adaptive`], also measuring the kernels' GPU time ([`Adaptive::kernel_s`]).
+pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
+    adaptive(gpu, scene, true)
+}
+
+fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
+    let (first, certain, first_s) = if timed {
+        gpu::render_with_certainty_timed(gpu, scene)?
+    } else {
+        let (first, certain) = gpu::render_with_certainty(gpu, scene)?;
+        (first, certain, None)
+    };
     let uncertain: Vec<usize> = (0..certain.len()).filter(|&k| !certain[k]).collect();
     let mut images = widen(first);
     let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64);
@@ -57,12 +75,19 @@ pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
             images,
             recast: 0,
             recast_on_gpu,
+            kernel_s: first_s,
         });
     }
-    let exact = if recast_on_gpu {
-        gpu::render_pixels::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?
+    let (exact, kernel_s) = if recast_on_gpu && timed {
+        let (exact, second_s) =
+            gpu::render_pixels_timed::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?;
+        (exact, first_s.zip(second_s).map(|(a, b)| a + b))
+    } else if recast_on_gpu {
+        let exact = gpu::render_pixels::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?;
+        (exact, None)
     } else {
-        cpu::render_pixels::<f64>(scene, Algorithm::Robust, &uncertain)
+        let exact = cpu::render_pixels::<f64>(scene, Algorithm::Robust, &uncertain);
+        (exact, None)
     };
     for (k, pixel) in uncertain.iter().zip(exact) {
         images.id[*k] = pixel.id;
@@ -73,5 +98,6 @@ pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
         images,
         recast: uncertain.len(),
         recast_on_gpu,
+        kernel_s,
     })
 }

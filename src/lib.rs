@@ -34,6 +34,7 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod supersample;
+pub mod tradeoff;
 
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};

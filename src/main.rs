@@ -101,6 +101,26 @@ enum Command {
         #[arg(long)]
         markdown: Option<PathBuf>,
     },
+    /// Time and error of every mode the device supports, against CPU f64 robust: writes
+    /// tradeoff.csv, tradeoff.md and tradeoff.png into DIR.
+    Tradeoff {
+        /// Scene files (JSON).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Image size in pixels (overrides every scene's resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Timed runs per mode, after one warm-up run; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Comma-separated sample counts at which gpu:f32:robust is also measured (against
+        /// cpu:f64:robust at 64 spp); every mode is measured at 1.
+        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = parse_spp)]
+        spp: Vec<u32>,
+        /// Output folder (created if missing).
+        #[arg(short, long, value_name = "DIR")]
+        output: PathBuf,
+    },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
 }
@@ -231,6 +251,13 @@ fn run(command: Command) -> Result<ExitCode> {
             modes,
             markdown,
         } => accuracy(&scenes, size, reference, modes, markdown.as_deref()),
+        Command::Tradeoff {
+            scenes,
+            size,
+            runs,
+            spp,
+            output,
+        } => tradeoff(&scenes, size, runs as usize, spp, &output),
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
@@ -401,6 +428,36 @@ fn accuracy(
                 message: format!("cannot write: {e}"),
             })?;
         eprintln!("wrote {}", file.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn tradeoff(
+    scenes: &[PathBuf],
+    size: Option<[u32; 2]>,
+    runs: usize,
+    spp: Vec<u32>,
+    dir: &Path,
+) -> Result<ExitCode> {
+    use raycast::{accuracy, tradeoff};
+    // Scenes are validated before the GPU is opened or the folder created.
+    let scenes = tradeoff::load_scenes(scenes, size)?;
+    output::check_writable(dir)?;
+    let gpu = Gpu::new()?;
+    let options = tradeoff::Options {
+        size,
+        runs,
+        spp,
+        modes: accuracy::default_modes(Some(&gpu)),
+    };
+    let provenance = accuracy::Provenance {
+        command: command_line(),
+        adapter: Some((gpu.info().name, gpu.info().driver_info)),
+        date: accuracy::utc_date_today(),
+        reference: tradeoff::REFERENCE,
+    };
+    for path in tradeoff::run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
+        say(format!("wrote {}", path.display()));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -188,6 +188,32 @@ pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> R
     }
 }
 
+/// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
+/// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
+/// over its certainty and re-cast passes; see [`gpu::render_timed`]); `None` for the CPU.
+pub fn render_timed(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+) -> Result<(AnyImages, Option<f64>)> {
+    match (mode.device, mode.precision, gpu) {
+        (Device::Gpu, Arithmetic::Adaptive, Some(g)) if mode.algorithm == Algorithm::Robust => {
+            let a = crate::adaptive::render_adaptive_timed(g, scene)?;
+            Ok((AnyImages::F64(a.images), a.kernel_s))
+        }
+        (Device::Gpu, Arithmetic::F32, Some(g)) => {
+            let (images, s) = gpu::render_timed::<f32>(g, scene, mode.algorithm)?;
+            Ok((AnyImages::F32(images), s))
+        }
+        (Device::Gpu, Arithmetic::F64, Some(g)) => {
+            let (images, s) = gpu::render_timed::<f64>(g, scene, mode.algorithm)?;
+            Ok((AnyImages::F64(images), s))
+        }
+        // The CPU, and the errors of [`render`].
+        _ => Ok((render(scene, mode, gpu, false)?, None)),
+    }
+}
+
 /// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
 /// shows a progress bar of finished rows.
 fn cpu_with_progress<T: crate::math::Real>(

@@ -4,6 +4,7 @@
 use image::{Rgb, RgbImage};
 
 use super::{Comparison, PixelMatch};
+use crate::output::text::draw_text;
 
 const HIT_MISMATCH: Rgb<u8> = Rgb([255, 0, 255]);
 const ID_MISMATCH: Rgb<u8> = Rgb([0, 255, 255]);
@@ -11,26 +12,6 @@ const ZERO_ERROR: Rgb<u8> = Rgb([60, 60, 60]);
 const TEXT: Rgb<u8> = Rgb([255, 255, 255]);
 /// Height of one line of the 8x8 font, with spacing.
 const LINE: u32 = 12;
-
-/// Draws ASCII `text` with the 8x8 font, top-left at (x, y), clipped to the image.
-fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, color: Rgb<u8>) {
-    for (k, ch) in text.chars().enumerate() {
-        let glyph = font8x8::legacy::BASIC_LEGACY
-            .get(ch as usize)
-            .copied()
-            .unwrap_or([0; 8]);
-        for (row, bits) in glyph.iter().enumerate() {
-            for col in 0..8 {
-                if bits >> col & 1 == 1 {
-                    let (px, py) = (x + 8 * k as u32 + col, y + row as u32);
-                    if px < img.width() && py < img.height() {
-                        img.put_pixel(px, py, color);
-                    }
-                }
-            }
-        }
-    }
-}
 
 /// The render (`base`, RGB bytes of the comparison's size, e.g. side b's normal picture)
 /// dimmed, with hit/miss mismatches in magenta and id mismatches in cyan, and a legend with

@@ -6,7 +6,10 @@ pub mod probe;
 mod render;
 pub mod shader;
 
-pub use render::{max_tile_rows, render, render_pixels, render_with_certainty};
+pub use render::{
+    max_tile_rows, render, render_pixels, render_pixels_timed, render_timed, render_with_certainty,
+    render_with_certainty_timed,
+};
 
 use std::collections::HashMap;
 use std::sync::Mutex;

@@ -181,7 +181,20 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<wgpu::ComputePipeline
 /// (`f32`, or `f64` where the adapter has `SHADER_F64`).
 pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Result<Images<R>> {
     let variant = gpu.variant(R::PRECISION, algorithm);
-    Ok(render_variant::<R>(gpu, scene, variant)?.0)
+    Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
+}
+
+/// [`render`], also returning the kernel's GPU time in seconds: the sum over tiles of the time
+/// between the timestamps written at the beginning and the end of each compute pass (readback
+/// and upload not included). `None` when the device lacks `TIMESTAMP_QUERY`.
+pub fn render_timed<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+) -> Result<(Images<R>, Option<f64>)> {
+    let variant = gpu.variant(R::PRECISION, algorithm);
+    let r = render_variant::<R>(gpu, scene, variant, true)?;
+    Ok((r.images, r.kernel_s))
 }
 
 /// Renders only the listed pixels (row-major indices), in list order: one invocation per
@@ -192,8 +205,32 @@ pub fn render_pixels<R: GpuReal>(
     algorithm: Algorithm,
     pixels: &[usize],
 ) -> Result<Vec<Pixel<R>>> {
+    Ok(pixels_inner::<R>(gpu, scene, algorithm, pixels, false)?.0)
+}
+
+/// [`render_pixels`], also returning the kernel's GPU time in seconds (summed over the
+/// dispatches; see [`render_timed`]); `None` without `TIMESTAMP_QUERY`, `Some(0.0)` for an
+/// empty list.
+pub fn render_pixels_timed<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    pixels: &[usize],
+) -> Result<(Vec<Pixel<R>>, Option<f64>)> {
+    pixels_inner::<R>(gpu, scene, algorithm, pixels, true)
+}
+
+fn pixels_inner<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    pixels: &[usize],
+    timed: bool,
+) -> Result<(Vec<Pixel<R>>, Option<f64>)> {
+    let timer = if timed { PassTimer::new(gpu) } else { None };
+    let mut kernel_s = timer.as_ref().map(|_| 0.0);
     if pixels.is_empty() {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), kernel_s));
     }
     let prims = Primitives::<R>::new(scene, algorithm);
     check_limits(gpu, scene, &prims)?;
@@ -205,10 +242,18 @@ pub fn render_pixels<R: GpuReal>(
     let mut out = Vec::with_capacity(pixels.len());
     for part in pixels.chunks(chunk) {
         out.extend(render_pixel_chunk::<R>(
-            gpu, scene, algorithm, &prims, part,
+            gpu,
+            scene,
+            algorithm,
+            &prims,
+            part,
+            timer.as_ref(),
         )?);
+        if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
+            *total += timer.read_seconds(gpu)?;
+        }
     }
-    Ok(out)
+    Ok((out, kernel_s))
 }
 
 fn render_pixel_chunk<R: GpuReal>(
@@ -217,6 +262,7 @@ fn render_pixel_chunk<R: GpuReal>(
     algorithm: Algorithm,
     prims: &Primitives<R>,
     pixels: &[usize],
+    timer: Option<&PassTimer>,
 ) -> Result<Vec<Pixel<R>>> {
     let variant = Variant {
         pixel_list: true,
@@ -291,10 +337,16 @@ fn render_pixel_chunk<R: GpuReal>(
     let (gx, gy) = (groups.min(max_groups), groups.div_ceil(max_groups));
     let mut encoder = device.create_command_encoder(&Default::default());
     {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("raycast pixel list"),
+            timestamp_writes: timer.map(PassTimer::pass_writes),
+        });
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
+    }
+    if let Some(timer) = timer {
+        timer.resolve(&mut encoder);
     }
     encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, surface_size);
     encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, n * ID_BYTES);
@@ -312,24 +364,149 @@ fn render_pixel_chunk<R: GpuReal>(
 /// The first pass of adaptive precision: a robust f32 render that also says, per pixel,
 /// whether its hit/miss and id are certain (the bounds of `src/cpu/margin.rs`).
 pub fn render_with_certainty(gpu: &Gpu, scene: &Scene) -> Result<(Images<f32>, Vec<bool>)> {
+    let (images, certain, _) = certainty_inner(gpu, scene, false)?;
+    Ok((images, certain))
+}
+
+/// [`render_with_certainty`], also returning the kernel's GPU time in seconds (see
+/// [`render_timed`]); `None` without `TIMESTAMP_QUERY`.
+pub fn render_with_certainty_timed(
+    gpu: &Gpu,
+    scene: &Scene,
+) -> Result<(Images<f32>, Vec<bool>, Option<f64>)> {
+    certainty_inner(gpu, scene, true)
+}
+
+fn certainty_inner(
+    gpu: &Gpu,
+    scene: &Scene,
+    timed: bool,
+) -> Result<(Images<f32>, Vec<bool>, Option<f64>)> {
     let variant = Variant {
         certainty: true,
         ..gpu.variant(Precision::F32, Algorithm::Robust)
     };
-    let (images, certain) = render_variant::<f32>(gpu, scene, variant)?;
-    Ok((
-        images,
-        certain.expect("a certainty variant reports certainty"),
-    ))
+    let r = render_variant::<f32>(gpu, scene, variant, timed)?;
+    let certain = r.certainty.expect("a certainty variant reports certainty");
+    Ok((r.images, certain, r.kernel_s))
+}
+
+/// What [`render_variant`] returns.
+struct Rendered<R> {
+    images: Images<R>,
+    /// Per-pixel certainty flags, in a certainty variant.
+    certainty: Option<Vec<bool>>,
+    /// Kernel GPU time in seconds, when timed on a device with timestamp queries.
+    kernel_s: Option<f64>,
+}
+
+/// GPU time of compute passes from timestamp queries: one written at the beginning and one at
+/// the end of each pass, resolved and copied to a mappable buffer after it.
+struct PassTimer {
+    query_set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period_ns: f64,
+}
+
+impl PassTimer {
+    const BYTES: u64 = 2 * wgpu::QUERY_SIZE as u64;
+
+    /// A timer, or `None` when the device has no `TIMESTAMP_QUERY`.
+    fn new(gpu: &Gpu) -> Option<PassTimer> {
+        if !gpu
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+        {
+            return None;
+        }
+        let period_ns = f64::from(gpu.queue.get_timestamp_period());
+        if period_ns <= 0.0 {
+            return None;
+        }
+        let device = &gpu.device;
+        let query_set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("kernel timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: Self::BYTES,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Some(PassTimer {
+            query_set,
+            resolve: buffer(
+                "timestamp resolve",
+                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            readback: buffer(
+                "timestamp readback",
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            ),
+            period_ns,
+        })
+    }
+
+    /// The pass's timestamp writes: index 0 at its beginning, 1 at its end.
+    fn pass_writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.query_set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// Records the resolve and the copy to the readback buffer, after the timed pass.
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.query_set, 0..2, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, Self::BYTES);
+    }
+
+    /// Seconds between the two timestamps of the last submitted timed pass.
+    fn read_seconds(&self, gpu: &Gpu) -> Result<f64> {
+        map_for_reading(gpu, &self.readback)?;
+        let ticks = {
+            let view = self
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| Error::Device(format!("GPU timestamp readback failed: {e}")))?;
+            let t: &[u64] = bytemuck::cast_slice(&view[..]);
+            t[1].saturating_sub(t[0])
+        };
+        self.readback.unmap();
+        Ok(ticks as f64 * self.period_ns * 1e-9)
+    }
+}
+
+/// Maps `buffer` for reading and waits until the GPU has finished what was submitted.
+fn map_for_reading(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<()> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Device(format!("GPU did not finish: {e}")))?;
+    rx.recv()
+        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?
+        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))
 }
 
 /// Renders with the kernel `variant`; with `variant.certainty` also returns the per-pixel
-/// certainty flags.
+/// certainty flags, and with `timed` the kernel time (where the device has timestamp queries).
 fn render_variant<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     variant: Variant,
-) -> Result<(Images<R>, Option<Vec<bool>>)> {
+    timed: bool,
+) -> Result<Rendered<R>> {
     let algorithm = variant.algorithm;
     let prims = Primitives::<R>::new(scene, algorithm);
     let tile_rows = check_limits(gpu, scene, &prims)?;
@@ -397,6 +574,8 @@ fn render_variant<R: GpuReal>(
 
     let mut images = Images::new_miss(nx, ny, scene.camera.focal_length);
     let mut certainty = certain.as_ref().map(|_| vec![false; images.len()]);
+    let timer = if timed { PassTimer::new(gpu) } else { None };
+    let mut kernel_s = timer.as_ref().map(|_| 0.0);
     let mut row = 0;
     while row < ny {
         let rows = tile_rows.min(ny - row);
@@ -415,10 +594,16 @@ fn render_variant<R: GpuReal>(
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
         let mut encoder = device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("raycast"),
+                timestamp_writes: timer.as_ref().map(PassTimer::pass_writes),
+            });
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.dispatch_workgroups(nx.div_ceil(WORKGROUP), rows.div_ceil(WORKGROUP), 1);
+        }
+        if let Some(timer) = &timer {
+            timer.resolve(&mut encoder);
         }
         let pixels = rows as u64 * nx as u64;
         encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, pixels * surface_bytes);
@@ -440,9 +625,16 @@ fn render_variant<R: GpuReal>(
             &mut images,
             certainty.as_deref_mut(),
         )?;
+        if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
+            *total += timer.read_seconds(gpu)?;
+        }
         row += rows;
     }
-    Ok((images, certainty))
+    Ok(Rendered {
+        images,
+        certainty,
+        kernel_s,
+    })
 }
 
 /// Where the parts of a tile lie in the readback buffer (the surface starts at 0).
@@ -461,16 +653,7 @@ fn read_tile<R: GpuReal>(
     images: &mut Images<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    readback.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Device(format!("GPU did not finish: {e}")))?;
-    rx.recv()
-        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?
-        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
+    map_for_reading(gpu, readback)?;
     {
         let view = readback
             .get_mapped_range(..)

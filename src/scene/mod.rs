@@ -1,6 +1,6 @@
 //! The validated scene: a camera and a list of objects, all in f64, as read from a scene file.
 //!
-//! Flow: scene file --[`load`]--> [`Scene`] --> camera frame + primitives --> GPU or CPU.
+//! Flow: scene file --[`Scene::load`]--> [`Scene`] --> camera frame + primitives --> GPU or CPU.
 //! Every check that can fail on user input happens here, so later stages can assume
 //! finite numbers, positive sizes and non-degenerate camera vectors.
 
