@@ -16,6 +16,13 @@ fn edge_exact(a: real, b: real, c: real, d: real, approx: real) -> real {
 }
 #endif
 
+#if CERTAINTY
+// Two equal corners stay equal after any rounding: such a triangle always misses.
+fn has_repeated_corner(tri: Triangle) -> bool {
+    return all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
+}
+#endif
+
 // The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the
 // ray's frame (ray along +z through the origin) and decide with 2D edge functions, which
 // neighbouring triangles evaluate with exactly opposite signs on a shared edge.
@@ -58,27 +65,33 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
 #endif
 #if CERTAINTY
     // Edge e = x1 y2 - y1 x2 is off by at most about EPS * 2((|x1|+|z1|)(|y2|+|z2|) +
-    // (|y1|+|z1|)(|x2|+|z2|)): vertex rounding, the shear, the products.
+    // (|y1|+|z1|)(|x2|+|z2|)): vertex rounding, the shear, the products. Scales are computed
+    // only where a decision needs them: most rays miss most triangles by a wide margin.
     let mx = abs(xs) + abs(zs);
     let my = abs(ys) + abs(zs);
-    let u_certain = is_certain(u, 2.0 * (mx.z * my.y + my.z * mx.y));
-    let v_certain = is_certain(v, 2.0 * (mx.x * my.z + my.x * mx.z));
-    let w_certain = is_certain(w, 2.0 * (mx.y * my.x + my.y * mx.x));
-    // Two equal corners stay equal after any rounding: always a miss.
-    let repeated = all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
-    // Where the ray meets the triangle's plane: the hit a flipped decision would give.
-    let det_guess = u + v + w;
-    let t_guess = select(T_FAR, (u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z)) / det_guess, det_guess != 0.0);
 #endif
     // Inside (or on an edge) iff no edge function has a sign opposite to another's.
     if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
 #if CERTAINTY
-        // A certain miss needs one edge certainly on the side opposite the determinant's.
+        // A certain miss needs one edge certainly on the side opposite the others'. Computed
+        // without short-circuits: straight-line arithmetic suits SIMD lanes better.
+        let det_guess = u + v + w;
         let positive = det_guess >= 0.0;
-        let wrong_u = u != 0.0 && (u < 0.0) == positive && u_certain;
-        let wrong_v = v != 0.0 && (v < 0.0) == positive && v_certain;
-        let wrong_w = w != 0.0 && (w < 0.0) == positive && w_certain;
-        decide(repeated || wrong_u || wrong_v || wrong_w, t_guess, 1.0);
+        let su = 2.0 * (mx.z * my.y + my.z * mx.y);
+        let sv = 2.0 * (mx.x * my.z + my.x * mx.z);
+        let sw = 2.0 * (mx.y * my.x + my.y * mx.x);
+        let certain = ((u != 0.0) & ((u < 0.0) == positive) & is_certain(u, su))
+            | ((v != 0.0) & ((v < 0.0) == positive) & is_certain(v, sv))
+            | ((w != 0.0) & ((w < 0.0) == positive) & is_certain(w, sw));
+        if (certain) {
+            decide(true, T_FAR, 1.0);
+        } else if (has_repeated_corner(tri)) {
+            decide(true, T_FAR, 1.0);
+        } else {
+            // Where the ray meets the triangle's plane: the hit a flipped decision would give.
+            let t_guess = select(T_FAR, (u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z)) / det_guess, det_guess != 0.0);
+            decide(false, t_guess, 1.0);
+        }
 #endif
         return NO_HIT;
     }
@@ -86,7 +99,7 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
     // Degenerate (zero-area as seen along the ray): no hit.
     if (determinant == 0.0) {
 #if CERTAINTY
-        decide(repeated, T_FAR, 1.0);
+        decide(has_repeated_corner(tri), T_FAR, 1.0);
 #endif
         return NO_HIT;
     }
@@ -97,12 +110,15 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
 #endif
     if (is_beyond(t, min_t)) {
 #if CERTAINTY
+        let u_certain = is_certain(u, 2.0 * (mx.z * my.y + my.z * mx.y));
+        let v_certain = is_certain(v, 2.0 * (mx.x * my.z + my.x * mx.z));
+        let w_certain = is_certain(w, 2.0 * (mx.y * my.x + my.y * mx.x));
         decide(u_certain && v_certain && w_certain && t_certain, t, 1.0);
 #endif
         return t;
     }
 #if CERTAINTY
-    decide(repeated || t_certain, t, 1.0);
+    decide(t_certain || has_repeated_corner(tri), t, 1.0);
 #endif
     return NO_HIT;
 }

@@ -5,8 +5,10 @@
 //! start test, the order of the two nearest objects) is compared with twice its first-order
 //! error bound (`shaders/types.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
 //! where they are derived). Uncertain pixels are cast again in f64 (on the GPU where it has
-//! `SHADER_F64`, else on the CPU) and merged in. The result is in f64: f32 values widened for
-//! certain pixels, f64 values for re-cast ones.
+//! `SHADER_F64`, else on the CPU) and merged in. The images are f32: the decisions (hit/miss,
+//! id) are those of f64 on every pixel, and re-cast pixels carry their f64 distance and normal
+//! rounded to f32 (keeping the whole image in f32 spares a widening copy that costs more than
+//! the re-cast on small images).
 
 use crate::algorithm::Algorithm;
 use crate::cpu;
@@ -17,7 +19,7 @@ use crate::scene::Scene;
 
 /// An adaptive render and what it re-cast.
 pub struct Adaptive {
-    pub images: Images<f64>,
+    pub images: Images<f32>,
     /// Pixels cast again in f64.
     pub recast: usize,
     /// Whether the re-cast ran on the GPU (else on the CPU).
@@ -32,21 +34,6 @@ impl Adaptive {
     /// Fraction of pixels re-cast in f64.
     pub fn recast_fraction(&self) -> f64 {
         self.recast as f64 / self.images.len().max(1) as f64
-    }
-}
-
-fn widen(images: Images<f32>) -> Images<f64> {
-    Images {
-        width: images.width,
-        height: images.height,
-        id: images.id,
-        distance: images.distance.into_iter().map(f64::from).collect(),
-        normal: images
-            .normal
-            .into_iter()
-            .map(|n| n.map(f64::from))
-            .collect(),
-        focal_length: images.focal_length,
     }
 }
 
@@ -68,7 +55,7 @@ fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
         (first, certain, None)
     };
     let uncertain: Vec<usize> = (0..certain.len()).filter(|&k| !certain[k]).collect();
-    let mut images = widen(first);
+    let mut images = first;
     let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64);
     if uncertain.is_empty() {
         return Ok(Adaptive {
@@ -91,8 +78,8 @@ fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
     };
     for (k, pixel) in uncertain.iter().zip(exact) {
         images.id[*k] = pixel.id;
-        images.distance[*k] = pixel.distance;
-        images.normal[*k] = pixel.normal;
+        images.distance[*k] = pixel.distance as f32;
+        images.normal[*k] = pixel.normal.map(|c| c as f32);
     }
     Ok(Adaptive {
         images,

@@ -169,7 +169,7 @@ pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> R
                 });
             }
         };
-        return Ok(AnyImages::F64(
+        return Ok(AnyImages::F32(
             crate::adaptive::render_adaptive(gpu, scene)?.images,
         ));
     }
@@ -199,7 +199,7 @@ pub fn render_timed(
     match (mode.device, mode.precision, gpu) {
         (Device::Gpu, Arithmetic::Adaptive, Some(g)) if mode.algorithm == Algorithm::Robust => {
             let a = crate::adaptive::render_adaptive_timed(g, scene)?;
-            Ok((AnyImages::F64(a.images), a.kernel_s))
+            Ok((AnyImages::F32(a.images), a.kernel_s))
         }
         (Device::Gpu, Arithmetic::F32, Some(g)) => {
             let (images, s) = gpu::render_timed::<f32>(g, scene, mode.algorithm)?;

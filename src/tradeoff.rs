@@ -319,7 +319,7 @@ fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Resul
             let a = crate::adaptive::render_adaptive_timed(g, scene)?;
             let recast_fraction = Some(a.recast_fraction());
             return Ok(Frame {
-                images: AnyImages::F64(a.images),
+                images: AnyImages::F32(a.images),
                 kernel_s: a.kernel_s,
                 recast_fraction,
             });

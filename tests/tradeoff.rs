@@ -195,7 +195,7 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     // render::render_timed: kernel time for the GPU, none for the CPU.
     let mode = |s: &str| s.parse::<raycast::render::Mode>().unwrap();
     let (images, k) = render::render_timed(&scene, mode("gpu:adaptive"), Some(gpu)).unwrap();
-    assert_eq!(images, AnyImages::F64(a.images));
+    assert_eq!(images, AnyImages::F32(a.images));
     assert_eq!(k.is_some(), timestamps && t.recast_on_gpu);
     let (_, k) = render::render_timed(&scene, mode("cpu:f64"), Some(gpu)).unwrap();
     assert_eq!(k, None);
