@@ -298,8 +298,17 @@ fn render(
     let scene = load(scene_path, size)?;
     output::check_writable(out_dir)?;
     let gpu = gpu_for(&[mode])?;
-    let (images, elapsed) = render::timed(|| {
-        supersample::supersample(&scene, mode, gpu.as_ref(), spp.unwrap_or(1), true)
+    let mut recast = None;
+    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu.as_ref()) {
+        // Plain adaptive renders report how much they re-cast in f64.
+        (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
+            let a = raycast::adaptive::render_adaptive(g, &scene)?;
+            recast = Some((a.recast_fraction(), a.recast_on_gpu));
+            Ok(supersample::AnySupersampled::F32(
+                supersample::Supersampled::from_images(a.images),
+            ))
+        }
+        _ => supersample::supersample(&scene, mode, gpu.as_ref(), spp.unwrap_or(1), true),
     });
     let written = images?.write(out_dir, formats, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
@@ -310,6 +319,13 @@ fn render(
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
     ));
+    if let Some((fraction, on_gpu)) = recast {
+        let on = if on_gpu { "the GPU" } else { "the CPU" };
+        say(format!(
+            "re-cast {:.3}% of pixels in f64 on {on}",
+            100.0 * fraction
+        ));
+    }
     for path in written {
         say(format!("wrote {}", path.display()));
     }

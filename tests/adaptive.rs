@@ -115,3 +115,34 @@ fn the_certainty_test_is_sound_and_the_counter_can_tell() {
         "no f32/f64 disagreement at all: the soundness check would be vacuous"
     );
 }
+
+#[test]
+fn the_cli_reports_the_recast_fraction_and_refuses_cpu_adaptive() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/course/bunny.json");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args(["render", scene.to_str().unwrap(), "--size", "64x36", "-o"])
+            .arg(dir.path().join("out"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let ok = run(&["--precision", "adaptive"]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&ok.stdout);
+    assert!(
+        stdout.contains("re-cast ") && stdout.contains("% of pixels in f64"),
+        "{stdout}"
+    );
+    let refused = run(&["--precision", "adaptive", "--device", "cpu"]);
+    assert_eq!(refused.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("--precision adaptive"), "{stderr}");
+}
