@@ -120,6 +120,26 @@ fn check_limits<R: GpuReal>(gpu: &Gpu, scene: &Scene, prims: &Primitives<R>) -> 
     Ok(rows.min(ny))
 }
 
+/// A buffer the kernel writes and the host copies out of.
+fn output_buffer(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
+}
+
+/// A buffer the host maps to read results.
+fn readback_buffer(gpu: &Gpu, size: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 /// A storage buffer holding `items`, or one zeroed element when there are none
 /// (WGSL bindings may not be empty; the count in `Params` stays 0).
 fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
@@ -292,22 +312,10 @@ fn render_pixel_chunk<R: GpuReal>(
     let list: Vec<u32> = pixels.iter().map(|&k| k as u32).collect();
     let list = storage_buffer(gpu, "pixel_list", &list);
     let surface_size = n * surface_bytes(R::PRECISION);
-    let output = |label, size| {
-        device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        })
-    };
+    let output = |label, size| output_buffer(gpu, label, size);
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", n * ID_BYTES);
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: surface_size + n * ID_BYTES,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
     let buffers = [
         &params_buffer,
         &storage_buffer(gpu, "spheres", &prims.spheres),
@@ -529,24 +537,15 @@ fn render_variant<R: GpuReal>(
     let surface_bytes = surface_bytes(R::PRECISION);
     let surface_size = tile_pixels * surface_bytes;
     let id_size = tile_pixels * ID_BYTES;
-    let output = |label, size| {
-        device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        })
-    };
+    let output = |label, size| output_buffer(gpu, label, size);
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", id_size);
     // Per-pixel certainty flags (u32), only in a certainty variant.
     let certain = variant.certainty.then(|| output("out_certain", id_size));
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: surface_size + id_size * if certain.is_some() { 2 } else { 1 },
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let readback = readback_buffer(
+        gpu,
+        surface_size + id_size * if certain.is_some() { 2 } else { 1 },
+    );
     let mut entries = vec![
         (0, &params_buffer),
         (1, &spheres),
