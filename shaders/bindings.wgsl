@@ -15,11 +15,18 @@ struct Params {
 }                         // size 96 / 160
 
 @group(0) @binding(0) var<uniform> params: Params;
-// Never empty: the host uploads one unused element when a kind is absent (its count stays 0).
+// Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
+#if SPHERES
 @group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
+#endif
+#if PLANES
 @group(0) @binding(2) var<storage, read> planes: array<Plane>;
+#endif
+#if TRIANGLES
 @group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
-// Object id of every primitive: spheres first, then planes, then triangles.
+#endif
+// Object id of every primitive: spheres first, then planes, then triangles (bound whenever
+// the scene has any primitive).
 @group(0) @binding(4) var<storage, read> objects: array<u32>;
 // Per pixel of the tile: normal in xyz, distance in w (0 on a miss).
 @group(0) @binding(5) var<storage, read_write> out_surface: array<vec4<real>>;

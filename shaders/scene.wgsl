@@ -1,9 +1,15 @@
 // Nearest-hit search over every primitive (brute force). CPU mirror: src/cpu/scene.rs.
 #import types
 #import bindings
+#if SPHERES
 #import sphere
+#endif
+#if PLANES
 #import plane
+#endif
+#if TRIANGLES
 #import triangle
+#endif
 
 const KIND_SPHERE: u32 = 0u;
 const KIND_PLANE: u32 = 1u;
@@ -123,6 +129,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     let none = Decision(T_FAR, -1, 1.0);
     certainty = Certainty(false, true, false, 1.0, none, none, none);
 #endif
+#if SPHERES
     for (var k = 0u; k < params.sphere_count; k++) {
         let t = intersect_sphere(ray, spheres[k], min_t);
         let object = objects[k];
@@ -134,7 +141,9 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
             best = Hit(t, i32(object), KIND_SPHERE, k);
         }
     }
+#endif
     let plane_base = params.sphere_count;
+#if PLANES
     for (var k = 0u; k < params.plane_count; k++) {
         let t = intersect_plane(ray, planes[k], min_t);
         let object = objects[plane_base + k];
@@ -146,7 +155,9 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
             best = Hit(t, i32(object), KIND_PLANE, k);
         }
     }
+#endif
     let triangle_base = plane_base + params.plane_count;
+#if TRIANGLES
     for (var k = 0u; k < params.triangle_count; k++) {
         let t = intersect_triangle(ray, triangles[k], min_t);
         let object = objects[triangle_base + k];
@@ -158,20 +169,30 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
             best = Hit(t, i32(object), KIND_TRIANGLE, k);
         }
     }
+#endif
     return best;
 }
 
 // The normal of the nearest hit, computed once rather than for every candidate.
 fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
     switch (hit.kind) {
+#if SPHERES
         case KIND_SPHERE: {
             return sphere_normal(ray, hit.t, spheres[hit.index]);
         }
+#endif
+#if PLANES
         case KIND_PLANE: {
             return plane_normal(planes[hit.index]);
         }
-        default: {
+#endif
+#if TRIANGLES
+        case KIND_TRIANGLE: {
             return triangle_normal(triangles[hit.index]);
+        }
+#endif
+        default: {
+            return vec3<real>(0.0);
         }
     }
 }

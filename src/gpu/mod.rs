@@ -8,7 +8,7 @@ pub mod shader;
 
 pub use render::{
     max_tile_rows, render, render_pixels, render_pixels_timed, render_timed, render_with_certainty,
-    render_with_certainty_timed,
+    render_with_certainty_timed, render_with_variant,
 };
 
 use std::collections::HashMap;
@@ -35,7 +35,18 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// The kernel variant for `precision` and `algorithm` on this device.
+    /// The kernel variant for `scene`: only its primitive kinds compiled in.
+    pub fn scene_variant(
+        &self,
+        scene: &crate::scene::Scene,
+        precision: crate::math::Precision,
+        algorithm: crate::Algorithm,
+    ) -> Variant {
+        self.variant(precision, algorithm)
+            .with_kinds(shader::Kinds::of_scene(scene))
+    }
+
+    /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
     pub fn variant(
         &self,
         precision: crate::math::Precision,
@@ -47,6 +58,7 @@ impl Gpu {
             f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
             certainty: false,
             pixel_list: false,
+            kinds: shader::Kinds::ALL,
         }
     }
 

@@ -120,6 +120,29 @@ fn check_limits<R: GpuReal>(gpu: &Gpu, scene: &Scene, prims: &Primitives<R>) -> 
     Ok(rows.min(ny))
 }
 
+/// The bind group entries `variant` declares (binding numbers of shaders/bindings.wgsl): the
+/// primitive buffers only for the kinds compiled in, the object ids when there is any.
+fn bind_entries<'a>(
+    variant: &Variant,
+    buffers: &[(u32, &'a wgpu::Buffer)],
+) -> Vec<wgpu::BindGroupEntry<'a>> {
+    let k = variant.kinds;
+    buffers
+        .iter()
+        .filter(|(binding, _)| match binding {
+            1 => k.spheres,
+            2 => k.planes,
+            3 => k.triangles,
+            4 => k.any(),
+            _ => true,
+        })
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect()
+}
+
 /// A buffer the kernel writes and the host copies out of.
 fn output_buffer(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
     gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -200,7 +223,17 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<wgpu::ComputePipeline
 /// Renders `scene` at `scene.camera.resolution` on `gpu` with `algorithm`, in precision `R`
 /// (`f32`, or `f64` where the adapter has `SHADER_F64`).
 pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Result<Images<R>> {
-    let variant = gpu.variant(R::PRECISION, algorithm);
+    let variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
+    Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
+}
+
+/// Renders with an explicit kernel `variant` (for example the general kernel with every kind
+/// compiled in, to check a specialised one against it).
+pub fn render_with_variant<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+) -> Result<Images<R>> {
     Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
 }
 
@@ -212,7 +245,7 @@ pub fn render_timed<R: GpuReal>(
     scene: &Scene,
     algorithm: Algorithm,
 ) -> Result<(Images<R>, Option<f64>)> {
-    let variant = gpu.variant(R::PRECISION, algorithm);
+    let variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
     let r = render_variant::<R>(gpu, scene, variant, true)?;
     Ok((r.images, r.kernel_s))
 }
@@ -286,7 +319,7 @@ fn render_pixel_chunk<R: GpuReal>(
 ) -> Result<Vec<Pixel<R>>> {
     let variant = Variant {
         pixel_list: true,
-        ..gpu.variant(R::PRECISION, algorithm)
+        ..gpu.scene_variant(scene, R::PRECISION, algorithm)
     };
     let pipeline = pipeline(gpu, variant)?;
     let device = &gpu.device;
@@ -316,24 +349,23 @@ fn render_pixel_chunk<R: GpuReal>(
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", n * ID_BYTES);
     let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
+    let (spheres, planes, triangles, objects) = (
+        storage_buffer(gpu, "spheres", &prims.spheres),
+        storage_buffer(gpu, "planes", &prims.planes),
+        storage_buffer(gpu, "triangles", &prims.triangles),
+        storage_buffer(gpu, "objects", &prims.objects),
+    );
     let buffers = [
-        &params_buffer,
-        &storage_buffer(gpu, "spheres", &prims.spheres),
-        &storage_buffer(gpu, "planes", &prims.planes),
-        &storage_buffer(gpu, "triangles", &prims.triangles),
-        &storage_buffer(gpu, "objects", &prims.objects),
-        &surface,
-        &ids,
-        &list,
+        (0, &params_buffer),
+        (1, &spheres),
+        (2, &planes),
+        (3, &triangles),
+        (4, &objects),
+        (5, &surface),
+        (6, &ids),
+        (7, &list),
     ];
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
+    let entries = bind_entries(&variant, &buffers);
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast pixel list"),
         layout: &pipeline.get_bind_group_layout(0),
@@ -392,7 +424,7 @@ fn certainty_inner(
 ) -> Result<(Images<f32>, Vec<bool>, Option<f64>)> {
     let variant = Variant {
         certainty: true,
-        ..gpu.variant(Precision::F32, Algorithm::Robust)
+        ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
     };
     let r = render_variant::<f32>(gpu, scene, variant, timed)?;
     let certain = r.certainty.expect("a certainty variant reports certainty");
@@ -558,13 +590,7 @@ fn render_variant<R: GpuReal>(
     if let Some(c) = &certain {
         entries.push((7, c));
     }
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .into_iter()
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
+    let entries = bind_entries(&variant, &entries);
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast"),
         layout: &pipeline.get_bind_group_layout(0),

@@ -7,6 +7,46 @@ use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::math::Precision;
 
+/// The primitive kinds a kernel is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Kinds {
+    pub spheres: bool,
+    pub planes: bool,
+    pub triangles: bool,
+}
+
+impl Kinds {
+    /// Every kind: the general kernel.
+    pub const ALL: Kinds = Kinds {
+        spheres: true,
+        planes: true,
+        triangles: true,
+    };
+
+    /// The kinds `scene` has (a soup counts as triangles when it has any).
+    pub fn of_scene(scene: &crate::scene::Scene) -> Kinds {
+        use crate::scene::Object;
+        let mut k = Kinds {
+            spheres: false,
+            planes: false,
+            triangles: false,
+        };
+        for object in &scene.objects {
+            match object {
+                Object::Sphere { .. } => k.spheres = true,
+                Object::Plane { .. } => k.planes = true,
+                Object::Triangle { .. } => k.triangles = true,
+                Object::Soup { triangles, .. } => k.triangles |= !triangles.is_empty(),
+            }
+        }
+        k
+    }
+
+    pub fn any(&self) -> bool {
+        self.spheres || self.planes || self.triangles
+    }
+}
+
 /// What a kernel is specialised for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
@@ -20,6 +60,8 @@ pub struct Variant {
     pub certainty: bool,
     /// Cast only the pixels of a list (the re-cast of adaptive precision).
     pub pixel_list: bool,
+    /// The primitive kinds compiled in; code for the others is left out.
+    pub kinds: Kinds,
 }
 
 impl Variant {
@@ -30,12 +72,19 @@ impl Variant {
             f64_available: true,
             certainty: false,
             pixel_list: false,
+            kinds: Kinds::ALL,
         }
+    }
+
+    /// This variant compiled for `kinds` only.
+    pub fn with_kinds(self, kinds: Kinds) -> Variant {
+        Variant { kinds, ..self }
     }
 
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
-    /// `PIXEL_LIST` (cast listed pixels only).
+    /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
+    /// compiled in).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -52,6 +101,15 @@ impl Variant {
         }
         if self.pixel_list {
             d.push("PIXEL_LIST");
+        }
+        for (present, name) in [
+            (self.kinds.spheres, "SPHERES"),
+            (self.kinds.planes, "PLANES"),
+            (self.kinds.triangles, "TRIANGLES"),
+        ] {
+            if present {
+                d.push(name);
+            }
         }
         d
     }
@@ -235,6 +293,7 @@ pub fn all_variants() -> Vec<Variant> {
                         f64_available,
                         certainty,
                         pixel_list,
+                        kinds: Kinds::ALL,
                     });
                 }
             }
@@ -288,6 +347,57 @@ mod tests {
         for (name, _) in MODULES {
             let banner = format!("// ---- shaders/{name}.wgsl\n");
             assert_eq!(source.matches(&banner).count(), 1, "{name}");
+        }
+    }
+
+    /// A kernel contains no function of an absent kind (checked on the naga module) and still
+    /// validates, for all eight combinations.
+    #[test]
+    fn absent_kinds_are_not_compiled_in() {
+        for bits in 0..8u8 {
+            let kinds = Kinds {
+                spheres: bits & 1 != 0,
+                planes: bits & 2 != 0,
+                triangles: bits & 4 != 0,
+            };
+            for base in [
+                Variant::new(Precision::F32, Algorithm::Robust),
+                Variant::new(Precision::F64, Algorithm::Textbook),
+                Variant {
+                    certainty: true,
+                    ..Variant::new(Precision::F32, Algorithm::Robust)
+                },
+            ] {
+                let variant = base.with_kinds(kinds);
+                let source = kernel_source(&variant).unwrap();
+                let module = validate(&source, &format!("{variant:?}")).unwrap();
+                let names: Vec<&str> = module
+                    .functions
+                    .iter()
+                    .filter_map(|(_, f)| f.name.as_deref())
+                    .collect();
+                let globals: Vec<&str> = module
+                    .global_variables
+                    .iter()
+                    .filter_map(|(_, g)| g.name.as_deref())
+                    .collect();
+                for (present, function, buffer) in [
+                    (kinds.spheres, "intersect_sphere", "spheres"),
+                    (kinds.planes, "intersect_plane", "planes"),
+                    (kinds.triangles, "intersect_triangle", "triangles"),
+                ] {
+                    assert_eq!(
+                        names.contains(&function),
+                        present,
+                        "{function} in {variant:?}"
+                    );
+                    assert_eq!(
+                        globals.contains(&buffer),
+                        present,
+                        "{buffer} in {variant:?}"
+                    );
+                }
+            }
         }
     }
 
