@@ -58,6 +58,10 @@ enum Command {
         /// premultiplied alpha).
         #[arg(long, value_name = "R,G,B", value_parser = parse_background)]
         background: Option<[u8; 3]>,
+        /// Also write the assembled WGSL kernel this render ran (specialised for the scene and
+        /// the mode) to this file.
+        #[arg(long, value_name = "FILE")]
+        emit_shader: Option<PathBuf>,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -211,21 +215,23 @@ fn run(command: Command) -> Result<ExitCode> {
             algorithm,
             spp,
             background,
+            emit_shader,
         } => {
             let mode = Mode {
                 device,
                 precision: precision.unwrap_or(device.default_precision()),
                 algorithm,
             };
-            render(
-                scene.as_deref(),
-                &output,
+            render(&RenderArgs {
+                scene_path: scene.as_deref(),
+                out_dir: &output,
                 size,
-                &format,
+                formats: &format,
                 mode,
                 spp,
                 background,
-            )?;
+                emit_shader: emit_shader.as_deref(),
+            })?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Compare {
@@ -286,17 +292,58 @@ fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
     }
 }
 
-fn render(
-    scene_path: Option<&Path>,
-    out_dir: &Path,
+/// What `raycast render` was asked for.
+struct RenderArgs<'a> {
+    scene_path: Option<&'a Path>,
+    out_dir: &'a Path,
     size: Option<[u32; 2]>,
-    formats: &[Format],
+    formats: &'a [Format],
     mode: Mode,
     spp: Option<u32>,
     background: Option<[u8; 3]>,
-) -> Result<()> {
+    emit_shader: Option<&'a Path>,
+}
+
+/// The kernel a GPU render in `mode` runs first (for adaptive precision: its f32 certainty
+/// pass), specialised for `scene`.
+fn kernel_for(gpu: &Gpu, scene: &Scene, mode: Mode) -> raycast::gpu::shader::Variant {
+    let precision = match mode.precision {
+        Arithmetic::F64 => raycast::math::Precision::F64,
+        _ => raycast::math::Precision::F32,
+    };
+    let variant = gpu.scene_variant(scene, precision, mode.algorithm);
+    raycast::gpu::shader::Variant {
+        certainty: mode.precision == Arithmetic::Adaptive,
+        ..variant
+    }
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let RenderArgs {
+        scene_path,
+        out_dir,
+        size,
+        formats,
+        mode,
+        spp,
+        background,
+        emit_shader,
+    } = *args;
+    if emit_shader.is_some() && mode.device != Device::Gpu {
+        return Err(raycast::Error::Argument {
+            option: "--emit-shader".into(),
+            message: "the CPU reference runs no shader; use --device gpu".into(),
+        });
+    }
     let scene = load(scene_path, size)?;
     output::check_writable(out_dir)?;
+    if let Some(path) = emit_shader {
+        output::check_writable(
+            path.parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .unwrap_or(Path::new(".")),
+        )?;
+    }
     let gpu = gpu_for(&[mode])?;
     let mut recast = None;
     let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu.as_ref()) {
@@ -312,13 +359,18 @@ fn render(
     });
     let written = images?.write(out_dir, formats, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
-    let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
+    let on = gpu.as_ref().map_or("the CPU".to_owned(), |g| g.info().name);
     let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
     say(format!(
         "rendered {} ({nx}x{ny}{samples}, {mode}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
     ));
+    if let (Some(path), Some(g)) = (emit_shader, gpu.as_ref()) {
+        let source = raycast::gpu::shader::kernel_source(&kernel_for(g, &scene, mode))?;
+        output::write_file(path, source.as_bytes())?;
+        say(format!("wrote {}", path.display()));
+    }
     if let Some((fraction, on_gpu)) = recast {
         let on = if on_gpu { "the GPU" } else { "the CPU" };
         say(format!(

@@ -36,7 +36,10 @@ fn scene(objects: &[&str]) -> Scene {
 fn specialised_kernels_render_like_the_general_one() {
     let gpu = common::gpu();
     for bits in 0..16u32 {
-        let objects: Vec<&str> = (0..4).filter(|k| bits & (1 << k) != 0).map(|k| OBJECTS[k]).collect();
+        let objects: Vec<&str> = (0..4)
+            .filter(|k| bits & (1 << k) != 0)
+            .map(|k| OBJECTS[k])
+            .collect();
         let scene = scene(&objects);
         let kinds = Kinds::of_scene(&scene);
         for algorithm in [Textbook, Robust] {
@@ -54,4 +57,50 @@ fn specialised_kernels_render_like_the_general_one() {
             assert!(!kinds.any());
         }
     }
+}
+
+/// `render --emit-shader FILE` writes the kernel that ran: valid WGSL, specialised for the
+/// scene (no triangle code for spheres and a plane), and refuses the CPU device.
+#[test]
+fn emit_shader_writes_the_specialised_kernel() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("kernel.wgsl");
+    let scene = common::repo_path("scenes/course/sphere-and-plane.json");
+    let run = |out: &str, extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--size",
+                "32x18",
+                "--emit-shader",
+            ])
+            .arg(&file)
+            .arg("-o")
+            .arg(dir.path().join(out))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run("out", &[]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let source = std::fs::read_to_string(&file).unwrap();
+    let module = raycast::gpu::shader::validate(&source, "kernel.wgsl").unwrap();
+    let names: Vec<&str> = module
+        .functions
+        .iter()
+        .filter_map(|(_, f)| f.name.as_deref())
+        .collect();
+    assert!(names.contains(&"intersect_sphere") && names.contains(&"intersect_plane"));
+    assert!(!names.contains(&"intersect_triangle"), "{names:?}");
+    std::fs::remove_file(&file).unwrap();
+    let cpu = run("cpu-out", &["--device", "cpu"]);
+    assert_eq!(cpu.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&cpu.stderr).contains("--emit-shader"));
+    assert!(!file.exists() && !dir.path().join("cpu-out").exists());
 }

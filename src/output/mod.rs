@@ -164,6 +164,23 @@ pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
     Ok(temps.into_iter().map(|(_, path)| path).collect())
 }
 
+/// Writes one file whole or not at all: to a temporary name beside it, then renamed.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::io(path, "not a file name"))?
+        .to_string_lossy();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    if let Err(e) = std::fs::write(&tmp, bytes) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(&tmp, format!("cannot write: {e}")));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, format!("cannot write: {e}"))
+    })
+}
+
 /// Encodes and writes `images` into `dir` in `formats`; returns the files written.
 pub fn write_images<T: Real>(
     images: &Images<T>,
