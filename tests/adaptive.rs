@@ -13,25 +13,13 @@ mod common;
 use common::*;
 use raycast::Algorithm::Robust;
 use raycast::adaptive::render_adaptive;
-use raycast::images::{Images, MISS};
+use raycast::images::Images;
 use raycast::scene::Scene;
 
 fn extreme_scenes() -> Vec<(String, Scene)> {
-    let dir = repo_path("scenes/extremes");
-    let mut paths: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
-    paths.sort();
-    paths
+    common::extreme_scenes()
         .into_iter()
-        .map(|p| {
-            (
-                p.file_stem().unwrap().to_string_lossy().into_owned(),
-                Scene::load(&p).unwrap(),
-            )
-        })
+        .map(|(path, scene)| (scene_name(&path), scene))
         .collect()
 }
 
@@ -79,7 +67,7 @@ fn certain_disagreements(scene: &Scene) -> (usize, usize) {
     let (first, certain) = raycast::gpu::render_with_certainty(gpu(), scene).unwrap();
     let truth = raycast::cpu::render::<f64>(scene, Robust);
     let wrong: Vec<usize> = (0..first.len())
-        .filter(|&k| (first.id[k] == MISS) != (truth.id[k] == MISS) || first.id[k] != truth.id[k])
+        .filter(|&k| first.id[k] != truth.id[k])
         .collect();
     let certain_wrong = wrong.iter().filter(|&&k| certain[k]).count();
     (certain_wrong, wrong.len())

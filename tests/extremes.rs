@@ -33,23 +33,17 @@ struct Extreme {
 }
 
 fn extremes() -> Vec<Extreme> {
-    let dir = repo_path("scenes/extremes");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 15, "only {} extreme scenes", paths.len());
-    paths
+    let scenes = common::extreme_scenes();
+    assert!(scenes.len() >= 15, "only {} extreme scenes", scenes.len());
+    scenes
         .into_iter()
-        .map(|path| {
+        .map(|(path, scene)| {
             let text = std::fs::read_to_string(&path).unwrap();
             let json: serde_json::Value = serde_json::from_str(&text).unwrap();
             Extreme {
-                name: path.file_stem().unwrap().to_string_lossy().into_owned(),
-                scene: Scene::load(&path).unwrap(),
+                name: scene_name(&path),
                 comment: json["comment"].clone(),
+                scene,
                 path,
             }
         })

@@ -69,6 +69,16 @@ impl<R: GpuReal> Primitives<R> {
             objects: [p.sphere_objects, p.plane_objects, p.triangle_objects].concat(),
         }
     }
+
+    /// The spheres, planes, triangles and object ids as storage buffers (bindings 1 to 4).
+    fn upload(&self, gpu: &Gpu) -> [wgpu::Buffer; 4] {
+        [
+            storage_buffer(gpu, "spheres", &self.spheres),
+            storage_buffer(gpu, "planes", &self.planes),
+            storage_buffer(gpu, "triangles", &self.triangles),
+            storage_buffer(gpu, "objects", &self.objects),
+        ]
+    }
 }
 
 fn surface_bytes(precision: Precision) -> u64 {
@@ -349,12 +359,7 @@ fn render_pixel_chunk<R: GpuReal>(
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", n * ID_BYTES);
     let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
-    let (spheres, planes, triangles, objects) = (
-        storage_buffer(gpu, "spheres", &prims.spheres),
-        storage_buffer(gpu, "planes", &prims.planes),
-        storage_buffer(gpu, "triangles", &prims.triangles),
-        storage_buffer(gpu, "objects", &prims.objects),
-    );
+    let [spheres, planes, triangles, objects] = prims.upload(gpu);
     let buffers = [
         (0, &params_buffer),
         (1, &spheres),
@@ -555,10 +560,7 @@ fn render_variant<R: GpuReal>(
     let pipeline = pipeline(gpu, variant)?;
     let device = &gpu.device;
 
-    let spheres = storage_buffer(gpu, "spheres", &prims.spheres);
-    let planes = storage_buffer(gpu, "planes", &prims.planes);
-    let triangles = storage_buffer(gpu, "triangles", &prims.triangles);
-    let objects = storage_buffer(gpu, "objects", &prims.objects);
+    let [spheres, planes, triangles, objects] = prims.upload(gpu);
     let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: size_of::<GpuParams<R>>() as u64,

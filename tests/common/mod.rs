@@ -210,3 +210,26 @@ pub fn sphere_mesh(
     }
     t
 }
+
+/// Every scene of `scenes/extremes/`, sorted by file name: (path, scene).
+pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
+    let dir = repo_path("scenes/extremes");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|p| {
+            let scene = raycast::Scene::load(&p).unwrap();
+            (p, scene)
+        })
+        .collect()
+}
+
+/// The file stem of `path`, as a scene name.
+pub fn scene_name(path: &Path) -> String {
+    path.file_stem().unwrap().to_string_lossy().into_owned()
+}
