@@ -36,3 +36,9 @@ struct Params {
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
 #endif
+#if BVH
+// The BVH over spheres and triangles (src/bvh.rs): 64-byte nodes, four vec4<u32> each.
+@group(0) @binding(9) var<storage, read> bvh_nodes: array<vec4<u32>>;
+// Per primitive, in the order of `objects`: its index in the scene's own order (ties).
+@group(0) @binding(10) var<storage, read> prim_order: array<u32>;
+#endif

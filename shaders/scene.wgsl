@@ -1,6 +1,11 @@
-// Nearest-hit search over every primitive (brute force). CPU mirror: src/cpu/scene.rs.
+// Nearest-hit search: over every primitive (brute force), or the planes by brute force and the
+// rest through the BVH (BVH; shaders/bvh.wgsl). CPU mirror: src/cpu/scene.rs.
 #import types
 #import bindings
+#import hit
+#if BVH
+#import bvh
+#endif
 #if SPHERES
 #import sphere
 #endif
@@ -10,29 +15,6 @@
 #if TRIANGLES
 #import triangle
 #endif
-
-const KIND_SPHERE: u32 = 0u;
-const KIND_PLANE: u32 = 1u;
-const KIND_TRIANGLE: u32 = 2u;
-
-struct Hit {
-    t: real,
-    object: i32,          // -1: no hit
-    kind: u32,
-    index: u32,           // into the buffer of its kind
-}
-
-// Ties in t go to the lower object id, then the lower primitive index, so the answer does not
-// depend on the order primitives are visited (the course visits objects in file order).
-fn is_closer(t: real, object: u32, index: u32, best: Hit) -> bool {
-    if (t == NO_HIT) {
-        return false;
-    }
-    if (best.object < 0 || t < best.t) {
-        return true;
-    }
-    return t == best.t && (i32(object) < best.object || (i32(object) == best.object && index < best.index));
-}
 
 #if CERTAINTY
 // A decision kept for the certainty test: where, for which object, how well conditioned.
@@ -130,6 +112,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     certainty = Certainty(false, true, false, 1.0, none, none, none);
 #endif
 #if SPHERES
+#if !BVH
     for (var k = 0u; k < params.sphere_count; k++) {
         let t = intersect_sphere(ray, spheres[k], min_t);
         let object = objects[k];
@@ -141,6 +124,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
             best = Hit(t, i32(object), KIND_SPHERE, k);
         }
     }
+#endif
 #endif
     let plane_base = params.sphere_count;
 #if PLANES
@@ -158,6 +142,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
 #endif
     let triangle_base = plane_base + params.plane_count;
 #if TRIANGLES
+#if !BVH
     for (var k = 0u; k < params.triangle_count; k++) {
         let t = intersect_triangle(ray, triangles[k], min_t);
         let object = objects[triangle_base + k];
@@ -169,6 +154,10 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
             best = Hit(t, i32(object), KIND_TRIANGLE, k);
         }
     }
+#endif
+#endif
+#if BVH
+    traverse_bvh(ray, min_t, &best);
 #endif
     return best;
 }

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::algorithm::Algorithm;
+use crate::bvh::Accel;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu};
@@ -228,7 +229,8 @@ fn cpu_with_progress<T: crate::math::Real>(
     let rows = scene.camera.resolution[1];
     let done = AtomicU32::new(0);
     std::thread::scope(|s| {
-        let worker = s.spawn(|| cpu::render_with_progress::<T>(scene, algorithm, &done));
+        let worker =
+            s.spawn(|| cpu::render_with_progress::<T>(scene, algorithm, Accel::Auto, &done));
         let start = Instant::now();
         let mut bar: Option<indicatif::ProgressBar> = None;
         while !worker.is_finished() {

@@ -5,7 +5,9 @@
 //! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
+pub mod bvh;
 pub mod camera;
+pub mod hit;
 pub mod main;
 pub mod margin;
 pub mod plane;
@@ -19,24 +21,32 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
+use crate::bvh::Accel;
 use crate::images::{Images, MISS, Pixel};
 use crate::math::Real;
 use crate::scene::Scene;
 use types::Primitives;
 
-/// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`.
+/// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`,
+/// through a BVH where it pays.
 pub fn render<T: Real>(scene: &Scene, algorithm: Algorithm) -> Images<T> {
-    render_with_progress(scene, algorithm, &AtomicU32::new(0))
+    render_with_progress(scene, algorithm, Accel::Auto, &AtomicU32::new(0))
 }
 
-/// As [`render`], counting finished rows in `rows_done` (for a progress display).
+/// As [`render`], searching with `accel` (for example brute force, the BVH's oracle).
+pub fn render_with<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Images<T> {
+    render_with_progress(scene, algorithm, accel, &AtomicU32::new(0))
+}
+
+/// As [`render_with`], counting finished rows in `rows_done` (for a progress display).
 pub fn render_with_progress<T: Real>(
     scene: &Scene,
     algorithm: Algorithm,
+    accel: Accel,
     rows_done: &AtomicU32,
 ) -> Images<T> {
     let frame = types::kernel_frame(scene, algorithm).cast::<T>();
-    let prims = Primitives::<T>::new(scene, algorithm);
+    let prims = Primitives::<T>::for_render(scene, algorithm, accel);
     let robust = algorithm == Algorithm::Robust;
     let mut images = Images::new_miss(frame.nx, frame.ny, scene.camera.focal_length);
     let width = frame.nx as usize;
@@ -75,7 +85,7 @@ pub fn render_pixels<T: Real>(
     pixels: &[usize],
 ) -> Vec<Pixel<T>> {
     let frame = types::kernel_frame(scene, algorithm).cast::<T>();
-    let prims = Primitives::<T>::new(scene, algorithm);
+    let prims = Primitives::<T>::for_render(scene, algorithm, Accel::Auto);
     let width = frame.nx as usize;
     pixels
         .par_iter()

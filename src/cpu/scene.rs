@@ -1,37 +1,13 @@
-//! Mirror of shaders/scene.wgsl: the nearest hit over every primitive (brute force).
+//! Mirror of shaders/scene.wgsl: the nearest hit over every primitive (brute force), or the
+//! planes by brute force and the rest through the BVH (src/cpu/bvh.rs).
 
+use super::bvh::traverse_bvh;
+pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::triangle::{intersect_triangle, triangle_normal};
-use super::types::{Primitives, Ray, no_hit, t_far};
+use super::types::{Primitives, Ray, t_far};
 use crate::math::{Real, Vec3};
-
-pub const KIND_SPHERE: u32 = 0;
-pub const KIND_PLANE: u32 = 1;
-pub const KIND_TRIANGLE: u32 = 2;
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit<T> {
-    pub t: T,
-    /// -1: no hit.
-    pub object: i32,
-    pub kind: u32,
-    /// Into the list of its kind.
-    pub index: u32,
-}
-
-/// Ties in t go to the lower object id, then the lower primitive index, so the answer does not
-/// depend on the order primitives are visited.
-pub fn is_closer<T: Real>(t: T, object: u32, index: u32, best: &Hit<T>) -> bool {
-    if t == no_hit() {
-        return false;
-    }
-    if best.object < 0 || t < best.t {
-        return true;
-    }
-    t == best.t
-        && ((object as i32) < best.object || (object as i32 == best.object && index < best.index))
-}
 
 pub fn nearest_hit<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
@@ -44,17 +20,8 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
         kind: 0,
         index: 0,
     };
-    for (k, sphere) in prims.spheres.iter().enumerate() {
-        let t = intersect_sphere::<T, ROBUST>(ray, sphere, min_t);
-        let object = prims.sphere_objects[k];
-        if is_closer(t, object, k as u32, &best) {
-            best = Hit {
-                t,
-                object: object as i32,
-                kind: KIND_SPHERE,
-                index: k as u32,
-            };
-        }
+    if prims.bvh.is_none() {
+        nearest_sphere::<T, ROBUST>(ray, min_t, prims, &mut best);
     }
     for (k, plane) in prims.planes.iter().enumerate() {
         let t = intersect_plane::<T, ROBUST>(ray, plane, min_t);
@@ -68,11 +35,44 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
             };
         }
     }
+    match &prims.bvh {
+        None => nearest_triangle::<T, ROBUST>(ray, min_t, prims, &mut best),
+        Some(bvh) => traverse_bvh::<T, ROBUST>(ray, min_t, prims, &bvh.nodes, &mut best),
+    }
+    best
+}
+
+fn nearest_sphere<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    best: &mut Hit<T>,
+) {
+    for (k, sphere) in prims.spheres.iter().enumerate() {
+        let t = intersect_sphere::<T, ROBUST>(ray, sphere, min_t);
+        let object = prims.sphere_objects[k];
+        if is_closer(t, object, k as u32, best) {
+            *best = Hit {
+                t,
+                object: object as i32,
+                kind: KIND_SPHERE,
+                index: k as u32,
+            };
+        }
+    }
+}
+
+fn nearest_triangle<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    best: &mut Hit<T>,
+) {
     for (k, tri) in prims.triangles.iter().enumerate() {
         let t = intersect_triangle::<T, ROBUST>(ray, tri, min_t);
         let object = prims.triangle_objects[k];
-        if is_closer(t, object, k as u32, &best) {
-            best = Hit {
+        if is_closer(t, object, k as u32, best) {
+            *best = Hit {
                 t,
                 object: object as i32,
                 kind: KIND_TRIANGLE,
@@ -80,7 +80,6 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
             };
         }
     }
-    best
 }
 
 /// The normal of the nearest hit, computed once rather than for every candidate.

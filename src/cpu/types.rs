@@ -1,7 +1,10 @@
 //! Mirror of shaders/types.wgsl: the kernel's value types, and the scene's primitives in the
 //! kernel's precision (the GPU path uploads exactly these values).
 
+use std::sync::Arc;
+
 use crate::algorithm::Algorithm;
+use crate::bvh::Bvh;
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Object, Scene};
 
@@ -55,6 +58,7 @@ pub struct Triangle<T> {
 
 /// A scene's primitives rounded to precision `T`, by kind, each with its object id
 /// (`objects` in shaders/bindings.wgsl holds the ids in the order spheres, planes, triangles).
+/// With a BVH, spheres and triangles are stored in its order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Primitives<T> {
     pub spheres: Vec<Sphere<T>>,
@@ -63,6 +67,8 @@ pub struct Primitives<T> {
     pub sphere_objects: Vec<u32>,
     pub plane_objects: Vec<u32>,
     pub triangle_objects: Vec<u32>,
+    /// The BVH the spheres and triangles are ordered by, if the render uses one.
+    pub bvh: Option<Arc<Bvh>>,
 }
 
 /// Where the kernel's coordinates are measured from: the world origin for
@@ -95,6 +101,7 @@ impl<T: Real> Primitives<T> {
             sphere_objects: Vec::new(),
             plane_objects: Vec::new(),
             triangle_objects: Vec::new(),
+            bvh: None,
         };
         for (id, object) in scene.objects.iter().enumerate() {
             let id = id as u32;
@@ -124,6 +131,45 @@ impl<T: Real> Primitives<T> {
             }
         }
         p
+    }
+
+    /// The primitives for a render searching with `accel`: through a BVH built here, or not.
+    pub fn for_render(scene: &Scene, algorithm: Algorithm, accel: crate::bvh::Accel) -> Self {
+        if accel.uses_bvh(scene) {
+            Primitives::with_bvh(scene, algorithm, Arc::new(Bvh::build(scene, algorithm)))
+        } else {
+            Primitives::new(scene, algorithm)
+        }
+    }
+
+    /// [`Primitives::new`] with the spheres and triangles in the order of `bvh` (built by
+    /// [`Bvh::build`] for the same scene and algorithm), which the traversal then uses.
+    pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
+        let p = Primitives::new(scene, algorithm);
+        let permute = |order: &[u32]| order.iter().map(|k| *k as usize).collect::<Vec<_>>();
+        let (s, t) = (permute(&bvh.sphere_order), permute(&bvh.triangle_order));
+        Primitives {
+            spheres: s.iter().map(|&k| p.spheres[k]).collect(),
+            sphere_objects: s.iter().map(|&k| p.sphere_objects[k]).collect(),
+            triangles: t.iter().map(|&k| p.triangles[k]).collect(),
+            triangle_objects: t.iter().map(|&k| p.triangle_objects[k]).collect(),
+            planes: p.planes,
+            plane_objects: p.plane_objects,
+            bvh: Some(bvh),
+        }
+    }
+
+    /// The index in the scene's own order of sphere `k` of this list (ties between primitives
+    /// of one object go to the lower one, whatever order they are stored in).
+    pub fn sphere_key(&self, k: u32) -> u32 {
+        self.bvh.as_ref().map_or(k, |b| b.sphere_order[k as usize])
+    }
+
+    /// As [`Primitives::sphere_key`], for triangle `k`.
+    pub fn triangle_key(&self, k: u32) -> u32 {
+        self.bvh
+            .as_ref()
+            .map_or(k, |b| b.triangle_order[k as usize])
     }
 
     fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle, origin: Vec3<f64>) {

@@ -35,15 +35,20 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// The kernel variant for `scene`: only its primitive kinds compiled in.
+    /// The kernel variant for `scene`: only its primitive kinds compiled in, and a BVH where it
+    /// pays ([`crate::bvh::worth_it`]).
     pub fn scene_variant(
         &self,
         scene: &crate::scene::Scene,
         precision: crate::math::Precision,
         algorithm: crate::Algorithm,
     ) -> Variant {
-        self.variant(precision, algorithm)
-            .with_kinds(shader::Kinds::of_scene(scene))
+        Variant {
+            bvh: crate::bvh::worth_it(scene),
+            ..self
+                .variant(precision, algorithm)
+                .with_kinds(shader::Kinds::of_scene(scene))
+        }
     }
 
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
@@ -59,6 +64,7 @@ impl Gpu {
             certainty: false,
             pixel_list: false,
             kinds: shader::Kinds::ALL,
+            bvh: false,
         }
     }
 

@@ -10,6 +10,7 @@ use super::layout::{
 };
 use super::shader::{self, Variant};
 use crate::algorithm::Algorithm;
+use crate::bvh::{Accel, BvhNode};
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS, Pixel};
@@ -24,17 +25,39 @@ const SURFACE_REALS: u64 = 4;
 const ID_BYTES: u64 = 4;
 
 /// A scene's primitives in the GPU's layout (from the same rounded values the CPU reference
-/// uses), and the object id of each: spheres first, then planes, then triangles.
+/// uses), and the object id of each: spheres first, then planes, then triangles. With a BVH,
+/// spheres and triangles are in its order, and `order` holds each one's index in the scene's.
 struct Primitives<R> {
     spheres: Vec<GpuSphere<R>>,
     planes: Vec<GpuPlane<R>>,
     triangles: Vec<GpuTriangle<R>>,
     objects: Vec<u32>,
+    nodes: Vec<BvhNode>,
+    order: Vec<u32>,
 }
 
 impl<R: GpuReal> Primitives<R> {
-    fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<R> {
-        let p = cpu::types::Primitives::<R>::new(scene, algorithm);
+    /// The primitives for `variant`'s kernel (through a BVH where it uses one).
+    fn new(scene: &Scene, variant: &Variant) -> Primitives<R> {
+        let accel = if variant.uses_bvh() {
+            Accel::Bvh
+        } else {
+            Accel::BruteForce
+        };
+        let p = cpu::types::Primitives::<R>::for_render(scene, variant.algorithm, accel);
+        let (nodes, order) = match &p.bvh {
+            Some(bvh) => {
+                let planes = 0..p.planes.len() as u32;
+                let order = [
+                    &bvh.sphere_order[..],
+                    &planes.collect::<Vec<_>>(),
+                    &bvh.triangle_order,
+                ]
+                .concat();
+                (bvh.nodes.clone(), order)
+            }
+            None => (Vec::new(), Vec::new()),
+        };
         Primitives {
             spheres: p
                 .spheres
@@ -67,16 +90,45 @@ impl<R: GpuReal> Primitives<R> {
                 })
                 .collect(),
             objects: [p.sphere_objects, p.plane_objects, p.triangle_objects].concat(),
+            nodes,
+            order,
         }
     }
 
-    /// The spheres, planes, triangles and object ids as storage buffers (bindings 1 to 4).
-    fn upload(&self, gpu: &Gpu) -> [wgpu::Buffer; 4] {
+    /// The spheres, planes, triangles and object ids as storage buffers (bindings 1 to 4),
+    /// and the BVH's nodes and primitive order (bindings 9 and 10).
+    fn upload(&self, gpu: &Gpu) -> Uploaded {
+        Uploaded {
+            spheres: storage_buffer(gpu, "spheres", &self.spheres),
+            planes: storage_buffer(gpu, "planes", &self.planes),
+            triangles: storage_buffer(gpu, "triangles", &self.triangles),
+            objects: storage_buffer(gpu, "objects", &self.objects),
+            nodes: storage_buffer(gpu, "bvh_nodes", &self.nodes),
+            order: storage_buffer(gpu, "prim_order", &self.order),
+        }
+    }
+}
+
+/// The scene's buffers on the device.
+struct Uploaded {
+    spheres: wgpu::Buffer,
+    planes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    objects: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    order: wgpu::Buffer,
+}
+
+impl Uploaded {
+    /// The scene's bindings: (binding number, buffer).
+    fn entries(&self) -> [(u32, &wgpu::Buffer); 6] {
         [
-            storage_buffer(gpu, "spheres", &self.spheres),
-            storage_buffer(gpu, "planes", &self.planes),
-            storage_buffer(gpu, "triangles", &self.triangles),
-            storage_buffer(gpu, "objects", &self.objects),
+            (1, &self.spheres),
+            (2, &self.planes),
+            (3, &self.triangles),
+            (4, &self.objects),
+            (9, &self.nodes),
+            (10, &self.order),
         ]
     }
 }
@@ -144,6 +196,7 @@ fn bind_entries<'a>(
             2 => k.planes,
             3 => k.triangles,
             4 => k.any(),
+            9 | 10 => variant.uses_bvh(),
             _ => true,
         })
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
@@ -295,7 +348,11 @@ fn pixels_inner<R: GpuReal>(
     if pixels.is_empty() {
         return Ok((Vec::new(), kernel_s));
     }
-    let prims = Primitives::<R>::new(scene, algorithm);
+    let variant = Variant {
+        pixel_list: true,
+        ..gpu.scene_variant(scene, R::PRECISION, algorithm)
+    };
+    let prims = Primitives::<R>::new(scene, &variant);
     check_limits(gpu, scene, &prims)?;
     let limits = gpu.device.limits();
     let max_binding = limits
@@ -307,7 +364,7 @@ fn pixels_inner<R: GpuReal>(
         out.extend(render_pixel_chunk::<R>(
             gpu,
             scene,
-            algorithm,
+            variant,
             &prims,
             part,
             timer.as_ref(),
@@ -322,15 +379,12 @@ fn pixels_inner<R: GpuReal>(
 fn render_pixel_chunk<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
-    algorithm: Algorithm,
+    variant: Variant,
     prims: &Primitives<R>,
     pixels: &[usize],
     timer: Option<&PassTimer>,
 ) -> Result<Vec<Pixel<R>>> {
-    let variant = Variant {
-        pixel_list: true,
-        ..gpu.scene_variant(scene, R::PRECISION, algorithm)
-    };
+    let algorithm = variant.algorithm;
     let pipeline = pipeline(gpu, variant)?;
     let device = &gpu.device;
     let [nx, ny] = scene.camera.resolution;
@@ -359,17 +413,9 @@ fn render_pixel_chunk<R: GpuReal>(
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", n * ID_BYTES);
     let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
-    let [spheres, planes, triangles, objects] = prims.upload(gpu);
-    let buffers = [
-        (0, &params_buffer),
-        (1, &spheres),
-        (2, &planes),
-        (3, &triangles),
-        (4, &objects),
-        (5, &surface),
-        (6, &ids),
-        (7, &list),
-    ];
+    let uploaded = prims.upload(gpu);
+    let mut buffers = vec![(0, &params_buffer), (5, &surface), (6, &ids), (7, &list)];
+    buffers.extend(uploaded.entries());
     let entries = bind_entries(&variant, &buffers);
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast pixel list"),
@@ -553,14 +599,14 @@ fn render_variant<R: GpuReal>(
     timed: bool,
 ) -> Result<Rendered<R>> {
     let algorithm = variant.algorithm;
-    let prims = Primitives::<R>::new(scene, algorithm);
+    let prims = Primitives::<R>::new(scene, &variant);
     let tile_rows = check_limits(gpu, scene, &prims)?;
     let [nx, ny] = scene.camera.resolution;
     let frame = cpu::types::kernel_frame(scene, algorithm);
     let pipeline = pipeline(gpu, variant)?;
     let device = &gpu.device;
 
-    let [spheres, planes, triangles, objects] = prims.upload(gpu);
+    let uploaded = prims.upload(gpu);
     let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: size_of::<GpuParams<R>>() as u64,
@@ -580,15 +626,8 @@ fn render_variant<R: GpuReal>(
         gpu,
         surface_size + id_size * if certain.is_some() { 2 } else { 1 },
     );
-    let mut entries = vec![
-        (0, &params_buffer),
-        (1, &spheres),
-        (2, &planes),
-        (3, &triangles),
-        (4, &objects),
-        (5, &surface),
-        (6, &ids),
-    ];
+    let mut entries = vec![(0, &params_buffer), (5, &surface), (6, &ids)];
+    entries.extend(uploaded.entries());
     if let Some(c) = &certain {
         entries.push((7, c));
     }

@@ -62,6 +62,9 @@ pub struct Variant {
     pub pixel_list: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
+    /// Spheres and triangles are found through a BVH (src/bvh.rs) instead of brute force.
+    /// Not combined with `certainty`, whose test needs every primitive's decision.
+    pub bvh: bool,
 }
 
 impl Variant {
@@ -73,6 +76,7 @@ impl Variant {
             certainty: false,
             pixel_list: false,
             kinds: Kinds::ALL,
+            bvh: false,
         }
     }
 
@@ -84,7 +88,7 @@ impl Variant {
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
-    /// compiled in).
+    /// compiled in), `BVH` (spheres and triangles through the BVH).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -102,6 +106,9 @@ impl Variant {
         if self.pixel_list {
             d.push("PIXEL_LIST");
         }
+        if self.uses_bvh() {
+            d.push("BVH");
+        }
         for (present, name) in [
             (self.kinds.spheres, "SPHERES"),
             (self.kinds.planes, "PLANES"),
@@ -115,6 +122,14 @@ impl Variant {
     }
 }
 
+impl Variant {
+    /// Whether the kernel traverses a BVH: asked for, something bounded to put in it, and no
+    /// certainty test.
+    pub fn uses_bvh(&self) -> bool {
+        self.bvh && !self.certainty && (self.kinds.spheres || self.kinds.triangles)
+    }
+}
+
 /// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. One more module,
 /// `precision`, is generated: `alias real = f32;` or `alias real = f64;`.
 pub const MODULES: &[(&str, &str)] = &[
@@ -124,6 +139,8 @@ pub const MODULES: &[(&str, &str)] = &[
     ("sphere", include_str!("../../shaders/sphere.wgsl")),
     ("plane", include_str!("../../shaders/plane.wgsl")),
     ("triangle", include_str!("../../shaders/triangle.wgsl")),
+    ("hit", include_str!("../../shaders/hit.wgsl")),
+    ("bvh", include_str!("../../shaders/bvh.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
     ("main", include_str!("../../shaders/main.wgsl")),
 ];
@@ -280,7 +297,8 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 }
 
 /// Every variant a device may build: both precisions, both algorithms, with and without f64,
-/// the robust ones with and without the certainty test, and the pixel-list ones.
+/// the robust ones with and without the certainty test, and the pixel-list ones, each with and
+/// without a BVH.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
@@ -291,14 +309,17 @@ pub fn all_variants() -> Vec<Variant> {
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
                     }
-                    v.push(Variant {
-                        precision,
-                        algorithm,
-                        f64_available,
-                        certainty,
-                        pixel_list,
-                        kinds: Kinds::ALL,
-                    });
+                    for bvh in [false, true] {
+                        v.push(Variant {
+                            precision,
+                            algorithm,
+                            f64_available,
+                            certainty,
+                            pixel_list,
+                            kinds: Kinds::ALL,
+                            bvh,
+                        });
+                    }
                 }
             }
         }
@@ -327,7 +348,9 @@ mod tests {
         listed.sort();
         assert_eq!(on_disk, listed, "shaders/ and MODULES differ");
         for (name, _) in MODULES {
-            for variant in all_variants() {
+            // The traversal module needs the BVH's bindings.
+            let variants = all_variants().into_iter();
+            for variant in variants.filter(|v| *name != "bvh" || v.uses_bvh()) {
                 let source = assemble(name, &variant).unwrap();
                 let label = format!("shaders/{name}.wgsl ({variant:?})");
                 if let Err(e) = validate(&source, &label) {
@@ -346,7 +369,11 @@ mod tests {
 
     #[test]
     fn each_module_is_included_once() {
-        let source = kernel_source(&Variant::new(Precision::F64, Algorithm::Robust)).unwrap();
+        let variant = Variant {
+            bvh: true,
+            ..Variant::new(Precision::F64, Algorithm::Robust)
+        };
+        let source = kernel_source(&variant).unwrap();
         assert!(source.contains("alias real = f64;"));
         for (name, _) in MODULES {
             let banner = format!("// ---- shaders/{name}.wgsl\n");

@@ -1,0 +1,156 @@
+// Nearest-hit search over the spheres and triangles through the BVH built on the host
+// (src/bvh.rs). CPU mirror: src/cpu/bvh.rs.
+#import types
+#import bindings
+#import hit
+#if SPHERES
+#import sphere
+#endif
+#if TRIANGLES
+#import triangle
+#endif
+
+// At least MAX_DEPTH in src/bvh.rs: one entry per level at most is waiting.
+const BVH_STACK: u32 = 40u;
+const LEAF_BIT: u32 = 0x80000000u;
+const SPHERE_LEAF: u32 = 0x80000000u;
+// Relative widening of every slab interval: far above the rounding of the box test, so a box
+// is skipped only when the ray certainly misses it (boxes were grown on the host as well).
+const BOX_SLACK: real = 1.52587890625e-5;  // 2^-16
+
+// What the traversal needs of the ray: which direction components are zero (their slab is
+// all or nothing) and the inverse of the others.
+struct RayInverse {
+    zero: vec3<bool>,
+    inv: vec3<real>,
+}
+
+fn ray_inverse(ray: Ray) -> RayInverse {
+    let zero = ray.direction == vec3<real>(0.0);
+    return RayInverse(zero, 1.0 / select(ray.direction, vec3<real>(1.0), zero));
+}
+
+// Where the ray enters the box (0 if it starts inside), or NO_HIT when it misses the box, leaves
+// it before min_t, or enters it beyond t_max.
+fn box_entry(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> real {
+    let lo_r = vec3<real>(lo);
+    let hi_r = vec3<real>(hi);
+    let a = (lo_r - ray.origin) * ri.inv;
+    let b = (hi_r - ray.origin) * ri.inv;
+    let inside = (lo_r <= ray.origin) & (ray.origin <= hi_r);
+    let open = select(vec3<real>(T_FAR), vec3<real>(-T_FAR), inside);
+    let t0 = select(min(a, b), open, ri.zero);
+    let t1 = select(max(a, b), -open, ri.zero);
+    var t_in = max(t0.x, max(t0.y, t0.z));
+    var t_out = min(t1.x, min(t1.y, t1.z));
+    t_in = t_in - BOX_SLACK * abs(t_in);
+    t_out = t_out + BOX_SLACK * abs(t_out);
+    if (t_in <= t_out && t_out >= min_t && t_in <= t_max) {
+        return max(t_in, 0.0);
+    }
+    return NO_HIT;
+}
+
+// is_closer (scene.wgsl) for a primitive stored at `index` in BVH order: ties within one object
+// go to the lower index in the scene's order, as in brute force. `base` is the kind's offset in
+// `objects` and `prim_order`.
+fn is_closer_ordered(t: real, object: u32, index: u32, base: u32, best: Hit) -> bool {
+    if (t == NO_HIT) {
+        return false;
+    }
+    if (best.object < 0 || t < best.t) {
+        return true;
+    }
+    if (t != best.t) {
+        return false;
+    }
+    if (i32(object) != best.object) {
+        return i32(object) < best.object;
+    }
+    return prim_order[base + index] < prim_order[base + best.index];
+}
+
+// Tests the `count` primitives of a leaf from `first`.
+fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
+    let n = count & ~SPHERE_LEAF;
+    if ((count & SPHERE_LEAF) != 0u) {
+#if SPHERES
+        for (var k = first; k < first + n; k++) {
+            let t = intersect_sphere(ray, spheres[k], min_t);
+            if (t != NO_HIT) {
+                let object = objects[k];
+                if (is_closer_ordered(t, object, k, 0u, *best)) {
+                    *best = Hit(t, i32(object), KIND_SPHERE, k);
+                }
+            }
+        }
+#endif
+    } else {
+#if TRIANGLES
+        let base = params.sphere_count + params.plane_count;
+        for (var k = first; k < first + n; k++) {
+            let t = intersect_triangle(ray, triangles[k], min_t);
+            if (t != NO_HIT) {
+                let object = objects[base + k];
+                if (is_closer_ordered(t, object, k, base, *best)) {
+                    *best = Hit(t, i32(object), KIND_TRIANGLE, k);
+                }
+            }
+        }
+#endif
+    }
+}
+
+// Ordered traversal: of two children hit, leaves are tested at once and the nearer inner node
+// is visited first, the farther one waiting on a short stack with its entry distance, skipped
+// when popped if a hit nearer than that entry has been found.
+fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
+    let ri = ray_inverse(ray);
+    var stack_node: array<u32, BVH_STACK>;
+    var stack_t: array<real, BVH_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        // One node is four vec4<u32>: fewer, wider loads.
+        let q0 = bvh_nodes[4u * node];
+        let q1 = bvh_nodes[4u * node + 1u];
+        let q2 = bvh_nodes[4u * node + 2u];
+        let q3 = bvh_nodes[4u * node + 3u];
+        let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
+        let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
+        let leaf0 = (q0.w & LEAF_BIT) != 0u;
+        let leaf1 = (q2.w & LEAF_BIT) != 0u;
+        if (t0 != NO_HIT && leaf0) {
+            intersect_leaf(ray, min_t, q0.w & ~LEAF_BIT, q1.w, best);
+        }
+        if (t1 != NO_HIT && leaf1) {
+            intersect_leaf(ray, min_t, q2.w & ~LEAF_BIT, q3.w, best);
+        }
+        let go0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
+        let go1 = t1 != NO_HIT && !leaf1 && t1 <= (*best).t;
+        if (go0 && go1) {
+            let first0 = t0 <= t1;
+            stack_node[sp] = select(q0.w, q2.w, first0);
+            stack_t[sp] = select(t0, t1, first0);
+            sp++;
+            node = select(q2.w, q0.w, first0);
+        } else if (go0) {
+            node = q0.w;
+        } else if (go1) {
+            node = q2.w;
+        } else {
+            var next = false;
+            while (sp > 0u) {
+                sp--;
+                if (stack_t[sp] <= (*best).t) {
+                    node = stack_node[sp];
+                    next = true;
+                    break;
+                }
+            }
+            if (!next) {
+                break;
+            }
+        }
+    }
+}

@@ -1,0 +1,609 @@
+//! The bounding volume hierarchy over a scene's bounded primitives (spheres and triangles):
+//! built on the host with a binned surface-area heuristic (SAH), in parallel, and flattened
+//! into one array of [`BvhNode`]s that the WGSL kernel (shaders/bvh.wgsl) and the CPU reference
+//! (src/cpu/bvh.rs) traverse the same way. Planes are unbounded and stay outside it.
+//!
+//! Correctness first: a node is skipped only when the ray certainly misses every primitive in
+//! it, so the BVH finds exactly the hits brute force finds. Boxes are grown by a relative
+//! margin far above the rounding error of the intersection tests and rounded outward to f32,
+//! and the traversal widens its slab interval too (`BOX_SLACK`), so a hit that a watertight
+//! test reports right on an edge is never culled by a box test rounded the other way.
+
+use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
+
+use crate::algorithm::Algorithm;
+use crate::cpu::types::{kernel_frame, kernel_origin};
+use crate::math::{Vec3, length};
+use crate::scene::{Object, Scene};
+
+/// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
+/// per level, so `BVH_STACK` in shaders/bvh.wgsl must be at least this.
+pub const MAX_DEPTH: usize = 40;
+/// Below this many spheres and triangles brute force is about as fast (measured with
+/// `examples/bvh_crossover.rs`), so no BVH is built.
+pub const CROSSOVER: usize = 32;
+
+/// How the nearest hit is searched for among spheres and triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Accel {
+    /// A BVH from [`CROSSOVER`] bounded primitives on.
+    #[default]
+    Auto,
+    Bvh,
+    BruteForce,
+}
+
+impl Accel {
+    /// Whether `scene` is rendered through a BVH.
+    pub fn uses_bvh(self, scene: &Scene) -> bool {
+        match self {
+            Accel::Auto => worth_it(scene),
+            Accel::Bvh => true,
+            Accel::BruteForce => false,
+        }
+    }
+}
+
+impl std::str::FromStr for Accel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Accel::Auto),
+            "bvh" => Ok(Accel::Bvh),
+            "brute-force" => Ok(Accel::BruteForce),
+            _ => Err(format!(
+                "unknown acceleration `{s}` (auto, bvh, brute-force)"
+            )),
+        }
+    }
+}
+
+/// Whether `scene` has enough spheres and triangles for a BVH to pay.
+pub fn worth_it(scene: &Scene) -> bool {
+    bounded_count(scene) >= CROSSOVER
+}
+
+/// How many spheres and triangles `scene` has.
+pub fn bounded_count(scene: &Scene) -> usize {
+    scene
+        .objects
+        .iter()
+        .map(|o| match o {
+            Object::Sphere { .. } | Object::Triangle { .. } => 1,
+            Object::Soup { triangles, .. } => triangles.len(),
+            Object::Plane { .. } => 0,
+        })
+        .sum()
+}
+
+/// Set in a child's `reference` when it is a leaf (the rest is its first primitive).
+pub const LEAF_BIT: u32 = 1 << 31;
+/// Set in a leaf's `count` when its primitives are spheres (else triangles).
+pub const SPHERE_LEAF: u32 = 1 << 31;
+/// Relative growth of every primitive's box before the build: 2^-18, about 64 f32 ulps of the
+/// coordinates, far above what the f32 intersection tests can be off by.
+const GROWTH: f64 = 1.0 / 262_144.0;
+/// Candidate split planes per axis are the boundaries of this many bins.
+const BINS: usize = 16;
+/// Nodes with more primitives are always split (unless they cannot be).
+const MAX_LEAF: usize = 8;
+/// SAH costs relative to one primitive test.
+const TRAVERSAL_COST: f64 = 1.0;
+/// Nodes with more primitives are built with their two halves in parallel.
+const PARALLEL_ITEMS: usize = 4096;
+
+/// One interior node: the boxes of its two children and where they are. 64 bytes, read in the
+/// kernel as four `vec4<u32>`. Offsets in bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub lo0: [f32; 3],   // offset 0: child 0 box
+    pub reference0: u32, // offset 12: node index, or LEAF_BIT | first primitive
+    pub hi0: [f32; 3],   // offset 16
+    pub count0: u32,     // offset 28: leaf primitives (| SPHERE_LEAF), 0 for a node
+    pub lo1: [f32; 3],   // offset 32: child 1 box
+    pub reference1: u32, // offset 44
+    pub hi1: [f32; 3],   // offset 48
+    pub count1: u32,     // offset 60
+} // size 64
+
+// The kernel reads a node as four vec4<u32> (shaders/bvh.wgsl).
+const _: () = assert!(size_of::<BvhNode>() == 64);
+
+/// A child as its parent stores it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Child {
+    pub lo: [f32; 3],
+    pub hi: [f32; 3],
+    pub reference: u32,
+    pub count: u32,
+}
+
+impl BvhNode {
+    fn new(c0: Child, c1: Child) -> BvhNode {
+        BvhNode {
+            lo0: c0.lo,
+            reference0: c0.reference,
+            hi0: c0.hi,
+            count0: c0.count,
+            lo1: c1.lo,
+            reference1: c1.reference,
+            hi1: c1.hi,
+            count1: c1.count,
+        }
+    }
+
+    /// Child `k` (0 or 1).
+    pub fn child(&self, k: usize) -> Child {
+        if k == 0 {
+            Child {
+                lo: self.lo0,
+                hi: self.hi0,
+                reference: self.reference0,
+                count: self.count0,
+            }
+        } else {
+            Child {
+                lo: self.lo1,
+                hi: self.hi1,
+                reference: self.reference1,
+                count: self.count1,
+            }
+        }
+    }
+}
+
+/// A flattened BVH: node 0 is the root. Spheres and triangles are stored in BVH order, the
+/// `*_order` lists giving each one's index in the scene's own order (ties between two
+/// primitives of one object go to the lower original index, as in brute force).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bvh {
+    pub nodes: Vec<BvhNode>,
+    pub sphere_order: Vec<u32>,
+    pub triangle_order: Vec<u32>,
+}
+
+/// A primitive's box while building, and its index in its kind's list.
+#[derive(Clone, Copy, Debug)]
+struct Item {
+    lo: Vec3<f64>,
+    hi: Vec3<f64>,
+    index: u32,
+}
+
+impl Item {
+    fn centroid(&self, axis: usize) -> f64 {
+        0.5 * (self.lo.get(axis) + self.hi.get(axis))
+    }
+}
+
+/// An axis-aligned box, empty when `lo > hi`.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb {
+        lo: [f64::INFINITY; 3],
+        hi: [f64::NEG_INFINITY; 3],
+    };
+
+    fn grow(&mut self, lo: Vec3<f64>, hi: Vec3<f64>) {
+        for k in 0..3 {
+            self.lo[k] = self.lo[k].min(lo.get(k));
+            self.hi[k] = self.hi[k].max(hi.get(k));
+        }
+    }
+
+    fn union(mut self, o: Aabb) -> Aabb {
+        for k in 0..3 {
+            self.lo[k] = self.lo[k].min(o.lo[k]);
+            self.hi[k] = self.hi[k].max(o.hi[k]);
+        }
+        self
+    }
+
+    fn half_area(&self) -> f64 {
+        let d = [0, 1, 2].map(|k| (self.hi[k] - self.lo[k]).max(0.0));
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+
+    /// Rounded outward to f32, so it contains every point of the f64 box.
+    fn to_f32(self) -> ([f32; 3], [f32; 3]) {
+        (self.lo.map(round_down), self.hi.map(round_up))
+    }
+}
+
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x { f.next_down() } else { f }
+}
+
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x { f.next_up() } else { f }
+}
+
+fn bounds(items: &[Item]) -> Aabb {
+    if items.len() > PARALLEL_ITEMS {
+        return items
+            .par_chunks(PARALLEL_ITEMS)
+            .map(bounds)
+            .reduce(|| Aabb::EMPTY, Aabb::union);
+    }
+    let mut b = Aabb::EMPTY;
+    items.iter().for_each(|i| b.grow(i.lo, i.hi));
+    b
+}
+
+fn centroid_bounds(items: &[Item]) -> Aabb {
+    if items.len() > PARALLEL_ITEMS {
+        return items
+            .par_chunks(PARALLEL_ITEMS)
+            .map(centroid_bounds)
+            .reduce(|| Aabb::EMPTY, Aabb::union);
+    }
+    let mut b = Aabb::EMPTY;
+    for i in items {
+        let c = Vec3::from_array([0, 1, 2].map(|k| i.centroid(k)));
+        b.grow(c, c);
+    }
+    b
+}
+
+/// A subtree before flattening; leaves are ranges of the item list, which the build leaves
+/// partitioned in BVH order.
+enum Tree {
+    Leaf { start: usize, len: usize },
+    Inner(Box<[(Aabb, Tree); 2]>),
+}
+
+/// Per-bin boxes and counts along one axis.
+#[derive(Clone, Copy)]
+struct Bins {
+    boxes: [Aabb; BINS],
+    counts: [usize; BINS],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        boxes: [Aabb::EMPTY; BINS],
+        counts: [0; BINS],
+    };
+
+    fn merge(mut self, o: Bins) -> Bins {
+        for b in 0..BINS {
+            self.boxes[b] = self.boxes[b].union(o.boxes[b]);
+            self.counts[b] += o.counts[b];
+        }
+        self
+    }
+}
+
+/// Which bin of `axis` an item's centroid falls in, over centroid bounds `cb`.
+fn bin_of(item: &Item, axis: usize, cb: &Aabb) -> usize {
+    let extent = cb.hi[axis] - cb.lo[axis];
+    let b = ((item.centroid(axis) - cb.lo[axis]) / extent * BINS as f64) as usize;
+    b.min(BINS - 1)
+}
+
+fn fill_bins(items: &[Item], axis: usize, cb: &Aabb) -> Bins {
+    if items.len() > PARALLEL_ITEMS {
+        return items
+            .par_chunks(PARALLEL_ITEMS)
+            .map(|c| fill_bins(c, axis, cb))
+            .reduce(|| Bins::EMPTY, Bins::merge);
+    }
+    let mut bins = Bins::EMPTY;
+    for i in items {
+        let b = bin_of(i, axis, cb);
+        bins.boxes[b].grow(i.lo, i.hi);
+        bins.counts[b] += 1;
+    }
+    bins
+}
+
+/// The cheapest split of `axis`: (SAH cost relative to one primitive test, first bin of the
+/// right side).
+fn best_split_of_axis(bins: &Bins, parent_area: f64) -> Option<(f64, usize)> {
+    let mut right_area = [0.0; BINS];
+    let mut right_count = [0usize; BINS];
+    let (mut b, mut n) = (Aabb::EMPTY, 0);
+    for k in (1..BINS).rev() {
+        b = b.union(bins.boxes[k]);
+        n += bins.counts[k];
+        right_area[k] = b.half_area();
+        right_count[k] = n;
+    }
+    let (mut left, mut left_count) = (Aabb::EMPTY, 0);
+    let mut best: Option<(f64, usize)> = None;
+    for k in 1..BINS {
+        left = left.union(bins.boxes[k - 1]);
+        left_count += bins.counts[k - 1];
+        if left_count == 0 || right_count[k] == 0 {
+            continue;
+        }
+        let cost = TRAVERSAL_COST
+            + (left.half_area() * left_count as f64 + right_area[k] * right_count[k] as f64)
+                / parent_area;
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, k));
+        }
+    }
+    best
+}
+
+/// Builds the subtree over `items` (which start at `start` in the whole list) at `depth`.
+fn build_tree(items: &mut [Item], start: usize, depth: usize) -> (Aabb, Tree) {
+    let bounds = bounds(items);
+    let n = items.len();
+    let leaf = Tree::Leaf { start, len: n };
+    if n <= 1 || depth + 1 >= MAX_DEPTH {
+        return (bounds, leaf);
+    }
+    let cb = centroid_bounds(items);
+    let area = bounds.half_area();
+    let mut best: Option<(f64, usize, usize)> = None;
+    for axis in 0..3 {
+        if cb.hi[axis] <= cb.lo[axis] {
+            continue;
+        }
+        let bins = fill_bins(items, axis, &cb);
+        let split = best_split_of_axis(&bins, area.max(f64::MIN_POSITIVE));
+        if let Some((cost, bin)) = split
+            && best.is_none_or(|(c, _, _)| cost < c)
+        {
+            best = Some((cost, axis, bin));
+        }
+    }
+    let mid = match best {
+        Some((cost, _, _)) if n <= MAX_LEAF && cost >= n as f64 => return (bounds, leaf),
+        Some((_, axis, bin)) => partition(items, |i| bin_of(i, axis, &cb) < bin),
+        // Every centroid in one point: no plane separates them, so halve the list.
+        None if n <= MAX_LEAF => return (bounds, leaf),
+        None => n / 2,
+    };
+    let (left, right) = items.split_at_mut(mid);
+    let (l, r) = if n >= PARALLEL_ITEMS {
+        rayon::join(
+            || build_tree(left, start, depth + 1),
+            || build_tree(right, start + mid, depth + 1),
+        )
+    } else {
+        (
+            build_tree(left, start, depth + 1),
+            build_tree(right, start + mid, depth + 1),
+        )
+    };
+    (bounds, Tree::Inner(Box::new([l, r])))
+}
+
+/// Moves the items for which `left` holds to the front; returns how many there are.
+fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
+    let mut mid = 0;
+    for k in 0..items.len() {
+        if left(&items[k]) {
+            items.swap(mid, k);
+            mid += 1;
+        }
+    }
+    mid
+}
+
+/// Appends the interior nodes of `tree` to `nodes` (the tree's own node first) and returns the
+/// child entry its parent stores. `kind` is `SPHERE_LEAF` or 0.
+fn flatten(bounds: Aabb, tree: &Tree, kind: u32, nodes: &mut Vec<BvhNode>) -> Child {
+    let (lo, hi) = bounds.to_f32();
+    match tree {
+        Tree::Leaf { start, len } => Child {
+            lo,
+            hi,
+            reference: LEAF_BIT | *start as u32,
+            count: kind | *len as u32,
+        },
+        Tree::Inner(children) => {
+            let at = nodes.len();
+            nodes.push(BvhNode::zeroed());
+            let [(b0, t0), (b1, t1)] = &**children;
+            let c0 = flatten(*b0, t0, kind, nodes);
+            let c1 = flatten(*b1, t1, kind, nodes);
+            nodes[at] = BvhNode::new(c0, c1);
+            Child {
+                lo,
+                hi,
+                reference: at as u32,
+                count: 0,
+            }
+        }
+    }
+}
+
+/// The items of one kind, each box grown by `GROWTH` relative to its size, its distance from
+/// the kernel origin and the eye's, so every rounding of the tests stays inside.
+fn grown(boxes: impl Iterator<Item = (Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
+    boxes
+        .enumerate()
+        .map(|(index, (lo, hi))| {
+            let size = (0..3)
+                .map(|k| lo.get(k).abs().max(hi.get(k).abs()))
+                .fold(eye, f64::max);
+            let g = Vec3::splat(GROWTH * size);
+            Item {
+                lo: lo - g,
+                hi: hi + g,
+                index: index as u32,
+            }
+        })
+        .collect()
+}
+
+impl Bvh {
+    /// The BVH over `scene`'s spheres and triangles in the kernel's coordinates for
+    /// `algorithm` (camera-relative for the robust set), as [`crate::cpu::types::Primitives`]
+    /// lays them out. Spheres and triangles get separate subtrees, so every leaf holds one kind.
+    pub fn build(scene: &Scene, algorithm: Algorithm) -> Bvh {
+        let origin = kernel_origin(scene, algorithm);
+        let eye = length(kernel_frame(scene, algorithm).eye);
+        let mut spheres = Vec::new();
+        let mut triangles = Vec::new();
+        for object in &scene.objects {
+            match object {
+                Object::Sphere { center, radius } => {
+                    let c = *center - origin;
+                    spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
+                }
+                Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
+                Object::Soup { triangles: t, .. } => {
+                    triangles.extend(t.iter().map(|c| triangle_box(c, origin)))
+                }
+                Object::Plane { .. } => {}
+            }
+        }
+        Bvh::from_boxes(
+            grown(spheres.into_iter(), eye),
+            grown(triangles.into_iter(), eye),
+        )
+    }
+
+    fn from_boxes(mut spheres: Vec<Item>, mut triangles: Vec<Item>) -> Bvh {
+        let mut nodes = Vec::new();
+        let (sphere_tree, triangle_tree) = rayon::join(
+            || (!spheres.is_empty()).then(|| build_tree(&mut spheres, 0, 1)),
+            || (!triangles.is_empty()).then(|| build_tree(&mut triangles, 0, 1)),
+        );
+        nodes.push(BvhNode::zeroed());
+        let empty = Child {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            reference: LEAF_BIT,
+            count: 0,
+        };
+        let mut child = |tree: Option<(Aabb, Tree)>, kind| match tree {
+            Some((b, t)) => flatten(b, &t, kind, &mut nodes),
+            None => empty,
+        };
+        let c0 = child(sphere_tree, SPHERE_LEAF);
+        let c1 = child(triangle_tree, 0);
+        nodes[0] = BvhNode::new(c0, c1);
+        Bvh {
+            nodes,
+            sphere_order: spheres.iter().map(|i| i.index).collect(),
+            triangle_order: triangles.iter().map(|i| i.index).collect(),
+        }
+    }
+
+    /// Bytes the BVH adds on the device: its nodes and one order entry per primitive.
+    pub fn bytes(&self) -> usize {
+        size_of_val(&self.nodes[..]) + 4 * (self.sphere_order.len() + self.triangle_order.len())
+    }
+
+    /// The deepest leaf (root at depth 0); at most [`MAX_DEPTH`].
+    pub fn depth(&self) -> usize {
+        fn depth_of(nodes: &[BvhNode], node: usize) -> usize {
+            (0..2)
+                .map(|k| nodes[node].child(k))
+                .map(|c| {
+                    if c.reference & LEAF_BIT != 0 {
+                        1
+                    } else {
+                        1 + depth_of(nodes, c.reference as usize)
+                    }
+                })
+                .max()
+                .unwrap_or(0)
+        }
+        depth_of(&self.nodes, 0)
+    }
+}
+
+fn triangle_box(c: &crate::scene::Triangle, origin: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
+    let [a, b, c] = c.map(|p| p - origin);
+    let lo = Vec3::from_array([0, 1, 2].map(|k| a.get(k).min(b.get(k)).min(c.get(k))));
+    let hi = Vec3::from_array([0, 1, 2].map(|k| a.get(k).max(b.get(k)).max(c.get(k))));
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn items(n: usize) -> Vec<Item> {
+        (0..n)
+            .map(|k| {
+                let x = (k as f64 * 0.618_033_988_7).fract() * 10.0;
+                let y = (k as f64 * 0.414_213_562_4).fract() * 10.0;
+                let lo = Vec3::from_array([x, y, 0.0]);
+                Item {
+                    lo,
+                    hi: lo + Vec3::splat(0.1),
+                    index: k as u32,
+                }
+            })
+            .collect()
+    }
+
+    /// Every primitive sits in exactly one leaf, inside every box on its path from the root.
+    fn check(bvh: &Bvh, boxes: &[Item]) {
+        let mut seen = vec![false; boxes.len()];
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some((node, depth)) = stack.pop() {
+            for k in 0..2 {
+                let c = bvh.nodes[node].child(k);
+                if c.reference & LEAF_BIT == 0 {
+                    stack.push((c.reference as usize, depth + 1));
+                    continue;
+                }
+                if c.count & SPHERE_LEAF != 0 || c.count == 0 {
+                    continue;
+                }
+                assert!(depth < MAX_DEPTH);
+                let first = (c.reference & !LEAF_BIT) as usize;
+                for p in first..first + c.count as usize {
+                    let original = bvh.triangle_order[p] as usize;
+                    assert!(!seen[original]);
+                    seen[original] = true;
+                    let b = &boxes[original];
+                    for a in 0..3 {
+                        assert!(c.lo[a] as f64 <= b.lo.get(a) && b.hi.get(a) <= c.hi[a] as f64);
+                    }
+                }
+            }
+        }
+        assert!(seen.iter().all(|s| *s));
+    }
+
+    #[test]
+    fn every_primitive_is_in_one_leaf_inside_its_boxes() {
+        for n in [1, 2, 7, 100, 10_000] {
+            let boxes = items(n);
+            let bvh = Bvh::from_boxes(Vec::new(), boxes.clone());
+            check(&bvh, &boxes);
+            assert_eq!(bvh.sphere_order.len(), 0);
+        }
+    }
+
+    #[test]
+    fn identical_boxes_still_build_within_the_depth_limit() {
+        let same: Vec<Item> = (0..5000)
+            .map(|k| Item {
+                lo: Vec3::splat(1.0),
+                hi: Vec3::splat(2.0),
+                index: k,
+            })
+            .collect();
+        let bvh = Bvh::from_boxes(Vec::new(), same.clone());
+        check(&bvh, &same);
+        assert!(bvh.depth() <= MAX_DEPTH);
+    }
+
+    #[test]
+    fn outward_rounding_contains_the_f64_value() {
+        for x in [0.1, -0.1, 1e-30, -3.3e7, 1.0 / 3.0] {
+            assert!((round_down(x) as f64) <= x && x <= round_up(x) as f64);
+            assert!(round_up(x).next_down() as f64 <= x);
+        }
+    }
+}

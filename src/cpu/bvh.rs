@@ -1,0 +1,195 @@
+//! Mirror of shaders/bvh.wgsl: the nearest hit over the spheres and triangles through the BVH
+//! built by src/bvh.rs.
+
+use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
+use super::sphere::intersect_sphere;
+use super::triangle::intersect_triangle;
+use super::types::{Primitives, Ray, no_hit, t_far};
+use crate::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
+use crate::math::{Real, Vec3};
+
+/// The traversal stack's size (`BVH_STACK` in WGSL).
+const BVH_STACK: usize = MAX_DEPTH;
+
+/// Relative widening of every slab interval (2^-16): see shaders/bvh.wgsl.
+fn box_slack<T: Real>() -> T {
+    T::from_f64(1.0 / 65536.0)
+}
+
+/// Which direction components are zero, and the inverse of the others.
+pub struct RayInverse<T> {
+    pub zero: [bool; 3],
+    pub inv: Vec3<T>,
+}
+
+pub fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
+    let d = ray.direction.to_array();
+    let zero = d.map(|x| x == T::ZERO);
+    let inv = [0, 1, 2].map(|k| T::ONE / if zero[k] { T::ONE } else { d[k] });
+    RayInverse {
+        zero,
+        inv: Vec3::from_array(inv),
+    }
+}
+
+/// Where the ray enters the box (0 if it starts inside), or NO_HIT when it misses the box,
+/// leaves it before `min_t`, or enters it beyond `t_max`.
+pub fn box_entry<T: Real>(
+    lo: [f32; 3],
+    hi: [f32; 3],
+    ray: &Ray<T>,
+    ri: &RayInverse<T>,
+    min_t: T,
+    t_max: T,
+) -> T {
+    let o = ray.origin.to_array();
+    let inv = ri.inv.to_array();
+    let mut t0 = [T::ZERO; 3];
+    let mut t1 = [T::ZERO; 3];
+    for k in 0..3 {
+        let lo_r = T::from_f64(lo[k] as f64);
+        let hi_r = T::from_f64(hi[k] as f64);
+        let a = (lo_r - o[k]) * inv[k];
+        let b = (hi_r - o[k]) * inv[k];
+        let inside = lo_r <= o[k] && o[k] <= hi_r;
+        let open = if inside { -t_far::<T>() } else { t_far::<T>() };
+        (t0[k], t1[k]) = if ri.zero[k] {
+            (open, -open)
+        } else {
+            (a.min(b), a.max(b))
+        };
+    }
+    let mut t_in = t0[0].max(t0[1].max(t0[2]));
+    let mut t_out = t1[0].min(t1[1].min(t1[2]));
+    t_in = t_in - box_slack::<T>() * t_in.abs();
+    t_out = t_out + box_slack::<T>() * t_out.abs();
+    if t_in <= t_out && t_out >= min_t && t_in <= t_max {
+        return t_in.max(T::ZERO);
+    }
+    no_hit()
+}
+
+/// `is_closer` for a primitive stored at `index` in BVH order: ties within one object go to
+/// the lower index in the scene's order (`key` gives it), as in brute force.
+fn is_closer_ordered<T: Real>(
+    t: T,
+    object: u32,
+    index: u32,
+    key: impl Fn(u32) -> u32,
+    best: &Hit<T>,
+) -> bool {
+    if t == no_hit() {
+        return false;
+    }
+    if best.object < 0 || t < best.t {
+        return true;
+    }
+    if t != best.t {
+        return false;
+    }
+    if object as i32 != best.object {
+        return (object as i32) < best.object;
+    }
+    key(index) < key(best.index)
+}
+
+/// Tests the `count` primitives of a leaf from `first`.
+fn intersect_leaf<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    first: u32,
+    count: u32,
+    best: &mut Hit<T>,
+) {
+    let n = count & !SPHERE_LEAF;
+    if count & SPHERE_LEAF != 0 {
+        for k in first..first + n {
+            let t = intersect_sphere::<T, ROBUST>(ray, &prims.spheres[k as usize], min_t);
+            if t != no_hit() {
+                let object = prims.sphere_objects[k as usize];
+                if is_closer_ordered(t, object, k, |i| prims.sphere_key(i), best) {
+                    *best = Hit {
+                        t,
+                        object: object as i32,
+                        kind: KIND_SPHERE,
+                        index: k,
+                    };
+                }
+            }
+        }
+    } else {
+        for k in first..first + n {
+            let t = intersect_triangle::<T, ROBUST>(ray, &prims.triangles[k as usize], min_t);
+            if t != no_hit() {
+                let object = prims.triangle_objects[k as usize];
+                if is_closer_ordered(t, object, k, |i| prims.triangle_key(i), best) {
+                    *best = Hit {
+                        t,
+                        object: object as i32,
+                        kind: KIND_TRIANGLE,
+                        index: k,
+                    };
+                }
+            }
+        }
+    }
+}
+
+/// Ordered traversal: of two children hit, leaves are tested at once and the nearer inner
+/// node is visited first, the farther one waiting on a short stack with its entry distance,
+/// skipped when popped if a hit nearer than that entry has been found.
+pub fn traverse_bvh<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    nodes: &[BvhNode],
+    best: &mut Hit<T>,
+) {
+    let ri = ray_inverse(ray);
+    let mut stack_node = [0u32; BVH_STACK];
+    let mut stack_t = [T::ZERO; BVH_STACK];
+    let mut sp = 0;
+    let mut node = 0u32;
+    loop {
+        let n = &nodes[node as usize];
+        let t0 = box_entry(n.lo0, n.hi0, ray, &ri, min_t, best.t);
+        let t1 = box_entry(n.lo1, n.hi1, ray, &ri, min_t, best.t);
+        let leaf0 = n.reference0 & LEAF_BIT != 0;
+        let leaf1 = n.reference1 & LEAF_BIT != 0;
+        if t0 != no_hit() && leaf0 {
+            let first = n.reference0 & !LEAF_BIT;
+            intersect_leaf::<T, ROBUST>(ray, min_t, prims, first, n.count0, best);
+        }
+        if t1 != no_hit() && leaf1 {
+            let first = n.reference1 & !LEAF_BIT;
+            intersect_leaf::<T, ROBUST>(ray, min_t, prims, first, n.count1, best);
+        }
+        let go0 = t0 != no_hit() && !leaf0 && t0 <= best.t;
+        let go1 = t1 != no_hit() && !leaf1 && t1 <= best.t;
+        if go0 && go1 {
+            let first0 = t0 <= t1;
+            stack_node[sp] = if first0 { n.reference1 } else { n.reference0 };
+            stack_t[sp] = if first0 { t1 } else { t0 };
+            sp += 1;
+            node = if first0 { n.reference0 } else { n.reference1 };
+        } else if go0 {
+            node = n.reference0;
+        } else if go1 {
+            node = n.reference1;
+        } else {
+            let mut next = false;
+            while sp > 0 {
+                sp -= 1;
+                if stack_t[sp] <= best.t {
+                    node = stack_node[sp];
+                    next = true;
+                    break;
+                }
+            }
+            if !next {
+                break;
+            }
+        }
+    }
+}

@@ -1,0 +1,190 @@
+//! The BVH finds exactly the hits brute force finds (brute force is the oracle): on the CPU
+//! the whole images (id, distance, normal) are equal bit for bit, in f64 and f32 and for both
+//! algorithm sets; on the GPU the BVH kernel gives the same hit/miss and ids as the
+//! brute-force kernel, and the same bits as the CPU's BVH traversal in f32.
+//!
+//! Scenes: seeded random scenes (spheres, triangles, a closed mesh), dense random soups whose
+//! boxes overlap heavily, the course bunny, and every scene of `scenes/extremes/`, among them
+//! the shared-edge grids and fans where pixel rays pass exactly through edges and vertices.
+
+mod common;
+
+use std::path::Path;
+
+use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::bvh::{Accel, Bvh, MAX_DEPTH};
+use raycast::cpu;
+use raycast::gpu::shader::Variant;
+use raycast::math::{Precision, Real, vec3};
+use raycast::scene::Scene;
+
+/// `n` random small triangles in a cube of side 2 seen from z = 5: boxes overlap in depth, so
+/// the traversal's ordering and culling both matter.
+fn dense_soup(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
+    let mut rng = common::Rng(seed);
+    let triangles: Vec<_> = (0..n)
+        .map(|_| {
+            let c = rng.point(-1.0, 1.0);
+            let corner = |rng: &mut common::Rng| {
+                let d = rng.point(-0.15, 0.15);
+                vec3(c[0] + d[0], c[1] + d[1], c[2] + d[2])
+            };
+            [corner(&mut rng), corner(&mut rng), corner(&mut rng)]
+        })
+        .collect();
+    let json = format!(
+        r#"{{"camera": {{"eye": [0.3, -0.2, 5], "look": [0, 0, -1], "up": [0, 1, 0],
+            "focal_length": 2, "width": 1.2, "height": 0.9, "resolution": {resolution:?}}},
+            "objects": [{{"type": "soup", "obj": "a.obj"}}, {{"type": "soup", "obj": "b.obj"}},
+                        {{"type": "sphere", "center": [0.2, 0.1, 0], "radius": 0.5}}]}}"#
+    );
+    let half = n / 2;
+    Scene::from_json(&json, Path::new("dense.json"), &mut |p| {
+        Ok(if p.ends_with("a.obj") {
+            triangles[..half].to_vec()
+        } else {
+            triangles[half..].to_vec()
+        })
+    })
+    .unwrap()
+}
+
+/// Many spheres and nothing else (the BVH's sphere subtree alone).
+fn sphere_cloud(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
+    let mut rng = common::Rng(seed);
+    let spheres: Vec<String> = (0..n)
+        .map(|_| {
+            let c = rng.point(-2.0, 2.0);
+            format!(
+                r#"{{"type": "sphere", "center": {c:?}, "radius": {}}}"#,
+                rng.range(0.05, 0.4)
+            )
+        })
+        .collect();
+    let json = format!(
+        r#"{{"camera": {{"eye": [0, 0, 6], "look": [0, 0, -1], "up": [0, 1, 0],
+            "focal_length": 1.5, "width": 1.6, "height": 1.2, "resolution": {resolution:?}}},
+            "objects": [{}]}}"#,
+        spheres.join(",")
+    );
+    Scene::from_json(&json, Path::new("spheres.json"), &mut |_| unreachable!()).unwrap()
+}
+
+fn scenes() -> Vec<(String, Scene)> {
+    let mut s = Vec::new();
+    for seed in 0..6 {
+        s.push((
+            format!("random-{seed}"),
+            common::random_scene(seed, [80, 60]),
+        ));
+    }
+    for seed in 0..3 {
+        s.push((format!("dense-{seed}"), dense_soup(seed, 3000, [80, 60])));
+    }
+    s.push(("spheres".into(), sphere_cloud(7, 300, [80, 60])));
+    let mut bunny = common::course_scene("bunny");
+    bunny.camera.resolution = [160, 90];
+    s.push(("bunny".into(), bunny));
+    for (path, scene) in common::extreme_scenes() {
+        s.push((common::scene_name(&path), scene));
+    }
+    s
+}
+
+/// The differences between the BVH and the brute-force CPU renders, one line each.
+///
+/// The one exception allowed: the textbook formulas in f32, on the extreme scenes built to break
+/// them, report hits for rays that pass far from a primitive (a sphere 10^4 away, needles),
+/// farther than any box margin; the BVH then skips what brute force wrongly hits. Such pixels
+/// must be ones where textbook brute force disagrees with the f64 robust reference.
+fn cpu_bvh_differences<T: Real>(name: &str, scene: &Scene, algorithm: Algorithm) -> Vec<String> {
+    let bvh = cpu::render_with::<T>(scene, algorithm, Accel::Bvh);
+    let brute = cpu::render_with::<T>(scene, algorithm, Accel::BruteForce);
+    if bvh == brute {
+        return Vec::new();
+    }
+    let truth = cpu::render_with::<f64>(scene, Robust, Accel::BruteForce);
+    let brute_wrong = |k: usize| algorithm == Textbook && brute.id[k] != truth.id[k];
+    let differ: Vec<usize> = (0..bvh.len())
+        .filter(|&k| bvh.pixel(k) != brute.pixel(k))
+        .collect();
+    let unexplained = differ.iter().filter(|&&k| !brute_wrong(k)).count();
+    if unexplained == 0 {
+        eprintln!(
+            "{name} {algorithm} {}: {} pixels differ, at each brute force is wrong",
+            T::PRECISION,
+            differ.len()
+        );
+        return Vec::new();
+    }
+    vec![format!(
+        "{name} {algorithm} {}: {unexplained} of {} differing pixels unexplained",
+        T::PRECISION,
+        differ.len()
+    )]
+}
+
+#[test]
+fn cpu_bvh_equals_brute_force_bit_for_bit() {
+    let mut failures = Vec::new();
+    for (name, scene) in scenes() {
+        for algorithm in [Robust, Textbook] {
+            failures.extend(cpu_bvh_differences::<f64>(&name, &scene, algorithm));
+            failures.extend(cpu_bvh_differences::<f32>(&name, &scene, algorithm));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
+    let gpu = common::gpu();
+    for (name, scene) in scenes() {
+        for algorithm in [Robust, Textbook] {
+            let variant = |bvh| Variant {
+                bvh,
+                ..gpu.scene_variant(&scene, Precision::F32, algorithm)
+            };
+            let bvh32 = raycast::gpu::render_with_variant::<f32>(gpu, &scene, variant(true));
+            let bvh32 = bvh32.unwrap();
+            let brute32 = raycast::gpu::render_with_variant::<f32>(gpu, &scene, variant(false));
+            let brute32 = brute32.unwrap();
+            // Where the textbook f32 formulas are wrong, as on the CPU (see above).
+            let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Accel::BruteForce);
+            let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Accel::Bvh);
+            assert_eq!(bvh32, cpu32, "{name} {algorithm}: GPU vs CPU BVH, f32");
+            assert_eq!(
+                brute32, cpu_brute32,
+                "{name} {algorithm}: GPU vs CPU brute force"
+            );
+            if algorithm == Robust {
+                assert_eq!(bvh32.id, brute32.id, "{name} {algorithm} f32");
+            }
+            let variant64 = |bvh| Variant {
+                bvh,
+                ..gpu.scene_variant(&scene, Precision::F64, algorithm)
+            };
+            let bvh64 = raycast::gpu::render_with_variant::<f64>(gpu, &scene, variant64(true));
+            let brute64 = raycast::gpu::render_with_variant::<f64>(gpu, &scene, variant64(false));
+            assert_eq!(
+                bvh64.unwrap().id,
+                brute64.unwrap().id,
+                "{name} {algorithm} f64"
+            );
+        }
+    }
+}
+
+#[test]
+fn bvh_depth_stays_within_the_traversal_stack() {
+    for (name, scene) in scenes() {
+        let bvh = Bvh::build(&scene, Robust);
+        assert!(bvh.depth() <= MAX_DEPTH, "{name}: depth {}", bvh.depth());
+        let n = raycast::bvh::bounded_count(&scene);
+        assert_eq!(
+            bvh.sphere_order.len() + bvh.triangle_order.len(),
+            n,
+            "{name}"
+        );
+    }
+}
