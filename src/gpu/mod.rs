@@ -7,8 +7,8 @@ mod render;
 pub mod shader;
 
 pub use render::{
-    max_tile_rows, render, render_pixels, render_pixels_timed, render_timed, render_with_certainty,
-    render_with_certainty_timed, render_with_variant,
+    Stages, max_tile_rows, render, render_pixels, render_pixels_timed, render_stages, render_timed,
+    render_with_certainty, render_with_certainty_timed, render_with_variant,
 };
 
 use std::collections::HashMap;

@@ -489,6 +489,32 @@ struct Rendered<R> {
     certainty: Option<Vec<bool>>,
     /// Kernel GPU time in seconds, when timed on a device with timestamp queries.
     kernel_s: Option<f64>,
+    stages: Stages,
+}
+
+/// Wall-clock seconds of the stages of one render, and the kernel's GPU time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stages {
+    /// Primitives rounded and laid out for the GPU, the BVH built (when the kernel uses one).
+    pub build_s: f64,
+    /// The kernel pipeline made (0 when it was cached).
+    pub compile_s: f64,
+    /// The scene's buffers created and filled on the device.
+    pub upload_s: f64,
+    /// Every tile dispatched and read back.
+    pub trace_s: f64,
+    /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
+    pub kernel_s: Option<f64>,
+}
+
+/// Renders with the kernel `variant`, timing each stage (see [`Stages`]).
+pub fn render_stages<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+) -> Result<(Images<R>, Stages)> {
+    let r = render_variant::<R>(gpu, scene, variant, true)?;
+    Ok((r.images, r.stages))
 }
 
 /// GPU time of compute passes from timestamp queries: one written at the beginning and one at
@@ -599,14 +625,25 @@ fn render_variant<R: GpuReal>(
     timed: bool,
 ) -> Result<Rendered<R>> {
     let algorithm = variant.algorithm;
+    let mut stages = Stages::default();
+    let clock = std::time::Instant::now();
     let prims = Primitives::<R>::new(scene, &variant);
+    stages.build_s = clock.elapsed().as_secs_f64();
     let tile_rows = check_limits(gpu, scene, &prims)?;
     let [nx, ny] = scene.camera.resolution;
     let frame = cpu::types::kernel_frame(scene, algorithm);
+    let clock = std::time::Instant::now();
     let pipeline = pipeline(gpu, variant)?;
+    stages.compile_s = clock.elapsed().as_secs_f64();
     let device = &gpu.device;
 
+    let clock = std::time::Instant::now();
     let uploaded = prims.upload(gpu);
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
+    stages.upload_s = clock.elapsed().as_secs_f64();
+    let clock = std::time::Instant::now();
     let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: size_of::<GpuParams<R>>() as u64,
@@ -696,10 +733,13 @@ fn render_variant<R: GpuReal>(
         }
         row += rows;
     }
+    stages.trace_s = clock.elapsed().as_secs_f64();
+    stages.kernel_s = kernel_s;
     Ok(Rendered {
         images,
         certainty,
         kernel_s,
+        stages,
     })
 }
 
