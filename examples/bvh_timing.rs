@@ -1,8 +1,16 @@
-//! Times the stages of a BVH render: `cargo run --release --example bvh_timing SCENE`.
+//! Times the stages of a render, with the BVH traversed per ray and by subgroup packets, and
+//! brute force when `--brute` is given, interleaved so the figures are comparable:
+//! `cargo run --release --example bvh_timing SCENE [--brute]`.
 use std::time::Instant;
 
+use raycast::gpu::shader::Variant;
+use raycast::math::Precision;
+
 fn main() {
-    let path = std::env::args().nth(1).expect("usage: bvh_timing SCENE");
+    let path = std::env::args()
+        .nth(1)
+        .expect("usage: bvh_timing SCENE [--brute]");
+    let brute = std::env::args().any(|a| a == "--brute");
     let t = Instant::now();
     let scene = raycast::Scene::load(path.as_ref()).unwrap();
     println!("load {:.3} s", t.elapsed().as_secs_f64());
@@ -15,17 +23,41 @@ fn main() {
         bvh.depth()
     );
     let gpu = raycast::gpu::Gpu::new().unwrap();
-    for _ in 0..3 {
-        let t = Instant::now();
-        let (_, kernel) =
-            raycast::gpu::render_timed::<f32>(&gpu, &scene, raycast::Algorithm::Robust).unwrap();
-        let [w, h] = scene.camera.resolution;
-        let k = kernel.unwrap_or(f64::NAN);
-        println!(
-            "render {:.3} s, kernel {:.3} s, {:.1} Mrays/s",
-            t.elapsed().as_secs_f64(),
-            k,
-            (w * h) as f64 / k * 1e-6
-        );
+    let base = gpu.scene_variant(&scene, Precision::F32, raycast::Algorithm::Robust);
+    let mut variants = vec![
+        (
+            "per-ray",
+            Variant {
+                bvh: true,
+                packets: false,
+                ..base
+            },
+        ),
+        (
+            "packets",
+            Variant {
+                bvh: true,
+                packets: true,
+                ..base
+            },
+        ),
+    ];
+    if brute {
+        variants.push(("brute", Variant { bvh: false, ..base }));
+    }
+    let [w, h] = scene.camera.resolution;
+    for round in 0..5 {
+        for (name, variant) in &variants {
+            let (_, s) = raycast::gpu::render_stages::<f32>(&gpu, &scene, *variant).unwrap();
+            let k = s.kernel_s.unwrap_or(f64::NAN);
+            println!(
+                "{round} {name:8} build {:.3} upload {:.3} trace {:.3} kernel {:.3} s: {:.1} Mrays/s",
+                s.build_s,
+                s.upload_s,
+                s.trace_s,
+                k,
+                (w * h) as f64 / k * 1e-6
+            );
+        }
     }
 }

@@ -101,6 +101,76 @@ fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<funct
     }
 }
 
+#if PACKETS
+// Packet traversal: the rays of a subgroup walk the tree together, visiting a node when any of
+// them needs it, so every node and primitive is fetched once for all of them from one
+// subgroup-uniform address (per-lane addresses are what cost most on a CPU driver). Each ray
+// keeps its own nearest hit and culls with it, so the answer is the per-ray traversal's.
+// Must be reached by all active invocations of the subgroup together (see cast_pixel).
+fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
+    let ri = ray_inverse(ray);
+    var stack_node: array<u32, BVH_STACK>;
+    var stack_t: array<real, BVH_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let q0 = bvh_nodes[4u * node];
+        let q1 = bvh_nodes[4u * node + 1u];
+        let q2 = bvh_nodes[4u * node + 2u];
+        let q3 = bvh_nodes[4u * node + 3u];
+        let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
+        let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
+        let leaf0 = (q0.w & LEAF_BIT) != 0u;
+        let leaf1 = (q2.w & LEAF_BIT) != 0u;
+        // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
+        // together so its primitives are fetched once.
+        if (leaf0 && subgroupAny(t0 != NO_HIT)) {
+            if (t0 != NO_HIT) {
+                intersect_leaf(ray, min_t, q0.w & ~LEAF_BIT, q1.w, best);
+            }
+        }
+        if (leaf1 && subgroupAny(t1 != NO_HIT)) {
+            if (t1 != NO_HIT) {
+                intersect_leaf(ray, min_t, q2.w & ~LEAF_BIT, q3.w, best);
+            }
+        }
+        let want0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
+        let want1 = t1 != NO_HIT && !leaf1 && t1 <= (*best).t;
+        let go0 = subgroupAny(want0);
+        let go1 = subgroupAny(want1);
+        if (go0 && go1) {
+            // The child more rays reach first goes first.
+            let prefer0 = want0 && (!want1 || t0 <= t1);
+            let prefer1 = want1 && (!want0 || t1 < t0);
+            let first0 = subgroupAdd(select(0u, 1u, prefer0)) >= subgroupAdd(select(0u, 1u, prefer1));
+            stack_node[sp] = select(q0.w, q2.w, first0);
+            // A ray that does not need the waiting child never asks for it again.
+            stack_t[sp] = select(select(T_FAR, t0, want0), select(T_FAR, t1, want1), first0);
+            sp++;
+            node = select(q2.w, q0.w, first0);
+        } else if (go0) {
+            node = q0.w;
+        } else if (go1) {
+            node = q2.w;
+        } else {
+            var next = false;
+            while (sp > 0u) {
+                sp--;
+                if (subgroupAny(stack_t[sp] <= (*best).t && stack_t[sp] != T_FAR)) {
+                    // The same value in every lane; broadcast so the compiler knows the
+                    // node's address is uniform.
+                    node = subgroupBroadcastFirst(stack_node[sp]);
+                    next = true;
+                    break;
+                }
+            }
+            if (!next) {
+                break;
+            }
+        }
+    }
+}
+#else
 // Ordered traversal: of two children hit, leaves are tested at once and the nearer inner node
 // is visited first, the farther one waiting on a short stack with its entry distance, skipped
 // when popped if a hit nearer than that entry has been found.
@@ -154,3 +224,4 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         }
     }
 }
+#endif

@@ -1,7 +1,8 @@
 //! The BVH finds exactly the hits brute force finds (brute force is the oracle): on the CPU
 //! the whole images (id, distance, normal) are equal bit for bit, in f64 and f32 and for both
-//! algorithm sets; on the GPU the BVH kernel gives the same hit/miss and ids as the
-//! brute-force kernel, and the same bits as the CPU's BVH traversal in f32.
+//! algorithm sets; on the GPU the BVH kernel (with subgroup packets and per ray) gives the same
+//! hit/miss and ids as the brute-force kernel, and the same bits as the CPU's BVH traversal in
+//! f32.
 //!
 //! Scenes: seeded random scenes (spheres, triangles, a closed mesh), dense random soups whose
 //! boxes overlap heavily, the course bunny, and every scene of `scenes/extremes/`, among them
@@ -153,6 +154,17 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Accel::BruteForce);
             let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Accel::Bvh);
             assert_eq!(bvh32, cpu32, "{name} {algorithm}: GPU vs CPU BVH, f32");
+            // Rays traversing one by one find what the subgroup packets found.
+            let per_ray = Variant {
+                packets: false,
+                ..variant(true)
+            };
+            let per_ray = raycast::gpu::render_with_variant::<f32>(gpu, &scene, per_ray);
+            assert_eq!(
+                per_ray.unwrap(),
+                cpu32,
+                "{name} {algorithm}: per-ray traversal"
+            );
             assert_eq!(
                 brute32, cpu_brute32,
                 "{name} {algorithm}: GPU vs CPU brute force"

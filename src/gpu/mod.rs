@@ -23,6 +23,7 @@ pub const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-ge
 
 /// Features used when the adapter offers them (never required).
 pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
+    .union(wgpu::Features::SUBGROUP)
     .union(wgpu::Features::TIMESTAMP_QUERY)
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
 
@@ -65,6 +66,7 @@ impl Gpu {
             pixel_list: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
+            packets: self.device.features().contains(wgpu::Features::SUBGROUP),
         }
     }
 

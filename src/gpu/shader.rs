@@ -65,6 +65,8 @@ pub struct Variant {
     /// Spheres and triangles are found through a BVH (src/bvh.rs) instead of brute force.
     /// Not combined with `certainty`, whose test needs every primitive's decision.
     pub bvh: bool,
+    /// The device has subgroup operations: the rays of a subgroup traverse the BVH together.
+    pub packets: bool,
 }
 
 impl Variant {
@@ -77,6 +79,7 @@ impl Variant {
             pixel_list: false,
             kinds: Kinds::ALL,
             bvh: false,
+            packets: false,
         }
     }
 
@@ -88,7 +91,8 @@ impl Variant {
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
-    /// compiled in), `BVH` (spheres and triangles through the BVH).
+    /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
+    /// subgroups together).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -108,6 +112,9 @@ impl Variant {
         }
         if self.uses_bvh() {
             d.push("BVH");
+            if self.packets {
+                d.push("PACKETS");
+            }
         }
         for (present, name) in [
             (self.kinds.spheres, "SPHERES"),
@@ -309,7 +316,7 @@ pub fn all_variants() -> Vec<Variant> {
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
                     }
-                    for bvh in [false, true] {
+                    for (bvh, packets) in [(false, false), (true, false), (true, true)] {
                         v.push(Variant {
                             precision,
                             algorithm,
@@ -318,6 +325,7 @@ pub fn all_variants() -> Vec<Variant> {
                             pixel_list,
                             kinds: Kinds::ALL,
                             bvh,
+                            packets,
                         });
                     }
                 }
