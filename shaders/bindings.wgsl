@@ -23,7 +23,45 @@ struct Params {
 @group(0) @binding(2) var<storage, read> planes: array<Plane>;
 #endif
 #if TRIANGLES
+// Meshes larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles
+// (CHUNK_BITS from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
 @group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
+#if CHUNKS_2
+@group(0) @binding(11) var<storage, read> triangles_2: array<Triangle>;
+#endif
+#if CHUNKS_3
+@group(0) @binding(12) var<storage, read> triangles_3: array<Triangle>;
+#endif
+#if CHUNKS_4
+@group(0) @binding(13) var<storage, read> triangles_4: array<Triangle>;
+#endif
+
+// Triangle k, from the chunk it lies in.
+fn triangle_at(k: u32) -> Triangle {
+#if CHUNKS_2
+    let i = k & ((1u << CHUNK_BITS) - 1u);
+    switch (k >> CHUNK_BITS) {
+        case 1u: {
+            return triangles_2[i];
+        }
+#if CHUNKS_3
+        case 2u: {
+            return triangles_3[i];
+        }
+#endif
+#if CHUNKS_4
+        case 3u: {
+            return triangles_4[i];
+        }
+#endif
+        default: {
+            return triangles[i];
+        }
+    }
+#else
+    return triangles[k];
+#endif
+}
 #endif
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).
@@ -37,8 +75,45 @@ struct Params {
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
 #endif
 #if BVH
-// The BVH over spheres and triangles (src/bvh.rs): 64-byte nodes, four vec4<u32> each.
+// The BVH over spheres and triangles (src/bvh.rs): 64-byte nodes, four vec4<u32> each, in
+// chunks of 2^CHUNK_BITS nodes like the triangles.
 @group(0) @binding(9) var<storage, read> bvh_nodes: array<vec4<u32>>;
+#if CHUNKS_2
+@group(0) @binding(14) var<storage, read> bvh_nodes_2: array<vec4<u32>>;
+#endif
+#if CHUNKS_3
+@group(0) @binding(15) var<storage, read> bvh_nodes_3: array<vec4<u32>>;
+#endif
+#if CHUNKS_4
+@group(0) @binding(16) var<storage, read> bvh_nodes_4: array<vec4<u32>>;
+#endif
+
+// Part q (0 to 3) of node `node`, from the chunk it lies in.
+fn node_part(node: u32, q: u32) -> vec4<u32> {
+#if CHUNKS_2
+    let i = 4u * (node & ((1u << CHUNK_BITS) - 1u)) + q;
+    switch (node >> CHUNK_BITS) {
+        case 1u: {
+            return bvh_nodes_2[i];
+        }
+#if CHUNKS_3
+        case 2u: {
+            return bvh_nodes_3[i];
+        }
+#endif
+#if CHUNKS_4
+        case 3u: {
+            return bvh_nodes_4[i];
+        }
+#endif
+        default: {
+            return bvh_nodes[i];
+        }
+    }
+#else
+    return bvh_nodes[4u * node + q];
+#endif
+}
 // Per primitive, in the order of `objects`: its index in the scene's own order (ties).
 @group(0) @binding(10) var<storage, read> prim_order: array<u32>;
 #endif

@@ -89,7 +89,7 @@ fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<funct
 #if TRIANGLES
         let base = params.sphere_count + params.plane_count;
         for (var k = first; k < first + n; k++) {
-            let t = intersect_triangle(ray, triangles[k], min_t);
+            let t = intersect_triangle(ray, triangle_at(k), min_t);
             if (t != NO_HIT) {
                 let object = objects[base + k];
                 if (is_closer_ordered(t, object, k, base, *best)) {
@@ -114,10 +114,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let q0 = bvh_nodes[4u * node];
-        let q1 = bvh_nodes[4u * node + 1u];
-        let q2 = bvh_nodes[4u * node + 2u];
-        let q3 = bvh_nodes[4u * node + 3u];
+        let q0 = node_part(node, 0u);
+        let q1 = node_part(node, 1u);
+        let q2 = node_part(node, 2u);
+        let q3 = node_part(node, 3u);
         let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
         let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
         let leaf0 = (q0.w & LEAF_BIT) != 0u;
@@ -182,10 +182,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var node = 0u;
     loop {
         // One node is four vec4<u32>: fewer, wider loads.
-        let q0 = bvh_nodes[4u * node];
-        let q1 = bvh_nodes[4u * node + 1u];
-        let q2 = bvh_nodes[4u * node + 2u];
-        let q3 = bvh_nodes[4u * node + 3u];
+        let q0 = node_part(node, 0u);
+        let q1 = node_part(node, 1u);
+        let q2 = node_part(node, 2u);
+        let q3 = node_part(node, 3u);
         let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
         let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
         let leaf0 = (q0.w & LEAF_BIT) != 0u;

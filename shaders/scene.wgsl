@@ -144,7 +144,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
 #if TRIANGLES
 #if !BVH
     for (var k = 0u; k < params.triangle_count; k++) {
-        let t = intersect_triangle(ray, triangles[k], min_t);
+        let t = intersect_triangle(ray, triangle_at(k), min_t);
         let object = objects[triangle_base + k];
         let closer = is_closer(t, object, k, best);
 #if CERTAINTY
@@ -177,7 +177,7 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
 #endif
 #if TRIANGLES
         case KIND_TRIANGLE: {
-            return triangle_normal(triangles[hit.index]);
+            return triangle_normal(triangle_at(hit.index));
         }
 #endif
         default: {

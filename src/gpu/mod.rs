@@ -7,8 +7,9 @@ mod render;
 pub mod shader;
 
 pub use render::{
-    Stages, max_tile_rows, render, render_pixels, render_pixels_timed, render_stages, render_timed,
-    render_with_certainty, render_with_certainty_timed, render_with_variant,
+    Stages, max_tile_rows, render, render_in_tiles, render_pixels, render_pixels_timed,
+    render_stages, render_timed, render_with_certainty, render_with_certainty_timed,
+    render_with_variant,
 };
 
 use std::collections::HashMap;
@@ -44,11 +45,11 @@ impl Gpu {
         precision: crate::math::Precision,
         algorithm: crate::Algorithm,
     ) -> Variant {
+        let general = self.variant(precision, algorithm);
         Variant {
             bvh: crate::bvh::worth_it(scene),
-            ..self
-                .variant(precision, algorithm)
-                .with_kinds(shader::Kinds::of_scene(scene))
+            chunks: shader::chunks_for(scene, general.chunk_bits),
+            ..general.with_kinds(shader::Kinds::of_scene(scene))
         }
     }
 
@@ -67,7 +68,17 @@ impl Gpu {
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets: self.device.features().contains(wgpu::Features::SUBGROUP),
+            chunks: 1,
+            chunk_bits: shader::chunk_bits_for(self.max_binding()),
         }
+    }
+
+    /// The largest storage binding this device allows, in bytes.
+    pub fn max_binding(&self) -> u64 {
+        let limits = self.device.limits();
+        limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
     }
 
     /// Opens the best adapter, honouring `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and

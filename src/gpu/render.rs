@@ -96,40 +96,63 @@ impl<R: GpuReal> Primitives<R> {
     }
 
     /// The spheres, planes, triangles and object ids as storage buffers (bindings 1 to 4),
-    /// and the BVH's nodes and primitive order (bindings 9 and 10).
-    fn upload(&self, gpu: &Gpu) -> Uploaded {
+    /// and the BVH's nodes and primitive order (bindings 9 and 10); triangles and nodes in
+    /// `variant.chunks` buffers each.
+    fn upload(&self, gpu: &Gpu, variant: &Variant) -> Uploaded {
         Uploaded {
             spheres: storage_buffer(gpu, "spheres", &self.spheres),
             planes: storage_buffer(gpu, "planes", &self.planes),
-            triangles: storage_buffer(gpu, "triangles", &self.triangles),
+            triangles: chunked_upload(gpu, "triangles", &self.triangles, variant),
             objects: storage_buffer(gpu, "objects", &self.objects),
-            nodes: storage_buffer(gpu, "bvh_nodes", &self.nodes),
+            nodes: chunked_upload(gpu, "bvh_nodes", &self.nodes, variant),
             order: storage_buffer(gpu, "prim_order", &self.order),
         }
     }
 }
 
+/// `items` in `variant.chunks` storage buffers of 2^`variant.chunk_bits` items (the last ones
+/// possibly a zeroed placeholder).
+fn chunked_upload<T: Pod>(
+    gpu: &Gpu,
+    label: &str,
+    items: &[T],
+    variant: &Variant,
+) -> Vec<wgpu::Buffer> {
+    let chunk = 1usize << variant.chunk_bits;
+    (0..variant.chunks as usize)
+        .map(|k| {
+            let part = items.get(k * chunk..).unwrap_or(&[]);
+            storage_buffer(gpu, label, &part[..part.len().min(chunk)])
+        })
+        .collect()
+}
+
+/// Binding numbers of the triangle chunks and of the node chunks (shaders/bindings.wgsl).
+const TRIANGLE_BINDINGS: [u32; 4] = [3, 11, 12, 13];
+const NODE_BINDINGS: [u32; 4] = [9, 14, 15, 16];
+
 /// The scene's buffers on the device.
 struct Uploaded {
     spheres: wgpu::Buffer,
     planes: wgpu::Buffer,
-    triangles: wgpu::Buffer,
+    triangles: Vec<wgpu::Buffer>,
     objects: wgpu::Buffer,
-    nodes: wgpu::Buffer,
+    nodes: Vec<wgpu::Buffer>,
     order: wgpu::Buffer,
 }
 
 impl Uploaded {
     /// The scene's bindings: (binding number, buffer).
-    fn entries(&self) -> [(u32, &wgpu::Buffer); 6] {
-        [
+    fn entries(&self) -> Vec<(u32, &wgpu::Buffer)> {
+        let mut e = vec![
             (1, &self.spheres),
             (2, &self.planes),
-            (3, &self.triangles),
             (4, &self.objects),
-            (9, &self.nodes),
             (10, &self.order),
-        ]
+        ];
+        e.extend(TRIANGLE_BINDINGS.into_iter().zip(&self.triangles));
+        e.extend(NODE_BINDINGS.into_iter().zip(&self.nodes));
+        e
     }
 }
 
@@ -150,7 +173,12 @@ pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Precision) ->
     by_memory.min(by_dispatch).min(u32::MAX as u64) as u32
 }
 
-fn check_limits<R: GpuReal>(gpu: &Gpu, scene: &Scene, prims: &Primitives<R>) -> Result<u32> {
+fn check_limits<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: &Variant,
+    prims: &Primitives<R>,
+) -> Result<u32> {
     if R::PRECISION == Precision::F64 && !gpu.device.features().contains(wgpu::Features::SHADER_F64)
     {
         return Err(Error::Device(format!(
@@ -171,12 +199,15 @@ fn check_limits<R: GpuReal>(gpu: &Gpu, scene: &Scene, prims: &Primitives<R>) -> 
             ),
         });
     }
-    let binding = limits.max_storage_buffer_binding_size;
-    let bytes = (prims.triangles.len() * size_of::<GpuTriangle<R>>()) as u64;
-    if bytes > binding {
+    let chunk = 1u64 << variant.chunk_bits;
+    let needed = (prims.triangles.len().max(prims.nodes.len()) as u64).div_ceil(chunk);
+    if needed > variant.chunks as u64 {
         return Err(Error::Device(format!(
-            "{} triangles need {bytes} bytes, more than this device's largest storage binding ({binding} bytes)",
-            prims.triangles.len()
+            "{} triangles ({} BVH nodes) need {needed} storage bindings of {chunk}; this kernel binds {} (at most {} triangles on this device)",
+            prims.triangles.len(),
+            prims.nodes.len(),
+            variant.chunks,
+            chunk * shader::MAX_CHUNKS as u64
         )));
     }
     Ok(rows.min(ny))
@@ -197,6 +228,8 @@ fn bind_entries<'a>(
             3 => k.triangles,
             4 => k.any(),
             9 | 10 => variant.uses_bvh(),
+            11..=13 => k.triangles && *binding - 9 <= variant.chunks as u32,
+            14..=16 => variant.uses_bvh() && *binding - 12 <= variant.chunks as u32,
             _ => true,
         })
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
@@ -353,7 +386,7 @@ fn pixels_inner<R: GpuReal>(
         ..gpu.scene_variant(scene, R::PRECISION, algorithm)
     };
     let prims = Primitives::<R>::new(scene, &variant);
-    check_limits(gpu, scene, &prims)?;
+    check_limits(gpu, scene, &variant, &prims)?;
     let limits = gpu.device.limits();
     let max_binding = limits
         .max_storage_buffer_binding_size
@@ -413,7 +446,7 @@ fn render_pixel_chunk<R: GpuReal>(
     let surface = output("out_surface", surface_size);
     let ids = output("out_id", n * ID_BYTES);
     let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
-    let uploaded = prims.upload(gpu);
+    let uploaded = prims.upload(gpu, &variant);
     let mut buffers = vec![(0, &params_buffer), (5, &surface), (6, &ids), (7, &list)];
     buffers.extend(uploaded.entries());
     let entries = bind_entries(&variant, &buffers);
@@ -624,12 +657,33 @@ fn render_variant<R: GpuReal>(
     variant: Variant,
     timed: bool,
 ) -> Result<Rendered<R>> {
+    render_tiles(gpu, scene, variant, timed, None)
+}
+
+/// Renders with the kernel `variant` in tiles of at most `max_rows` image rows (fewer when the
+/// device's limits require it), to check that tiling changes nothing.
+pub fn render_in_tiles<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    max_rows: u32,
+) -> Result<Images<R>> {
+    Ok(render_tiles(gpu, scene, variant, false, Some(max_rows.max(1)))?.images)
+}
+
+fn render_tiles<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    timed: bool,
+    max_rows: Option<u32>,
+) -> Result<Rendered<R>> {
     let algorithm = variant.algorithm;
     let mut stages = Stages::default();
     let clock = std::time::Instant::now();
     let prims = Primitives::<R>::new(scene, &variant);
     stages.build_s = clock.elapsed().as_secs_f64();
-    let tile_rows = check_limits(gpu, scene, &prims)?;
+    let tile_rows = check_limits(gpu, scene, &variant, &prims)?.min(max_rows.unwrap_or(u32::MAX));
     let [nx, ny] = scene.camera.resolution;
     let frame = cpu::types::kernel_frame(scene, algorithm);
     let clock = std::time::Instant::now();
@@ -638,7 +692,7 @@ fn render_variant<R: GpuReal>(
     let device = &gpu.device;
 
     let clock = std::time::Instant::now();
-    let uploaded = prims.upload(gpu);
+    let uploaded = prims.upload(gpu, &variant);
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;

@@ -67,6 +67,31 @@ pub struct Variant {
     pub bvh: bool,
     /// The device has subgroup operations: the rays of a subgroup traverse the BVH together.
     pub packets: bool,
+    /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
+    /// [`MAX_CHUNKS`]): meshes larger than one binding.
+    pub chunks: u8,
+    /// log2 of the triangles (or nodes) per chunk.
+    pub chunk_bits: u8,
+}
+
+/// The most chunks a kernel binds for triangles, and for nodes.
+pub const MAX_CHUNKS: u8 = 4;
+
+/// The chunks `scene`'s triangles and BVH nodes need at `chunk_bits` (a BVH over n
+/// primitives has fewer than n nodes), at most [`MAX_CHUNKS`]: a scene needing more is refused
+/// before rendering.
+pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
+    let n = crate::bvh::bounded_count(scene).max(1) as u64;
+    n.div_ceil(1 << chunk_bits).min(MAX_CHUNKS as u64) as u8
+}
+
+/// Bytes of the largest element that is chunked: a BVH node or an f64 triangle.
+const LARGEST_CHUNKED: u64 = 96;
+
+/// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
+/// bytes: every chunk of nodes or triangles (f32 or f64) fits one binding.
+pub fn chunk_bits_for(max_binding: u64) -> u8 {
+    (max_binding / LARGEST_CHUNKED).max(1).ilog2().min(31) as u8
 }
 
 impl Variant {
@@ -80,6 +105,8 @@ impl Variant {
             kinds: Kinds::ALL,
             bvh: false,
             packets: false,
+            chunks: 1,
+            chunk_bits: chunk_bits_for(128 << 20),
         }
     }
 
@@ -109,6 +136,11 @@ impl Variant {
         }
         if self.pixel_list {
             d.push("PIXEL_LIST");
+        }
+        for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
+            if self.chunks >= k {
+                d.push(name);
+            }
         }
         if self.uses_bvh() {
             d.push("BVH");
@@ -160,7 +192,8 @@ pub const ENTRY_POINT: &str = "main";
 /// The generated module that fixes the kernel's scalar type.
 const PRECISION_MODULE: &str = "precision";
 
-fn module_source(name: &str, precision: Precision) -> Option<String> {
+fn module_source(name: &str, variant: &Variant) -> Option<String> {
+    let precision = variant.precision;
     if name == PRECISION_MODULE {
         // Written as literals: naga's constant evaluator does no f64 arithmetic.
         let (eps, t_tolerance) = match precision {
@@ -172,8 +205,11 @@ fn module_source(name: &str, precision: Precision) -> Option<String> {
              // Machine epsilon of real.\n\
              const EPS: real = {eps:e};\n\
              // Relative error bound of a computed t (robust set): 16 EPS.\n\
-             const T_TOLERANCE: real = {t_tolerance:e};\n",
-            precision.name()
+             const T_TOLERANCE: real = {t_tolerance:e};\n\
+             // log2 of the triangles (and BVH nodes) per storage binding.\n\
+             const CHUNK_BITS: u32 = {}u;\n",
+            precision.name(),
+            variant.chunk_bits
         ));
     }
     MODULES
@@ -246,7 +282,7 @@ fn include(
             stack.join(" -> ")
         )));
     }
-    let source = module_source(name, variant.precision)
+    let source = module_source(name, variant)
         .ok_or_else(|| Error::Device(format!("shaders: unknown module `{name}`")))?;
     let source = preprocess(&source, &variant.defines(), name)?;
     stack.push(name.to_owned());
@@ -317,16 +353,20 @@ pub fn all_variants() -> Vec<Variant> {
                         continue;
                     }
                     for (bvh, packets) in [(false, false), (true, false), (true, true)] {
-                        v.push(Variant {
-                            precision,
-                            algorithm,
-                            f64_available,
-                            certainty,
-                            pixel_list,
-                            kinds: Kinds::ALL,
-                            bvh,
-                            packets,
-                        });
+                        for chunks in 1..=MAX_CHUNKS {
+                            v.push(Variant {
+                                precision,
+                                algorithm,
+                                f64_available,
+                                certainty,
+                                pixel_list,
+                                kinds: Kinds::ALL,
+                                bvh,
+                                packets,
+                                chunks,
+                                chunk_bits: 9,
+                            });
+                        }
                     }
                 }
             }
