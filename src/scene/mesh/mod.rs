@@ -1,11 +1,12 @@
-//! Triangle-mesh files: STL (binary or ASCII) and OBJ, polygons fan-triangulated in corner
-//! order.
+//! Triangle-mesh files: STL (binary or ASCII), OBJ and PLY (ASCII or binary), polygons
+//! fan-triangulated in corner order.
 //!
 //! The parsers are our own: a whole file is read into memory and parsed from the buffer, so
 //! meshes of millions of triangles load in well under a second, and every error names where in
 //! the file it is, as `line N: ...` (text) or `byte N: ...` (binary), after the file name.
 
 mod obj;
+mod ply;
 mod stl;
 mod text;
 
@@ -16,7 +17,7 @@ use super::Triangle;
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
-/// Loads a mesh by extension: `.obj` as OBJ, anything else as STL.
+/// Loads a mesh by extension: `.obj` as OBJ, `.ply` as PLY, anything else as STL.
 pub fn load_mesh(path: &Path) -> Result<Vec<Triangle>> {
     let bytes = std::fs::read(path).map_err(|e| Error::Mesh {
         file: path.to_owned(),
@@ -25,6 +26,7 @@ pub fn load_mesh(path: &Path) -> Result<Vec<Triangle>> {
     let parsed = match Format::of(path) {
         Format::Stl => stl::parse(&bytes),
         Format::Obj => obj::parse(&bytes),
+        Format::Ply => ply::parse(&bytes),
     };
     parsed.map_err(|e| e.in_file(path))
 }
@@ -39,6 +41,7 @@ pub fn parse_stl(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
 enum Format {
     Stl,
     Obj,
+    Ply,
 }
 
 impl Format {
@@ -47,7 +50,13 @@ impl Format {
             path.extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case(ext))
         };
-        if is("obj") { Format::Obj } else { Format::Stl }
+        if is("obj") {
+            Format::Obj
+        } else if is("ply") {
+            Format::Ply
+        } else {
+            Format::Stl
+        }
     }
 }
 
@@ -103,7 +112,7 @@ impl fmt::Display for ParseError {
 }
 
 /// Appends the fan triangulation of one polygon, given by its corners' indices into `vertices`
-/// (already checked): corners 0 1 2 3 become (0,1,2), (0,2,3), the order OBJ writers
+/// (already checked): corners 0 1 2 3 become (0,1,2), (0,2,3), the order OBJ and PLY writers
 /// and other loaders assume, which keeps every triangle's winding (and so its normal).
 fn fan(corners: &[usize], vertices: &[Vec3<f64>], triangles: &mut Vec<Triangle>) {
     let corner = |k: usize| vertices[corners[k]];
@@ -119,6 +128,7 @@ mod tests {
     #[test]
     fn format_by_extension_defaults_to_stl() {
         assert_eq!(Format::of(Path::new("a/b.OBJ")), Format::Obj);
+        assert_eq!(Format::of(Path::new("b.ply")), Format::Ply);
         assert_eq!(Format::of(Path::new("b.stl")), Format::Stl);
         assert_eq!(Format::of(Path::new("bunny")), Format::Stl);
     }
