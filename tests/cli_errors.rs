@@ -375,26 +375,42 @@ fn corrupt_stl_files() {
         "the noise must promise more triangles than it holds"
     );
     let message = mesh_err("stl", "noise.stl", Some(&noise));
-    assert_has(&message, &["STL"]);
+    assert_has(
+        &message,
+        &[&format!(
+            "noise.stl: byte 84: binary STL declares {count} triangles"
+        )],
+    );
 
     // A binary STL promising 5 triangles and holding one.
     let mut truncated = vec![0u8; 80];
     truncated.extend_from_slice(&5u32.to_le_bytes());
     truncated.extend_from_slice(&[0u8; 50]);
     let message = mesh_err("stl", "truncated.stl", Some(&truncated));
-    assert_has(&message, &["STL"]);
+    assert_has(
+        &message,
+        &[
+            "truncated.stl: byte 84: binary STL declares 5 triangles (334 bytes) but the file has 134 bytes",
+        ],
+    );
 
     // ASCII STL cut off in the middle of a facet.
     let ascii = b"solid broken\n facet normal 0 0 1\n  outer loop\n   vertex 0 0\n";
     let message = mesh_err("stl", "cut.stl", Some(ascii));
-    assert_has(&message, &["STL"]);
+    assert_has(
+        &message,
+        &["cut.stl: line 4: expected 3 numbers after 'vertex', found end of line"],
+    );
 }
 
 #[test]
 fn corrupt_obj_file() {
     // A face that refers to vertices the file never defines.
     let message = mesh_err("obj", "garbage.obj", Some(b"f 1 2 3\n"));
-    assert_has(&message, &["OBJ"]);
+    assert_has(
+        &message,
+        &["garbage.obj: line 1: face index 1 but only 0 vertices so far"],
+    );
 }
 
 // 13. Output folder.

@@ -12,7 +12,7 @@ untransformed scene) and `translation` or `scale`.
 Exactness checks done here:
 - every number written to a scene JSON is parsed back the way serde_json (without its
   `float_roundtrip` feature, as raycast builds it) parses it, and must give the same f64;
-- every OBJ coordinate must be exactly representable in f32 (raycast loads OBJ through tobj
+- every OBJ coordinate must be exactly representable in f32 (raycast reads OBJ coordinates
   in f32), so the translated and scaled meshes are the base mesh moved exactly.
 """
 

@@ -64,9 +64,12 @@ enum ObjectFile {
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
     },
+    /// The key names the format for the reader of the scene; the loader goes by the file's
+    /// extension (`.obj`, `.ply`, anything else STL), as it always has.
     Soup {
         stl: Option<String>,
         obj: Option<String>,
+        ply: Option<String>,
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
@@ -243,14 +246,15 @@ impl Checker<'_> {
                 }
                 Object::Triangle { corners: c }
             }
-            ObjectFile::Soup { stl, obj, .. } => {
-                let name = match (stl, obj) {
-                    (Some(s), None) => s,
-                    (None, Some(o)) => o,
+            ObjectFile::Soup { stl, obj, ply, .. } => {
+                let name = match (stl, obj, ply) {
+                    (Some(name), None, None)
+                    | (None, Some(name), None)
+                    | (None, None, Some(name)) => name,
                     _ => {
                         return Err(self.fail(
                             format!("objects[{i}]"),
-                            "a soup needs exactly one of \"stl\" or \"obj\"",
+                            "a soup needs exactly one of \"stl\", \"obj\" or \"ply\"",
                         ));
                     }
                 };
