@@ -227,31 +227,22 @@ fn round_up(x: f64) -> f32 {
     if (f as f64) < x { f.next_up() } else { f }
 }
 
-fn bounds(items: &[Item]) -> Aabb {
+/// The box of `items` and the box of their centroids, in one pass.
+fn bounds(items: &[Item]) -> (Aabb, Aabb) {
     if items.len() > PARALLEL_ITEMS {
-        return items
-            .par_chunks(PARALLEL_ITEMS)
-            .map(bounds)
-            .reduce(|| Aabb::EMPTY, Aabb::union);
+        return items.par_chunks(PARALLEL_ITEMS).map(bounds).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |(a, b), (c, d)| (a.union(c), b.union(d)),
+        );
     }
     let mut b = Aabb::EMPTY;
-    items.iter().for_each(|i| b.grow(i.lo, i.hi));
-    b
-}
-
-fn centroid_bounds(items: &[Item]) -> Aabb {
-    if items.len() > PARALLEL_ITEMS {
-        return items
-            .par_chunks(PARALLEL_ITEMS)
-            .map(centroid_bounds)
-            .reduce(|| Aabb::EMPTY, Aabb::union);
-    }
-    let mut b = Aabb::EMPTY;
+    let mut cb = Aabb::EMPTY;
     for i in items {
-        let c = Vec3::from_array([0, 1, 2].map(|k| i.centroid(k)));
-        b.grow(c, c);
+        b.grow(i.lo, i.hi);
+        let c = (i.lo + i.hi) * 0.5;
+        cb.grow(c, c);
     }
-    b
+    (b, cb)
 }
 
 /// A subtree before flattening; leaves are ranges of the item list, which the build leaves
@@ -290,18 +281,27 @@ fn bin_of(item: &Item, axis: usize, cb: &Aabb) -> usize {
     b.min(BINS - 1)
 }
 
-fn fill_bins(items: &[Item], axis: usize, cb: &Aabb) -> Bins {
+/// The bins of all three axes (an axis whose centroids do not spread stays empty), in one pass.
+fn fill_bins(items: &[Item], cb: &Aabb) -> [Bins; 3] {
     if items.len() > PARALLEL_ITEMS {
         return items
             .par_chunks(PARALLEL_ITEMS)
-            .map(|c| fill_bins(c, axis, cb))
-            .reduce(|| Bins::EMPTY, Bins::merge);
+            .map(|c| fill_bins(c, cb))
+            .reduce(
+                || [Bins::EMPTY; 3],
+                |a, b| [0, 1, 2].map(|k| a[k].merge(b[k])),
+            );
     }
-    let mut bins = Bins::EMPTY;
+    let mut bins = [Bins::EMPTY; 3];
+    let spread = [0, 1, 2].map(|axis| cb.hi[axis] > cb.lo[axis]);
     for i in items {
-        let b = bin_of(i, axis, cb);
-        bins.boxes[b].grow(i.lo, i.hi);
-        bins.counts[b] += 1;
+        for axis in 0..3 {
+            if spread[axis] {
+                let b = bin_of(i, axis, cb);
+                bins[axis].boxes[b].grow(i.lo, i.hi);
+                bins[axis].counts[b] += 1;
+            }
+        }
     }
     bins
 }
@@ -338,21 +338,20 @@ fn best_split_of_axis(bins: &Bins, parent_area: f64) -> Option<(f64, usize)> {
 
 /// Builds the subtree over `items` (which start at `start` in the whole list) at `depth`.
 fn build_tree(items: &mut [Item], start: usize, depth: usize) -> (Aabb, Tree) {
-    let bounds = bounds(items);
+    let (bounds, cb) = bounds(items);
     let n = items.len();
     let leaf = Tree::Leaf { start, len: n };
     if n <= 1 || depth + 1 >= MAX_DEPTH {
         return (bounds, leaf);
     }
-    let cb = centroid_bounds(items);
     let area = bounds.half_area();
     let mut best: Option<(f64, usize, usize)> = None;
-    for axis in 0..3 {
+    let bins = fill_bins(items, &cb);
+    for (axis, bins) in bins.iter().enumerate() {
         if cb.hi[axis] <= cb.lo[axis] {
             continue;
         }
-        let bins = fill_bins(items, axis, &cb);
-        let split = best_split_of_axis(&bins, area.max(f64::MIN_POSITIVE));
+        let split = best_split_of_axis(bins, area.max(f64::MIN_POSITIVE));
         if let Some((cost, bin)) = split
             && best.is_none_or(|(c, _, _)| cost < c)
         {

@@ -69,7 +69,7 @@ impl Gpu {
             bvh: false,
             packets: self.device.features().contains(wgpu::Features::SUBGROUP),
             chunks: 1,
-            chunk_bits: shader::chunk_bits_for(self.max_binding()),
+            chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
         }
     }
 

@@ -85,13 +85,15 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
     n.div_ceil(1 << chunk_bits).min(MAX_CHUNKS as u64) as u8
 }
 
-/// Bytes of the largest element that is chunked: a BVH node or an f64 triangle.
-const LARGEST_CHUNKED: u64 = 96;
-
 /// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
-/// bytes: every chunk of nodes or triangles (f32 or f64) fits one binding.
-pub fn chunk_bits_for(max_binding: u64) -> u8 {
-    (max_binding / LARGEST_CHUNKED).max(1).ilog2().min(31) as u8
+/// bytes: every chunk of BVH nodes (64 bytes) or triangles (48 bytes in f32, 96 in f64) fits
+/// one binding.
+pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
+    let largest = match precision {
+        Precision::F32 => 64,
+        Precision::F64 => 96,
+    };
+    (max_binding / largest).max(1).ilog2().min(31) as u8
 }
 
 impl Variant {
@@ -106,7 +108,7 @@ impl Variant {
             bvh: false,
             packets: false,
             chunks: 1,
-            chunk_bits: chunk_bits_for(128 << 20),
+            chunk_bits: chunk_bits_for(128 << 20, precision),
         }
     }
 
