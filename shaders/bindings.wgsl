@@ -28,10 +28,15 @@ struct Params {
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).
 @group(0) @binding(4) var<storage, read> objects: array<u32>;
-// Per pixel of the tile: normal in xyz, distance in w (0 on a miss).
+// Outputs are bound only when the variant writes them (SURFACE, ID).
+#if SURFACE
+// Per pixel of the tile: normal in xyz, distance in w (0 on a miss, and where not asked for).
 @group(0) @binding(5) var<storage, read_write> out_surface: array<vec4<real>>;
+#endif
+#if ID
 // Per pixel of the tile: object id, -1 on a miss.
 @group(0) @binding(6) var<storage, read_write> out_id: array<i32>;
+#endif
 #if CERTAINTY
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;

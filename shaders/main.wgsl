@@ -5,21 +5,30 @@
 #import camera
 #import scene
 
-// Casts the ray of pixel (i, j) and writes its results to output slot `index`.
+// Casts the ray of pixel (i, j) and writes its results to output slot `index`. Only the
+// outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID, SURFACE).
 fn cast_pixel(i: u32, j: u32, index: u32) {
     let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
     let hit = nearest_hit(ray, params.frame.min_t);
 #if CERTAINTY
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit));
 #endif
-    if (hit.object < 0) {
-        out_surface[index] = vec4<real>(0.0);
-        out_id[index] = -1;
-        return;
+#if ID
+    out_id[index] = select(hit.object, -1, hit.object < 0);
+#endif
+    // Normal in xyz, distance in w, each zero unless computed; zero on a miss.
+    var surface = vec4<real>(0.0);
+    if (hit.object >= 0) {
+#if NORMAL
+        surface = vec4<real>(hit_normal(ray, hit), 0.0);
+#endif
+#if DISTANCE
+        surface.w = hit.t * length(ray.direction);
+#endif
     }
-    let distance = hit.t * length(ray.direction);
-    out_surface[index] = vec4<real>(hit_normal(ray, hit), distance);
-    out_id[index] = hit.object;
+#if SURFACE
+    out_surface[index] = surface;
+#endif
 }
 
 #if PIXEL_LIST

@@ -8,6 +8,7 @@ use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
+use raycast::images::{Output, Outputs};
 use raycast::output::{self, Format};
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
@@ -62,6 +63,10 @@ enum Command {
         /// the mode) to this file.
         #[arg(long, value_name = "FILE")]
         emit_shader: Option<PathBuf>,
+        /// Comma-separated outputs to compute and write: id, distance, normal, color (color.png,
+        /// png only). Default: every output the formats write.
+        #[arg(long, value_name = "LIST", value_delimiter = ',')]
+        outputs: Option<Vec<Output>>,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -216,6 +221,7 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             background,
             emit_shader,
+            outputs,
         } => {
             let mode = Mode {
                 device,
@@ -231,6 +237,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 spp,
                 background,
                 emit_shader: emit_shader.as_deref(),
+                outputs: outputs.as_deref(),
             })?;
             Ok(ExitCode::SUCCESS)
         }
@@ -302,20 +309,52 @@ struct RenderArgs<'a> {
     spp: Option<u32>,
     background: Option<[u8; 3]>,
     emit_shader: Option<&'a Path>,
+    /// `--outputs`, when given.
+    outputs: Option<&'a [Output]>,
 }
 
-/// The kernel a GPU render in `mode` runs first (for adaptive precision: its f32 certainty
-/// pass), specialised for `scene`.
-fn kernel_for(gpu: &Gpu, scene: &Scene, mode: Mode) -> raycast::gpu::shader::Variant {
+/// The outputs a render computes and writes: those of `--outputs`, else every output the
+/// formats write (color only with png). Colour without png is an error.
+fn chosen_outputs(list: Option<&[Output]>, formats: &[Format]) -> Result<Outputs> {
+    let png = formats.contains(&Format::Png);
+    let Some(list) = list else {
+        return Ok(Outputs {
+            color: png,
+            ..Outputs::ALL
+        });
+    };
+    let outputs = Outputs::of(list);
+    if outputs.color && !png {
+        return Err(raycast::Error::Argument {
+            option: "--outputs color".into(),
+            message: "color is written as color.png only; add png to --format".into(),
+        });
+    }
+    Ok(outputs)
+}
+
+/// The kernel a GPU render in `mode` at `spp` samples per pixel runs first (for adaptive
+/// precision: its f32 certainty pass, which writes every output), specialised for `scene` and
+/// `request`.
+fn kernel_for(
+    gpu: &Gpu,
+    scene: &Scene,
+    mode: Mode,
+    request: &render::Request,
+    spp: u32,
+) -> raycast::gpu::shader::Variant {
     let precision = match mode.precision {
         Arithmetic::F64 => raycast::math::Precision::F64,
         _ => raycast::math::Precision::F32,
     };
     let variant = gpu.scene_variant(scene, precision, mode.algorithm);
-    raycast::gpu::shader::Variant {
-        certainty: mode.precision == Arithmetic::Adaptive,
-        ..variant
+    if mode.precision == Arithmetic::Adaptive {
+        return raycast::gpu::shader::Variant {
+            certainty: true,
+            ..variant
+        };
     }
+    variant.with_outputs(supersample::sample_request(request, spp).kernel_outputs())
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
@@ -328,7 +367,9 @@ fn render(args: &RenderArgs) -> Result<()> {
         spp,
         background,
         emit_shader,
+        outputs,
     } = *args;
+    let outputs = chosen_outputs(outputs, formats)?;
     if emit_shader.is_some() && mode.device != Device::Gpu {
         return Err(raycast::Error::Argument {
             option: "--emit-shader".into(),
@@ -346,6 +387,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let gpu = gpu_for(&[mode])?;
     let mut recast = None;
+    let request = render::Request { outputs };
     let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu.as_ref()) {
         // Plain adaptive renders report how much they re-cast in f64.
         (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
@@ -355,9 +397,12 @@ fn render(args: &RenderArgs) -> Result<()> {
                 supersample::Supersampled::from_images(a.images),
             ))
         }
-        _ => supersample::supersample(&scene, mode, gpu.as_ref(), spp.unwrap_or(1), true),
+        _ => {
+            let spp = spp.unwrap_or(1);
+            supersample::supersample_request(&scene, mode, gpu.as_ref(), spp, true, &request)
+        }
     });
-    let written = images?.write(out_dir, formats, background, spp.is_some())?;
+    let written = images?.write(out_dir, formats, outputs, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
     let on = gpu.as_ref().map_or("the CPU".to_owned(), |g| g.info().name);
     let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
@@ -367,7 +412,8 @@ fn render(args: &RenderArgs) -> Result<()> {
         elapsed.as_secs_f64()
     ));
     if let (Some(path), Some(g)) = (emit_shader, gpu.as_ref()) {
-        let source = raycast::gpu::shader::kernel_source(&kernel_for(g, &scene, mode))?;
+        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1));
+        let source = raycast::gpu::shader::kernel_source(&variant)?;
         output::write_file(path, source.as_bytes())?;
         say(format!("wrote {}", path.display()));
     }

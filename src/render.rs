@@ -11,7 +11,7 @@ use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu};
-use crate::images::Images;
+use crate::images::{Images, Outputs};
 use crate::math::Precision;
 use crate::output::{self, Format};
 use crate::scene::Scene;
@@ -156,9 +156,51 @@ impl AnyImages {
     }
 }
 
+/// What a render is asked to produce beyond its [`Mode`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Request {
+    /// The outputs wanted. The GPU kernels (f32, f64) compute and read back only these (and
+    /// the ids when the palette `color.png` is wanted); adaptive precision and the CPU
+    /// reference compute every output.
+    pub outputs: Outputs,
+}
+
+impl Default for Request {
+    /// Every output.
+    fn default() -> Self {
+        Request {
+            outputs: Outputs::ALL,
+        }
+    }
+}
+
+impl Request {
+    /// The outputs the GPU kernel must write for this request: the palette `color.png` is
+    /// made on the host from the ids.
+    pub fn kernel_outputs(&self) -> Outputs {
+        let o = self.outputs;
+        Outputs {
+            id: o.id || o.color,
+            color: false,
+            ..o
+        }
+    }
+}
+
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; with `progress`, a CPU
 /// render that takes over a second shows a progress bar on stderr when it is a terminal.
 pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> Result<AnyImages> {
+    render_request(scene, mode, gpu, progress, &Request::default())
+}
+
+/// [`render`] producing what `request` asks for.
+pub fn render_request(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    progress: bool,
+    request: &Request,
+) -> Result<AnyImages> {
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
@@ -176,9 +218,20 @@ pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> R
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+            let outputs = request.kernel_outputs();
             Ok(match mode.precision {
-                Arithmetic::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene, mode.algorithm)?),
-                _ => AnyImages::F64(gpu::render::<f64>(gpu, scene, mode.algorithm)?),
+                Arithmetic::F32 => AnyImages::F32(gpu::render_outputs::<f32>(
+                    gpu,
+                    scene,
+                    mode.algorithm,
+                    outputs,
+                )?),
+                _ => AnyImages::F64(gpu::render_outputs::<f64>(
+                    gpu,
+                    scene,
+                    mode.algorithm,
+                    outputs,
+                )?),
             })
         }
         Device::Cpu => Ok(match mode.precision {

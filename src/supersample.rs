@@ -32,10 +32,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
-use crate::images::{Images, MISS};
+use crate::images::{Images, MISS, Outputs};
 use crate::math::Real;
 use crate::output::{self, Format, PixelCoverage};
-use crate::render::{self, AnyImages, Mode};
+use crate::render::{self, AnyImages, Mode, Request};
 use crate::scene::Scene;
 
 /// The largest `s`: `N = s * s` up to 2^24, so that sample counts are exact in f32 and
@@ -270,20 +270,21 @@ impl AnySupersampled {
         }
     }
 
-    /// Encodes and writes (see [`output::encode_supersampled`]).
+    /// Encodes and writes the files of `outputs` (see [`output::encode_supersampled`]).
     pub fn write(
         &self,
         dir: &std::path::Path,
         formats: &[Format],
+        outputs: Outputs,
         background: Option<[u8; 3]>,
         alpha_npy: bool,
     ) -> Result<Vec<std::path::PathBuf>> {
         match self {
             AnySupersampled::F32(x) => {
-                output::write_supersampled(x, dir, formats, background, alpha_npy)
+                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
             }
             AnySupersampled::F64(x) => {
-                output::write_supersampled(x, dir, formats, background, alpha_npy)
+                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
             }
         }
     }
@@ -299,15 +300,30 @@ pub fn supersample(
     spp: u32,
     progress: bool,
 ) -> Result<AnySupersampled> {
+    supersample_request(scene, mode, gpu, spp, progress, &Request::default())
+}
+
+/// [`supersample`] producing what `request` asks for. Above one sample per pixel the ids are
+/// rendered whatever the request: the reduction is by majority id.
+pub fn supersample_request(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    spp: u32,
+    progress: bool,
+    request: &Request,
+) -> Result<AnySupersampled> {
     let s = side(spp).map_err(|message| Error::Argument {
         option: "--spp".into(),
         message,
     })?;
     if s == 1 {
-        return Ok(match render::render(scene, mode, gpu, progress)? {
-            AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
-            AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
-        });
+        return Ok(
+            match render::render_request(scene, mode, gpu, progress, request)? {
+                AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
+                AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
+            },
+        );
     }
     let [nx, ny] = scene.camera.resolution;
     let too_big = || Error::Argument {
@@ -320,7 +336,9 @@ pub fn supersample(
     ];
     let mut fine_scene = scene.clone();
     fine_scene.camera.resolution = fine_resolution;
-    let fine = render::render(&fine_scene, mode, gpu, progress).map_err(|e| match e {
+    let fine_request = sample_request(request, spp);
+    let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
+    let fine = fine.map_err(|e| match e {
         Error::Argument { option, message } => Error::Argument {
             option: format!("--spp {spp}"),
             message: format!("the render of {s}x{s} samples per pixel: {option}: {message}"),
@@ -331,6 +349,14 @@ pub fn supersample(
         AnyImages::F32(i) => AnySupersampled::F32(reduce(&i, s)),
         AnyImages::F64(i) => AnySupersampled::F64(reduce(&i, s)),
     })
+}
+
+/// What the render of the samples is asked for at `spp` samples per pixel: `request`, with
+/// the ids above one sample (the reduction is by majority id).
+pub fn sample_request(request: &Request, spp: u32) -> Request {
+    let mut r = request.clone();
+    r.outputs.id |= spp > 1;
+    r
 }
 
 /// How far a render at `spp` samples per pixel is from a high-spp reference.

@@ -7,8 +7,8 @@ mod render;
 pub mod shader;
 
 pub use render::{
-    max_tile_rows, render, render_pixels, render_pixels_timed, render_timed, render_with_certainty,
-    render_with_certainty_timed, render_with_variant,
+    max_tile_rows, render, render_outputs, render_pixels, render_pixels_timed, render_timed,
+    render_with_certainty, render_with_certainty_timed, render_with_variant,
 };
 
 use std::collections::HashMap;
@@ -59,6 +59,7 @@ impl Gpu {
             certainty: false,
             pixel_list: false,
             kinds: shader::Kinds::ALL,
+            outputs: crate::images::Outputs::GEOMETRY,
         }
     }
 

@@ -5,6 +5,7 @@
 
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
+use crate::images::Outputs;
 use crate::math::Precision;
 
 /// The primitive kinds a kernel is compiled for.
@@ -62,6 +63,9 @@ pub struct Variant {
     pub pixel_list: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
+    /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
+    /// (`out_surface`); the rest is left out. `color` is unused until a shade hook is set.
+    pub outputs: Outputs,
 }
 
 impl Variant {
@@ -73,6 +77,7 @@ impl Variant {
             certainty: false,
             pixel_list: false,
             kinds: Kinds::ALL,
+            outputs: Outputs::GEOMETRY,
         }
     }
 
@@ -81,10 +86,16 @@ impl Variant {
         Variant { kinds, ..self }
     }
 
+    /// This variant writing only `outputs`.
+    pub fn with_outputs(self, outputs: Outputs) -> Variant {
+        Variant { outputs, ..self }
+    }
+
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
-    /// compiled in).
+    /// compiled in), and for the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface`
+    /// written: distance or normal asked for), `NORMAL` and `DISTANCE` (computed).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -106,6 +117,17 @@ impl Variant {
             (self.kinds.spheres, "SPHERES"),
             (self.kinds.planes, "PLANES"),
             (self.kinds.triangles, "TRIANGLES"),
+        ] {
+            if present {
+                d.push(name);
+            }
+        }
+        let o = self.outputs;
+        for (present, name) in [
+            (o.id, "ID"),
+            (o.distance || o.normal, "SURFACE"),
+            (o.normal, "NORMAL"),
+            (o.distance, "DISTANCE"),
         ] {
             if present {
                 d.push(name);
@@ -280,7 +302,8 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 }
 
 /// Every variant a device may build: both precisions, both algorithms, with and without f64,
-/// the robust ones with and without the certainty test, and the pixel-list ones.
+/// the robust ones with and without the certainty test, and the pixel-list ones; the plain
+/// ones also with each output alone and with none.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
@@ -291,20 +314,44 @@ pub fn all_variants() -> Vec<Variant> {
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
                     }
-                    v.push(Variant {
+                    let variant = Variant {
                         precision,
                         algorithm,
                         f64_available,
                         certainty,
                         pixel_list,
                         kinds: Kinds::ALL,
-                    });
+                        outputs: Outputs::GEOMETRY,
+                    };
+                    v.push(variant);
+                    if !certainty && !pixel_list {
+                        for outputs in OUTPUT_SUBSETS {
+                            v.push(variant.with_outputs(outputs));
+                        }
+                    }
                 }
             }
         }
     }
     v
 }
+
+/// Id, distance and normal each alone, and none of them.
+const OUTPUT_SUBSETS: [Outputs; 4] = [
+    Outputs {
+        id: true,
+        ..Outputs::NONE
+    },
+    Outputs {
+        distance: true,
+        ..Outputs::NONE
+    },
+    Outputs {
+        normal: true,
+        ..Outputs::NONE
+    },
+    Outputs::NONE,
+];
 
 #[cfg(test)]
 mod tests {
@@ -401,6 +448,97 @@ mod tests {
                         "{buffer} in {variant:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// The names of the functions the entry point calls, directly or through the functions it
+    /// calls (in any nested block).
+    fn called_functions(module: &naga::Module) -> Vec<String> {
+        type Handles = Vec<naga::Handle<naga::Function>>;
+        fn walk(block: &naga::Block, out: &mut Handles) {
+            use naga::Statement as S;
+            for statement in block.iter() {
+                match statement {
+                    S::Call { function, .. } => out.push(*function),
+                    S::Block(b) => walk(b, out),
+                    S::If { accept, reject, .. } => {
+                        walk(accept, out);
+                        walk(reject, out);
+                    }
+                    S::Switch { cases, .. } => cases.iter().for_each(|c| walk(&c.body, out)),
+                    S::Loop {
+                        body, continuing, ..
+                    } => {
+                        walk(body, out);
+                        walk(continuing, out);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let entry = module
+            .entry_points
+            .iter()
+            .find(|e| e.name == ENTRY_POINT)
+            .expect("the kernel has its entry point");
+        let mut pending = Vec::new();
+        walk(&entry.function.body, &mut pending);
+        let mut seen: Handles = Vec::new();
+        while let Some(f) = pending.pop() {
+            if !seen.contains(&f) {
+                seen.push(f);
+                walk(&module.functions[f].body, &mut pending);
+            }
+        }
+        seen.iter()
+            .filter_map(|&f| module.functions[f].name.clone())
+            .collect()
+    }
+
+    /// A kernel asked for distances only calls no normal function and binds no id buffer; one
+    /// asked for normals does call them (checked on the naga module).
+    #[test]
+    fn outputs_not_asked_for_are_not_computed() {
+        let normal_functions = [
+            "hit_normal",
+            "sphere_normal",
+            "plane_normal",
+            "triangle_normal",
+        ];
+        for base in [
+            Variant::new(Precision::F32, Algorithm::Robust),
+            Variant::new(Precision::F64, Algorithm::Textbook),
+        ] {
+            for (outputs, normals) in [
+                (OUTPUT_SUBSETS[1], false), // distance only
+                (OUTPUT_SUBSETS[0], false), // id only
+                (OUTPUT_SUBSETS[2], true),  // normal only
+                (Outputs::GEOMETRY, true),
+            ] {
+                let variant = base.with_outputs(outputs);
+                let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+                let called = called_functions(&module);
+                let calls = |f: &str| called.iter().any(|c| c == f);
+                assert!(calls("nearest_hit"), "{called:?}");
+                if normals {
+                    assert!(calls("hit_normal"), "{variant:?}");
+                } else {
+                    for f in normal_functions {
+                        assert!(!calls(f), "{f} called in {variant:?}");
+                    }
+                }
+                let globals: Vec<&str> = module
+                    .global_variables
+                    .iter()
+                    .filter_map(|(_, g)| g.name.as_deref())
+                    .collect();
+                assert_eq!(globals.contains(&"out_id"), outputs.id, "{variant:?}");
+                assert_eq!(
+                    globals.contains(&"out_surface"),
+                    outputs.distance || outputs.normal,
+                    "{variant:?}"
+                );
             }
         }
     }
