@@ -12,7 +12,10 @@ struct Params {
     sphere_count: u32,    // offset 84 / 148
     plane_count: u32,     // offset 88 / 152
     triangle_count: u32,  // offset 92 / 156
-}                         // size 96 / 160
+    origin: vec3<real>,   // offset 96 / 160: the kernel's origin in world coordinates (the eye
+                          //   in the robust set, else 0); shade hooks add it back
+    _pad0: real,          // offset 108 / 184
+}                         // size 112 / 192
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
@@ -40,4 +43,8 @@ struct Params {
 #if CERTAINTY
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
+#endif
+#if USER_SHADE
+// Per pixel of the tile: the shade hook's colour, pack4x8unorm (red in the lowest byte).
+@group(0) @binding(8) var<storage, read_write> out_color: array<u32>;
 #endif

@@ -4,6 +4,10 @@
 #import bindings
 #import camera
 #import scene
+#if USER_SHADE
+#import hooks
+#import user
+#endif
 
 // Casts the ray of pixel (i, j) and writes its results to output slot `index`. Only the
 // outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID, SURFACE).
@@ -29,7 +33,30 @@ fn cast_pixel(i: u32, j: u32, index: u32) {
 #if SURFACE
     out_surface[index] = surface;
 #endif
+#if USER_SHADE
+    let colour = shade(shade_hit(ray, hit, surface, i, j));
+    out_color[index] = pack4x8unorm(clamp(colour, vec4<f32>(0.0), vec4<f32>(1.0)));
+#endif
 }
+
+#if USER_SHADE
+// The hook's view of pixel (i, j), in world coordinates and f32 whatever the kernel's
+// precision (shaders/hooks.wgsl). `surface` holds the normal and distance (zero on a miss).
+fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHit {
+    var h: ShadeHit;
+    h.id = select(hit.object, -1, hit.object < 0);
+    h.direction = vec3<f32>(normalize(ray.direction));
+    h.origin = vec3<f32>(params.origin + ray.origin);
+    h.pixel = vec2<u32>(j, i);
+    h.resolution = vec2<u32>(params.nx, params.ny);
+    if (hit.object >= 0) {
+        h.position = vec3<f32>(params.origin + (ray.origin + hit.t * ray.direction));
+        h.normal = vec3<f32>(surface.xyz);
+        h.distance = f32(surface.w);
+    }
+    return h;
+}
+#endif
 
 #if PIXEL_LIST
 // The pixels to cast, as row-major indices; params.tile_rows holds how many there are.

@@ -130,6 +130,12 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
     },
+    /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
+    /// the error, with its line and column.
+    CheckShader {
+        /// WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`.
+        file: PathBuf,
+    },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
 }
@@ -186,9 +192,18 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
+            report(&e);
             ExitCode::from(2)
         }
+    }
+}
+
+/// Prints an error on stderr: one `error: ` line, or a shader error's own block (which says
+/// `error:` after its location, as compilers do).
+fn report(e: &raycast::Error) {
+    match e {
+        raycast::Error::Shader { .. } => eprintln!("{e}"),
+        _ => eprintln!("error: {e}"),
     }
 }
 
@@ -271,6 +286,11 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             output,
         } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        Command::CheckShader { file } => {
+            gpu::hooks::load(&file)?;
+            say(format!("{}: ok", file.display()));
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());

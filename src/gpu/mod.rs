@@ -1,6 +1,7 @@
 //! The GPU side: getting a device ([`Gpu::new`]) is separate from running on one
 //! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
 
+pub mod hooks;
 pub mod layout;
 pub mod probe;
 mod render;
@@ -60,6 +61,7 @@ impl Gpu {
             pixel_list: false,
             kinds: shader::Kinds::ALL,
             outputs: crate::images::Outputs::GEOMETRY,
+            shade: None,
         }
     }
 

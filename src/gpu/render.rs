@@ -81,6 +81,13 @@ impl<R: GpuReal> Primitives<R> {
     }
 }
 
+/// `Params.origin`: where the kernel's coordinates are measured from, in world coordinates.
+fn kernel_origin<R: GpuReal>(scene: &Scene, algorithm: Algorithm) -> [R; 3] {
+    cpu::types::kernel_origin(scene, algorithm)
+        .cast::<R>()
+        .to_array()
+}
+
 fn surface_bytes(precision: Precision) -> u64 {
     SURFACE_REALS
         * match precision {
@@ -363,6 +370,8 @@ fn render_pixel_chunk<R: GpuReal>(
         sphere_count: prims.spheres.len() as u32,
         plane_count: prims.planes.len() as u32,
         triangle_count: prims.triangles.len() as u32,
+        origin: kernel_origin::<R>(scene, algorithm),
+        _pad0: R::ZERO,
     };
     let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("params"),
@@ -607,6 +616,8 @@ fn render_variant<R: GpuReal>(
             sphere_count: prims.spheres.len() as u32,
             plane_count: prims.planes.len() as u32,
             triangle_count: prims.triangles.len() as u32,
+            origin: kernel_origin::<R>(scene, algorithm),
+            _pad0: R::ZERO,
         };
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));

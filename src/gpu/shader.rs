@@ -3,6 +3,7 @@
 //! are kept or dropped by the kernel's [`Variant`]. The result is one WGSL source that naga
 //! validates before any pipeline is made.
 
+use super::hooks::{self, HookKey};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::images::Outputs;
@@ -64,8 +65,12 @@ pub struct Variant {
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
-    /// (`out_surface`); the rest is left out. `color` is unused until a shade hook is set.
+    /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
+    /// the rest is left out.
     pub outputs: Outputs,
+    /// The user's shade hook compiled in (its source is registered in [`hooks`] under this
+    /// key), called for every pixel to write `out_color`.
+    pub shade: Option<HookKey>,
 }
 
 impl Variant {
@@ -78,6 +83,7 @@ impl Variant {
             pixel_list: false,
             kinds: Kinds::ALL,
             outputs: Outputs::GEOMETRY,
+            shade: None,
         }
     }
 
@@ -86,16 +92,34 @@ impl Variant {
         Variant { kinds, ..self }
     }
 
-    /// This variant writing only `outputs`.
+    /// This variant writing only `outputs` (`color` only where a shade hook is set).
     pub fn with_outputs(self, outputs: Outputs) -> Variant {
-        Variant { outputs, ..self }
+        let color = outputs.color && self.shade.is_some();
+        Variant {
+            outputs: Outputs { color, ..outputs },
+            ..self
+        }
+    }
+
+    /// This variant calling the shade hook registered under `key` for every pixel and writing
+    /// its colour.
+    pub fn with_shade(self, key: HookKey) -> Variant {
+        Variant {
+            shade: Some(key),
+            outputs: Outputs {
+                color: true,
+                ..self.outputs
+            },
+            ..self
+        }
     }
 
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), and for the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface`
-    /// written: distance or normal asked for), `NORMAL` and `DISTANCE` (computed).
+    /// written: distance or normal asked for), `NORMAL` and `DISTANCE` (computed: asked for,
+    /// or for the hook), `USER_SHADE` (the shade hook is called and `out_color` written).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -123,11 +147,13 @@ impl Variant {
             }
         }
         let o = self.outputs;
+        let shade = self.shade.is_some() && o.color;
         for (present, name) in [
             (o.id, "ID"),
             (o.distance || o.normal, "SURFACE"),
-            (o.normal, "NORMAL"),
-            (o.distance, "DISTANCE"),
+            (o.normal || shade, "NORMAL"),
+            (o.distance || shade, "DISTANCE"),
+            (shade, "USER_SHADE"),
         ] {
             if present {
                 d.push(name);
@@ -137,8 +163,9 @@ impl Variant {
     }
 }
 
-/// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. One more module,
-/// `precision`, is generated: `alias real = f32;` or `alias real = f64;`.
+/// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. Two more modules
+/// are generated: `precision` (`alias real = f32;` or `alias real = f64;`) and `user` (the
+/// variant's shade hook, from the [`hooks`] registry).
 pub const MODULES: &[(&str, &str)] = &[
     ("types", include_str!("../../shaders/types.wgsl")),
     ("bindings", include_str!("../../shaders/bindings.wgsl")),
@@ -147,6 +174,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ("plane", include_str!("../../shaders/plane.wgsl")),
     ("triangle", include_str!("../../shaders/triangle.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
+    ("hooks", include_str!("../../shaders/hooks.wgsl")),
     ("main", include_str!("../../shaders/main.wgsl")),
 ];
 
@@ -157,8 +185,14 @@ pub const ENTRY_POINT: &str = "main";
 
 /// The generated module that fixes the kernel's scalar type.
 const PRECISION_MODULE: &str = "precision";
+/// The generated module holding the user's shade hook.
+const USER_MODULE: &str = "user";
 
-fn module_source(name: &str, precision: Precision) -> Option<String> {
+fn module_source(name: &str, variant: &Variant) -> Option<String> {
+    let precision = variant.precision;
+    if name == USER_MODULE {
+        return hooks::registered_source(variant.shade?).map(|s| s.to_string());
+    }
     if name == PRECISION_MODULE {
         // Written as literals: naga's constant evaluator does no f64 arithmetic.
         let (eps, t_tolerance) = match precision {
@@ -244,8 +278,19 @@ fn include(
             stack.join(" -> ")
         )));
     }
-    let source = module_source(name, variant.precision)
+    let source = module_source(name, variant)
         .ok_or_else(|| Error::Device(format!("shaders: unknown module `{name}`")))?;
+    if name == USER_MODULE {
+        // The user's text is appended as it is, never preprocessed.
+        let key = variant.shade.expect("a user module has a key");
+        out.push_str(&hooks::banner(key));
+        out.push_str(&source);
+        if !source.ends_with('\n') {
+            out.push('\n');
+        }
+        done.push(name.to_owned());
+        return Ok(());
+    }
     let source = preprocess(&source, &variant.defines(), name)?;
     stack.push(name.to_owned());
     for import in imports(&source) {
@@ -322,6 +367,7 @@ pub fn all_variants() -> Vec<Variant> {
                         pixel_list,
                         kinds: Kinds::ALL,
                         outputs: Outputs::GEOMETRY,
+                        shade: None,
                     };
                     v.push(variant);
                     if !certainty && !pixel_list {
@@ -393,11 +439,19 @@ mod tests {
 
     #[test]
     fn each_module_is_included_once() {
-        let source = kernel_source(&Variant::new(Precision::F64, Algorithm::Robust)).unwrap();
-        assert!(source.contains("alias real = f64;"));
-        for (name, _) in MODULES {
-            let banner = format!("// ---- shaders/{name}.wgsl\n");
-            assert_eq!(source.matches(&banner).count(), 1, "{name}");
+        let hook = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
+        let hook = hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
+        let variant = Variant::new(Precision::F64, Algorithm::Robust);
+        for (variant, with_hook) in [(variant, false), (variant.with_shade(hook.key), true)] {
+            let source = kernel_source(&variant).unwrap();
+            assert!(source.contains("alias real = f64;"));
+            for (name, _) in MODULES {
+                let banner = format!("// ---- shaders/{name}.wgsl\n");
+                let expected = usize::from(*name != "hooks" || with_hook);
+                assert_eq!(source.matches(&banner).count(), expected, "{name}");
+            }
+            let hooks_in = source.matches(&hooks::banner(hook.key)).count();
+            assert_eq!(hooks_in, usize::from(with_hook));
         }
     }
 
