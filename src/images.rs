@@ -30,6 +30,8 @@ pub struct Images<T> {
     pub normal: Vec<[T; 3]>,
     /// The camera's focal length: the distance that `depth.png` maps to full white.
     pub focal_length: f64,
+    /// RGBA, 8 bits a channel, from the user's shade hook (`--shader`), when one ran.
+    pub color: Option<Vec<[u8; 4]>>,
 }
 
 impl<T: Real> Images<T> {
@@ -43,6 +45,7 @@ impl<T: Real> Images<T> {
             distance: vec![T::INFINITY; n],
             normal: vec![[T::ZERO; 3]; n],
             focal_length,
+            color: None,
         }
     }
 

@@ -67,6 +67,15 @@ enum Command {
         /// png only). Default: every output the formats write.
         #[arg(long, value_name = "LIST", value_delimiter = ',')]
         outputs: Option<Vec<Output>>,
+        /// Shade hook: a WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`, called for
+        /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// After rendering, watch the scene file, its meshes and the shader file and render
+        /// again when one changes (polled every 200 ms); errors are printed and watching goes
+        /// on. Ctrl-C ends it.
+        #[arg(long)]
+        watch: bool,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -237,6 +246,8 @@ fn run(command: Command) -> Result<ExitCode> {
             background,
             emit_shader,
             outputs,
+            shader,
+            watch,
         } => {
             let mode = Mode {
                 device,
@@ -253,6 +264,8 @@ fn run(command: Command) -> Result<ExitCode> {
                 background,
                 emit_shader: emit_shader.as_deref(),
                 outputs: outputs.as_deref(),
+                shader: shader.as_deref(),
+                watch,
             })?;
             Ok(ExitCode::SUCCESS)
         }
@@ -331,6 +344,8 @@ struct RenderArgs<'a> {
     emit_shader: Option<&'a Path>,
     /// `--outputs`, when given.
     outputs: Option<&'a [Output]>,
+    shader: Option<&'a Path>,
+    watch: bool,
 }
 
 /// The outputs a render computes and writes: those of `--outputs`, else every output the
@@ -367,17 +382,116 @@ fn kernel_for(
         Arithmetic::F64 => raycast::math::Precision::F64,
         _ => raycast::math::Precision::F32,
     };
-    let variant = gpu.scene_variant(scene, precision, mode.algorithm);
     if mode.precision == Arithmetic::Adaptive {
         return raycast::gpu::shader::Variant {
             certainty: true,
-            ..variant
+            ..gpu.scene_variant(scene, precision, mode.algorithm)
         };
     }
-    variant.with_outputs(supersample::sample_request(request, spp).kernel_outputs())
+    let outputs = supersample::sample_request(request, spp).kernel_outputs();
+    let shade = request.shade.as_ref();
+    gpu.request_variant(scene, precision, mode.algorithm, outputs, shade)
+}
+
+/// The option combinations `render` refuses, before anything is read.
+fn check_render_args(args: &RenderArgs) -> Result<()> {
+    let refuse = |option: &str, message: &str| {
+        Err(raycast::Error::Argument {
+            option: option.into(),
+            message: message.into(),
+        })
+    };
+    let gpu = args.mode.device == Device::Gpu;
+    if args.emit_shader.is_some() && !gpu {
+        return refuse(
+            "--emit-shader",
+            "the CPU reference runs no shader; use --device gpu",
+        );
+    }
+    if args.shader.is_some() {
+        if !gpu {
+            return refuse(
+                "--shader",
+                "the CPU reference runs no shader; use --device gpu",
+            );
+        }
+        if args.mode.precision == Arithmetic::Adaptive {
+            return refuse("--shader", "runs with --precision f32 or f64, not adaptive");
+        }
+        if args.background.is_some() {
+            return refuse(
+                "--background",
+                "a shade hook colours the background itself (it is called for misses too)",
+            );
+        }
+        if !chosen_outputs(args.outputs, args.formats)?.color {
+            return refuse(
+                "--shader",
+                "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
+            );
+        }
+    }
+    Ok(())
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
+    check_render_args(args)?;
+    let outputs = chosen_outputs(args.outputs, args.formats)?;
+    if !args.watch {
+        let gpu = gpu_for(&[args.mode])?;
+        return render_once(args, outputs, gpu.as_ref());
+    }
+    // One device for every render, so kernels compiled once stay cached.
+    let gpu = gpu_for(&[args.mode])?;
+    loop {
+        let files = watched_files(args);
+        // Taken before rendering: a change during the render triggers the next one.
+        let before = stamps(&files);
+        if let Err(e) = render_once(args, outputs, gpu.as_ref()) {
+            report(&e);
+        }
+        let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("watching {} for changes (Ctrl-C ends)", names.join(", "));
+        while stamps(&files) == before {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+    }
+}
+
+/// A file's modification time and length, `None` while it cannot be read.
+type Stamp = Option<(std::time::SystemTime, u64)>;
+
+fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
+    files
+        .iter()
+        .map(|f| {
+            let m = std::fs::metadata(f).ok()?;
+            Some((m.modified().ok()?, m.len()))
+        })
+        .collect()
+}
+
+/// The files `--watch` polls: the scene file and the meshes it names (as far as it loads),
+/// and the shader file.
+fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = Vec::new();
+    if let Some(scene) = args.scene_path {
+        files.push(scene.to_owned());
+        if let Ok(loaded) = Scene::load(scene) {
+            let base = scene.parent().unwrap_or(Path::new(""));
+            for object in &loaded.objects {
+                if let raycast::scene::Object::Soup { path, .. } = object {
+                    files.push(base.join(path));
+                }
+            }
+        }
+    }
+    files.extend(args.shader.map(Path::to_owned));
+    files
+}
+
+/// One render: reads the scene and the shader, renders, writes.
+fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result<()> {
     let RenderArgs {
         scene_path,
         out_dir,
@@ -387,16 +501,11 @@ fn render(args: &RenderArgs) -> Result<()> {
         spp,
         background,
         emit_shader,
-        outputs,
+        shader,
+        ..
     } = *args;
-    let outputs = chosen_outputs(outputs, formats)?;
-    if emit_shader.is_some() && mode.device != Device::Gpu {
-        return Err(raycast::Error::Argument {
-            option: "--emit-shader".into(),
-            message: "the CPU reference runs no shader; use --device gpu".into(),
-        });
-    }
     let scene = load(scene_path, size)?;
+    let shade = shader.map(gpu::hooks::load).transpose()?;
     output::check_writable(out_dir)?;
     if let Some(path) = emit_shader {
         output::check_writable(
@@ -405,10 +514,9 @@ fn render(args: &RenderArgs) -> Result<()> {
                 .unwrap_or(Path::new(".")),
         )?;
     }
-    let gpu = gpu_for(&[mode])?;
     let mut recast = None;
-    let request = render::Request { outputs };
-    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu.as_ref()) {
+    let request = render::Request { outputs, shade };
+    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu) {
         // Plain adaptive renders report how much they re-cast in f64.
         (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
             let a = raycast::adaptive::render_adaptive(g, &scene)?;
@@ -419,19 +527,20 @@ fn render(args: &RenderArgs) -> Result<()> {
         }
         _ => {
             let spp = spp.unwrap_or(1);
-            supersample::supersample_request(&scene, mode, gpu.as_ref(), spp, true, &request)
+            supersample::supersample_request(&scene, mode, gpu, spp, true, &request)
         }
     });
     let written = images?.write(out_dir, formats, outputs, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
-    let on = gpu.as_ref().map_or("the CPU".to_owned(), |g| g.info().name);
+    let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
     let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
+    let shaded = shader.map_or(String::new(), |p| format!(", shaded by {}", p.display()));
     say(format!(
-        "rendered {} ({nx}x{ny}{samples}, {mode}) on {on} in {:.3} s",
+        "rendered {} ({nx}x{ny}{samples}, {mode}{shaded}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
     ));
-    if let (Some(path), Some(g)) = (emit_shader, gpu.as_ref()) {
+    if let (Some(path), Some(g)) = (emit_shader, gpu) {
         let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1));
         let source = raycast::gpu::shader::kernel_source(&variant)?;
         output::write_file(path, source.as_bytes())?;

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
+use crate::gpu::hooks::ShadeHook;
 use crate::gpu::{self, Gpu};
 use crate::images::{Images, Outputs};
 use crate::math::Precision;
@@ -163,25 +164,30 @@ pub struct Request {
     /// the ids when the palette `color.png` is wanted); adaptive precision and the CPU
     /// reference compute every output.
     pub outputs: Outputs,
+    /// The user's shade hook, which colours `color.png` when `outputs.color` (GPU, f32 or f64
+    /// only; any other mode is an [`Error::Argument`] naming `--shader`).
+    pub shade: Option<ShadeHook>,
 }
 
 impl Default for Request {
-    /// Every output.
+    /// Every output, no hook.
     fn default() -> Self {
         Request {
             outputs: Outputs::ALL,
+            shade: None,
         }
     }
 }
 
 impl Request {
-    /// The outputs the GPU kernel must write for this request: the palette `color.png` is
-    /// made on the host from the ids.
+    /// The outputs the GPU kernel must write for this request: with a hook, the colour is the
+    /// kernel's; without, the palette `color.png` is made on the host from the ids.
     pub fn kernel_outputs(&self) -> Outputs {
         let o = self.outputs;
+        let hooked = self.shade.is_some();
         Outputs {
-            id: o.id || o.color,
-            color: false,
+            id: o.id || (o.color && !hooked),
+            color: o.color && hooked,
             ..o
         }
     }
@@ -201,6 +207,19 @@ pub fn render_request(
     progress: bool,
     request: &Request,
 ) -> Result<AnyImages> {
+    if request.shade.is_some() && request.outputs.color {
+        let ok = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
+        if !ok {
+            return Err(Error::Argument {
+                option: "--shader".into(),
+                message: if mode.device == Device::Cpu {
+                    "the CPU reference runs no shader; use --device gpu".into()
+                } else {
+                    "runs with --precision f32 or f64, not adaptive".into()
+                },
+            });
+        }
+    }
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
@@ -219,18 +238,14 @@ pub fn render_request(
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let outputs = request.kernel_outputs();
+            let shade = request.shade.as_ref();
+            let algorithm = mode.algorithm;
             Ok(match mode.precision {
                 Arithmetic::F32 => AnyImages::F32(gpu::render_outputs::<f32>(
-                    gpu,
-                    scene,
-                    mode.algorithm,
-                    outputs,
+                    gpu, scene, algorithm, outputs, shade,
                 )?),
                 _ => AnyImages::F64(gpu::render_outputs::<f64>(
-                    gpu,
-                    scene,
-                    mode.algorithm,
-                    outputs,
+                    gpu, scene, algorithm, outputs, shade,
                 )?),
             })
         }

@@ -22,6 +22,8 @@
 //!   keeps that sample's values bit for bit, so `N = 1` reproduces a plain render exactly.
 //! - `color_sum`: the sum of `palette[id % 9]` over the hitting samples, from which
 //!   `color.png` is made (see [`crate::output::PixelCoverage`]).
+//! - With a shade hook, `color` ([`Images::color`]): the mean of the samples' colours, per
+//!   channel, rounded to nearest (the hook ran once per sample).
 //!
 //! Memory: the fine render is held whole before it is reduced, `N` times the memory of a plain
 //! render (20 bytes a sample in f32, 36 in f64: 640x360 at 256 spp is about 1.2 GB in f32).
@@ -139,6 +141,14 @@ pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
         color_sum: Vec::with_capacity(pixels.len()),
         spp: s * s,
     };
+    out.images.color = fine.color.as_ref().map(|fine_color| {
+        (0..w as usize * h as usize)
+            .map(|k| {
+                let (i, j) = ((k / w as usize) as u32, (k % w as usize) as u32);
+                mean_color(fine_color, fine.width, s, i, j)
+            })
+            .collect()
+    });
     for (k, p) in pixels.into_iter().enumerate() {
         out.images.id[k] = p.id;
         out.images.distance[k] = p.distance;
@@ -156,6 +166,18 @@ fn block(fine_width: u32, s: u32, i: u32, j: u32) -> impl Iterator<Item = usize>
         let row = (s * i + a) as usize * fine_width as usize;
         (0..s).map(move |b| row + (s * j + b) as usize)
     })
+}
+
+/// The mean of a block's shade-hook colours, each channel rounded to nearest (ties up).
+fn mean_color(color: &[[u8; 4]], fine_width: u32, s: u32, i: u32, j: u32) -> [u8; 4] {
+    let mut sum = [0u64; 4];
+    for k in block(fine_width, s, i, j) {
+        for (total, c) in sum.iter_mut().zip(color[k]) {
+            *total += u64::from(c);
+        }
+    }
+    let n = u64::from(s * s);
+    sum.map(|c| ((2 * c + n) / (2 * n)) as u8)
 }
 
 fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec<i32>) -> Pixel<T> {
@@ -522,6 +544,22 @@ mod tests {
         assert_eq!(r, Supersampled::from_images(img.clone()));
         assert_eq!(r.images, img);
         assert_eq!(r.alpha, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn hook_colours_average_per_block() {
+        let mut img = fine(4, 2, &[0; 8]);
+        let mut color = vec![[0u8; 4]; 8];
+        // Left block: 10, 20, 30, 41 in red -> 101 / 4 = 25.25 -> 25; alpha 255 everywhere.
+        for (k, r) in [(0, 10), (1, 20), (4, 30), (5, 41)] {
+            color[k] = [r, 0, 255, 255];
+        }
+        // Right block: one white sample of four -> 63.75 -> 64.
+        color[3] = [255; 4];
+        img.color = Some(color);
+        let r = reduce(&img, 2);
+        assert_eq!(r.images.color, Some(vec![[25, 0, 255, 255], [64; 4]]));
+        assert_eq!(reduce(&fine(2, 2, &[0; 4]), 2).images.color, None);
     }
 
     #[test]

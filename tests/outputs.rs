@@ -40,7 +40,7 @@ fn check<R: GpuReal>(scene: &raycast::Scene, name: &str) {
             only(false, false, true),
             only(false, true, true),
         ] {
-            let part: Images<R> = gpu::render_outputs(g, scene, algorithm, outputs).unwrap();
+            let part: Images<R> = gpu::render_outputs(g, scene, algorithm, outputs, None).unwrap();
             let what = format!("{name} {algorithm} {outputs:?}");
             let miss = Images::<R>::new_miss(full.width, full.height, full.focal_length);
             let expected_id = if outputs.id { &full.id } else { &miss.id };

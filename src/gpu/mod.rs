@@ -47,6 +47,23 @@ impl Gpu {
             .with_kinds(shader::Kinds::of_scene(scene))
     }
 
+    /// The kernel variant for `scene` that writes `outputs`, calling `shade` for the colour
+    /// (`outputs.color` needs the hook; without one it is dropped).
+    pub fn request_variant(
+        &self,
+        scene: &crate::scene::Scene,
+        precision: crate::math::Precision,
+        algorithm: crate::Algorithm,
+        outputs: crate::images::Outputs,
+        shade: Option<&hooks::ShadeHook>,
+    ) -> Variant {
+        let mut variant = self.scene_variant(scene, precision, algorithm);
+        if let Some(hook) = shade {
+            variant = variant.with_shade(hook.key);
+        }
+        variant.with_outputs(outputs)
+    }
+
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
     pub fn variant(
         &self,

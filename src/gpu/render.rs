@@ -5,6 +5,7 @@ use bytemuck::Pod;
 use wgpu::util::DeviceExt;
 
 use super::Gpu;
+use super::hooks::ShadeHook;
 use super::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
@@ -244,20 +245,17 @@ pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Res
     Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
 }
 
-/// [`render`] computing and reading back only `outputs` (`outputs.color` is ignored: without a
-/// shade hook the kernel has no colour); the others keep their miss values (see [`Outputs`]).
+/// [`render`] computing and reading back only `outputs`; the others keep their miss values
+/// (see [`Outputs`]). `outputs.color` is the colour of the `shade` hook, called for every
+/// pixel ([`Images::color`]), and is ignored without one.
 pub fn render_outputs<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     algorithm: Algorithm,
     outputs: Outputs,
+    shade: Option<&ShadeHook>,
 ) -> Result<Images<R>> {
-    let variant = gpu
-        .scene_variant(scene, R::PRECISION, algorithm)
-        .with_outputs(Outputs {
-            color: false,
-            ..outputs
-        });
+    let variant = gpu.request_variant(scene, R::PRECISION, algorithm, outputs, shade);
     Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
 }
 
@@ -600,6 +598,7 @@ fn render_variant<R: GpuReal>(
     });
 
     let mut images = Images::new_miss(nx, ny, scene.camera.focal_length);
+    images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
     let mut certainty = variant.certainty.then(|| vec![false; images.len()]);
     let timer = if timed { PassTimer::new(gpu) } else { None };
     let mut kernel_s = timer.as_ref().map(|_| 0.0);
@@ -667,6 +666,8 @@ enum Slot {
     Id,
     /// `out_certain`: `u32` flags (certainty variants).
     Certain,
+    /// `out_color`: the shade hook's colour, `pack4x8unorm`.
+    Color,
 }
 
 impl Slot {
@@ -675,6 +676,7 @@ impl Slot {
             Slot::Surface => 5,
             Slot::Id => 6,
             Slot::Certain => 7,
+            Slot::Color => 8,
         }
     }
 
@@ -683,13 +685,14 @@ impl Slot {
             Slot::Surface => "out_surface",
             Slot::Id => "out_id",
             Slot::Certain => "out_certain",
+            Slot::Color => "out_color",
         }
     }
 
     fn pixel_bytes(self, precision: Precision) -> u64 {
         match self {
             Slot::Surface => surface_bytes(precision),
-            Slot::Id | Slot::Certain => ID_BYTES,
+            Slot::Id | Slot::Certain | Slot::Color => ID_BYTES,
         }
     }
 }
@@ -705,13 +708,15 @@ struct OutputBuffers {
 
 impl OutputBuffers {
     /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
-    /// normal, the ids when it asks for them, the certainty flags in a certainty variant.
+    /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
+    /// colours with a shade hook.
     fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
         let o = variant.outputs;
         let wanted = [
             (o.distance || o.normal, Slot::Surface),
             (o.id, Slot::Id),
             (variant.certainty, Slot::Certain),
+            (o.color, Slot::Color),
         ];
         let mut slots = Vec::new();
         let mut offset = 0;
@@ -783,6 +788,15 @@ fn read_tile<R: GpuReal>(
             let flags: &[u32] = bytemuck::cast_slice(flags);
             for (k, flag) in flags.iter().enumerate() {
                 certainty[start + k] = *flag != 0;
+            }
+        }
+        if let (Some(colors), Some(bytes)) =
+            (&mut images.color, outputs.bytes(&view, Slot::Color, pixels))
+        {
+            let packed: &[u32] = bytemuck::cast_slice(bytes);
+            for (k, c) in packed.iter().enumerate() {
+                // pack4x8unorm puts red in the lowest byte.
+                colors[start + k] = c.to_le_bytes();
             }
         }
         let o = variant.outputs;

@@ -92,11 +92,13 @@ impl Variant {
         Variant { kinds, ..self }
     }
 
-    /// This variant writing only `outputs` (`color` only where a shade hook is set).
+    /// This variant writing only `outputs` (`color` only where a shade hook is set; without
+    /// `color` the hook is dropped).
     pub fn with_outputs(self, outputs: Outputs) -> Variant {
         let color = outputs.color && self.shade.is_some();
         Variant {
             outputs: Outputs { color, ..outputs },
+            shade: self.shade.filter(|_| color),
             ..self
         }
     }

@@ -74,9 +74,10 @@ pub fn encode_outputs<T: Real>(
 }
 
 /// Encodes supersampled images: in each of `formats` the files [`encode_outputs`] writes for
-/// the reduced images, plus with `outputs.color` `color.png` with `png` (RGBA, premultiplied
-/// alpha, or opaque over `background`; see [`PixelCoverage::to_rgba8`]) and, with
-/// `outputs.id` and `alpha_npy`, `alpha.npy` (float32, H x W) with `npy`.
+/// the reduced images, plus with `outputs.color` `color.png` with `png` (the shade hook's
+/// RGBA as it returned it, where [`Images::color`] holds it; else the palette by coverage,
+/// premultiplied alpha, or opaque over `background`, see [`PixelCoverage::to_rgba8`]) and,
+/// with `outputs.id` and `alpha_npy`, `alpha.npy` (float32, H x W) with `npy`.
 pub fn encode_supersampled<T: Real>(
     ss: &Supersampled<T>,
     formats: &[Format],
@@ -90,7 +91,10 @@ pub fn encode_supersampled<T: Real>(
         files.extend(encode_outputs(images, &[format], outputs));
         match format {
             Format::Png if outputs.color => {
-                let rgba = color_rgba8(ss.coverage(), background);
+                let rgba = match &images.color {
+                    Some(hook) => hook.iter().flatten().copied().collect(),
+                    None => color_rgba8(ss.coverage(), background),
+                };
                 files.push(encode_color_png(images.width, images.height, &rgba));
             }
             Format::Npy if alpha_npy && outputs.id => {
