@@ -510,6 +510,24 @@ mod tests {
         assert!(shader::kernel_source(&vc).unwrap().contains(&other));
     }
 
+    /// Every example in shaders/examples/ passes the checks (naga only, no adapter).
+    #[test]
+    fn every_example_validates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/examples");
+        let mut names = Vec::new();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "wgsl") {
+                if let Err(e) = load(&path) {
+                    panic!("{e}");
+                }
+                names.push(path.file_stem().unwrap().to_string_lossy().into_owned());
+            }
+        }
+        names.sort();
+        assert_eq!(names, ["checker", "fog", "toon"]);
+    }
+
     /// The hook compiles into every plain variant: both precisions and algorithms, any outputs.
     #[test]
     fn hooked_kernels_validate() {
