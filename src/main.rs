@@ -408,6 +408,12 @@ fn check_render_args(args: &RenderArgs) -> Result<()> {
             "the CPU reference runs no shader; use --device gpu",
         );
     }
+    if args.watch && args.scene_path.is_none() && args.shader.is_none() {
+        return refuse(
+            "--watch",
+            "nothing to watch: the built-in scene has no file; give a scene file or --shader",
+        );
+    }
     if args.shader.is_some() {
         if !gpu {
             return refuse(

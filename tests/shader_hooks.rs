@@ -420,6 +420,18 @@ fn solid(rgb: &str) -> String {
     format!("fn shade(hit: ShadeHit) -> vec4<f32> {{\n    return vec4<f32>({rgb}, 1.0);\n}}\n")
 }
 
+#[test]
+fn watch_without_files_is_an_error() {
+    let o = raycast(&["render", "--watch", "-o", "never-written"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: --watch: nothing to watch"),
+        "{stderr}"
+    );
+    assert!(!Path::new("never-written").exists());
+}
+
 /// `render --watch` renders again when the shader changes, and keeps watching after a broken
 /// shader.
 #[test]
