@@ -12,7 +12,10 @@ struct Params {
     sphere_count: u32,    // offset 84 / 148
     plane_count: u32,     // offset 88 / 152
     triangle_count: u32,  // offset 92 / 156
-}                         // size 96 / 160
+    origin: vec3<real>,   // offset 96 / 160: the kernel's origin in world coordinates (the eye
+                          //   in the robust set, else 0); shade hooks add it back
+    _pad0: real,          // offset 108 / 184
+}                         // size 112 / 192
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
@@ -66,10 +69,15 @@ fn triangle_at(k: u32) -> Triangle {
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).
 @group(0) @binding(4) var<storage, read> objects: array<u32>;
-// Per pixel of the tile: normal in xyz, distance in w (0 on a miss).
+// Outputs are bound only when the variant writes them (SURFACE, ID).
+#if SURFACE
+// Per pixel of the tile: normal in xyz, distance in w (0 on a miss, and where not asked for).
 @group(0) @binding(5) var<storage, read_write> out_surface: array<vec4<real>>;
+#endif
+#if ID
 // Per pixel of the tile: object id, -1 on a miss.
 @group(0) @binding(6) var<storage, read_write> out_id: array<i32>;
+#endif
 #if CERTAINTY
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
@@ -87,6 +95,8 @@ fn triangle_at(k: u32) -> Triangle {
 #if CHUNKS_4
 @group(0) @binding(16) var<storage, read> bvh_nodes_4: array<vec4<u32>>;
 #endif
+// Per primitive, in the order of `objects`: its index in the scene's own order (ties).
+@group(0) @binding(10) var<storage, read> prim_order: array<u32>;
 
 // Part q (0 to 3) of node `node`, from the chunk it lies in.
 fn node_part(node: u32, q: u32) -> vec4<u32> {
@@ -114,6 +124,8 @@ fn node_part(node: u32, q: u32) -> vec4<u32> {
     return bvh_nodes[4u * node + q];
 #endif
 }
-// Per primitive, in the order of `objects`: its index in the scene's own order (ties).
-@group(0) @binding(10) var<storage, read> prim_order: array<u32>;
+#endif
+#if USER_SHADE
+// Per pixel of the tile: the shade hook's colour, pack4x8unorm (red in the lowest byte).
+@group(0) @binding(8) var<storage, read_write> out_color: array<u32>;
 #endif

@@ -4,23 +4,59 @@
 #import bindings
 #import camera
 #import scene
+#if USER_SHADE
+#import hooks
+#import user
+#endif
 
-// Casts the ray of pixel (i, j) and writes its results to output slot `index`.
+// Casts the ray of pixel (i, j) and writes its results to output slot `index`. Only the
+// outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID, SURFACE).
 fn cast_pixel(i: u32, j: u32, index: u32) {
     let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
     let hit = nearest_hit(ray, params.frame.min_t);
 #if CERTAINTY
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit));
 #endif
-    if (hit.object < 0) {
-        out_surface[index] = vec4<real>(0.0);
-        out_id[index] = -1;
-        return;
+#if ID
+    out_id[index] = select(hit.object, -1, hit.object < 0);
+#endif
+    // Normal in xyz, distance in w, each zero unless computed; zero on a miss.
+    var surface = vec4<real>(0.0);
+    if (hit.object >= 0) {
+#if NORMAL
+        surface = vec4<real>(hit_normal(ray, hit), 0.0);
+#endif
+#if DISTANCE
+        surface.w = hit.t * length(ray.direction);
+#endif
     }
-    let distance = hit.t * length(ray.direction);
-    out_surface[index] = vec4<real>(hit_normal(ray, hit), distance);
-    out_id[index] = hit.object;
+#if SURFACE
+    out_surface[index] = surface;
+#endif
+#if USER_SHADE
+    let colour = shade(shade_hit(ray, hit, surface, i, j));
+    out_color[index] = pack4x8unorm(clamp(colour, vec4<f32>(0.0), vec4<f32>(1.0)));
+#endif
 }
+
+#if USER_SHADE
+// The hook's view of pixel (i, j), in world coordinates and f32 whatever the kernel's
+// precision (shaders/hooks.wgsl). `surface` holds the normal and distance (zero on a miss).
+fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHit {
+    var h: ShadeHit;
+    h.id = select(hit.object, -1, hit.object < 0);
+    h.direction = vec3<f32>(normalize(ray.direction));
+    h.origin = vec3<f32>(params.origin + ray.origin);
+    h.pixel = vec2<u32>(j, i);
+    h.resolution = vec2<u32>(params.nx, params.ny);
+    if (hit.object >= 0) {
+        h.position = vec3<f32>(params.origin + (ray.origin + hit.t * ray.direction));
+        h.normal = vec3<f32>(surface.xyz);
+        h.distance = f32(surface.w);
+    }
+    return h;
+}
+#endif
 
 #if PIXEL_LIST
 // The pixels to cast, as row-major indices; params.tile_rows holds how many there are.

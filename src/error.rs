@@ -1,5 +1,5 @@
-//! The one error type of the library. Every variant renders as a single line that names the
-//! file, field or line at fault; the CLI prints it and exits with code 2.
+//! The one error type of the library. Every variant but [`Error::Shader`] renders as a single
+//! line that names the file, field or line at fault; the CLI prints it and exits with code 2.
 
 use std::path::PathBuf;
 
@@ -30,6 +30,18 @@ pub enum Error {
     /// A command-line value is out of range (`option` names it, e.g. `--size`).
     #[error("{option}: {message}")]
     Argument { option: String, message: String },
+    /// A user shader (`--shader`, `check-shader`) does not compile or does not fit the hook:
+    /// a compiler-style block, `FILE:LINE:COLUMN: error: MESSAGE`, then the source line and a
+    /// caret under the column (which counts characters from 1).
+    #[error("{}:{line}:{column}: error: {message}\n{excerpt}", file.display())]
+    Shader {
+        file: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+        /// The source line and the caret line.
+        excerpt: String,
+    },
     /// No GPU adapter, or the device could not run the request.
     #[error("{0}")]
     Device(String),

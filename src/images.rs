@@ -1,6 +1,8 @@
 //! The result of a render: per-pixel object id, distance and normal, in row-major order
 //! (row 0 at the top). Both the GPU kernel and the CPU reference produce this.
 
+use std::str::FromStr;
+
 use crate::math::Real;
 
 /// Id of a pixel whose ray hits nothing.
@@ -28,6 +30,8 @@ pub struct Images<T> {
     pub normal: Vec<[T; 3]>,
     /// The camera's focal length: the distance that `depth.png` maps to full white.
     pub focal_length: f64,
+    /// RGBA, 8 bits a channel, from the user's shade hook (`--shader`), when one ran.
+    pub color: Option<Vec<[u8; 4]>>,
 }
 
 impl<T: Real> Images<T> {
@@ -41,6 +45,7 @@ impl<T: Real> Images<T> {
             distance: vec![T::INFINITY; n],
             normal: vec![[T::ZERO; 3]; n],
             focal_length,
+            color: None,
         }
     }
 
@@ -65,5 +70,93 @@ impl<T: Real> Images<T> {
     /// Row-major index of pixel (`row`, `col`).
     pub fn index(&self, row: u32, col: u32) -> usize {
         row as usize * self.width as usize + col as usize
+    }
+}
+
+/// One output of a render, as `raycast render --outputs` names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Object ids: `id.png`, `id.ppm`, `id.npy` (and `alpha.npy` with `--spp`).
+    Id,
+    /// Distances: `depth.png`, `depth.ppm`, `distance.npy`.
+    Distance,
+    /// Normals: `normal.png`, `normal.ppm`, `normal.npy`.
+    Normal,
+    /// `color.png`: palette colours by coverage, or the user's shade hook.
+    Color,
+}
+
+impl FromStr for Output {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim() {
+            "id" => Ok(Output::Id),
+            "distance" => Ok(Output::Distance),
+            "normal" => Ok(Output::Normal),
+            "color" => Ok(Output::Color),
+            other => Err(format!(
+                "unknown output `{other}` (expected id, distance, normal or color)"
+            )),
+        }
+    }
+}
+
+/// Which outputs a render produces. An output not asked for is neither computed by the GPU
+/// kernel nor read back, and keeps the value of a miss in [`Images`]: id [`MISS`], distance
+/// `+inf`, normal zero, no colour. (Another output may need it computed all the same: the
+/// palette `color.png` and supersampling need the ids.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Outputs {
+    pub id: bool,
+    pub distance: bool,
+    pub normal: bool,
+    pub color: bool,
+}
+
+impl Outputs {
+    /// Every output.
+    pub const ALL: Outputs = Outputs {
+        id: true,
+        distance: true,
+        normal: true,
+        color: true,
+    };
+
+    /// Id, distance and normal: what [`Images`] holds without a shade hook.
+    pub const GEOMETRY: Outputs = Outputs {
+        color: false,
+        ..Outputs::ALL
+    };
+
+    /// No output.
+    pub const NONE: Outputs = Outputs {
+        id: false,
+        distance: false,
+        normal: false,
+        color: false,
+    };
+
+    /// The outputs of a list (`--outputs id,normal`).
+    pub fn of(list: &[Output]) -> Outputs {
+        let mut o = Outputs::NONE;
+        for output in list {
+            match output {
+                Output::Id => o.id = true,
+                Output::Distance => o.distance = true,
+                Output::Normal => o.normal = true,
+                Output::Color => o.color = true,
+            }
+        }
+        o
+    }
+
+    /// Whether `output` is one of these.
+    pub fn has(&self, output: Output) -> bool {
+        match output {
+            Output::Id => self.id,
+            Output::Distance => self.distance,
+            Output::Normal => self.normal,
+            Output::Color => self.color,
+        }
     }
 }

@@ -8,6 +8,7 @@ use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
+use raycast::images::{Output, Outputs};
 use raycast::output::{self, Format};
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
@@ -62,6 +63,19 @@ enum Command {
         /// the mode) to this file.
         #[arg(long, value_name = "FILE")]
         emit_shader: Option<PathBuf>,
+        /// Comma-separated outputs to compute and write: id, distance, normal, color (color.png,
+        /// png only). Default: every output the formats write.
+        #[arg(long, value_name = "LIST", value_delimiter = ',')]
+        outputs: Option<Vec<Output>>,
+        /// Shade hook: a WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`, called for
+        /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// After rendering, watch the scene file, its meshes and the shader file and render
+        /// again when one changes (polled every 200 ms); errors are printed and watching goes
+        /// on. Ctrl-C ends it.
+        #[arg(long)]
+        watch: bool,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -125,6 +139,12 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
     },
+    /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
+    /// the error, with its line and column.
+    CheckShader {
+        /// WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`.
+        file: PathBuf,
+    },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
 }
@@ -181,9 +201,18 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
+            report(&e);
             ExitCode::from(2)
         }
+    }
+}
+
+/// Prints an error on stderr: one `error: ` line, or a shader error's own block (which says
+/// `error:` after its location, as compilers do).
+fn report(e: &raycast::Error) {
+    match e {
+        raycast::Error::Shader { .. } => eprintln!("{e}"),
+        _ => eprintln!("error: {e}"),
     }
 }
 
@@ -216,6 +245,9 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             background,
             emit_shader,
+            outputs,
+            shader,
+            watch,
         } => {
             let mode = Mode {
                 device,
@@ -231,6 +263,9 @@ fn run(command: Command) -> Result<ExitCode> {
                 spp,
                 background,
                 emit_shader: emit_shader.as_deref(),
+                outputs: outputs.as_deref(),
+                shader: shader.as_deref(),
+                watch,
             })?;
             Ok(ExitCode::SUCCESS)
         }
@@ -264,6 +299,11 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             output,
         } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        Command::CheckShader { file } => {
+            gpu::hooks::load(&file)?;
+            say(format!("{}: ok", file.display()));
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
@@ -302,23 +342,162 @@ struct RenderArgs<'a> {
     spp: Option<u32>,
     background: Option<[u8; 3]>,
     emit_shader: Option<&'a Path>,
+    /// `--outputs`, when given.
+    outputs: Option<&'a [Output]>,
+    shader: Option<&'a Path>,
+    watch: bool,
 }
 
-/// The kernel a GPU render in `mode` runs first (for adaptive precision: its f32 certainty
-/// pass), specialised for `scene`.
-fn kernel_for(gpu: &Gpu, scene: &Scene, mode: Mode) -> raycast::gpu::shader::Variant {
+/// The outputs a render computes and writes: those of `--outputs`, else every output the
+/// formats write (color only with png). Colour without png is an error.
+fn chosen_outputs(list: Option<&[Output]>, formats: &[Format]) -> Result<Outputs> {
+    let png = formats.contains(&Format::Png);
+    let Some(list) = list else {
+        return Ok(Outputs {
+            color: png,
+            ..Outputs::ALL
+        });
+    };
+    let outputs = Outputs::of(list);
+    if outputs.color && !png {
+        return Err(raycast::Error::Argument {
+            option: "--outputs color".into(),
+            message: "color is written as color.png only; add png to --format".into(),
+        });
+    }
+    Ok(outputs)
+}
+
+/// The kernel a GPU render in `mode` at `spp` samples per pixel runs first (for adaptive
+/// precision: its f32 certainty pass, which writes every output), specialised for `scene` and
+/// `request`.
+fn kernel_for(
+    gpu: &Gpu,
+    scene: &Scene,
+    mode: Mode,
+    request: &render::Request,
+    spp: u32,
+) -> raycast::gpu::shader::Variant {
     let precision = match mode.precision {
         Arithmetic::F64 => raycast::math::Precision::F64,
         _ => raycast::math::Precision::F32,
     };
-    let variant = gpu.scene_variant(scene, precision, mode.algorithm);
-    raycast::gpu::shader::Variant {
-        certainty: mode.precision == Arithmetic::Adaptive,
-        ..variant
+    if mode.precision == Arithmetic::Adaptive {
+        return raycast::gpu::shader::Variant {
+            certainty: true,
+            ..gpu.scene_variant(scene, precision, mode.algorithm)
+        };
     }
+    let outputs = supersample::sample_request(request, spp).kernel_outputs();
+    let shade = request.shade.as_ref();
+    gpu.request_variant(scene, precision, mode.algorithm, outputs, shade)
+}
+
+/// The option combinations `render` refuses, before anything is read.
+fn check_render_args(args: &RenderArgs) -> Result<()> {
+    let refuse = |option: &str, message: &str| {
+        Err(raycast::Error::Argument {
+            option: option.into(),
+            message: message.into(),
+        })
+    };
+    let gpu = args.mode.device == Device::Gpu;
+    if args.emit_shader.is_some() && !gpu {
+        return refuse(
+            "--emit-shader",
+            "the CPU reference runs no shader; use --device gpu",
+        );
+    }
+    if args.watch && args.scene_path.is_none() && args.shader.is_none() {
+        return refuse(
+            "--watch",
+            "nothing to watch: the built-in scene has no file; give a scene file or --shader",
+        );
+    }
+    if args.shader.is_some() {
+        if !gpu {
+            return refuse(
+                "--shader",
+                "the CPU reference runs no shader; use --device gpu",
+            );
+        }
+        if args.mode.precision == Arithmetic::Adaptive {
+            return refuse("--shader", "runs with --precision f32 or f64, not adaptive");
+        }
+        if args.background.is_some() {
+            return refuse(
+                "--background",
+                "a shade hook colours the background itself (it is called for misses too)",
+            );
+        }
+        if !chosen_outputs(args.outputs, args.formats)?.color {
+            return refuse(
+                "--shader",
+                "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
+            );
+        }
+    }
+    Ok(())
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
+    check_render_args(args)?;
+    let outputs = chosen_outputs(args.outputs, args.formats)?;
+    if !args.watch {
+        let gpu = gpu_for(&[args.mode])?;
+        return render_once(args, outputs, gpu.as_ref());
+    }
+    // One device for every render, so kernels compiled once stay cached.
+    let gpu = gpu_for(&[args.mode])?;
+    loop {
+        let files = watched_files(args);
+        // Taken before rendering: a change during the render triggers the next one.
+        let before = stamps(&files);
+        if let Err(e) = render_once(args, outputs, gpu.as_ref()) {
+            report(&e);
+        }
+        let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("watching {} for changes (Ctrl-C ends)", names.join(", "));
+        while stamps(&files) == before {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+    }
+}
+
+/// A file's modification time and length, `None` while it cannot be read.
+type Stamp = Option<(std::time::SystemTime, u64)>;
+
+fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
+    files
+        .iter()
+        .map(|f| {
+            let m = std::fs::metadata(f).ok()?;
+            Some((m.modified().ok()?, m.len()))
+        })
+        .collect()
+}
+
+/// The files `--watch` polls: the scene file and the meshes it names (as far as it loads),
+/// and the shader file.
+fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = Vec::new();
+    if let Some(scene) = args.scene_path {
+        files.push(scene.to_owned());
+        if let Ok(loaded) = Scene::load(scene) {
+            let base = scene.parent().unwrap_or(Path::new(""));
+            for object in &loaded.objects {
+                if let raycast::scene::Object::Soup { path, .. } = object {
+                    files.push(base.join(path));
+                }
+            }
+        }
+    }
+    files.extend(args.shader.map(Path::to_owned));
+    files
+}
+
+/// One render: reads the scene and the shader, renders, writes.
+fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result<()> {
     let RenderArgs {
         scene_path,
         out_dir,
@@ -328,14 +507,11 @@ fn render(args: &RenderArgs) -> Result<()> {
         spp,
         background,
         emit_shader,
+        shader,
+        ..
     } = *args;
-    if emit_shader.is_some() && mode.device != Device::Gpu {
-        return Err(raycast::Error::Argument {
-            option: "--emit-shader".into(),
-            message: "the CPU reference runs no shader; use --device gpu".into(),
-        });
-    }
     let scene = load(scene_path, size)?;
+    let shade = shader.map(gpu::hooks::load).transpose()?;
     output::check_writable(out_dir)?;
     if let Some(path) = emit_shader {
         output::check_writable(
@@ -344,9 +520,9 @@ fn render(args: &RenderArgs) -> Result<()> {
                 .unwrap_or(Path::new(".")),
         )?;
     }
-    let gpu = gpu_for(&[mode])?;
     let mut recast = None;
-    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu.as_ref()) {
+    let request = render::Request { outputs, shade };
+    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu) {
         // Plain adaptive renders report how much they re-cast in f64.
         (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
             let a = raycast::adaptive::render_adaptive(g, &scene)?;
@@ -355,19 +531,24 @@ fn render(args: &RenderArgs) -> Result<()> {
                 supersample::Supersampled::from_images(a.images),
             ))
         }
-        _ => supersample::supersample(&scene, mode, gpu.as_ref(), spp.unwrap_or(1), true),
+        _ => {
+            let spp = spp.unwrap_or(1);
+            supersample::supersample_request(&scene, mode, gpu, spp, true, &request)
+        }
     });
-    let written = images?.write(out_dir, formats, background, spp.is_some())?;
+    let written = images?.write(out_dir, formats, outputs, background, spp.is_some())?;
     let [nx, ny] = scene.camera.resolution;
-    let on = gpu.as_ref().map_or("the CPU".to_owned(), |g| g.info().name);
+    let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
     let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
+    let shaded = shader.map_or(String::new(), |p| format!(", shaded by {}", p.display()));
     say(format!(
-        "rendered {} ({nx}x{ny}{samples}, {mode}) on {on} in {:.3} s",
+        "rendered {} ({nx}x{ny}{samples}, {mode}{shaded}) on {on} in {:.3} s",
         scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
         elapsed.as_secs_f64()
     ));
-    if let (Some(path), Some(g)) = (emit_shader, gpu.as_ref()) {
-        let source = raycast::gpu::shader::kernel_source(&kernel_for(g, &scene, mode))?;
+    if let (Some(path), Some(g)) = (emit_shader, gpu) {
+        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1));
+        let source = raycast::gpu::shader::kernel_source(&variant)?;
         output::write_file(path, source.as_bytes())?;
         say(format!("wrote {}", path.display()));
     }

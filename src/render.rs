@@ -11,8 +11,9 @@ use crate::algorithm::Algorithm;
 use crate::bvh::Accel;
 use crate::cpu;
 use crate::error::{Error, Result};
+use crate::gpu::hooks::ShadeHook;
 use crate::gpu::{self, Gpu};
-use crate::images::Images;
+use crate::images::{Images, Outputs};
 use crate::math::Precision;
 use crate::output::{self, Format};
 use crate::scene::Scene;
@@ -157,9 +158,69 @@ impl AnyImages {
     }
 }
 
+/// What a render is asked to produce beyond its [`Mode`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Request {
+    /// The outputs wanted. The GPU kernels (f32, f64) compute and read back only these (and
+    /// the ids when the palette `color.png` is wanted); adaptive precision and the CPU
+    /// reference compute every output.
+    pub outputs: Outputs,
+    /// The user's shade hook, which colours `color.png` when `outputs.color` (GPU, f32 or f64
+    /// only; any other mode is an [`Error::Argument`] naming `--shader`).
+    pub shade: Option<ShadeHook>,
+}
+
+impl Default for Request {
+    /// Every output, no hook.
+    fn default() -> Self {
+        Request {
+            outputs: Outputs::ALL,
+            shade: None,
+        }
+    }
+}
+
+impl Request {
+    /// The outputs the GPU kernel must write for this request: with a hook, the colour is the
+    /// kernel's; without, the palette `color.png` is made on the host from the ids.
+    pub fn kernel_outputs(&self) -> Outputs {
+        let o = self.outputs;
+        let hooked = self.shade.is_some();
+        Outputs {
+            id: o.id || (o.color && !hooked),
+            color: o.color && hooked,
+            ..o
+        }
+    }
+}
+
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; with `progress`, a CPU
 /// render that takes over a second shows a progress bar on stderr when it is a terminal.
 pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> Result<AnyImages> {
+    render_request(scene, mode, gpu, progress, &Request::default())
+}
+
+/// [`render`] producing what `request` asks for.
+pub fn render_request(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    progress: bool,
+    request: &Request,
+) -> Result<AnyImages> {
+    if request.shade.is_some() && request.outputs.color {
+        let ok = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
+        if !ok {
+            return Err(Error::Argument {
+                option: "--shader".into(),
+                message: if mode.device == Device::Cpu {
+                    "the CPU reference runs no shader; use --device gpu".into()
+                } else {
+                    "runs with --precision f32 or f64, not adaptive".into()
+                },
+            });
+        }
+    }
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
@@ -177,9 +238,16 @@ pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> R
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+            let outputs = request.kernel_outputs();
+            let shade = request.shade.as_ref();
+            let algorithm = mode.algorithm;
             Ok(match mode.precision {
-                Arithmetic::F32 => AnyImages::F32(gpu::render::<f32>(gpu, scene, mode.algorithm)?),
-                _ => AnyImages::F64(gpu::render::<f64>(gpu, scene, mode.algorithm)?),
+                Arithmetic::F32 => AnyImages::F32(gpu::render_outputs::<f32>(
+                    gpu, scene, algorithm, outputs, shade,
+                )?),
+                _ => AnyImages::F64(gpu::render_outputs::<f64>(
+                    gpu, scene, algorithm, outputs, shade,
+                )?),
             })
         }
         Device::Cpu => Ok(match mode.precision {

@@ -22,6 +22,8 @@
 //!   keeps that sample's values bit for bit, so `N = 1` reproduces a plain render exactly.
 //! - `color_sum`: the sum of `palette[id % 9]` over the hitting samples, from which
 //!   `color.png` is made (see [`crate::output::PixelCoverage`]).
+//! - With a shade hook, `color` ([`Images::color`]): the mean of the samples' colours, per
+//!   channel, rounded to nearest (the hook ran once per sample).
 //!
 //! Memory: the fine render is held whole before it is reduced, `N` times the memory of a plain
 //! render (20 bytes a sample in f32, 36 in f64: 640x360 at 256 spp is about 1.2 GB in f32).
@@ -32,10 +34,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
-use crate::images::{Images, MISS};
+use crate::images::{Images, MISS, Outputs};
 use crate::math::Real;
 use crate::output::{self, Format, PixelCoverage};
-use crate::render::{self, AnyImages, Mode};
+use crate::render::{self, AnyImages, Mode, Request};
 use crate::scene::Scene;
 
 /// The largest `s`: `N = s * s` up to 2^24, so that sample counts are exact in f32 and
@@ -139,6 +141,14 @@ pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
         color_sum: Vec::with_capacity(pixels.len()),
         spp: s * s,
     };
+    out.images.color = fine.color.as_ref().map(|fine_color| {
+        (0..w as usize * h as usize)
+            .map(|k| {
+                let (i, j) = ((k / w as usize) as u32, (k % w as usize) as u32);
+                mean_color(fine_color, fine.width, s, i, j)
+            })
+            .collect()
+    });
     for (k, p) in pixels.into_iter().enumerate() {
         out.images.id[k] = p.id;
         out.images.distance[k] = p.distance;
@@ -156,6 +166,18 @@ fn block(fine_width: u32, s: u32, i: u32, j: u32) -> impl Iterator<Item = usize>
         let row = (s * i + a) as usize * fine_width as usize;
         (0..s).map(move |b| row + (s * j + b) as usize)
     })
+}
+
+/// The mean of a block's shade-hook colours, each channel rounded to nearest (ties up).
+fn mean_color(color: &[[u8; 4]], fine_width: u32, s: u32, i: u32, j: u32) -> [u8; 4] {
+    let mut sum = [0u64; 4];
+    for k in block(fine_width, s, i, j) {
+        for (total, c) in sum.iter_mut().zip(color[k]) {
+            *total += u64::from(c);
+        }
+    }
+    let n = u64::from(s * s);
+    sum.map(|c| ((2 * c + n) / (2 * n)) as u8)
 }
 
 fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec<i32>) -> Pixel<T> {
@@ -270,20 +292,21 @@ impl AnySupersampled {
         }
     }
 
-    /// Encodes and writes (see [`output::encode_supersampled`]).
+    /// Encodes and writes the files of `outputs` (see [`output::encode_supersampled`]).
     pub fn write(
         &self,
         dir: &std::path::Path,
         formats: &[Format],
+        outputs: Outputs,
         background: Option<[u8; 3]>,
         alpha_npy: bool,
     ) -> Result<Vec<std::path::PathBuf>> {
         match self {
             AnySupersampled::F32(x) => {
-                output::write_supersampled(x, dir, formats, background, alpha_npy)
+                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
             }
             AnySupersampled::F64(x) => {
-                output::write_supersampled(x, dir, formats, background, alpha_npy)
+                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
             }
         }
     }
@@ -299,15 +322,30 @@ pub fn supersample(
     spp: u32,
     progress: bool,
 ) -> Result<AnySupersampled> {
+    supersample_request(scene, mode, gpu, spp, progress, &Request::default())
+}
+
+/// [`supersample`] producing what `request` asks for. Above one sample per pixel the ids are
+/// rendered whatever the request: the reduction is by majority id.
+pub fn supersample_request(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    spp: u32,
+    progress: bool,
+    request: &Request,
+) -> Result<AnySupersampled> {
     let s = side(spp).map_err(|message| Error::Argument {
         option: "--spp".into(),
         message,
     })?;
     if s == 1 {
-        return Ok(match render::render(scene, mode, gpu, progress)? {
-            AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
-            AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
-        });
+        return Ok(
+            match render::render_request(scene, mode, gpu, progress, request)? {
+                AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
+                AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
+            },
+        );
     }
     let [nx, ny] = scene.camera.resolution;
     let too_big = || Error::Argument {
@@ -320,7 +358,9 @@ pub fn supersample(
     ];
     let mut fine_scene = scene.clone();
     fine_scene.camera.resolution = fine_resolution;
-    let fine = render::render(&fine_scene, mode, gpu, progress).map_err(|e| match e {
+    let fine_request = sample_request(request, spp);
+    let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
+    let fine = fine.map_err(|e| match e {
         Error::Argument { option, message } => Error::Argument {
             option: format!("--spp {spp}"),
             message: format!("the render of {s}x{s} samples per pixel: {option}: {message}"),
@@ -331,6 +371,14 @@ pub fn supersample(
         AnyImages::F32(i) => AnySupersampled::F32(reduce(&i, s)),
         AnyImages::F64(i) => AnySupersampled::F64(reduce(&i, s)),
     })
+}
+
+/// What the render of the samples is asked for at `spp` samples per pixel: `request`, with
+/// the ids above one sample (the reduction is by majority id).
+pub fn sample_request(request: &Request, spp: u32) -> Request {
+    let mut r = request.clone();
+    r.outputs.id |= spp > 1;
+    r
 }
 
 /// How far a render at `spp` samples per pixel is from a high-spp reference.
@@ -496,6 +544,22 @@ mod tests {
         assert_eq!(r, Supersampled::from_images(img.clone()));
         assert_eq!(r.images, img);
         assert_eq!(r.alpha, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn hook_colours_average_per_block() {
+        let mut img = fine(4, 2, &[0; 8]);
+        let mut color = vec![[0u8; 4]; 8];
+        // Left block: 10, 20, 30, 41 in red -> 101 / 4 = 25.25 -> 25; alpha 255 everywhere.
+        for (k, r) in [(0, 10), (1, 20), (4, 30), (5, 41)] {
+            color[k] = [r, 0, 255, 255];
+        }
+        // Right block: one white sample of four -> 63.75 -> 64.
+        color[3] = [255; 4];
+        img.color = Some(color);
+        let r = reduce(&img, 2);
+        assert_eq!(r.images.color, Some(vec![[25, 0, 255, 255], [64; 4]]));
+        assert_eq!(reduce(&fine(2, 2, &[0; 4]), 2).images.color, None);
     }
 
     #[test]

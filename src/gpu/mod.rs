@@ -1,15 +1,16 @@
 //! The GPU side: getting a device ([`Gpu::new`]) is separate from running on one
 //! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
 
+pub mod hooks;
 pub mod layout;
 pub mod probe;
 mod render;
 pub mod shader;
 
 pub use render::{
-    Stages, max_tile_rows, render, render_in_tiles, render_pixels, render_pixels_timed,
-    render_stages, render_timed, render_with_certainty, render_with_certainty_timed,
-    render_with_variant,
+    Stages, max_tile_rows, render, render_in_tiles, render_outputs, render_pixels,
+    render_pixels_timed, render_stages, render_timed, render_with_certainty,
+    render_with_certainty_timed, render_with_variant,
 };
 
 use std::collections::HashMap;
@@ -53,6 +54,23 @@ impl Gpu {
         }
     }
 
+    /// The kernel variant for `scene` that writes `outputs`, calling `shade` for the colour
+    /// (`outputs.color` needs the hook; without one it is dropped).
+    pub fn request_variant(
+        &self,
+        scene: &crate::scene::Scene,
+        precision: crate::math::Precision,
+        algorithm: crate::Algorithm,
+        outputs: crate::images::Outputs,
+        shade: Option<&hooks::ShadeHook>,
+    ) -> Variant {
+        let mut variant = self.scene_variant(scene, precision, algorithm);
+        if let Some(hook) = shade {
+            variant = variant.with_shade(hook.key);
+        }
+        variant.with_outputs(outputs)
+    }
+
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
     pub fn variant(
         &self,
@@ -70,6 +88,8 @@ impl Gpu {
             packets: self.device.features().contains(wgpu::Features::SUBGROUP),
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
+            outputs: crate::images::Outputs::GEOMETRY,
+            shade: None,
         }
     }
 

@@ -1,10 +1,11 @@
 //! Runs the kernel on a device: uploads the primitives, dispatches tiles of image rows and reads
-//! the id, distance and normal images back.
+//! back the outputs its variant writes (id, distance and normal, or some of them).
 
 use bytemuck::Pod;
 use wgpu::util::DeviceExt;
 
 use super::Gpu;
+use super::hooks::ShadeHook;
 use super::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
@@ -13,7 +14,7 @@ use crate::algorithm::Algorithm;
 use crate::bvh::{Accel, BvhNode};
 use crate::cpu;
 use crate::error::{Error, Result};
-use crate::images::{Images, MISS, Pixel};
+use crate::images::{Images, MISS, Outputs, Pixel};
 use crate::math::Precision;
 use crate::scene::Scene;
 
@@ -154,6 +155,13 @@ impl Uploaded {
         e.extend(NODE_BINDINGS.into_iter().zip(&self.nodes));
         e
     }
+}
+
+/// `Params.origin`: where the kernel's coordinates are measured from, in world coordinates.
+fn kernel_origin<R: GpuReal>(scene: &Scene, algorithm: Algorithm) -> [R; 3] {
+    cpu::types::kernel_origin(scene, algorithm)
+        .cast::<R>()
+        .to_array()
 }
 
 fn surface_bytes(precision: Precision) -> u64 {
@@ -323,6 +331,20 @@ pub fn render<R: GpuReal>(gpu: &Gpu, scene: &Scene, algorithm: Algorithm) -> Res
     Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
 }
 
+/// [`render`] computing and reading back only `outputs`; the others keep their miss values
+/// (see [`Outputs`]). `outputs.color` is the colour of the `shade` hook, called for every
+/// pixel ([`Images::color`]), and is ignored without one.
+pub fn render_outputs<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    outputs: Outputs,
+    shade: Option<&ShadeHook>,
+) -> Result<Images<R>> {
+    let variant = gpu.request_variant(scene, R::PRECISION, algorithm, outputs, shade);
+    Ok(render_variant::<R>(gpu, scene, variant, false)?.images)
+}
+
 /// Renders with an explicit kernel `variant` (for example the general kernel with every kind
 /// compiled in, to check a specialised one against it).
 pub fn render_with_variant<R: GpuReal>(
@@ -433,6 +455,8 @@ fn render_pixel_chunk<R: GpuReal>(
         sphere_count: prims.spheres.len() as u32,
         plane_count: prims.planes.len() as u32,
         triangle_count: prims.triangles.len() as u32,
+        origin: kernel_origin::<R>(scene, algorithm),
+        _pad0: R::ZERO,
     };
     let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("params"),
@@ -441,14 +465,11 @@ fn render_pixel_chunk<R: GpuReal>(
     });
     let list: Vec<u32> = pixels.iter().map(|&k| k as u32).collect();
     let list = storage_buffer(gpu, "pixel_list", &list);
-    let surface_size = n * surface_bytes(R::PRECISION);
-    let output = |label, size| output_buffer(gpu, label, size);
-    let surface = output("out_surface", surface_size);
-    let ids = output("out_id", n * ID_BYTES);
-    let readback = readback_buffer(gpu, surface_size + n * ID_BYTES);
+    let outputs = OutputBuffers::new(gpu, &variant, n);
     let uploaded = prims.upload(gpu, &variant);
-    let mut buffers = vec![(0, &params_buffer), (5, &surface), (6, &ids), (7, &list)];
+    let mut buffers = vec![(0, &params_buffer), (7, &list)];
     buffers.extend(uploaded.entries());
+    buffers.extend(outputs.entries());
     let entries = bind_entries(&variant, &buffers);
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast pixel list"),
@@ -472,16 +493,11 @@ fn render_pixel_chunk<R: GpuReal>(
     if let Some(timer) = timer {
         timer.resolve(&mut encoder);
     }
-    encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, surface_size);
-    encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, n * ID_BYTES);
+    outputs.copy_to_readback(&mut encoder, n);
     gpu.queue.submit([encoder.finish()]);
     // Read back as a one-row image of the listed pixels.
     let mut row = Images::<R>::new_miss(pixels.len() as u32, 1, scene.camera.focal_length);
-    let layout = TileLayout {
-        id_offset: surface_size,
-        certain_offset: 0,
-    };
-    read_tile(gpu, &readback, layout, pixels.len(), 0, &mut row, None)?;
+    read_tile(gpu, &outputs, &variant, pixels.len(), 0, &mut row, None)?;
     Ok((0..pixels.len()).map(|k| row.pixel(k)).collect())
 }
 
@@ -704,24 +720,10 @@ fn render_tiles<R: GpuReal>(
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let tile_pixels = tile_rows as u64 * nx as u64;
-    let surface_bytes = surface_bytes(R::PRECISION);
-    let surface_size = tile_pixels * surface_bytes;
-    let id_size = tile_pixels * ID_BYTES;
-    let output = |label, size| output_buffer(gpu, label, size);
-    let surface = output("out_surface", surface_size);
-    let ids = output("out_id", id_size);
-    // Per-pixel certainty flags (u32), only in a certainty variant.
-    let certain = variant.certainty.then(|| output("out_certain", id_size));
-    let readback = readback_buffer(
-        gpu,
-        surface_size + id_size * if certain.is_some() { 2 } else { 1 },
-    );
-    let mut entries = vec![(0, &params_buffer), (5, &surface), (6, &ids)];
+    let outputs = OutputBuffers::new(gpu, &variant, tile_rows as u64 * nx as u64);
+    let mut entries = vec![(0, &params_buffer)];
     entries.extend(uploaded.entries());
-    if let Some(c) = &certain {
-        entries.push((7, c));
-    }
+    entries.extend(outputs.entries());
     let entries = bind_entries(&variant, &entries);
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast"),
@@ -730,7 +732,8 @@ fn render_tiles<R: GpuReal>(
     });
 
     let mut images = Images::new_miss(nx, ny, scene.camera.focal_length);
-    let mut certainty = certain.as_ref().map(|_| vec![false; images.len()]);
+    images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
+    let mut certainty = variant.certainty.then(|| vec![false; images.len()]);
     let timer = if timed { PassTimer::new(gpu) } else { None };
     let mut kernel_s = timer.as_ref().map(|_| 0.0);
     let mut row = 0;
@@ -746,6 +749,8 @@ fn render_tiles<R: GpuReal>(
             sphere_count: prims.spheres.len() as u32,
             plane_count: prims.planes.len() as u32,
             triangle_count: prims.triangles.len() as u32,
+            origin: kernel_origin::<R>(scene, algorithm),
+            _pad0: R::ZERO,
         };
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
@@ -763,20 +768,12 @@ fn render_tiles<R: GpuReal>(
             timer.resolve(&mut encoder);
         }
         let pixels = rows as u64 * nx as u64;
-        encoder.copy_buffer_to_buffer(&surface, 0, &readback, 0, pixels * surface_bytes);
-        encoder.copy_buffer_to_buffer(&ids, 0, &readback, surface_size, pixels * ID_BYTES);
-        if let Some(c) = &certain {
-            let at = surface_size + id_size;
-            encoder.copy_buffer_to_buffer(c, 0, &readback, at, pixels * ID_BYTES);
-        }
+        outputs.copy_to_readback(&mut encoder, pixels);
         gpu.queue.submit([encoder.finish()]);
         read_tile(
             gpu,
-            &readback,
-            TileLayout {
-                id_offset: surface_size,
-                certain_offset: surface_size + id_size,
-            },
+            &outputs,
+            &variant,
             pixels as usize,
             row,
             &mut images,
@@ -797,48 +794,167 @@ fn render_tiles<R: GpuReal>(
     })
 }
 
-/// Where the parts of a tile lie in the readback buffer (the surface starts at 0).
-struct TileLayout {
-    id_offset: u64,
-    certain_offset: u64,
+/// A per-pixel output buffer of the kernel (shaders/bindings.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Slot {
+    /// `out_surface`: normal and distance, `vec4<real>`.
+    Surface,
+    /// `out_id`: `i32`.
+    Id,
+    /// `out_certain`: `u32` flags (certainty variants).
+    Certain,
+    /// `out_color`: the shade hook's colour, `pack4x8unorm`.
+    Color,
 }
 
-/// Copies one tile's results out of the mapped readback buffer into `images`.
+impl Slot {
+    fn binding(self) -> u32 {
+        match self {
+            Slot::Surface => 5,
+            Slot::Id => 6,
+            Slot::Certain => 7,
+            Slot::Color => 8,
+        }
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            Slot::Surface => "out_surface",
+            Slot::Id => "out_id",
+            Slot::Certain => "out_certain",
+            Slot::Color => "out_color",
+        }
+    }
+
+    fn pixel_bytes(self, precision: Precision) -> u64 {
+        match self {
+            Slot::Surface => surface_bytes(precision),
+            Slot::Id | Slot::Certain | Slot::Color => ID_BYTES,
+        }
+    }
+}
+
+/// The output buffers a variant writes, each for `capacity` pixels, and one readback buffer
+/// holding them one after another (at `capacity` pixels each).
+struct OutputBuffers {
+    /// Slot, buffer, and its offset in the readback buffer.
+    slots: Vec<(Slot, wgpu::Buffer, u64)>,
+    readback: wgpu::Buffer,
+    precision: Precision,
+}
+
+impl OutputBuffers {
+    /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
+    /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
+    /// colours with a shade hook.
+    fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
+        let o = variant.outputs;
+        let wanted = [
+            (o.distance || o.normal, Slot::Surface),
+            (o.id, Slot::Id),
+            (variant.certainty, Slot::Certain),
+            (o.color, Slot::Color),
+        ];
+        let mut slots = Vec::new();
+        let mut offset = 0;
+        for (present, slot) in wanted {
+            if present {
+                let size = capacity * slot.pixel_bytes(variant.precision);
+                slots.push((slot, output_buffer(gpu, slot.label(), size), offset));
+                offset += size;
+            }
+        }
+        OutputBuffers {
+            slots,
+            // A mapped buffer may not be empty.
+            readback: readback_buffer(gpu, offset.max(4)),
+            precision: variant.precision,
+        }
+    }
+
+    /// Bind group entries: (binding, buffer).
+    fn entries(&self) -> impl Iterator<Item = (u32, &wgpu::Buffer)> {
+        self.slots.iter().map(|(slot, b, _)| (slot.binding(), b))
+    }
+
+    /// Records the copies of the first `pixels` pixels of each output to the readback buffer.
+    fn copy_to_readback(&self, encoder: &mut wgpu::CommandEncoder, pixels: u64) {
+        for (slot, buffer, offset) in &self.slots {
+            let size = pixels * slot.pixel_bytes(self.precision);
+            encoder.copy_buffer_to_buffer(buffer, 0, &self.readback, *offset, size);
+        }
+    }
+
+    /// The bytes of `slot` for `pixels` pixels in the mapped readback `view`.
+    fn bytes<'v>(&self, view: &'v [u8], slot: Slot, pixels: usize) -> Option<&'v [u8]> {
+        let (_, _, offset) = self.slots.iter().find(|(s, _, _)| *s == slot)?;
+        let at = *offset as usize;
+        Some(&view[at..at + pixels * slot.pixel_bytes(self.precision) as usize])
+    }
+}
+
+/// Copies one tile's results out of the readback buffer into `images`: only the outputs
+/// `variant` asks for; the others keep their miss values. A pixel is a hit where its id says
+/// so, or, without ids, where its surface is not zero (every hit has a distance of at least
+/// `min_t |dir| > 0` and a unit normal).
 fn read_tile<R: GpuReal>(
     gpu: &Gpu,
-    readback: &wgpu::Buffer,
-    layout: TileLayout,
+    outputs: &OutputBuffers,
+    variant: &Variant,
     pixels: usize,
     row: u32,
     images: &mut Images<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
+    let readback = &outputs.readback;
     map_for_reading(gpu, readback)?;
     {
         let view = readback
             .get_mapped_range(..)
             .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
-        let surface_len = pixels * SURFACE_REALS as usize * size_of::<R>();
-        let surface: &[[R; 4]] = bytemuck::cast_slice(&view[..surface_len]);
-        let id_start = layout.id_offset as usize;
-        let ids: &[i32] =
-            bytemuck::cast_slice(&view[id_start..id_start + pixels * ID_BYTES as usize]);
+        let surface: Option<&[[R; 4]]> = outputs
+            .bytes(&view, Slot::Surface, pixels)
+            .map(bytemuck::cast_slice);
+        let ids: Option<&[i32]> = outputs
+            .bytes(&view, Slot::Id, pixels)
+            .map(bytemuck::cast_slice);
         let start = images.index(row, 0);
-        if let Some(certainty) = certainty {
-            let at = layout.certain_offset as usize;
-            let flags: &[u32] = bytemuck::cast_slice(&view[at..at + pixels * ID_BYTES as usize]);
+        if let (Some(certainty), Some(flags)) =
+            (certainty, outputs.bytes(&view, Slot::Certain, pixels))
+        {
+            let flags: &[u32] = bytemuck::cast_slice(flags);
             for (k, flag) in flags.iter().enumerate() {
                 certainty[start + k] = *flag != 0;
             }
         }
+        if let (Some(colors), Some(bytes)) =
+            (&mut images.color, outputs.bytes(&view, Slot::Color, pixels))
+        {
+            let packed: &[u32] = bytemuck::cast_slice(bytes);
+            for (k, c) in packed.iter().enumerate() {
+                // pack4x8unorm puts red in the lowest byte.
+                colors[start + k] = c.to_le_bytes();
+            }
+        }
+        let o = variant.outputs;
         for k in 0..pixels {
-            let id = ids[k];
             let px = start + k;
-            images.id[px] = id;
-            if id != MISS {
-                let s = surface[k];
-                images.normal[px] = [s[0], s[1], s[2]];
-                images.distance[px] = s[3];
+            let hit = match (ids, surface) {
+                (Some(ids), _) => ids[k] != MISS,
+                (None, Some(s)) => s[k] != [R::ZERO; 4],
+                (None, None) => false,
+            };
+            if let Some(ids) = ids {
+                images.id[px] = ids[k];
+            }
+            if let (true, Some(s)) = (hit, surface) {
+                let s = s[k];
+                if o.normal {
+                    images.normal[px] = [s[0], s[1], s[2]];
+                }
+                if o.distance {
+                    images.distance[px] = s[3];
+                }
             }
         }
     }

@@ -3,8 +3,10 @@
 //! are kept or dropped by the kernel's [`Variant`]. The result is one WGSL source that naga
 //! validates before any pipeline is made.
 
+use super::hooks::{self, HookKey};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
+use crate::images::Outputs;
 use crate::math::Precision;
 
 /// The primitive kinds a kernel is compiled for.
@@ -72,6 +74,13 @@ pub struct Variant {
     pub chunks: u8,
     /// log2 of the triangles (or nodes) per chunk.
     pub chunk_bits: u8,
+    /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
+    /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
+    /// the rest is left out.
+    pub outputs: Outputs,
+    /// The user's shade hook compiled in (its source is registered in [`hooks`] under this
+    /// key), called for every pixel to write `out_color`.
+    pub shade: Option<HookKey>,
 }
 
 /// The most chunks a kernel binds for triangles, and for nodes.
@@ -109,6 +118,8 @@ impl Variant {
             packets: false,
             chunks: 1,
             chunk_bits: chunk_bits_for(128 << 20, precision),
+            outputs: Outputs::GEOMETRY,
+            shade: None,
         }
     }
 
@@ -117,11 +128,38 @@ impl Variant {
         Variant { kinds, ..self }
     }
 
+    /// This variant writing only `outputs` (`color` only where a shade hook is set; without
+    /// `color` the hook is dropped).
+    pub fn with_outputs(self, outputs: Outputs) -> Variant {
+        let color = outputs.color && self.shade.is_some();
+        Variant {
+            outputs: Outputs { color, ..outputs },
+            shade: self.shade.filter(|_| color),
+            ..self
+        }
+    }
+
+    /// This variant calling the shade hook registered under `key` for every pixel and writing
+    /// its colour.
+    pub fn with_shade(self, key: HookKey) -> Variant {
+        Variant {
+            shade: Some(key),
+            outputs: Outputs {
+                color: true,
+                ..self.outputs
+            },
+            ..self
+        }
+    }
+
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
-    /// subgroups together).
+    /// subgroups together), `CHUNKS_2..4` (triangles and nodes in several bindings), and for
+    /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
+    /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
+    /// `USER_SHADE` (the shade hook is called and `out_color` written).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -159,6 +197,19 @@ impl Variant {
                 d.push(name);
             }
         }
+        let o = self.outputs;
+        let shade = self.shade.is_some() && o.color;
+        for (present, name) in [
+            (o.id, "ID"),
+            (o.distance || o.normal, "SURFACE"),
+            (o.normal || shade, "NORMAL"),
+            (o.distance || shade, "DISTANCE"),
+            (shade, "USER_SHADE"),
+        ] {
+            if present {
+                d.push(name);
+            }
+        }
         d
     }
 }
@@ -171,8 +222,6 @@ impl Variant {
     }
 }
 
-/// Every WGSL module, by name (`shaders/NAME.wgsl`), embedded at build time. One more module,
-/// `precision`, is generated: `alias real = f32;` or `alias real = f64;`.
 pub const MODULES: &[(&str, &str)] = &[
     ("types", include_str!("../../shaders/types.wgsl")),
     ("bindings", include_str!("../../shaders/bindings.wgsl")),
@@ -183,6 +232,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ("hit", include_str!("../../shaders/hit.wgsl")),
     ("bvh", include_str!("../../shaders/bvh.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
+    ("hooks", include_str!("../../shaders/hooks.wgsl")),
     ("main", include_str!("../../shaders/main.wgsl")),
 ];
 
@@ -193,9 +243,14 @@ pub const ENTRY_POINT: &str = "main";
 
 /// The generated module that fixes the kernel's scalar type.
 const PRECISION_MODULE: &str = "precision";
+/// The generated module holding the user's shade hook.
+const USER_MODULE: &str = "user";
 
 fn module_source(name: &str, variant: &Variant) -> Option<String> {
     let precision = variant.precision;
+    if name == USER_MODULE {
+        return hooks::registered_source(variant.shade?).map(|s| s.to_string());
+    }
     if name == PRECISION_MODULE {
         // Written as literals: naga's constant evaluator does no f64 arithmetic.
         let (eps, t_tolerance) = match precision {
@@ -286,6 +341,17 @@ fn include(
     }
     let source = module_source(name, variant)
         .ok_or_else(|| Error::Device(format!("shaders: unknown module `{name}`")))?;
+    if name == USER_MODULE {
+        // The user's text is appended as it is, never preprocessed.
+        let key = variant.shade.expect("a user module has a key");
+        out.push_str(&hooks::banner(key));
+        out.push_str(&source);
+        if !source.ends_with('\n') {
+            out.push('\n');
+        }
+        done.push(name.to_owned());
+        return Ok(());
+    }
     let source = preprocess(&source, &variant.defines(), name)?;
     stack.push(name.to_owned());
     for import in imports(&source) {
@@ -342,8 +408,9 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 }
 
 /// Every variant a device may build: both precisions, both algorithms, with and without f64,
-/// the robust ones with and without the certainty test, and the pixel-list ones, each with and
-/// without a BVH.
+/// the robust ones with and without the certainty test, and the pixel-list ones, with and
+/// without a BVH (per ray and by packets) and in one or several chunks; the plain ones also
+/// with each output alone and with none.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
@@ -354,20 +421,39 @@ pub fn all_variants() -> Vec<Variant> {
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
                     }
+                    let plain = Variant {
+                        precision,
+                        algorithm,
+                        f64_available,
+                        certainty,
+                        pixel_list,
+                        kinds: Kinds::ALL,
+                        bvh: false,
+                        packets: false,
+                        chunks: 1,
+                        chunk_bits: 9,
+                        outputs: Outputs::GEOMETRY,
+                        shade: None,
+                    };
                     for (bvh, packets) in [(false, false), (true, false), (true, true)] {
-                        for chunks in 1..=MAX_CHUNKS {
+                        for chunks in [1, 2, MAX_CHUNKS] {
                             v.push(Variant {
-                                precision,
-                                algorithm,
-                                f64_available,
-                                certainty,
-                                pixel_list,
-                                kinds: Kinds::ALL,
                                 bvh,
                                 packets,
                                 chunks,
-                                chunk_bits: 9,
+                                ..plain
                             });
+                        }
+                    }
+                    if !certainty && !pixel_list {
+                        for outputs in OUTPUT_SUBSETS {
+                            v.push(plain.with_outputs(outputs));
+                            let bvh = Variant {
+                                bvh: true,
+                                packets: true,
+                                ..plain
+                            };
+                            v.push(bvh.with_outputs(outputs));
                         }
                     }
                 }
@@ -376,6 +462,23 @@ pub fn all_variants() -> Vec<Variant> {
     }
     v
 }
+
+/// Id, distance and normal each alone, and none of them.
+const OUTPUT_SUBSETS: [Outputs; 4] = [
+    Outputs {
+        id: true,
+        ..Outputs::NONE
+    },
+    Outputs {
+        distance: true,
+        ..Outputs::NONE
+    },
+    Outputs {
+        normal: true,
+        ..Outputs::NONE
+    },
+    Outputs::NONE,
+];
 
 #[cfg(test)]
 mod tests {
@@ -419,15 +522,22 @@ mod tests {
 
     #[test]
     fn each_module_is_included_once() {
+        let hook = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
+        let hook = hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
         let variant = Variant {
             bvh: true,
             ..Variant::new(Precision::F64, Algorithm::Robust)
         };
-        let source = kernel_source(&variant).unwrap();
-        assert!(source.contains("alias real = f64;"));
-        for (name, _) in MODULES {
-            let banner = format!("// ---- shaders/{name}.wgsl\n");
-            assert_eq!(source.matches(&banner).count(), 1, "{name}");
+        for (variant, with_hook) in [(variant, false), (variant.with_shade(hook.key), true)] {
+            let source = kernel_source(&variant).unwrap();
+            assert!(source.contains("alias real = f64;"));
+            for (name, _) in MODULES {
+                let banner = format!("// ---- shaders/{name}.wgsl\n");
+                let expected = usize::from(*name != "hooks" || with_hook);
+                assert_eq!(source.matches(&banner).count(), expected, "{name}");
+            }
+            let hooks_in = source.matches(&hooks::banner(hook.key)).count();
+            assert_eq!(hooks_in, usize::from(with_hook));
         }
     }
 
@@ -478,6 +588,97 @@ mod tests {
                         "{buffer} in {variant:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// The names of the functions the entry point calls, directly or through the functions it
+    /// calls (in any nested block).
+    fn called_functions(module: &naga::Module) -> Vec<String> {
+        type Handles = Vec<naga::Handle<naga::Function>>;
+        fn walk(block: &naga::Block, out: &mut Handles) {
+            use naga::Statement as S;
+            for statement in block.iter() {
+                match statement {
+                    S::Call { function, .. } => out.push(*function),
+                    S::Block(b) => walk(b, out),
+                    S::If { accept, reject, .. } => {
+                        walk(accept, out);
+                        walk(reject, out);
+                    }
+                    S::Switch { cases, .. } => cases.iter().for_each(|c| walk(&c.body, out)),
+                    S::Loop {
+                        body, continuing, ..
+                    } => {
+                        walk(body, out);
+                        walk(continuing, out);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let entry = module
+            .entry_points
+            .iter()
+            .find(|e| e.name == ENTRY_POINT)
+            .expect("the kernel has its entry point");
+        let mut pending = Vec::new();
+        walk(&entry.function.body, &mut pending);
+        let mut seen: Handles = Vec::new();
+        while let Some(f) = pending.pop() {
+            if !seen.contains(&f) {
+                seen.push(f);
+                walk(&module.functions[f].body, &mut pending);
+            }
+        }
+        seen.iter()
+            .filter_map(|&f| module.functions[f].name.clone())
+            .collect()
+    }
+
+    /// A kernel asked for distances only calls no normal function and binds no id buffer; one
+    /// asked for normals does call them (checked on the naga module).
+    #[test]
+    fn outputs_not_asked_for_are_not_computed() {
+        let normal_functions = [
+            "hit_normal",
+            "sphere_normal",
+            "plane_normal",
+            "triangle_normal",
+        ];
+        for base in [
+            Variant::new(Precision::F32, Algorithm::Robust),
+            Variant::new(Precision::F64, Algorithm::Textbook),
+        ] {
+            for (outputs, normals) in [
+                (OUTPUT_SUBSETS[1], false), // distance only
+                (OUTPUT_SUBSETS[0], false), // id only
+                (OUTPUT_SUBSETS[2], true),  // normal only
+                (Outputs::GEOMETRY, true),
+            ] {
+                let variant = base.with_outputs(outputs);
+                let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+                let called = called_functions(&module);
+                let calls = |f: &str| called.iter().any(|c| c == f);
+                assert!(calls("nearest_hit"), "{called:?}");
+                if normals {
+                    assert!(calls("hit_normal"), "{variant:?}");
+                } else {
+                    for f in normal_functions {
+                        assert!(!calls(f), "{f} called in {variant:?}");
+                    }
+                }
+                let globals: Vec<&str> = module
+                    .global_variables
+                    .iter()
+                    .filter_map(|(_, g)| g.name.as_deref())
+                    .collect();
+                assert_eq!(globals.contains(&"out_id"), outputs.id, "{variant:?}");
+                assert_eq!(
+                    globals.contains(&"out_surface"),
+                    outputs.distance || outputs.normal,
+                    "{variant:?}"
+                );
             }
         }
     }

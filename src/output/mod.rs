@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
-use crate::images::Images;
+use crate::images::{Images, Outputs};
 use crate::math::Real;
 use crate::supersample::Supersampled;
 
@@ -50,39 +50,54 @@ pub struct EncodedFile {
     pub bytes: Vec<u8>,
 }
 
-/// Encodes `images` in each of `formats`.
+/// Encodes `images` in each of `formats`: the id, depth and normal files.
 pub fn encode<T: Real>(images: &Images<T>, formats: &[Format]) -> Vec<EncodedFile> {
+    encode_outputs(images, formats, Outputs::GEOMETRY)
+}
+
+/// Encodes `images` in each of `formats`: the files of the id, distance and normal `outputs`
+/// only (`id.*`; `depth.png`, `depth.ppm`, `distance.npy`; `normal.*`).
+pub fn encode_outputs<T: Real>(
+    images: &Images<T>,
+    formats: &[Format],
+    outputs: Outputs,
+) -> Vec<EncodedFile> {
     let mut files = Vec::new();
     for format in formats {
         match format {
-            Format::Png => files.extend(pictures::encode_png(images)),
-            Format::Ppm => files.extend(pictures::encode_ppm(images)),
-            Format::Npy => files.extend(npy::encode_all(images)),
+            Format::Png => files.extend(pictures::encode_png(images, outputs)),
+            Format::Ppm => files.extend(pictures::encode_ppm(images, outputs)),
+            Format::Npy => files.extend(npy::encode_all(images, outputs)),
         }
     }
     files
 }
 
-/// Encodes supersampled images: in each of `formats` the files [`encode`] writes for the
-/// reduced images, plus `color.png` with `png` (RGBA, premultiplied alpha, or opaque over
-/// `background`; see [`PixelCoverage::to_rgba8`]) and, when `alpha_npy`, `alpha.npy` (float32,
-/// H x W) with `npy`.
+/// Encodes supersampled images: in each of `formats` the files [`encode_outputs`] writes for
+/// the reduced images, plus with `outputs.color` `color.png` with `png` (the shade hook's
+/// RGBA as it returned it, where [`Images::color`] holds it; else the palette by coverage,
+/// premultiplied alpha, or opaque over `background`, see [`PixelCoverage::to_rgba8`]) and,
+/// with `outputs.id` and `alpha_npy`, `alpha.npy` (float32, H x W) with `npy`.
 pub fn encode_supersampled<T: Real>(
     ss: &Supersampled<T>,
     formats: &[Format],
+    outputs: Outputs,
     background: Option<[u8; 3]>,
     alpha_npy: bool,
 ) -> Vec<EncodedFile> {
     let images = &ss.images;
     let mut files = Vec::new();
     for &format in formats {
-        files.extend(encode(images, &[format]));
+        files.extend(encode_outputs(images, &[format], outputs));
         match format {
-            Format::Png => {
-                let rgba = color_rgba8(ss.coverage(), background);
+            Format::Png if outputs.color => {
+                let rgba = match &images.color {
+                    Some(hook) => hook.iter().flatten().copied().collect(),
+                    None => color_rgba8(ss.coverage(), background),
+                };
                 files.push(encode_color_png(images.width, images.height, &rgba));
             }
-            Format::Npy if alpha_npy => {
+            Format::Npy if alpha_npy && outputs.id => {
                 let shape = [images.height as usize, images.width as usize];
                 let bytes: Vec<u8> = ss.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
                 files.push(EncodedFile {
@@ -102,13 +117,14 @@ pub fn write_supersampled<T: Real>(
     ss: &Supersampled<T>,
     dir: &Path,
     formats: &[Format],
+    outputs: Outputs,
     background: Option<[u8; 3]>,
     alpha_npy: bool,
 ) -> Result<Vec<PathBuf>> {
     check_writable(dir)?;
     write_files(
         dir,
-        &encode_supersampled(ss, formats, background, alpha_npy),
+        &encode_supersampled(ss, formats, outputs, background, alpha_npy),
     )
 }
 

@@ -1,7 +1,7 @@
 //! NumPy `.npy` (format version 1.0) encoding of the raw render buffers.
 
 use super::EncodedFile;
-use crate::images::Images;
+use crate::images::{Images, Outputs};
 use crate::math::{Precision, Real};
 
 /// Encodes little-endian `data` with NumPy dtype `descr` (e.g. `<f4`) and `shape`.
@@ -41,26 +41,33 @@ fn float_bytes<T: Real>(values: impl Iterator<Item = T>) -> (&'static str, Vec<u
 }
 
 /// `id.npy` (int32, -1 on a miss), `distance.npy` (+inf on a miss) and `normal.npy` (HxWx3,
-/// 0 on a miss); floats are float32 for f32 renders and float64 for f64 renders.
-pub(super) fn encode_all<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
+/// 0 on a miss), those of `outputs` only; floats are float32 for f32 renders and float64 for
+/// f64 renders.
+pub(super) fn encode_all<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
     let (h, w) = (images.height as usize, images.width as usize);
-    let ids: Vec<u8> = images.id.iter().flat_map(|i| i.to_le_bytes()).collect();
-    let (dtype, distance) = float_bytes(images.distance.iter().copied());
-    let (_, normal) = float_bytes(images.normal.iter().flatten().copied());
-    [
-        EncodedFile {
+    let mut files = Vec::new();
+    if outputs.id {
+        let ids: Vec<u8> = images.id.iter().flat_map(|i| i.to_le_bytes()).collect();
+        files.push(EncodedFile {
             name: "id.npy",
             bytes: encode_npy("<i4", &[h, w], &ids),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.distance {
+        let (dtype, distance) = float_bytes(images.distance.iter().copied());
+        files.push(EncodedFile {
             name: "distance.npy",
             bytes: encode_npy(dtype, &[h, w], &distance),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.normal {
+        let (dtype, normal) = float_bytes(images.normal.iter().flatten().copied());
+        files.push(EncodedFile {
             name: "normal.npy",
             bytes: encode_npy(dtype, &[h, w, 3], &normal),
-        },
-    ]
+        });
+    }
+    files
 }
 
 #[cfg(test)]

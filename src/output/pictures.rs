@@ -4,7 +4,7 @@
 use image::ImageEncoder;
 
 use super::EncodedFile;
-use crate::images::{Images, MISS};
+use crate::images::{Images, MISS, Outputs};
 use crate::math::Real;
 
 /// Object colours, `palette[id % 9]` (the course's).
@@ -58,7 +58,9 @@ pub struct Pictures {
     pub normal: Vec<u8>,
 }
 
-/// Maps `images` to the course's id, depth and normal pictures.
+/// Maps `images` to the course's id, depth and normal pictures. A pixel's normal picture is
+/// black where its id is a miss and its normal zero: a render without ids (`--outputs normal`)
+/// still tells hits by their unit normals.
 pub fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     let n = images.len();
     let mut p = Pictures {
@@ -75,8 +77,10 @@ pub fn pictures<T: Real>(images: &Images<T>) -> Pictures {
             images.distance[k].to_f64(),
             images.focal_length,
         ));
+        let normal = images.normal[k].map(T::to_f64);
+        let hit = object != MISS || normal != [0.0; 3];
         p.normal
-            .extend(normal_color(object, images.normal[k].map(T::to_f64)));
+            .extend(normal_color(if hit { object.max(0) } else { MISS }, normal));
     }
     p
 }
@@ -94,7 +98,8 @@ pub(super) fn png(
     bytes
 }
 
-pub(super) fn encode_png<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
+/// `id.png`, `depth.png` and `normal.png`, those of `outputs` only.
+pub(super) fn encode_png<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
     let Pictures {
         width: w,
         height: h,
@@ -103,20 +108,26 @@ pub(super) fn encode_png<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
         normal,
     } = pictures(images);
     use image::ExtendedColorType::{L8, Rgb8};
-    [
-        EncodedFile {
+    let mut files = Vec::new();
+    if outputs.id {
+        files.push(EncodedFile {
             name: "id.png",
             bytes: png(w, h, &id, Rgb8),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.distance {
+        files.push(EncodedFile {
             name: "depth.png",
             bytes: png(w, h, &depth, L8),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.normal {
+        files.push(EncodedFile {
             name: "normal.png",
             bytes: png(w, h, &normal, Rgb8),
-        },
-    ]
+        });
+    }
+    files
 }
 
 /// ASCII netpbm: `P3` (RGB) or `P2` (grey), max value 255, one pixel per line.
@@ -130,7 +141,8 @@ fn ppm(magic: &str, width: u32, height: u32, channels: usize, pixels: &[u8]) -> 
     s.into_bytes()
 }
 
-pub(super) fn encode_ppm<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
+/// `id.ppm`, `depth.ppm` and `normal.ppm`, those of `outputs` only.
+pub(super) fn encode_ppm<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
     let Pictures {
         width: w,
         height: h,
@@ -138,20 +150,26 @@ pub(super) fn encode_ppm<T: Real>(images: &Images<T>) -> [EncodedFile; 3] {
         depth,
         normal,
     } = pictures(images);
-    [
-        EncodedFile {
+    let mut files = Vec::new();
+    if outputs.id {
+        files.push(EncodedFile {
             name: "id.ppm",
             bytes: ppm("P3", w, h, 3, &id),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.distance {
+        files.push(EncodedFile {
             name: "depth.ppm",
             bytes: ppm("P2", w, h, 1, &depth),
-        },
-        EncodedFile {
+        });
+    }
+    if outputs.normal {
+        files.push(EncodedFile {
             name: "normal.ppm",
             bytes: ppm("P3", w, h, 3, &normal),
-        },
-    ]
+        });
+    }
+    files
 }
 
 #[cfg(test)]
@@ -169,6 +187,16 @@ mod tests {
         assert_eq!(depth_level(3.0, 3.0), 255);
         assert_eq!(depth_level(6.0, 3.0), 127);
         assert_eq!(depth_level(f64::INFINITY, 3.0), 0);
+    }
+
+    #[test]
+    fn normals_without_ids_are_told_from_misses_by_length() {
+        let mut images = Images::<f32>::new_miss(3, 1, 1.0);
+        images.normal[1] = [0.0, 1.0, 0.0];
+        images.id[2] = 4;
+        let p = pictures(&images);
+        // A miss, a hit known only by its normal, a hit known by its id (zero normal).
+        assert_eq!(p.normal, [0, 0, 0, 127, 255, 127, 127, 127, 127]);
     }
 
     #[test]

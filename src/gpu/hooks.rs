@@ -1,0 +1,634 @@
+//! User shade hooks: a WGSL file that defines `fn shade(hit: ShadeHit) -> vec4<f32>`
+//! (`shaders/hooks.wgsl` declares `ShadeHit`), called by the kernel once per pixel to colour
+//! `color.png` (`raycast render --shader FILE`; `raycast check-shader FILE` checks only).
+//!
+//! [`check`] runs before any pipeline is made, in this order:
+//! 1. naga parses and validates the user's text on its own, with the `ShadeHit` prelude
+//!    appended after it (WGSL allows use before declaration at module scope), so the lines and
+//!    columns naga reports are the user's;
+//! 2. on that naga module: `shade` exists, takes one `ShadeHit` and returns `vec4<f32>`; the
+//!    file declares no entry point, resource binding or pipeline override;
+//! 3. no global name of the file clashes with one of the kernel's (in any variant), compared on
+//!    the naga modules;
+//! 4. the general kernel with the hook appended (`#if USER_SHADE`) validates, its errors mapped
+//!    back to the user's lines (this catches what the naga modules do not show, such as an
+//!    `alias` named like the kernel's `real`).
+//!
+//! Every error is an [`Error::Shader`]: `FILE:LINE:COLUMN: error: MESSAGE`, then the source line
+//! and a caret under the column (columns count characters, from 1).
+//!
+//! A checked hook is registered under a [`HookKey`], a hash of its source, which the kernel
+//! [`Variant`] carries (so it stays `Copy` and a cache key); the assembler takes the source from
+//! the registry. Sources stay registered for the life of the process.
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::shader::{self, Variant};
+use crate::algorithm::Algorithm;
+use crate::error::{Error, Result};
+use crate::images::Outputs;
+use crate::math::Precision;
+
+/// The function a hook file defines.
+pub const HOOK_FUNCTION: &str = "shade";
+/// The struct `shade` takes.
+pub const HOOK_INPUT: &str = "ShadeHit";
+/// `shaders/hooks.wgsl`: the declaration of [`HOOK_INPUT`], appended to the user's text.
+pub const PRELUDE: &str = include_str!("../../shaders/hooks.wgsl");
+
+/// Which registered hook source a kernel includes: a hash of the source, unique within the
+/// process (a colliding different source gets the next free value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct HookKey(pub u64);
+
+/// A checked user shader.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadeHook {
+    /// The file it came from, as given (for messages).
+    pub file: PathBuf,
+    pub source: Arc<str>,
+    pub key: HookKey,
+}
+
+/// Reads and [`check`]s the hook file at `path`.
+pub fn load(path: &Path) -> Result<ShadeHook> {
+    let source =
+        std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
+    check(&source, path)
+}
+
+fn registry() -> &'static Mutex<HashMap<HookKey, Arc<str>>> {
+    static SOURCES: OnceLock<Mutex<HashMap<HookKey, Arc<str>>>> = OnceLock::new();
+    SOURCES.get_or_init(Mutex::default)
+}
+
+/// Registers `source`, returning its key (the same key for the same text).
+fn register(source: &str) -> (HookKey, Arc<str>) {
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    source.hash(&mut hasher);
+    let mut key = HookKey(hasher.finish());
+    let mut sources = registry().lock().expect("hook registry lock");
+    loop {
+        match sources.get(&key) {
+            Some(s) if **s == *source => return (key, s.clone()),
+            Some(_) => key.0 = key.0.wrapping_add(1),
+            None => {
+                let s: Arc<str> = source.into();
+                sources.insert(key, s.clone());
+                return (key, s);
+            }
+        }
+    }
+}
+
+/// The source registered under `key`.
+pub fn registered_source(key: HookKey) -> Option<Arc<str>> {
+    registry()
+        .lock()
+        .expect("hook registry lock")
+        .get(&key)
+        .cloned()
+}
+
+/// Checks a hook's `source` (read from `file`, which labels errors) and registers it (module
+/// docs).
+pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
+    let located = |offset: usize, len: usize, message: String| {
+        shader_error(file, source, offset, len, message)
+    };
+    // 1. On its own, with the prelude after it.
+    let mut text = source.to_owned();
+    if !text.is_empty() && !text.ends_with('\n') {
+        text.push('\n');
+    }
+    let prelude_start = text.len();
+    text.push_str(PRELUDE);
+    let in_user = |offset: usize| offset.min(source.len());
+    let module = naga::front::wgsl::parse_str(&text).map_err(|e| {
+        let spans: Vec<(usize, usize)> = e
+            .labels()
+            .map(|(span, _)| span)
+            .filter(|span| span.is_defined())
+            .map(span_range)
+            .collect();
+        let mut message = e.message().to_owned();
+        if spans.iter().any(|&(at, _)| at >= prelude_start) {
+            message += &format!(" (`{HOOK_INPUT}` is declared for the hook: shaders/hooks.wgsl)");
+        }
+        let (offset, len) = spans
+            .iter()
+            .copied()
+            .find(|&(at, _)| at < prelude_start)
+            .unwrap_or((source.len(), 0));
+        located(in_user(offset), len, message)
+    })?;
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
+    validator.validate(&module).map_err(|e| {
+        // The innermost span (naga adds outer ones as the error climbs) is the most precise.
+        let (offset, len) = e
+            .spans()
+            .map(|(span, _)| *span)
+            .filter(|span| span.is_defined() && span_range(*span).0 < prelude_start)
+            .last()
+            .map_or((0, 0), span_range);
+        located(in_user(offset), len, error_chain(&e))
+    })?;
+    // 2. The hook's signature and what a hook may not declare.
+    check_signature(&module, &located)?;
+    check_declarations(&module, &located)?;
+    // 3. Names the kernel uses.
+    check_names(&module, &located)?;
+    // 4. The kernel with the hook.
+    let (key, source) = register(source);
+    check_in_kernel(key, &source, file)?;
+    Ok(ShadeHook {
+        file: file.to_owned(),
+        source,
+        key,
+    })
+}
+
+fn span_range(span: naga::Span) -> (usize, usize) {
+    let r = span.to_range().unwrap_or(0..0);
+    (r.start, r.end - r.start)
+}
+
+/// An error's message followed by its causes, `: `-separated, without repeats.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut parts = vec![e.to_string()];
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if parts.last() != Some(&text) {
+            parts.push(text);
+        }
+        cause = c.source();
+    }
+    parts.join(": ")
+}
+
+type Locate<'a> = dyn Fn(usize, usize, String) -> Error + 'a;
+
+/// `shade` exists, takes exactly one `ShadeHit` and returns `vec4<f32>`.
+fn check_signature(module: &naga::Module, located: &Locate) -> Result<()> {
+    let wanted = format!("fn {HOOK_FUNCTION}(hit: {HOOK_INPUT}) -> vec4<f32>");
+    let Some((handle, function)) = module
+        .functions
+        .iter()
+        .find(|(_, f)| f.name.as_deref() == Some(HOOK_FUNCTION))
+    else {
+        return Err(located(
+            0,
+            0,
+            format!("no function `{HOOK_FUNCTION}`: a hook file defines `{wanted}`"),
+        ));
+    };
+    let (offset, len) = span_range(module.functions.get_span(handle));
+    let argument_ok = function.arguments.len() == 1
+        && module.types[function.arguments[0].ty].name.as_deref() == Some(HOOK_INPUT);
+    let result_ok = function.result.as_ref().is_some_and(|r| {
+        module.types[r.ty].inner
+            == naga::TypeInner::Vector {
+                size: naga::VectorSize::Quad,
+                scalar: naga::Scalar::F32,
+            }
+    });
+    if argument_ok && result_ok {
+        return Ok(());
+    }
+    let arguments: Vec<String> = function
+        .arguments
+        .iter()
+        .map(|a| type_name(module, a.ty))
+        .collect();
+    let result = function.result.as_ref().map_or(String::new(), |r| {
+        format!(" -> {}", type_name(module, r.ty))
+    });
+    Err(located(
+        offset,
+        len.min(2),
+        format!(
+            "`{HOOK_FUNCTION}` must be `{wanted}`, found `fn {HOOK_FUNCTION}({}){result}`",
+            arguments.join(", ")
+        ),
+    ))
+}
+
+/// A WGSL-like name of a type, for messages.
+fn type_name(module: &naga::Module, ty: naga::Handle<naga::Type>) -> String {
+    let t = &module.types[ty];
+    if let Some(name) = &t.name {
+        return name.clone();
+    }
+    let scalar = |s: naga::Scalar| match (s.kind, s.width) {
+        (naga::ScalarKind::Float, 4) => "f32".to_owned(),
+        (naga::ScalarKind::Float, 8) => "f64".to_owned(),
+        (naga::ScalarKind::Float, 2) => "f16".to_owned(),
+        (naga::ScalarKind::Sint, 4) => "i32".to_owned(),
+        (naga::ScalarKind::Uint, 4) => "u32".to_owned(),
+        (naga::ScalarKind::Bool, _) => "bool".to_owned(),
+        (kind, width) => format!("{kind:?}{}", 8 * width),
+    };
+    match &t.inner {
+        naga::TypeInner::Scalar(s) => scalar(*s),
+        naga::TypeInner::Vector { size, scalar: s } => {
+            format!("vec{}<{}>", *size as u8, scalar(*s))
+        }
+        naga::TypeInner::Matrix {
+            columns,
+            rows,
+            scalar: s,
+        } => format!("mat{}x{}<{}>", *columns as u8, *rows as u8, scalar(*s)),
+        naga::TypeInner::Array { base, .. } => format!("array<{}>", type_name(module, *base)),
+        naga::TypeInner::Pointer { base, .. } => format!("ptr<{}>", type_name(module, *base)),
+        other => format!("{other:?}"),
+    }
+}
+
+/// A hook is a function for the kernel to call: it declares no entry point, no resource
+/// (the kernel owns the bindings) and no pipeline override.
+fn check_declarations(module: &naga::Module, located: &Locate) -> Result<()> {
+    if let Some(entry) = module.entry_points.first() {
+        // An entry point has no span of its own; its body's first statement is nearest.
+        let offset = entry
+            .function
+            .body
+            .span_iter()
+            .map(|(_, span)| *span)
+            .find(|span| span.is_defined())
+            .map_or((0, 0), span_range);
+        return Err(located(
+            offset.0,
+            offset.1,
+            format!(
+                "`{}` is an entry point: a hook file declares no @compute, @vertex or @fragment function (the kernel has its own)",
+                entry.name
+            ),
+        ));
+    }
+    for (handle, g) in module.global_variables.iter() {
+        let private = matches!(
+            g.space,
+            naga::AddressSpace::Private | naga::AddressSpace::WorkGroup
+        );
+        if g.binding.is_some() || !private {
+            let (offset, len) = span_range(module.global_variables.get_span(handle));
+            let name = g.name.as_deref().unwrap_or("?");
+            return Err(located(
+                offset,
+                len,
+                format!(
+                    "`{name}` is a resource: a hook reads only its `{HOOK_INPUT}` argument (the kernel owns the bindings); use var<private> for mutable globals"
+                ),
+            ));
+        }
+    }
+    if let Some((handle, o)) = module.overrides.iter().next() {
+        let (offset, len) = span_range(module.overrides.get_span(handle));
+        return Err(located(
+            offset,
+            len,
+            format!(
+                "`{}` is a pipeline override, which hooks cannot set; use const",
+                o.name.as_deref().unwrap_or("?")
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A global name of a naga module: what it names, and the name.
+fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)> {
+    let mut names = Vec::new();
+    for (h, f) in module.functions.iter() {
+        if let Some(n) = &f.name {
+            names.push(("function", n.clone(), module.functions.get_span(h)));
+        }
+    }
+    for e in &module.entry_points {
+        names.push(("entry point", e.name.clone(), naga::Span::default()));
+    }
+    for (h, t) in module.types.iter() {
+        if let (Some(n), naga::TypeInner::Struct { .. }) = (&t.name, &t.inner) {
+            names.push(("struct", n.clone(), module.types.get_span(h)));
+        }
+    }
+    for (h, c) in module.constants.iter() {
+        if let Some(n) = &c.name {
+            names.push(("constant", n.clone(), module.constants.get_span(h)));
+        }
+    }
+    for (h, g) in module.global_variables.iter() {
+        if let Some(n) = &g.name {
+            names.push(("variable", n.clone(), module.global_variables.get_span(h)));
+        }
+    }
+    for (h, o) in module.overrides.iter() {
+        if let Some(n) = &o.name {
+            names.push(("override", n.clone(), module.overrides.get_span(h)));
+        }
+    }
+    names
+}
+
+/// The variants whose global names a hook must avoid: every variant a device may build, each
+/// with every output, and one with a placeholder hook (so every `#if` block that declares names
+/// is in one of them).
+fn kernel_variants() -> Vec<Variant> {
+    let mut variants: Vec<Variant> = shader::all_variants()
+        .into_iter()
+        .map(|v| v.with_outputs(Outputs::GEOMETRY))
+        .collect();
+    let (placeholder, _) =
+        register("fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(0.0); }\n");
+    variants.push(Variant::new(Precision::F32, Algorithm::Robust).with_shade(placeholder));
+    variants
+}
+
+/// The kernel's global names (any variant; the hook's own two left out) and what each names.
+fn kernel_names() -> &'static HashMap<String, &'static str> {
+    static NAMES: OnceLock<HashMap<String, &'static str>> = OnceLock::new();
+    NAMES.get_or_init(|| {
+        let mut names = HashMap::new();
+        for variant in kernel_variants() {
+            let source = shader::kernel_source(&variant).expect("the kernel assembles");
+            let module = naga::front::wgsl::parse_str(&source).expect("the kernel parses");
+            for (what, name, _) in global_names(&module) {
+                if name != HOOK_FUNCTION && name != HOOK_INPUT {
+                    names.entry(name).or_insert(what);
+                }
+            }
+        }
+        names
+    })
+}
+
+/// No global name of the hook's module is one of the kernel's.
+fn check_names(module: &naga::Module, located: &Locate) -> Result<()> {
+    let kernel = kernel_names();
+    for (what, name, span) in global_names(module) {
+        if what == "struct" && name == HOOK_INPUT {
+            continue;
+        }
+        if let Some(theirs) = kernel.get(&name) {
+            let (offset, _) = span_range(span);
+            return Err(located(
+                offset,
+                1,
+                format!(
+                    "the {what} `{name}` clashes with the kernel's {theirs} `{name}`; rename it"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The general kernel (f32 robust, every kind and output) with the hook registered under
+/// `key` validates; an error inside the hook's lines is reported at the user's line.
+fn check_in_kernel(key: HookKey, source: &str, file: &Path) -> Result<()> {
+    let variant = Variant::new(Precision::F32, Algorithm::Robust).with_shade(key);
+    let kernel = shader::kernel_source(&variant)?;
+    let start = hook_offset(&kernel, key).expect("the kernel includes the hook");
+    let fail = |offset: usize, len: usize, message: String| {
+        if (start..start + source.len()).contains(&offset) {
+            shader_error(file, source, offset - start, len, message)
+        } else {
+            let line = kernel[..offset.min(kernel.len())].matches('\n').count() + 1;
+            shader_error(
+                file,
+                source,
+                0,
+                0,
+                format!(
+                    "{message} (line {line} of the kernel it is appended to; see --emit-shader)"
+                ),
+            )
+        }
+    };
+    let module = naga::front::wgsl::parse_str(&kernel).map_err(|e| {
+        let (offset, len) = e.labels().next().map_or((0, 0), |(s, _)| span_range(s));
+        fail(offset, len, e.message().to_owned())
+    })?;
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
+    validator.validate(&module).map_err(|e| {
+        let (offset, len) = e
+            .spans()
+            .map(|(span, _)| *span)
+            .filter(|span| span.is_defined())
+            .last()
+            .map_or((0, 0), span_range);
+        fail(offset, len, error_chain(&e))
+    })?;
+    Ok(())
+}
+
+/// The banner line the assembler writes above a hook's source.
+pub(crate) fn banner(key: HookKey) -> String {
+    format!("// ---- user shade hook {:016x}\n", key.0)
+}
+
+/// Where the hook's source begins in an assembled `kernel`.
+pub fn hook_offset(kernel: &str, key: HookKey) -> Option<usize> {
+    let banner = banner(key);
+    kernel.find(&banner).map(|at| at + banner.len())
+}
+
+/// An [`Error::Shader`] at byte `offset` of `source` (clamped to it), underlining `len` bytes.
+fn shader_error(file: &Path, source: &str, offset: usize, len: usize, message: String) -> Error {
+    let mut offset = offset.min(source.len());
+    while !source.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let line_start = source[..offset].rfind('\n').map_or(0, |k| k + 1);
+    let line_end = source[offset..]
+        .find('\n')
+        .map_or(source.len(), |k| offset + k);
+    let line_text = source[line_start..line_end].trim_end_matches('\r');
+    let before = &source[line_start..offset];
+    let column = before.chars().count() + 1;
+    let underlined = source[offset..line_end.max(offset)]
+        .char_indices()
+        .take_while(|(k, _)| *k < len)
+        .count()
+        .max(1);
+    let pad: String = before
+        .chars()
+        .map(|c| if c == '\t' { '\t' } else { ' ' })
+        .collect();
+    Error::Shader {
+        file: file.to_owned(),
+        line: source[..offset].matches('\n').count() + 1,
+        column,
+        message,
+        excerpt: format!("{line_text}\n{pad}{}", "^".repeat(underlined)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "fn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(hit.normal * 0.5 + 0.5, 1.0);\n}\n";
+
+    fn err(source: &str) -> (usize, usize, String, String) {
+        match check(source, Path::new("hook.wgsl")) {
+            Err(Error::Shader {
+                line,
+                column,
+                message,
+                excerpt,
+                ..
+            }) => (line, column, message, excerpt),
+            other => panic!("expected a shader error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_good_hook_passes_and_is_keyed_by_its_source() {
+        let a = check(GOOD, Path::new("a.wgsl")).unwrap();
+        let b = check(GOOD, Path::new("b.wgsl")).unwrap();
+        assert_eq!(a.key, b.key);
+        assert_eq!(registered_source(a.key).as_deref(), Some(GOOD));
+        let other = GOOD.replace("0.5 + 0.5", "0.25 + 0.5");
+        let c = check(&other, Path::new("c.wgsl")).unwrap();
+        assert_ne!(a.key, c.key);
+        // The kernel variants of the two differ, and each kernel holds its own source.
+        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let (va, vc) = (base.with_shade(a.key), base.with_shade(c.key));
+        assert_ne!(va, vc);
+        assert!(shader::kernel_source(&va).unwrap().contains(GOOD));
+        assert!(shader::kernel_source(&vc).unwrap().contains(&other));
+    }
+
+    /// Every example in shaders/examples/ passes the checks (naga only, no adapter).
+    #[test]
+    fn every_example_validates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/examples");
+        let mut names = Vec::new();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "wgsl") {
+                if let Err(e) = load(&path) {
+                    panic!("{e}");
+                }
+                names.push(path.file_stem().unwrap().to_string_lossy().into_owned());
+            }
+        }
+        names.sort();
+        assert_eq!(names, ["checker", "fog", "toon"]);
+    }
+
+    /// The hook compiles into every plain variant: both precisions and algorithms, any outputs.
+    #[test]
+    fn hooked_kernels_validate() {
+        let hook = check(GOOD, Path::new("a.wgsl")).unwrap();
+        for variant in shader::all_variants() {
+            if variant.certainty || variant.pixel_list {
+                continue;
+            }
+            let variant = variant.with_shade(hook.key);
+            assert!(variant.defines().contains(&"USER_SHADE"));
+            let source = shader::kernel_source(&variant).unwrap();
+            if let Err(e) = shader::validate(&source, &format!("{variant:?}")) {
+                panic!("{e}");
+            }
+        }
+    }
+
+    #[test]
+    fn errors_point_at_the_users_line_and_column() {
+        // Type error found by the parser, line 2: `1u` is no f32; naga points at `x`.
+        let (line, column, message, excerpt) = err(
+            "fn shade(hit: ShadeHit) -> vec4<f32> {\n    let x: f32 = 1u;\n    return vec4<f32>(x);\n}\n",
+        );
+        assert_eq!((line, column), (2, 9), "{message}");
+        assert!(
+            message.contains("f32") && message.contains("u32"),
+            "{message}"
+        );
+        assert_eq!(excerpt, "    let x: f32 = 1u;\n        ^");
+        // Type error found by the validator, at the innermost span: the returned expression.
+        let (line, column, message, excerpt) =
+            err("fn shade(hit: ShadeHit) -> vec4<f32> {\n\treturn hit.normal;\n}\n");
+        assert_eq!((line, column), (2, 9), "{message}");
+        assert!(message.contains("return"), "{message}");
+        assert_eq!(excerpt, "\treturn hit.normal;\n\t       ^^^^^^^^^^");
+        // Unknown identifier, line 3.
+        let (line, column, message, _) = err(
+            "// fog\nfn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(fog_colour, 1.0);\n}\n",
+        );
+        assert_eq!((line, column), (3, 22), "{message}");
+        assert!(message.contains("fog_colour"), "{message}");
+    }
+
+    #[test]
+    fn the_signature_is_checked_on_the_module() {
+        for (source, found) in [
+            (
+                "\nfn shade(hit: ShadeHit, k: f32) -> vec4<f32> { return vec4<f32>(k); }\n",
+                "fn shade(ShadeHit, f32) -> vec4<f32>",
+            ),
+            (
+                "\nfn shade(hit: ShadeHit) -> vec3<f32> { return hit.normal; }\n",
+                "fn shade(ShadeHit) -> vec3<f32>",
+            ),
+            (
+                "\nfn shade(p: vec3<f32>) -> vec4<f32> { return vec4<f32>(p, 1.0); }\n",
+                "fn shade(vec3<f32>) -> vec4<f32>",
+            ),
+        ] {
+            let (line, column, message, _) = err(source);
+            assert_eq!((line, column), (2, 1), "{message}");
+            assert!(message.contains(found), "{message}");
+        }
+        let (line, _, message, _) =
+            err("fn paint(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n");
+        assert_eq!(line, 1);
+        assert!(message.contains("no function `shade`"), "{message}");
+    }
+
+    #[test]
+    fn names_of_the_kernel_and_resources_are_refused() {
+        let (line, column, message, _) = err(&format!(
+            "{GOOD}\nfn nearest_hit() -> f32 {{ return 1.0; }}\n"
+        ));
+        assert_eq!((line, column), (5, 1), "{message}");
+        assert!(
+            message.contains("function `nearest_hit` clashes"),
+            "{message}"
+        );
+        let (line, _, message, _) = err(&format!("{GOOD}\nstruct Hit {{ t: f32 }}\n"));
+        assert_eq!(line, 5, "{message}");
+        assert!(message.contains("struct `Hit` clashes"), "{message}");
+        // Names only a kernel with a hook has count too.
+        let (line, _, message, _) = err(&format!("{GOOD}\nvar<private> out_color: u32;\n"));
+        assert_eq!(line, 5, "{message}");
+        assert!(
+            message.contains("variable `out_color` clashes"),
+            "{message}"
+        );
+        let (line, _, message, _) = err(&format!(
+            "{GOOD}\n@group(0) @binding(8) var<storage, read> colours: array<u32>;\n"
+        ));
+        assert_eq!(line, 5, "{message}");
+        assert!(message.contains("resource"), "{message}");
+        // Declaring the prelude's struct again points at the user's declaration.
+        let (line, _, message, _) = err(&format!("{GOOD}\nstruct ShadeHit {{ x: f32 }}\n"));
+        assert_eq!(line, 5, "{message}");
+        assert!(message.contains("shaders/hooks.wgsl"), "{message}");
+        // An alias shows in no naga module; the kernel check finds it at the user's line.
+        let (line, _, message, _) = err(&format!("{GOOD}\nalias real = f32;\n"));
+        assert_eq!(line, 5, "{message}");
+        assert!(message.contains("real"), "{message}");
+    }
+}
