@@ -76,6 +76,11 @@ enum Command {
         /// on. Ctrl-C ends it.
         #[arg(long)]
         watch: bool,
+        /// Render and write in bands of at most this many rows, holding one band at a time
+        /// (GPU, f32 or f64, without --spp). Images above 16.7 million pixels always are, in
+        /// bands of about four million pixels.
+        #[arg(long, value_name = "ROWS", value_parser = clap::value_parser!(u32).range(1..))]
+        band_rows: Option<u32>,
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
@@ -248,6 +253,7 @@ fn run(command: Command) -> Result<ExitCode> {
             outputs,
             shader,
             watch,
+            band_rows,
         } => {
             let mode = Mode {
                 device,
@@ -266,6 +272,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 outputs: outputs.as_deref(),
                 shader: shader.as_deref(),
                 watch,
+                band_rows,
             })?;
             Ok(ExitCode::SUCCESS)
         }
@@ -346,6 +353,7 @@ struct RenderArgs<'a> {
     outputs: Option<&'a [Output]>,
     shader: Option<&'a Path>,
     watch: bool,
+    band_rows: Option<u32>,
 }
 
 /// The outputs a render computes and writes: those of `--outputs`, else every output the
@@ -522,6 +530,48 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
     }
     let mut recast = None;
     let request = render::Request { outputs, shade };
+    let [nx, ny] = scene.camera.resolution;
+    let huge = nx as u64 * ny as u64 > render::STREAM_PIXELS;
+    let can_stream = spp.is_none() && render::can_stream(mode);
+    if args.band_rows.is_some() && !can_stream {
+        return Err(raycast::Error::Argument {
+            option: "--band-rows".into(),
+            message: "bands are rendered on the GPU in f32 or f64, without --spp".into(),
+        });
+    }
+    let streamed = (huge || args.band_rows.is_some()) && can_stream;
+    if let (true, Some(g)) = (streamed, gpu) {
+        let rows = args.band_rows.unwrap_or(render::band_rows(nx));
+        let mut writer =
+            output::stream::BandWriter::new(out_dir, [nx, ny], formats, outputs, background);
+        let (done, elapsed) = render::timed(|| {
+            render::render_streamed(&scene, mode, g, &request, rows, &mut |band| match band {
+                render::AnyImages::F32(i) => {
+                    writer.write_band(&supersample::Supersampled::from_images(i))
+                }
+                render::AnyImages::F64(i) => {
+                    writer.write_band(&supersample::Supersampled::from_images(i))
+                }
+            })
+        });
+        done?;
+        let written = writer.finish()?;
+        if let Some(path) = emit_shader {
+            let variant = kernel_for(g, &scene, mode, &request, 1);
+            let source = raycast::gpu::shader::kernel_source(&variant)?;
+            output::write_file(path, source.as_bytes())?;
+        }
+        say(format!(
+            "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {} in {:.3} s",
+            scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
+            g.info().name,
+            elapsed.as_secs_f64()
+        ));
+        for path in written {
+            say(format!("wrote {}", path.display()));
+        }
+        return Ok(());
+    }
     let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu) {
         // Plain adaptive renders report how much they re-cast in f64.
         (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
@@ -537,7 +587,6 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         }
     });
     let written = images?.write(out_dir, formats, outputs, background, spp.is_some())?;
-    let [nx, ny] = scene.camera.resolution;
     let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
     let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
     let shaded = shader.map_or(String::new(), |p| format!(", shaded by {}", p.display()));

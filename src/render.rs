@@ -257,6 +257,59 @@ pub fn render_request(
     }
 }
 
+/// Images above this many pixels are rendered and written in bands of rows
+/// ([`render_streamed`]), holding one band at a time.
+pub const STREAM_PIXELS: u64 = 1 << 24;
+
+/// Rows per band for a streamed render `width` pixels wide: about four million pixels.
+pub fn band_rows(width: u32) -> u32 {
+    ((1u32 << 22) / width.max(1)).max(1)
+}
+
+/// Whether [`render_streamed`] can render `mode`: a GPU kernel in f32 or f64.
+pub fn can_stream(mode: Mode) -> bool {
+    mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive
+}
+
+/// Renders `scene` on the GPU in bands of at most `max_rows` rows, handing each band to
+/// `sink` from the top as soon as it is read back (see [`gpu::render_streamed`]). Only for
+/// modes where [`can_stream`] holds.
+pub fn render_streamed(
+    scene: &Scene,
+    mode: Mode,
+    gpu: &Gpu,
+    request: &Request,
+    max_rows: u32,
+    sink: &mut dyn FnMut(AnyImages) -> Result<()>,
+) -> Result<()> {
+    if !can_stream(mode) {
+        return Err(Error::Argument {
+            option: "mode".into(),
+            message: format!("{mode} cannot be rendered in bands (GPU f32 or f64 only)"),
+        });
+    }
+    let precision = match mode.precision {
+        Arithmetic::F32 => Precision::F32,
+        _ => Precision::F64,
+    };
+    let outputs = request.kernel_outputs();
+    let shade = request.shade.as_ref();
+    let variant = gpu.request_variant(scene, precision, mode.algorithm, outputs, shade);
+    match precision {
+        Precision::F32 => {
+            gpu::render_streamed::<f32>(gpu, scene, variant, max_rows, &mut |_, band| {
+                sink(AnyImages::F32(band))
+            })?
+        }
+        Precision::F64 => {
+            gpu::render_streamed::<f64>(gpu, scene, variant, max_rows, &mut |_, band| {
+                sink(AnyImages::F64(band))
+            })?
+        }
+    };
+    Ok(())
+}
+
 /// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
 /// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
 /// over its certainty and re-cast passes; see [`gpu::render_timed`]); `None` for the CPU.

@@ -8,8 +8,8 @@ mod render;
 pub mod shader;
 
 pub use render::{
-    Stages, max_tile_rows, render, render_in_tiles, render_outputs, render_pixels,
-    render_pixels_timed, render_stages, render_timed, render_with_certainty,
+    Stages, TileSink, max_tile_rows, render, render_in_tiles, render_outputs, render_pixels,
+    render_pixels_timed, render_stages, render_streamed, render_timed, render_with_certainty,
     render_with_certainty_timed, render_with_variant,
 };
 

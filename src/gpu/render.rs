@@ -673,7 +673,26 @@ fn render_variant<R: GpuReal>(
     variant: Variant,
     timed: bool,
 ) -> Result<Rendered<R>> {
-    render_tiles(gpu, scene, variant, timed, None)
+    render_tiles(gpu, scene, variant, timed, None, None)
+}
+
+/// What receives the tiles of a streamed render: the first image row of the tile and its
+/// images (`tile.height` rows).
+pub type TileSink<'a, R> = &'a mut dyn FnMut(u32, Images<R>) -> Result<()>;
+
+/// Renders with the kernel `variant`, handing each tile of at most `max_rows` rows (fewer
+/// where the device's limits require) to `sink` as soon as it is read back, in order from the
+/// top: the whole image is never held, so huge images need only one tile's memory. Returns
+/// the stages' times.
+pub fn render_streamed<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    max_rows: u32,
+    sink: TileSink<'_, R>,
+) -> Result<Stages> {
+    let r = render_tiles(gpu, scene, variant, true, Some(max_rows.max(1)), Some(sink))?;
+    Ok(r.stages)
 }
 
 /// Renders with the kernel `variant` in tiles of at most `max_rows` image rows (fewer when the
@@ -684,7 +703,7 @@ pub fn render_in_tiles<R: GpuReal>(
     variant: Variant,
     max_rows: u32,
 ) -> Result<Images<R>> {
-    Ok(render_tiles(gpu, scene, variant, false, Some(max_rows.max(1)))?.images)
+    Ok(render_tiles(gpu, scene, variant, false, Some(max_rows.max(1)), None)?.images)
 }
 
 fn render_tiles<R: GpuReal>(
@@ -693,6 +712,7 @@ fn render_tiles<R: GpuReal>(
     variant: Variant,
     timed: bool,
     max_rows: Option<u32>,
+    mut sink: Option<TileSink<'_, R>>,
 ) -> Result<Rendered<R>> {
     let algorithm = variant.algorithm;
     let mut stages = Stages::default();
@@ -731,8 +751,14 @@ fn render_tiles<R: GpuReal>(
         entries: &entries,
     });
 
-    let mut images = Images::new_miss(nx, ny, scene.camera.focal_length);
-    images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
+    // Streamed, the tiles go to the sink and only the tile in hand is held.
+    let whole_rows = if sink.is_some() { 0 } else { ny };
+    let new_images = |rows: u32| {
+        let mut images = Images::new_miss(nx, rows, scene.camera.focal_length);
+        images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
+        images
+    };
+    let mut images = new_images(whole_rows);
     let mut certainty = variant.certainty.then(|| vec![false; images.len()]);
     let timer = if timed { PassTimer::new(gpu) } else { None };
     let mut kernel_s = timer.as_ref().map(|_| 0.0);
@@ -770,15 +796,21 @@ fn render_tiles<R: GpuReal>(
         let pixels = rows as u64 * nx as u64;
         outputs.copy_to_readback(&mut encoder, pixels);
         gpu.queue.submit([encoder.finish()]);
-        read_tile(
-            gpu,
-            &outputs,
-            &variant,
-            pixels as usize,
-            row,
-            &mut images,
-            certainty.as_deref_mut(),
-        )?;
+        if let Some(sink) = sink.as_mut() {
+            let mut tile = new_images(rows);
+            read_tile(gpu, &outputs, &variant, pixels as usize, 0, &mut tile, None)?;
+            sink(row, tile)?;
+        } else {
+            read_tile(
+                gpu,
+                &outputs,
+                &variant,
+                pixels as usize,
+                row,
+                &mut images,
+                certainty.as_deref_mut(),
+            )?;
+        }
         if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
             *total += timer.read_seconds(gpu)?;
         }

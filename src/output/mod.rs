@@ -5,6 +5,7 @@
 mod color;
 mod npy;
 mod pictures;
+pub mod stream;
 pub mod text;
 
 use std::path::{Path, PathBuf};

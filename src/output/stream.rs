@@ -1,0 +1,213 @@
+//! Files written band by band, for images too large to hold whole (a 16384 x 16384 render is
+//! 5 GiB of f32 images): each band of rows is encoded by the same writers as a whole image
+//! ([`super::encode_supersampled`]), and its rows are appended to the open files, so the
+//! streamed files have exactly the pixels (and for ppm and npy, the bytes) of the whole-image
+//! ones. As with [`super::write_files`], everything goes to temporary names first and is
+//! renamed into place only when every file is complete: none or all.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use super::{EncodedFile, Format, encode_npy, encode_supersampled};
+use crate::error::{Error, Result};
+use crate::images::Outputs;
+use crate::math::Real;
+use crate::supersample::Supersampled;
+
+/// One file being written: its final path, its temporary path, its encoder.
+struct Stream {
+    path: PathBuf,
+    tmp: PathBuf,
+    sink: Sink,
+}
+
+enum Sink {
+    /// Rows of raw pixels into a PNG encoder of the whole image's size.
+    Png(Box<png::StreamWriter<'static, BufWriter<File>>>),
+    /// The bodies (after the header) of the bands' files.
+    Raw(BufWriter<File>),
+}
+
+/// Writes the files of a render band by band (see the module docs).
+pub struct BandWriter {
+    dir: PathBuf,
+    width: u32,
+    height: u32,
+    formats: Vec<Format>,
+    outputs: Outputs,
+    background: Option<[u8; 3]>,
+    streams: Vec<Stream>,
+    rows_written: u32,
+}
+
+impl BandWriter {
+    /// A writer for a `width` x `height` render into `dir`; files open with the first band.
+    pub fn new(
+        dir: &Path,
+        [width, height]: [u32; 2],
+        formats: &[Format],
+        outputs: Outputs,
+        background: Option<[u8; 3]>,
+    ) -> BandWriter {
+        BandWriter {
+            dir: dir.to_owned(),
+            width,
+            height,
+            formats: formats.to_vec(),
+            outputs,
+            background,
+            streams: Vec::new(),
+            rows_written: 0,
+        }
+    }
+
+    /// Appends the next band of rows (from the top, in order).
+    pub fn write_band<T: Real>(&mut self, band: &Supersampled<T>) -> Result<()> {
+        let files = encode_supersampled(band, &self.formats, self.outputs, self.background, false);
+        if self.streams.is_empty() {
+            self.streams = files
+                .iter()
+                .map(|f| self.open(f))
+                .collect::<Result<Vec<_>>>()?;
+        }
+        for (stream, file) in self.streams.iter_mut().zip(&files) {
+            let io = |e: std::io::Error| Error::io(&stream.tmp, format!("cannot write: {e}"));
+            match &mut stream.sink {
+                Sink::Png(w) => w.write_all(&png_pixels(file)?).map_err(io)?,
+                Sink::Raw(w) => w.write_all(body(file)).map_err(io)?,
+            }
+        }
+        self.rows_written += band.images.height;
+        Ok(())
+    }
+
+    /// Completes every file and renames them into place; returns their paths.
+    pub fn finish(mut self) -> Result<Vec<PathBuf>> {
+        if self.rows_written != self.height {
+            return Err(Error::Device(format!(
+                "streamed {} of {} rows",
+                self.rows_written, self.height
+            )));
+        }
+        let streams = std::mem::take(&mut self.streams);
+        let temps: Vec<PathBuf> = streams.iter().map(|s| s.tmp.clone()).collect();
+        let mut done = Vec::new();
+        for s in streams {
+            let finished = match s.sink {
+                Sink::Png(w) => w.finish().map_err(|e| e.to_string()),
+                Sink::Raw(mut w) => w.flush().map_err(|e| e.to_string()),
+            };
+            if let Err(e) = finished {
+                temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
+                return Err(Error::io(&s.tmp, format!("cannot write: {e}")));
+            }
+            done.push((s.tmp, s.path));
+        }
+        for (k, (tmp, path)) in done.iter().enumerate() {
+            if let Err(e) = std::fs::rename(tmp, path) {
+                for (_, placed) in &done[..k] {
+                    let _ = std::fs::remove_file(placed);
+                }
+                for (rest, _) in &done[k..] {
+                    let _ = std::fs::remove_file(rest);
+                }
+                return Err(Error::io(path, format!("cannot write: {e}")));
+            }
+        }
+        Ok(done.into_iter().map(|(_, path)| path).collect())
+    }
+
+    /// Opens `file`'s stream at the whole image's size, writing its header.
+    fn open(&self, file: &EncodedFile) -> Result<Stream> {
+        let path = self.dir.join(file.name);
+        let tmp = self
+            .dir
+            .join(format!(".{}.tmp-{}", file.name, std::process::id()));
+        let io = |e: String| Error::io(&tmp, format!("cannot write: {e}"));
+        let out = BufWriter::new(File::create(&tmp).map_err(|e| io(e.to_string()))?);
+        let sink = if file.name.ends_with(".png") {
+            let info = png::Decoder::new(std::io::Cursor::new(&file.bytes[..]))
+                .read_info()
+                .map_err(|e| io(e.to_string()))?
+                .info()
+                .clone();
+            let mut encoder = png::Encoder::new(out, self.width, self.height);
+            encoder.set_color(info.color_type);
+            encoder.set_depth(info.bit_depth);
+            let writer = encoder.write_header().map_err(|e| io(e.to_string()))?;
+            Sink::Png(Box::new(writer.into_stream_writer().map_err(|e| io(e.to_string()))?))
+        } else {
+            let mut out = out;
+            out.write_all(&self.header(file))
+                .map_err(|e| io(e.to_string()))?;
+            Sink::Raw(out)
+        };
+        Ok(Stream { path, tmp, sink })
+    }
+
+    /// The header of the whole image's file, `file` being a band's.
+    fn header(&self, file: &EncodedFile) -> Vec<u8> {
+        let (w, h) = (self.width, self.height);
+        if file.name.ends_with(".npy") {
+            let header = npy_header(&file.bytes);
+            let descr = header
+                .split("'descr': '")
+                .nth(1)
+                .and_then(|s| s.split('\'').next())
+                .unwrap_or("<f4");
+            let channels = if header.contains(", 3)") { 3 } else { 1 };
+            let shape: &[usize] = if channels == 3 {
+                &[h as usize, w as usize, 3]
+            } else {
+                &[h as usize, w as usize]
+            };
+            encode_npy(descr, shape, &[])
+        } else {
+            // ppm: "P3\nW H\n255\n" with the band's magic.
+            let magic = String::from_utf8_lossy(&file.bytes[..2]).into_owned();
+            format!("{magic}\n{w} {h}\n255\n").into_bytes()
+        }
+    }
+}
+
+impl Drop for BandWriter {
+    /// An unfinished render leaves no file behind.
+    fn drop(&mut self) {
+        for s in &self.streams {
+            let _ = std::fs::remove_file(&s.tmp);
+        }
+    }
+}
+
+/// The text of an npy file's header.
+fn npy_header(bytes: &[u8]) -> String {
+    let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    String::from_utf8_lossy(&bytes[10..10 + len]).into_owned()
+}
+
+/// What follows the header: for npy the raw values, for ppm the pixel lines.
+fn body(file: &EncodedFile) -> &[u8] {
+    let b = &file.bytes;
+    if file.name.ends_with(".npy") {
+        let len = u16::from_le_bytes([b[8], b[9]]) as usize;
+        &b[10 + len..]
+    } else {
+        // Past the three header lines of a ppm.
+        let mut newlines = b.iter().enumerate().filter(|(_, c)| **c == b'\n');
+        let third = newlines.nth(2).map_or(b.len(), |(k, _)| k + 1);
+        &b[third..]
+    }
+}
+
+/// The raw pixel rows of a band's PNG.
+fn png_pixels(file: &EncodedFile) -> Result<Vec<u8>> {
+    let fail = |e: png::DecodingError| Error::Device(format!("re-reading {}: {e}", file.name));
+    let mut reader = png::Decoder::new(std::io::Cursor::new(&file.bytes[..]))
+        .read_info()
+        .map_err(fail)?;
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap_or(0)];
+    let frame = reader.next_frame(&mut pixels).map_err(fail)?;
+    pixels.truncate(frame.buffer_size());
+    Ok(pixels)
+}

@@ -1,0 +1,114 @@
+//! Renders written in bands of rows (`--band-rows`, and automatically above 16.7 million
+//! pixels), holding one band at a time, give exactly the files of a whole-image render: the
+//! same bytes for ppm and npy, the same pixels for png.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+fn render(scene: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .arg("render")
+        .arg(common::repo_path(scene))
+        .arg("-o")
+        .arg(out)
+        .args(["--format", "png,ppm,npy"])
+        .args(extra)
+        .env("NODEVICE_SELECT", "1")
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
+fn same_files(whole: &Path, banded: &Path) {
+    let mut names: Vec<_> = std::fs::read_dir(whole)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    let mut banded_names: Vec<_> = std::fs::read_dir(banded)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    banded_names.sort();
+    assert_eq!(names, banded_names);
+    for name in names {
+        let (a, b) = (whole.join(&name), banded.join(&name));
+        if name.to_string_lossy().ends_with(".png") {
+            let (a, b) = (image::open(&a).unwrap(), image::open(&b).unwrap());
+            assert_eq!(a.color(), b.color(), "{name:?}");
+            assert_eq!(a.as_bytes(), b.as_bytes(), "{name:?}");
+        } else {
+            assert_eq!(
+                std::fs::read(a).unwrap(),
+                std::fs::read(b).unwrap(),
+                "{name:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bands_give_the_files_of_a_whole_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[&str]); 4] = [
+        ("scenes/course/bunny.json", &[]),
+        (
+            "scenes/course/two-spheres-and-plane.json",
+            &["--precision", "f64"],
+        ),
+        (
+            "scenes/course/sphere-packing.json",
+            &["--outputs", "distance,color"],
+        ),
+        (
+            "scenes/course/two-spheres-and-plane.json",
+            &["--shader", "shaders/examples/toon.wgsl"],
+        ),
+    ];
+    for (k, (scene, extra)) in cases.iter().enumerate() {
+        let extra: Vec<String> = extra
+            .iter()
+            .map(|a| {
+                if a.ends_with(".wgsl") {
+                    common::repo_path(a).display().to_string()
+                } else {
+                    a.to_string()
+                }
+            })
+            .collect();
+        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+        let whole = dir.path().join(format!("whole{k}"));
+        let banded = dir.path().join(format!("banded{k}"));
+        render(scene, &whole, &extra);
+        let mut with_bands = extra.clone();
+        with_bands.extend(["--band-rows", "7"]);
+        let out = render(scene, &banded, &with_bands);
+        assert!(String::from_utf8_lossy(&out.stdout).contains("in bands of 7 rows"));
+        same_files(&whole, &banded);
+    }
+}
+
+#[test]
+fn bands_need_a_gpu_kernel() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["render", "--device", "cpu", "--band-rows", "8", "-o"])
+        .arg(dir.path().join("out"))
+        .env("NODEVICE_SELECT", "1")
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        err.contains("--band-rows") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir.path().join("out").join("id.png").exists());
+}
