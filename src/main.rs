@@ -561,8 +561,10 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
             let source = raycast::gpu::shader::kernel_source(&variant)?;
             output::write_file(path, source.as_bytes())?;
         }
+        let peak =
+            render::peak_rss_mib().map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
         say(format!(
-            "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {} in {:.3} s",
+            "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {} in {:.3} s{peak}",
             scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
             g.info().name,
             elapsed.as_secs_f64()

@@ -8,13 +8,18 @@ use std::path::Path;
 use std::process::Command;
 
 fn render(scene: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["--format", "png,ppm,npy"];
+    args.extend(extra);
+    render_args(scene, out, &args)
+}
+
+fn render_args(scene: &str, out: &Path, args: &[&str]) -> std::process::Output {
     let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
         .arg("render")
         .arg(common::repo_path(scene))
         .arg("-o")
         .arg(out)
-        .args(["--format", "png,ppm,npy"])
-        .args(extra)
+        .args(args)
         .env("NODEVICE_SELECT", "1")
         .output()
         .unwrap();
@@ -111,4 +116,53 @@ fn bands_need_a_gpu_kernel() {
         "{err}"
     );
     assert!(!dir.path().join("out").join("id.png").exists());
+}
+
+/// The course's sphere-and-plane scene at 16384 x 16384 (268 million pixels: 5 GiB as whole f32
+/// images) renders in bands with bounded memory, and its id picture has the objects of a small
+/// render of the same view, read back row by row.
+#[test]
+fn a_16384_square_course_render_streams_in_bounded_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = render_args(
+        "scenes/course/two-spheres-and-plane.json",
+        dir.path(),
+        &[
+            "--size",
+            "16384x16384",
+            "--format",
+            "png",
+            "--outputs",
+            "id",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let peak: f64 = stdout
+        .split("peak memory ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no peak memory in {stdout}"));
+    assert!(peak < 1500.0, "peak memory {peak} MiB");
+    let file = std::io::BufReader::new(std::fs::File::open(dir.path().join("id.png")).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    assert_eq!((reader.info().width, reader.info().height), (16384, 16384));
+    let mut colours = std::collections::BTreeSet::new();
+    let mut rows = 0;
+    while let Some(row) = reader.next_row().unwrap() {
+        row.data().chunks_exact(3).step_by(97).for_each(|c| {
+            colours.insert([c[0], c[1], c[2]]);
+        });
+        rows += 1;
+    }
+    assert_eq!(rows, 16384);
+    let small = tempfile::tempdir().unwrap();
+    render_args(
+        "scenes/course/two-spheres-and-plane.json",
+        small.path(),
+        &["--size", "256x256", "--format", "png", "--outputs", "id"],
+    );
+    let small = image::open(small.path().join("id.png")).unwrap().to_rgb8();
+    let small: std::collections::BTreeSet<[u8; 3]> = small.pixels().map(|p| p.0).collect();
+    assert_eq!(colours, small);
 }

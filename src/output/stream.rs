@@ -136,7 +136,9 @@ impl BandWriter {
             encoder.set_color(info.color_type);
             encoder.set_depth(info.bit_depth);
             let writer = encoder.write_header().map_err(|e| io(e.to_string()))?;
-            Sink::Png(Box::new(writer.into_stream_writer().map_err(|e| io(e.to_string()))?))
+            Sink::Png(Box::new(
+                writer.into_stream_writer().map_err(|e| io(e.to_string()))?,
+            ))
         } else {
             let mut out = out;
             out.write_all(&self.header(file))
