@@ -42,6 +42,24 @@ fn main() {
             },
         ),
     ];
+    if std::env::args().any(|a| a == "--probe") {
+        variants.push((
+            "no-f64",
+            Variant {
+                bvh: true,
+                f64_available: false,
+                ..base
+            },
+        ));
+        let textbook = gpu.scene_variant(&scene, Precision::F32, raycast::Algorithm::Textbook);
+        variants.push((
+            "textbook",
+            Variant {
+                bvh: true,
+                ..textbook
+            },
+        ));
+    }
     if brute {
         variants.push(("brute", Variant { bvh: false, ..base }));
     }
