@@ -1,6 +1,6 @@
 //! The BVH's scaling curve: tori of 10k to 5M triangles covering the same part of the screen,
 //! rendered at 1920x1080 through the BVH (GPU, f32, robust), one warm-up then the median of
-//! three runs. `cargo run --release --example bvh_scaling [MAX_TRIANGLES]`.
+//! three runs. `cargo run --release --example bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
 use std::path::Path;
 
 use raycast::Algorithm::Robust;
@@ -34,6 +34,9 @@ fn main() {
     let max: usize = std::env::args()
         .nth(1)
         .map_or(5_000_000, |s| s.parse().expect("MAX_TRIANGLES"));
+    let min: usize = std::env::args()
+        .nth(2)
+        .map_or(0, |s| s.parse().expect("MIN_TRIANGLES"));
     let gpu = raycast::gpu::Gpu::new().unwrap();
     println!(
         "{}",
@@ -45,6 +48,9 @@ fn main() {
     for n in [10_000usize, 40_000, 160_000, 640_000, 2_560_000, 5_120_000] {
         if n > max {
             break;
+        }
+        if n < min {
+            continue;
         }
         // nu = 2.5 nv keeps the cells square-ish.
         let nv = ((n as f64 / 5.0).sqrt()).round() as usize;

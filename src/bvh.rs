@@ -167,14 +167,16 @@ pub struct Bvh {
 /// A primitive's box while building, and its index in its kind's list.
 #[derive(Clone, Copy, Debug)]
 struct Item {
-    lo: Vec3<f64>,
-    hi: Vec3<f64>,
+    /// Rounded outward to f32 once: the build then moves half the bytes, and the node boxes,
+    /// unions of these, are exact in f32.
+    lo: [f32; 3],
+    hi: [f32; 3],
     index: u32,
 }
 
 impl Item {
     fn centroid(&self, axis: usize) -> f64 {
-        0.5 * (self.lo.get(axis) + self.hi.get(axis))
+        0.5 * (self.lo[axis] as f64 + self.hi[axis] as f64)
     }
 }
 
@@ -191,10 +193,10 @@ impl Aabb {
         hi: [f64::NEG_INFINITY; 3],
     };
 
-    fn grow(&mut self, lo: Vec3<f64>, hi: Vec3<f64>) {
+    fn grow(&mut self, lo: [f32; 3], hi: [f32; 3]) {
         for k in 0..3 {
-            self.lo[k] = self.lo[k].min(lo.get(k));
-            self.hi[k] = self.hi[k].max(hi.get(k));
+            self.lo[k] = self.lo[k].min(lo[k] as f64);
+            self.hi[k] = self.hi[k].max(hi[k] as f64);
         }
     }
 
@@ -239,8 +241,11 @@ fn bounds(items: &[Item]) -> (Aabb, Aabb) {
     let mut cb = Aabb::EMPTY;
     for i in items {
         b.grow(i.lo, i.hi);
-        let c = (i.lo + i.hi) * 0.5;
-        cb.grow(c, c);
+        for k in 0..3 {
+            let c = i.centroid(k);
+            cb.lo[k] = cb.lo[k].min(c);
+            cb.hi[k] = cb.hi[k].max(c);
+        }
     }
     (b, cb)
 }
@@ -431,8 +436,8 @@ fn grown(boxes: impl Iterator<Item = (Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<I
                 .fold(eye, f64::max);
             let g = Vec3::splat(GROWTH * size);
             Item {
-                lo: lo - g,
-                hi: hi + g,
+                lo: (lo - g).to_array().map(round_down),
+                hi: (hi + g).to_array().map(round_up),
                 index: index as u32,
             }
         })
@@ -534,10 +539,10 @@ mod tests {
             .map(|k| {
                 let x = (k as f64 * 0.618_033_988_7).fract() * 10.0;
                 let y = (k as f64 * 0.414_213_562_4).fract() * 10.0;
-                let lo = Vec3::from_array([x, y, 0.0]);
+                let lo = [x as f32, y as f32, 0.0];
                 Item {
                     lo,
-                    hi: lo + Vec3::splat(0.1),
+                    hi: lo.map(|c| c + 0.1),
                     index: k as u32,
                 }
             })
@@ -566,7 +571,7 @@ mod tests {
                     seen[original] = true;
                     let b = &boxes[original];
                     for a in 0..3 {
-                        assert!(c.lo[a] as f64 <= b.lo.get(a) && b.hi.get(a) <= c.hi[a] as f64);
+                        assert!(c.lo[a] <= b.lo[a] && b.hi[a] <= c.hi[a]);
                     }
                 }
             }
@@ -588,8 +593,8 @@ mod tests {
     fn identical_boxes_still_build_within_the_depth_limit() {
         let same: Vec<Item> = (0..5000)
             .map(|k| Item {
-                lo: Vec3::splat(1.0),
-                hi: Vec3::splat(2.0),
+                lo: [1.0; 3],
+                hi: [2.0; 3],
                 index: k,
             })
             .collect();
