@@ -63,6 +63,11 @@ enum Command {
         /// the mode) to this file.
         #[arg(long, value_name = "FILE")]
         emit_shader: Option<PathBuf>,
+        /// Run this complete WGSL kernel (as --emit-shader writes it, possibly edited) instead
+        /// of the assembled one; its bindings must be those of the kernel this render would
+        /// assemble (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        kernel: Option<PathBuf>,
         /// Comma-separated outputs to compute and write: id, distance, normal, color (color.png,
         /// png only). Default: every output the formats write.
         #[arg(long, value_name = "LIST", value_delimiter = ',')]
@@ -71,7 +76,7 @@ enum Command {
         /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
         #[arg(long, value_name = "FILE")]
         shader: Option<PathBuf>,
-        /// After rendering, watch the scene file, its meshes and the shader file and render
+        /// After rendering, watch the scene file, its meshes, the shader and kernel files and render
         /// again when one changes (polled every 200 ms); errors are printed and watching goes
         /// on. Ctrl-C ends it.
         #[arg(long)]
@@ -245,6 +250,7 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             background,
             emit_shader,
+            kernel,
             outputs,
             shader,
             watch,
@@ -263,6 +269,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 spp,
                 background,
                 emit_shader: emit_shader.as_deref(),
+                kernel: kernel.as_deref(),
                 outputs: outputs.as_deref(),
                 shader: shader.as_deref(),
                 watch,
@@ -342,6 +349,7 @@ struct RenderArgs<'a> {
     spp: Option<u32>,
     background: Option<[u8; 3]>,
     emit_shader: Option<&'a Path>,
+    kernel: Option<&'a Path>,
     /// `--outputs`, when given.
     outputs: Option<&'a [Output]>,
     shader: Option<&'a Path>,
@@ -377,20 +385,15 @@ fn kernel_for(
     mode: Mode,
     request: &render::Request,
     spp: u32,
-) -> raycast::gpu::shader::Variant {
-    let precision = match mode.precision {
-        Arithmetic::F64 => raycast::math::Precision::F64,
-        _ => raycast::math::Precision::F32,
-    };
+) -> Result<raycast::gpu::shader::Variant> {
     if mode.precision == Arithmetic::Adaptive {
-        return raycast::gpu::shader::Variant {
+        let precision = raycast::math::Precision::F32;
+        return Ok(raycast::gpu::shader::Variant {
             certainty: true,
             ..gpu.scene_variant(scene, precision, mode.algorithm)
-        };
+        });
     }
-    let outputs = supersample::sample_request(request, spp).kernel_outputs();
-    let shade = request.shade.as_ref();
-    gpu.request_variant(scene, precision, mode.algorithm, outputs, shade)
+    supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
 }
 
 /// The option combinations `render` refuses, before anything is read.
@@ -408,11 +411,25 @@ fn check_render_args(args: &RenderArgs) -> Result<()> {
             "the CPU reference runs no shader; use --device gpu",
         );
     }
-    if args.watch && args.scene_path.is_none() && args.shader.is_none() {
+    if args.watch && args.scene_path.is_none() && args.shader.is_none() && args.kernel.is_none() {
         return refuse(
             "--watch",
-            "nothing to watch: the built-in scene has no file; give a scene file or --shader",
+            "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel",
         );
+    }
+    if args.kernel.is_some() {
+        if !gpu {
+            return refuse(
+                "--kernel",
+                "the CPU reference runs no shader; use --device gpu",
+            );
+        }
+        if args.mode.precision == Arithmetic::Adaptive {
+            return refuse(
+                "--kernel",
+                "runs with --precision f32 or f64 (adaptive precision runs two kernels)",
+            );
+        }
     }
     if args.shader.is_some() {
         if !gpu {
@@ -478,7 +495,7 @@ fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
 }
 
 /// The files `--watch` polls: the scene file and the meshes it names (as far as it loads),
-/// and the shader file.
+/// the shader file and the kernel file.
 fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = Vec::new();
     if let Some(scene) = args.scene_path {
@@ -493,6 +510,7 @@ fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
         }
     }
     files.extend(args.shader.map(Path::to_owned));
+    files.extend(args.kernel.map(Path::to_owned));
     files
 }
 
@@ -508,10 +526,21 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         background,
         emit_shader,
         shader,
+        kernel,
         ..
     } = *args;
     let scene = load(scene_path, size)?;
     let shade = shader.map(gpu::hooks::load).transpose()?;
+    let kernel = kernel.map(gpu::kernel::load).transpose()?;
+    let request = render::Request {
+        outputs,
+        shade,
+        kernel,
+    };
+    if let (Some(_), Some(g)) = (&request.kernel, gpu) {
+        // A kernel whose bindings do not fit is refused before the output folder is made.
+        kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
+    }
     output::check_writable(out_dir)?;
     if let Some(path) = emit_shader {
         output::check_writable(
@@ -521,7 +550,6 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         )?;
     }
     let mut recast = None;
-    let request = render::Request { outputs, shade };
     let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu) {
         // Plain adaptive renders report how much they re-cast in f64.
         (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
@@ -547,7 +575,7 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         elapsed.as_secs_f64()
     ));
     if let (Some(path), Some(g)) = (emit_shader, gpu) {
-        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1));
+        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
         let source = raycast::gpu::shader::kernel_source(&variant)?;
         output::write_file(path, source.as_bytes())?;
         say(format!("wrote {}", path.display()));
