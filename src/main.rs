@@ -144,6 +144,27 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
     },
+    /// Time each kernel specialisation on each scene, with it and with it turned off
+    /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
+    /// markdown and write it to --out.
+    Specializations {
+        /// Scene files, or folders of scene files (their *.json, in name order).
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = raycast::specialize::DEFAULT_SCENES)]
+        scenes: Vec<PathBuf>,
+        /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
+        /// where it exists (else the table says it was not measured).
+        #[arg(long, value_name = "FILE")]
+        torus: Option<PathBuf>,
+        /// Timed rounds, after one warm-up round; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Leave out the BVH crossover measurement (random spheres and triangles, n = 2..256).
+        #[arg(long)]
+        no_crossover: bool,
+        /// The markdown file to write (whole or not at all).
+        #[arg(long, value_name = "FILE", default_value = "docs/specializations.md")]
+        out: PathBuf,
+    },
     /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
     /// the error, with its line and column.
     CheckShader {
@@ -306,6 +327,19 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             output,
         } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        Command::Specializations {
+            scenes,
+            torus,
+            runs,
+            no_crossover,
+            out,
+        } => specializations(
+            &scenes,
+            torus.as_deref(),
+            runs as usize,
+            !no_crossover,
+            &out,
+        ),
         Command::CheckShader { file } => {
             gpu::hooks::load(&file)?;
             say(format!("{}: ok", file.display()));
@@ -736,6 +770,65 @@ fn tradeoff(
     for path in tradeoff::run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
         say(format!("wrote {}", path.display()));
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn specializations(
+    scenes: &[PathBuf],
+    torus: Option<&Path>,
+    runs: usize,
+    crossover: bool,
+    out: &Path,
+) -> Result<ExitCode> {
+    use raycast::specialize::{self, DEFAULT_TORUS};
+    let mut files = specialize::scene_files(scenes)?;
+    let mut notes = Vec::new();
+    match torus {
+        Some(path) => files.push(path.to_owned()),
+        None if Path::new(DEFAULT_TORUS).is_file() => files.push(DEFAULT_TORUS.into()),
+        None => notes.push(format!(
+            "The 518,400-triangle torus was not measured: `{DEFAULT_TORUS}` is absent \
+             (benches/peers.sh makes it; or give `--torus FILE`)."
+        )),
+    }
+    // Scenes are validated and the folder checked before the GPU is opened.
+    let named = specialize::load_scenes(&files)?;
+    let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+    output::check_writable(dir.unwrap_or(Path::new(".")))?;
+    let gpu = Gpu::new()?;
+    let (mut rows, mut spreads) = (Vec::new(), Vec::new());
+    for (k, scene) in named.iter().enumerate() {
+        eprintln!("[{}/{}] {}", k + 1, named.len(), scene.name);
+        let (r, s) = specialize::scene_rows(&gpu, scene, runs)?;
+        rows.extend(r);
+        spreads.extend(s);
+    }
+    let crossover = if crossover {
+        Some(specialize::crossover(&gpu, runs, |kind, n| {
+            eprintln!("crossover: {n} {kind}");
+        })?)
+    } else {
+        None
+    };
+    let info = gpu.info();
+    let report = specialize::Report {
+        provenance: specialize::Provenance {
+            command: command_line(),
+            adapter: (info.name, info.driver_info),
+            date: raycast::accuracy::utc_date_today(),
+            runs,
+            kernel_times: specialize::has_kernel_times(&gpu),
+        },
+        scenes: named,
+        rows,
+        spreads,
+        notes,
+        crossover,
+    };
+    let text = specialize::document(&report);
+    output::write_file(out, text.as_bytes())?;
+    say(text.trim_end());
+    eprintln!("wrote {}", out.display());
     Ok(ExitCode::SUCCESS)
 }
 

@@ -57,7 +57,7 @@ fn course_scenes_render_the_same_from_uniform_buffers() {
 fn small_meshes_render_the_same_from_uniform_buffers() {
     let gpu = common::gpu();
     let scene = common::random_scene(8, [96, 54]);
-    let [spheres, planes, triangles] = raycast::gpu::shader::primitive_counts(&scene);
+    let [spheres, planes, triangles] = scene.primitive_counts();
     assert!(spheres > 0 && planes > 0 && triangles > 100);
     for bvh in [false, true] {
         let storage = Variant {

@@ -134,26 +134,11 @@ impl UniformCapacity {
 
     /// Whether `scene`'s spheres, planes and triangles each fit.
     pub fn fits(&self, scene: &crate::scene::Scene) -> bool {
-        let [spheres, planes, triangles] = primitive_counts(scene);
+        let [spheres, planes, triangles] = scene.primitive_counts();
         spheres <= self.spheres as usize
             && planes <= self.planes as usize
             && triangles <= self.triangles as usize
     }
-}
-
-/// How many spheres, planes and triangles (soups included) `scene` has.
-pub fn primitive_counts(scene: &crate::scene::Scene) -> [usize; 3] {
-    use crate::scene::Object;
-    let mut n = [0; 3];
-    for object in &scene.objects {
-        match object {
-            Object::Sphere { .. } => n[0] += 1,
-            Object::Plane { .. } => n[1] += 1,
-            Object::Triangle { .. } => n[2] += 1,
-            Object::Soup { triangles, .. } => n[2] += triangles.len(),
-        }
-    }
-    n
 }
 
 /// The most chunks a kernel binds for triangles, and for nodes.
