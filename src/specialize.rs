@@ -586,12 +586,13 @@ fn crossover_section(rows: &[CrossoverRow]) -> String {
          centre), in a 4 x 2.4 x 4 box, rendered at 640x360 by the brute-force and the BVH \
          kernels, interleaved, median of the same rounds as above \
          (`cargo run --release --example bvh_crossover` prints the same table). \
-         The BVH is faster from {} for spheres and from {} for triangles; \
-         `bvh::CROSSOVER` = {} (spheres and triangles together) is the count from which \
-         `raycast render` builds one.\n\n{}",
+         The BVH is faster from {} for spheres and from {} for triangles (the smallest \
+         n from which it stays faster). `raycast render` builds one when \
+         spheres / {} + triangles / {} >= 1 (`bvh::CROSSOVER`, `bvh::TRIANGLE_CROSSOVER`).\n\n{}",
         from("spheres"),
         from("triangles"),
         crate::bvh::CROSSOVER,
+        crate::bvh::TRIANGLE_CROSSOVER,
         crossover_table(rows)
     )
 }
