@@ -22,13 +22,13 @@ use crate::scene::{Object, Scene};
 pub const MAX_DEPTH: usize = 40;
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
 /// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
-/// (random spheres at 640x360, GPU f32 robust, median of 5) on lavapipe, Mesa 25.0.7, 2 cores:
-/// BVH / brute-force kernel time 0.9 to 1.1 at 16 spheres, 0.7 to 0.9 at 32, 0.5 at 64
-/// (docs/specializations.md).
+/// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
+/// 2 cores, six runs: BVH / brute-force kernel time 0.93 to 1.09 at 16 spheres (break-even),
+/// 0.72 to 0.98 at 32, 0.52 to 0.64 at 64 (docs/specializations.md).
 pub const CROSSOVER: usize = 32;
 /// The same for triangles, which cross over four times sooner: a (watertight) triangle test
-/// costs about four sphere tests. Measured as for [`CROSSOVER`]: BVH / brute force 0.6 to 1.0
-/// at 4 triangles, 0.8 to 0.9 at 8, 0.6 to 0.8 at 16, 0.5 at 32.
+/// costs about four sphere tests. Measured as for [`CROSSOVER`]: BVH / brute force 0.63 to 1.02
+/// at 4 triangles (break-even in most runs), 0.71 to 0.88 at 8, 0.59 to 0.81 at 16.
 pub const TRIANGLE_CROSSOVER: usize = 8;
 
 /// How the nearest hit is searched for among spheres and triangles.

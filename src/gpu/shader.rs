@@ -99,8 +99,10 @@ pub struct Variant {
 pub const UNIFORM_BYTES: u64 = 64 << 10;
 
 /// Whether [`super::Gpu::scene_variant`] puts primitives that fit into uniform buffers. Off:
-/// on lavapipe (Mesa 25.0.7) uniform and storage buffers run at the same speed within the
-/// noise (docs/specializations.md, row "uniform memory"), unlike the 1.6x reported on Mesa 22.3.
+/// on lavapipe (Mesa 25.0.7, 2 cores) uniform buffers were no faster than storage buffers on
+/// any course scene (0.78x to 1.04x over two runs of `raycast specializations`, geometric means
+/// 0.88x and 1.01x; docs/specializations.md, rows "uniform memory"), unlike the 1.6x reported
+/// on Mesa 22.3.
 pub const UNIFORM_BY_DEFAULT: bool = false;
 
 /// How many spheres, planes and triangles a uniform binding of [`UNIFORM_BYTES`] holds: the
