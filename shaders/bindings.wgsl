@@ -19,16 +19,31 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
+// Small primitive sets may be in uniform buffers instead (UNIFORM_PRIMS): fixed-size arrays of
+// as many as fit 64 KiB (UNIFORM_* from the precision module); the structs' sizes are multiples
+// of 16 bytes, as uniform arrays need.
 #if SPHERES
+#if UNIFORM_PRIMS
+@group(0) @binding(1) var<uniform> spheres: array<Sphere, UNIFORM_SPHERES>;
+#else
 @group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
 #endif
+#endif
 #if PLANES
+#if UNIFORM_PRIMS
+@group(0) @binding(2) var<uniform> planes: array<Plane, UNIFORM_PLANES>;
+#else
 @group(0) @binding(2) var<storage, read> planes: array<Plane>;
+#endif
 #endif
 #if TRIANGLES
 // Meshes larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles
 // (CHUNK_BITS from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
+#if UNIFORM_PRIMS
+@group(0) @binding(3) var<uniform> triangles: array<Triangle, UNIFORM_TRIANGLES>;
+#else
 @group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
+#endif
 #if CHUNKS_2
 @group(0) @binding(11) var<storage, read> triangles_2: array<Triangle>;
 #endif

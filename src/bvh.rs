@@ -20,14 +20,21 @@ use crate::scene::{Object, Scene};
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so `BVH_STACK` in shaders/bvh.wgsl must be at least this.
 pub const MAX_DEPTH: usize = 40;
-/// Below this many spheres and triangles brute force is about as fast (measured with
-/// `examples/bvh_crossover.rs`), so no BVH is built.
+/// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
+/// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
+/// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
+/// 2 cores, six runs: BVH / brute-force kernel time 0.93 to 1.09 at 16 spheres (break-even),
+/// 0.72 to 0.98 at 32, 0.52 to 0.64 at 64 (docs/specializations.md).
 pub const CROSSOVER: usize = 32;
+/// The same for triangles, which cross over four times sooner: a (watertight) triangle test
+/// costs about four sphere tests. Measured as for [`CROSSOVER`]: BVH / brute force 0.63 to 1.02
+/// at 4 triangles (break-even in most runs), 0.71 to 0.88 at 8, 0.59 to 0.81 at 16.
+pub const TRIANGLE_CROSSOVER: usize = 8;
 
 /// How the nearest hit is searched for among spheres and triangles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Accel {
-    /// A BVH from [`CROSSOVER`] bounded primitives on.
+    /// A BVH where it pays ([`worth_it`]).
     #[default]
     Auto,
     Bvh,
@@ -59,9 +66,12 @@ impl std::str::FromStr for Accel {
     }
 }
 
-/// Whether `scene` has enough spheres and triangles for a BVH to pay.
+/// Whether `scene` has enough spheres and triangles for a BVH to pay: brute force costs the
+/// sum of its tests, so each kind counts as a fraction of its own crossover,
+/// `spheres / CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`.
 pub fn worth_it(scene: &Scene) -> bool {
-    bounded_count(scene) >= CROSSOVER
+    let [spheres, _, triangles] = scene.primitive_counts();
+    spheres * TRIANGLE_CROSSOVER + triangles * CROSSOVER >= CROSSOVER * TRIANGLE_CROSSOVER
 }
 
 /// How many spheres and triangles `scene` has.
@@ -601,6 +611,57 @@ mod tests {
         let bvh = Bvh::from_boxes(Vec::new(), same.clone());
         check(&bvh, &same);
         assert!(bvh.depth() <= MAX_DEPTH);
+    }
+
+    /// A scene of `spheres` spheres and a soup of `triangles` triangles.
+    fn scene_of(spheres: usize, triangles: usize) -> Scene {
+        let mut objects: Vec<String> = (0..spheres)
+            .map(|k| format!(r#"{{"type": "sphere", "center": [{k}, 0, -5], "radius": 0.4}}"#))
+            .collect();
+        objects.push(r#"{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}"#.into());
+        if triangles > 0 {
+            objects.push(r#"{"type": "soup", "obj": "m.obj"}"#.into());
+        }
+        let json = format!(
+            r#"{{"camera": {{"eye": [0, 0, 1], "look": [0, 0, -1], "up": [0, 1, 0],
+                "focal_length": 1, "width": 1.6, "height": 0.9}}, "objects": [{}]}}"#,
+            objects.join(",")
+        );
+        let mesh: Vec<_> = (0..triangles)
+            .map(|k| {
+                let x = k as f64;
+                [
+                    crate::math::vec3(x, 0.0, -6.0),
+                    crate::math::vec3(x + 0.5, 0.0, -6.0),
+                    crate::math::vec3(x, 0.5, -6.0),
+                ]
+            })
+            .collect();
+        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_| {
+            Ok(mesh.clone())
+        })
+        .unwrap()
+    }
+
+    /// Each kind counts as a fraction of its own crossover; planes do not count.
+    #[test]
+    fn a_bvh_pays_from_each_kinds_crossover() {
+        for (spheres, triangles, expected) in [
+            (CROSSOVER - 1, 0, false),
+            (CROSSOVER, 0, true),
+            (0, TRIANGLE_CROSSOVER - 1, false),
+            (0, TRIANGLE_CROSSOVER, true),
+            (CROSSOVER / 2, TRIANGLE_CROSSOVER / 2, true),
+            (CROSSOVER / 2, TRIANGLE_CROSSOVER / 2 - 1, false),
+        ] {
+            let scene = scene_of(spheres, triangles);
+            assert_eq!(
+                worth_it(&scene),
+                expected,
+                "{spheres} spheres, {triangles} triangles"
+            );
+            assert_eq!(Accel::Auto.uses_bvh(&scene), expected);
+        }
     }
 
     #[test]

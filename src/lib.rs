@@ -34,6 +34,7 @@ pub mod math;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod specialize;
 pub mod supersample;
 pub mod tradeoff;
 

@@ -63,6 +63,11 @@ enum Command {
         /// the mode) to this file.
         #[arg(long, value_name = "FILE")]
         emit_shader: Option<PathBuf>,
+        /// Run this complete WGSL kernel (as --emit-shader writes it, possibly edited) instead
+        /// of the assembled one; its bindings must be those of the kernel this render would
+        /// assemble (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        kernel: Option<PathBuf>,
         /// Comma-separated outputs to compute and write: id, distance, normal, color (color.png,
         /// png only). Default: every output the formats write.
         #[arg(long, value_name = "LIST", value_delimiter = ',')]
@@ -71,7 +76,7 @@ enum Command {
         /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
         #[arg(long, value_name = "FILE")]
         shader: Option<PathBuf>,
-        /// After rendering, watch the scene file, its meshes and the shader file and render
+        /// After rendering, watch the scene file, its meshes, the shader and kernel files and render
         /// again when one changes (polled every 200 ms); errors are printed and watching goes
         /// on. Ctrl-C ends it.
         #[arg(long)]
@@ -143,6 +148,27 @@ enum Command {
         /// Output folder (created if missing).
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
+    },
+    /// Time each kernel specialisation on each scene, with it and with it turned off
+    /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
+    /// markdown and write it to --out.
+    Specializations {
+        /// Scene files, or folders of scene files (their *.json, in name order).
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = raycast::specialize::DEFAULT_SCENES)]
+        scenes: Vec<PathBuf>,
+        /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
+        /// where it exists (else the table says it was not measured).
+        #[arg(long, value_name = "FILE")]
+        torus: Option<PathBuf>,
+        /// Timed rounds, after one warm-up round; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Leave out the BVH crossover measurement (random spheres and triangles, n = 2..256).
+        #[arg(long)]
+        no_crossover: bool,
+        /// The markdown file to write (whole or not at all).
+        #[arg(long, value_name = "FILE", default_value = "docs/specializations.md")]
+        out: PathBuf,
     },
     /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
     /// the error, with its line and column.
@@ -250,6 +276,7 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             background,
             emit_shader,
+            kernel,
             outputs,
             shader,
             watch,
@@ -269,6 +296,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 spp,
                 background,
                 emit_shader: emit_shader.as_deref(),
+                kernel: kernel.as_deref(),
                 outputs: outputs.as_deref(),
                 shader: shader.as_deref(),
                 watch,
@@ -306,6 +334,19 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             output,
         } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        Command::Specializations {
+            scenes,
+            torus,
+            runs,
+            no_crossover,
+            out,
+        } => specializations(
+            &scenes,
+            torus.as_deref(),
+            runs as usize,
+            !no_crossover,
+            &out,
+        ),
         Command::CheckShader { file } => {
             gpu::hooks::load(&file)?;
             say(format!("{}: ok", file.display()));
@@ -349,6 +390,7 @@ struct RenderArgs<'a> {
     spp: Option<u32>,
     background: Option<[u8; 3]>,
     emit_shader: Option<&'a Path>,
+    kernel: Option<&'a Path>,
     /// `--outputs`, when given.
     outputs: Option<&'a [Output]>,
     shader: Option<&'a Path>,
@@ -385,20 +427,15 @@ fn kernel_for(
     mode: Mode,
     request: &render::Request,
     spp: u32,
-) -> raycast::gpu::shader::Variant {
-    let precision = match mode.precision {
-        Arithmetic::F64 => raycast::math::Precision::F64,
-        _ => raycast::math::Precision::F32,
-    };
+) -> Result<raycast::gpu::shader::Variant> {
     if mode.precision == Arithmetic::Adaptive {
-        return raycast::gpu::shader::Variant {
+        let precision = raycast::math::Precision::F32;
+        return Ok(raycast::gpu::shader::Variant {
             certainty: true,
             ..gpu.scene_variant(scene, precision, mode.algorithm)
-        };
+        });
     }
-    let outputs = supersample::sample_request(request, spp).kernel_outputs();
-    let shade = request.shade.as_ref();
-    gpu.request_variant(scene, precision, mode.algorithm, outputs, shade)
+    supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
 }
 
 /// The option combinations `render` refuses, before anything is read.
@@ -416,11 +453,25 @@ fn check_render_args(args: &RenderArgs) -> Result<()> {
             "the CPU reference runs no shader; use --device gpu",
         );
     }
-    if args.watch && args.scene_path.is_none() && args.shader.is_none() {
+    if args.watch && args.scene_path.is_none() && args.shader.is_none() && args.kernel.is_none() {
         return refuse(
             "--watch",
-            "nothing to watch: the built-in scene has no file; give a scene file or --shader",
+            "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel",
         );
+    }
+    if args.kernel.is_some() {
+        if !gpu {
+            return refuse(
+                "--kernel",
+                "the CPU reference runs no shader; use --device gpu",
+            );
+        }
+        if args.mode.precision == Arithmetic::Adaptive {
+            return refuse(
+                "--kernel",
+                "runs with --precision f32 or f64 (adaptive precision runs two kernels)",
+            );
+        }
     }
     if args.shader.is_some() {
         if !gpu {
@@ -486,7 +537,7 @@ fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
 }
 
 /// The files `--watch` polls: the scene file and the meshes it names (as far as it loads),
-/// and the shader file.
+/// the shader file and the kernel file.
 fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = Vec::new();
     if let Some(scene) = args.scene_path {
@@ -501,6 +552,7 @@ fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
         }
     }
     files.extend(args.shader.map(Path::to_owned));
+    files.extend(args.kernel.map(Path::to_owned));
     files
 }
 
@@ -516,10 +568,21 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         background,
         emit_shader,
         shader,
+        kernel,
         ..
     } = *args;
     let scene = load(scene_path, size)?;
     let shade = shader.map(gpu::hooks::load).transpose()?;
+    let kernel = kernel.map(gpu::kernel::load).transpose()?;
+    let request = render::Request {
+        outputs,
+        shade,
+        kernel,
+    };
+    if let (Some(_), Some(g)) = (&request.kernel, gpu) {
+        // A kernel whose bindings do not fit is refused before the output folder is made.
+        kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
+    }
     output::check_writable(out_dir)?;
     if let Some(path) = emit_shader {
         output::check_writable(
@@ -529,14 +592,15 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         )?;
     }
     let mut recast = None;
-    let request = render::Request { outputs, shade };
     let [nx, ny] = scene.camera.resolution;
     let huge = nx as u64 * ny as u64 > render::STREAM_PIXELS;
-    let can_stream = spp.is_none() && render::can_stream(mode);
+    // A kernel file runs through the whole-image path only.
+    let can_stream = spp.is_none() && render::can_stream(mode) && request.kernel.is_none();
     if args.band_rows.is_some() && !can_stream {
         return Err(raycast::Error::Argument {
             option: "--band-rows".into(),
-            message: "bands are rendered on the GPU in f32 or f64, without --spp".into(),
+            message: "bands are rendered on the GPU in f32 or f64, without --spp or --kernel"
+                .into(),
         });
     }
     let streamed = (huge || args.band_rows.is_some()) && can_stream;
@@ -557,7 +621,7 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         done?;
         let written = writer.finish()?;
         if let Some(path) = emit_shader {
-            let variant = kernel_for(g, &scene, mode, &request, 1);
+            let variant = kernel_for(g, &scene, mode, &request, 1)?;
             let source = raycast::gpu::shader::kernel_source(&variant)?;
             output::write_file(path, source.as_bytes())?;
         }
@@ -598,7 +662,7 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
         elapsed.as_secs_f64()
     ));
     if let (Some(path), Some(g)) = (emit_shader, gpu) {
-        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1));
+        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
         let source = raycast::gpu::shader::kernel_source(&variant)?;
         output::write_file(path, source.as_bytes())?;
         say(format!("wrote {}", path.display()));
@@ -759,6 +823,65 @@ fn tradeoff(
     for path in tradeoff::run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
         say(format!("wrote {}", path.display()));
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn specializations(
+    scenes: &[PathBuf],
+    torus: Option<&Path>,
+    runs: usize,
+    crossover: bool,
+    out: &Path,
+) -> Result<ExitCode> {
+    use raycast::specialize::{self, DEFAULT_TORUS};
+    let mut files = specialize::scene_files(scenes)?;
+    let mut notes = Vec::new();
+    match torus {
+        Some(path) => files.push(path.to_owned()),
+        None if Path::new(DEFAULT_TORUS).is_file() => files.push(DEFAULT_TORUS.into()),
+        None => notes.push(format!(
+            "The 518,400-triangle torus was not measured: `{DEFAULT_TORUS}` is absent \
+             (benches/peers.sh makes it; or give `--torus FILE`)."
+        )),
+    }
+    // Scenes are validated and the folder checked before the GPU is opened.
+    let named = specialize::load_scenes(&files)?;
+    let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+    output::check_writable(dir.unwrap_or(Path::new(".")))?;
+    let gpu = Gpu::new()?;
+    let (mut rows, mut spreads) = (Vec::new(), Vec::new());
+    for (k, scene) in named.iter().enumerate() {
+        eprintln!("[{}/{}] {}", k + 1, named.len(), scene.name);
+        let (r, s) = specialize::scene_rows(&gpu, scene, runs)?;
+        rows.extend(r);
+        spreads.extend(s);
+    }
+    let crossover = if crossover {
+        Some(specialize::crossover(&gpu, runs, |kind, n| {
+            eprintln!("crossover: {n} {kind}");
+        })?)
+    } else {
+        None
+    };
+    let info = gpu.info();
+    let report = specialize::Report {
+        provenance: specialize::Provenance {
+            command: command_line(),
+            adapter: (info.name, info.driver_info),
+            date: raycast::accuracy::utc_date_today(),
+            runs,
+            kernel_times: specialize::has_kernel_times(&gpu),
+        },
+        scenes: named,
+        rows,
+        spreads,
+        notes,
+        crossover,
+    };
+    let text = specialize::document(&report);
+    output::write_file(out, text.as_bytes())?;
+    say(text.trim_end());
+    eprintln!("wrote {}", out.display());
     Ok(ExitCode::SUCCESS)
 }
 

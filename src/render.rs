@@ -12,6 +12,7 @@ use crate::bvh::Accel;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::hooks::ShadeHook;
+use crate::gpu::kernel::UserKernel;
 use crate::gpu::{self, Gpu};
 use crate::images::{Images, Outputs};
 use crate::math::Precision;
@@ -168,19 +169,51 @@ pub struct Request {
     /// The user's shade hook, which colours `color.png` when `outputs.color` (GPU, f32 or f64
     /// only; any other mode is an [`Error::Argument`] naming `--shader`).
     pub shade: Option<ShadeHook>,
+    /// A complete kernel to run instead of the assembled one (GPU, f32 or f64 only; any
+    /// other mode is an [`Error::Argument`] naming `--kernel`). It must declare the bindings
+    /// of the kernel this request would assemble ([`UserKernel::for_variant`]).
+    pub kernel: Option<UserKernel>,
 }
 
 impl Default for Request {
-    /// Every output, no hook.
+    /// Every output, no hook, the assembled kernel.
     fn default() -> Self {
         Request {
             outputs: Outputs::ALL,
             shade: None,
+            kernel: None,
         }
     }
 }
 
 impl Request {
+    /// The kernel a GPU render of `scene` in `mode` (f32 or f64) runs for this request:
+    /// specialised for the scene and the outputs, with the hook, and the user's kernel in its
+    /// place where one is given (an error if its bindings do not fit).
+    pub fn kernel_variant(
+        &self,
+        gpu: &Gpu,
+        scene: &Scene,
+        mode: Mode,
+    ) -> Result<gpu::shader::Variant> {
+        let precision = match mode.precision {
+            Arithmetic::F64 => Precision::F64,
+            _ => Precision::F32,
+        };
+        let outputs = self.kernel_outputs();
+        let variant = gpu.request_variant(
+            scene,
+            precision,
+            mode.algorithm,
+            outputs,
+            self.shade.as_ref(),
+        );
+        match &self.kernel {
+            Some(kernel) => kernel.for_variant(variant),
+            None => Ok(variant),
+        }
+    }
+
     /// The outputs the GPU kernel must write for this request: with a hook, the colour is the
     /// kernel's; without, the palette `color.png` is made on the host from the ids.
     pub fn kernel_outputs(&self) -> Outputs {
@@ -221,6 +254,19 @@ pub fn render_request(
             });
         }
     }
+    if request.kernel.is_some() {
+        let plain = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
+        if !plain {
+            return Err(Error::Argument {
+                option: "--kernel".into(),
+                message: if mode.device == Device::Cpu {
+                    "the CPU reference runs no shader; use --device gpu".into()
+                } else {
+                    "runs with --precision f32 or f64 (adaptive precision runs two kernels)".into()
+                },
+            });
+        }
+    }
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
@@ -238,16 +284,12 @@ pub fn render_request(
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
-            let outputs = request.kernel_outputs();
-            let shade = request.shade.as_ref();
-            let algorithm = mode.algorithm;
+            let variant = request.kernel_variant(gpu, scene, mode)?;
             Ok(match mode.precision {
-                Arithmetic::F32 => AnyImages::F32(gpu::render_outputs::<f32>(
-                    gpu, scene, algorithm, outputs, shade,
-                )?),
-                _ => AnyImages::F64(gpu::render_outputs::<f64>(
-                    gpu, scene, algorithm, outputs, shade,
-                )?),
+                Arithmetic::F32 => {
+                    AnyImages::F32(gpu::render_with_variant::<f32>(gpu, scene, variant)?)
+                }
+                _ => AnyImages::F64(gpu::render_with_variant::<f64>(gpu, scene, variant)?),
             })
         }
         Device::Cpu => Ok(match mode.precision {

@@ -65,8 +65,9 @@ fn registry() -> &'static Mutex<HashMap<HookKey, Arc<str>>> {
     SOURCES.get_or_init(Mutex::default)
 }
 
-/// Registers `source`, returning its key (the same key for the same text).
-fn register(source: &str) -> (HookKey, Arc<str>) {
+/// Registers `source`, returning its key (the same key for the same text). User kernels
+/// (`render --kernel`, [`super::kernel`]) are registered here too.
+pub(crate) fn register(source: &str) -> (HookKey, Arc<str>) {
     let mut hasher = std::collections::hash_map::DefaultHasher::new();
     source.hash(&mut hasher);
     let mut key = HookKey(hasher.finish());
@@ -154,13 +155,13 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
     })
 }
 
-fn span_range(span: naga::Span) -> (usize, usize) {
+pub(crate) fn span_range(span: naga::Span) -> (usize, usize) {
     let r = span.to_range().unwrap_or(0..0);
     (r.start, r.end - r.start)
 }
 
 /// An error's message followed by its causes, `: `-separated, without repeats.
-fn error_chain(e: &dyn std::error::Error) -> String {
+pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
     let mut parts = vec![e.to_string()];
     let mut cause = e.source();
     while let Some(c) = cause {
@@ -444,7 +445,13 @@ pub fn hook_offset(kernel: &str, key: HookKey) -> Option<usize> {
 }
 
 /// An [`Error::Shader`] at byte `offset` of `source` (clamped to it), underlining `len` bytes.
-fn shader_error(file: &Path, source: &str, offset: usize, len: usize, message: String) -> Error {
+pub(crate) fn shader_error(
+    file: &Path,
+    source: &str,
+    offset: usize,
+    len: usize,
+    message: String,
+) -> Error {
     let mut offset = offset.min(source.len());
     while !source.is_char_boundary(offset) {
         offset -= 1;

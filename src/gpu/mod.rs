@@ -2,6 +2,7 @@
 //! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
 
 pub mod hooks;
+pub mod kernel;
 pub mod layout;
 pub mod probe;
 mod render;
@@ -38,8 +39,9 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// The kernel variant for `scene`: only its primitive kinds compiled in, and a BVH where it
-    /// pays ([`crate::bvh::worth_it`]).
+    /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
+    /// pays ([`crate::bvh::worth_it`]), and the primitives in uniform buffers where they fit
+    /// if [`shader::UNIFORM_BY_DEFAULT`].
     pub fn scene_variant(
         &self,
         scene: &crate::scene::Scene,
@@ -50,8 +52,20 @@ impl Gpu {
         Variant {
             bvh: crate::bvh::worth_it(scene),
             chunks: shader::chunks_for(scene, general.chunk_bits),
+            uniform_prims: shader::UNIFORM_BY_DEFAULT && self.uniform_fits(scene, precision),
             ..general.with_kinds(shader::Kinds::of_scene(scene))
         }
+    }
+
+    /// Whether `scene`'s spheres, planes and triangles fit uniform buffers on this device
+    /// ([`shader::UniformCapacity`]).
+    pub fn uniform_fits(
+        &self,
+        scene: &crate::scene::Scene,
+        precision: crate::math::Precision,
+    ) -> bool {
+        let limit = self.device.limits().max_uniform_buffer_binding_size;
+        limit >= shader::UNIFORM_BYTES && shader::UniformCapacity::of(precision).fits(scene)
     }
 
     /// The kernel variant for `scene` that writes `outputs`, calling `shade` for the colour
@@ -85,12 +99,21 @@ impl Gpu {
             pixel_list: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
-            packets: self.device.features().contains(wgpu::Features::SUBGROUP),
+            // Measured on lavapipe (docs/specializations.md): subgroup packets ran at 0.87x
+            // (bunny) and 0.89x (torus) of per-ray traversal, so they are off unless asked for.
+            packets: false,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             outputs: crate::images::Outputs::GEOMETRY,
             shade: None,
+            uniform_prims: false,
+            kernel: None,
         }
+    }
+
+    /// Whether this device can run the subgroup-packet traversal (`Variant::packets`).
+    pub fn has_subgroups(&self) -> bool {
+        self.device.features().contains(wgpu::Features::SUBGROUP)
     }
 
     /// The largest storage binding this device allows, in bytes.

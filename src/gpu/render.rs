@@ -100,10 +100,31 @@ impl<R: GpuReal> Primitives<R> {
     /// and the BVH's nodes and primitive order (bindings 9 and 10); triangles and nodes in
     /// `variant.chunks` buffers each.
     fn upload(&self, gpu: &Gpu, variant: &Variant) -> Uploaded {
+        // With UNIFORM_PRIMS, bindings 1 to 3 are uniform buffers (one chunk).
+        let uniform = variant
+            .uses_uniform_prims()
+            .then(|| shader::UniformCapacity::of(variant.precision));
+        let (spheres, planes, triangles) = match uniform {
+            Some(c) => (
+                uniform_buffer(gpu, "spheres", &self.spheres, c.spheres),
+                uniform_buffer(gpu, "planes", &self.planes, c.planes),
+                vec![uniform_buffer(
+                    gpu,
+                    "triangles",
+                    &self.triangles,
+                    c.triangles,
+                )],
+            ),
+            None => (
+                storage_buffer(gpu, "spheres", &self.spheres),
+                storage_buffer(gpu, "planes", &self.planes),
+                chunked_upload(gpu, "triangles", &self.triangles, variant),
+            ),
+        };
         Uploaded {
-            spheres: storage_buffer(gpu, "spheres", &self.spheres),
-            planes: storage_buffer(gpu, "planes", &self.planes),
-            triangles: chunked_upload(gpu, "triangles", &self.triangles, variant),
+            spheres,
+            planes,
+            triangles,
             objects: storage_buffer(gpu, "objects", &self.objects),
             nodes: chunked_upload(gpu, "bvh_nodes", &self.nodes, variant),
             order: storage_buffer(gpu, "prim_order", &self.order),
@@ -207,6 +228,21 @@ fn check_limits<R: GpuReal>(
             ),
         });
     }
+    let capacity = shader::UniformCapacity::of(R::PRECISION);
+    let counts = [
+        (prims.spheres.len(), capacity.spheres),
+        (prims.planes.len(), capacity.planes),
+        (prims.triangles.len(), capacity.triangles),
+    ];
+    if variant.uses_uniform_prims() && counts.iter().any(|&(n, cap)| n > cap as usize) {
+        return Err(Error::Device(format!(
+            "{} spheres, {} planes and {} triangles do not fit uniform buffers of {} bytes (at most {capacity:?})",
+            counts[0].0,
+            counts[1].0,
+            counts[2].0,
+            shader::UNIFORM_BYTES
+        )));
+    }
     let chunk = 1u64 << variant.chunk_bits;
     let needed = (prims.triangles.len().max(prims.nodes.len()) as u64).div_ceil(chunk);
     if needed > variant.chunks as u64 {
@@ -281,6 +317,20 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
             label: Some(label),
             contents: bytemuck::cast_slice(items),
             usage: wgpu::BufferUsages::STORAGE,
+        })
+}
+
+/// A uniform buffer holding `items` zero-padded to `capacity` items: the size of the
+/// fixed-size array the kernel declares (UNIFORM_PRIMS), which wgpu requires it to have.
+fn uniform_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], capacity: u32) -> wgpu::Buffer {
+    let mut bytes = vec![0u8; capacity as usize * size_of::<T>()];
+    let data: &[u8] = bytemuck::cast_slice(items);
+    bytes[..data.len()].copy_from_slice(data);
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
         })
 }
 

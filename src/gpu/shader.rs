@@ -4,6 +4,7 @@
 //! validates before any pipeline is made.
 
 use super::hooks::{self, HookKey};
+use super::kernel::KernelKey;
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::images::Outputs;
@@ -81,6 +82,65 @@ pub struct Variant {
     /// The user's shade hook compiled in (its source is registered in [`hooks`] under this
     /// key), called for every pixel to write `out_color`.
     pub shade: Option<HookKey>,
+    /// Spheres, planes and triangles in uniform buffers (`var<uniform>` fixed-size arrays of
+    /// [`UNIFORM_BYTES`]) instead of storage buffers (`UNIFORM_PRIMS`). Only where they fit
+    /// ([`UniformCapacity::fits`]) and in one chunk ([`Variant::uses_uniform_prims`]).
+    /// [`super::Gpu::scene_variant`] leaves it off: not faster on lavapipe (Mesa 25), see
+    /// [`UNIFORM_BY_DEFAULT`].
+    pub uniform_prims: bool,
+    /// A complete kernel from the user (`render --kernel FILE`, [`super::kernel`]) runs instead
+    /// of the assembled one: its source is registered under this key, and the rest of the
+    /// variant says what the host binds and reads back for it.
+    pub kernel: Option<KernelKey>,
+}
+
+/// Bytes of each uniform binding of the primitives: 64 KiB, WebGPU's default
+/// `maxUniformBufferBindingSize` (lavapipe allows the same).
+pub const UNIFORM_BYTES: u64 = 64 << 10;
+
+/// Whether [`super::Gpu::scene_variant`] puts primitives that fit into uniform buffers. Off:
+/// on lavapipe (Mesa 25.0.7, 2 cores) uniform buffers were no faster than storage buffers on
+/// any course scene (0.78x to 1.04x over two runs of `raycast specializations`, geometric means
+/// 0.88x and 1.01x; docs/specializations.md, rows "uniform memory"), unlike the 1.6x reported
+/// on Mesa 22.3.
+pub const UNIFORM_BY_DEFAULT: bool = false;
+
+/// How many spheres, planes and triangles a uniform binding of [`UNIFORM_BYTES`] holds: the
+/// lengths of the fixed-size arrays `UNIFORM_PRIMS` declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UniformCapacity {
+    pub spheres: u32,
+    pub planes: u32,
+    pub triangles: u32,
+}
+
+impl UniformCapacity {
+    pub fn of(precision: Precision) -> UniformCapacity {
+        use super::layout::{GpuPlane, GpuSphere, GpuTriangle};
+        fn fit<T>() -> u32 {
+            (UNIFORM_BYTES / size_of::<T>() as u64) as u32
+        }
+        match precision {
+            Precision::F32 => UniformCapacity {
+                spheres: fit::<GpuSphere<f32>>(),
+                planes: fit::<GpuPlane<f32>>(),
+                triangles: fit::<GpuTriangle<f32>>(),
+            },
+            Precision::F64 => UniformCapacity {
+                spheres: fit::<GpuSphere<f64>>(),
+                planes: fit::<GpuPlane<f64>>(),
+                triangles: fit::<GpuTriangle<f64>>(),
+            },
+        }
+    }
+
+    /// Whether `scene`'s spheres, planes and triangles each fit.
+    pub fn fits(&self, scene: &crate::scene::Scene) -> bool {
+        let [spheres, planes, triangles] = scene.primitive_counts();
+        spheres <= self.spheres as usize
+            && planes <= self.planes as usize
+            && triangles <= self.triangles as usize
+    }
 }
 
 /// The most chunks a kernel binds for triangles, and for nodes.
@@ -120,6 +180,8 @@ impl Variant {
             chunk_bits: chunk_bits_for(128 << 20, precision),
             outputs: Outputs::GEOMETRY,
             shade: None,
+            uniform_prims: false,
+            kernel: None,
         }
     }
 
@@ -156,7 +218,8 @@ impl Variant {
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
-    /// subgroups together), `CHUNKS_2..4` (triangles and nodes in several bindings), and for
+    /// subgroups together), `CHUNKS_2..4` (triangles and nodes in several bindings),
+    /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
     /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
     /// `USER_SHADE` (the shade hook is called and `out_color` written).
@@ -181,6 +244,9 @@ impl Variant {
             if self.chunks >= k {
                 d.push(name);
             }
+        }
+        if self.uses_uniform_prims() {
+            d.push("UNIFORM_PRIMS");
         }
         if self.uses_bvh() {
             d.push("BVH");
@@ -220,6 +286,12 @@ impl Variant {
     pub fn uses_bvh(&self) -> bool {
         self.bvh && !self.certainty && (self.kinds.spheres || self.kinds.triangles)
     }
+
+    /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
+    /// over several storage bindings is far beyond a uniform binding anyway).
+    pub fn uses_uniform_prims(&self) -> bool {
+        self.uniform_prims && self.chunks == 1
+    }
 }
 
 pub const MODULES: &[(&str, &str)] = &[
@@ -257,7 +329,7 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
             Precision::F32 => (f32::EPSILON as f64, 16.0 * f32::EPSILON as f64),
             Precision::F64 => (f64::EPSILON, 16.0 * f64::EPSILON),
         };
-        return Some(format!(
+        let mut text = format!(
             "alias real = {};\n\
              // Machine epsilon of real.\n\
              const EPS: real = {eps:e};\n\
@@ -267,7 +339,18 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
              const CHUNK_BITS: u32 = {}u;\n",
             precision.name(),
             variant.chunk_bits
-        ));
+        );
+        if variant.uses_uniform_prims() {
+            let c = UniformCapacity::of(precision);
+            text += &format!(
+                "// Array lengths of the primitives in uniform buffers: as many as fit {UNIFORM_BYTES} bytes.\n\
+                 const UNIFORM_SPHERES: u32 = {}u;\n\
+                 const UNIFORM_PLANES: u32 = {}u;\n\
+                 const UNIFORM_TRIANGLES: u32 = {}u;\n",
+                c.spheres, c.planes, c.triangles
+            );
+        }
+        return Some(text);
     }
     MODULES
         .iter()
@@ -402,8 +485,14 @@ pub fn validate(source: &str, label: &str) -> Result<naga::Module> {
     Ok(module)
 }
 
-/// The full kernel source for `variant`.
+/// The full kernel source for `variant`: the user's kernel where it names one, else the
+/// assembled one.
 pub fn kernel_source(variant: &Variant) -> Result<String> {
+    if let Some(key) = variant.kernel {
+        return super::kernel::registered_source(key)
+            .map(|s| s.to_string())
+            .ok_or_else(|| Error::Device(format!("no user kernel registered as {key:?}")));
+    }
     assemble(ENTRY_MODULE, variant)
 }
 
@@ -434,6 +523,8 @@ pub fn all_variants() -> Vec<Variant> {
                         chunk_bits: 9,
                         outputs: Outputs::GEOMETRY,
                         shade: None,
+                        uniform_prims: false,
+                        kernel: None,
                     };
                     for (bvh, packets) in [(false, false), (true, false), (true, true)] {
                         for chunks in [1, 2, MAX_CHUNKS] {
@@ -444,6 +535,12 @@ pub fn all_variants() -> Vec<Variant> {
                                 ..plain
                             });
                         }
+                        v.push(Variant {
+                            bvh,
+                            packets,
+                            uniform_prims: true,
+                            ..plain
+                        });
                     }
                     if !certainty && !pixel_list {
                         for outputs in OUTPUT_SUBSETS {
@@ -681,6 +778,86 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// With UNIFORM_PRIMS the spheres, planes and triangles are uniform fixed-size arrays of
+    /// the capacity the host pads its buffers to (checked on the naga module, both
+    /// precisions); without, read-only storage.
+    #[test]
+    fn uniform_primitives_are_in_the_uniform_address_space() {
+        for precision in [Precision::F32, Precision::F64] {
+            let capacity = UniformCapacity::of(precision);
+            let storage = Variant::new(precision, Algorithm::Robust);
+            for (variant, uniform) in [
+                (storage, false),
+                (
+                    Variant {
+                        uniform_prims: true,
+                        ..storage
+                    },
+                    true,
+                ),
+                (
+                    Variant {
+                        uniform_prims: true,
+                        bvh: true,
+                        ..storage
+                    },
+                    true,
+                ),
+                // Several chunks never are uniform.
+                (
+                    Variant {
+                        uniform_prims: true,
+                        chunks: 2,
+                        ..storage
+                    },
+                    false,
+                ),
+            ] {
+                assert_eq!(variant.uses_uniform_prims(), uniform);
+                let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+                let mut layouter = naga::proc::Layouter::default();
+                layouter.update(module.to_ctx()).unwrap();
+                for (name, count) in [
+                    ("spheres", capacity.spheres),
+                    ("planes", capacity.planes),
+                    ("triangles", capacity.triangles),
+                ] {
+                    let (_, g) = module
+                        .global_variables
+                        .iter()
+                        .find(|(_, g)| g.name.as_deref() == Some(name))
+                        .unwrap();
+                    let naga::TypeInner::Array { size, stride, .. } = module.types[g.ty].inner
+                    else {
+                        panic!("{name} is not an array");
+                    };
+                    if uniform {
+                        assert_eq!(g.space, naga::AddressSpace::Uniform, "{name} {variant:?}");
+                        let n = match size {
+                            naga::ArraySize::Constant(n) => n.get(),
+                            other => panic!("{name}: {other:?}"),
+                        };
+                        assert_eq!(n, count, "{name}");
+                        assert!(layouter[g.ty].size as u64 <= UNIFORM_BYTES);
+                        assert_eq!(stride % 16, 0, "uniform arrays need 16-byte strides");
+                    } else {
+                        let read = naga::StorageAccess::LOAD;
+                        assert_eq!(g.space, naga::AddressSpace::Storage { access: read });
+                        assert_eq!(size, naga::ArraySize::Dynamic);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn uniform_capacity_is_what_fits_64_kib() {
+        let c = UniformCapacity::of(Precision::F32);
+        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1365));
+        let c = UniformCapacity::of(Precision::F64);
+        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 682));
     }
 
     #[test]

@@ -104,6 +104,20 @@ impl Scene {
         .expect("the built-in default scene is valid")
     }
 
+    /// How many spheres, planes and triangles (loose ones plus soups) the scene has.
+    pub fn primitive_counts(&self) -> [usize; 3] {
+        let mut n = [0; 3];
+        for object in &self.objects {
+            match object {
+                Object::Sphere { .. } => n[0] += 1,
+                Object::Plane { .. } => n[1] += 1,
+                Object::Triangle { .. } => n[2] += 1,
+                Object::Soup { triangles, .. } => n[2] += triangles.len(),
+            }
+        }
+        n
+    }
+
     /// Total number of triangles (loose triangles plus soups).
     pub fn triangle_count(&self) -> usize {
         self.objects

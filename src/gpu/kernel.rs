@@ -1,0 +1,349 @@
+//! User kernels: `raycast render SCENE --kernel FILE` runs a complete WGSL kernel, as
+//! `--emit-shader` writes it (possibly edited), instead of the assembled one.
+//!
+//! The kernel [`Variant`] is chosen as usual, from the scene and the request; the file only
+//! replaces its source. So that what the host binds fits the file:
+//! 1. [`check`] parses and validates the file with naga (errors at `FILE:LINE:COLUMN`, as for
+//!    shade hooks) and finds its compute entry point `main`;
+//! 2. [`UserKernel::for_variant`] compares, on the naga modules, the file's resource bindings
+//!    with those of the assembled kernel of that variant: the same binding numbers, each with
+//!    the same address space, access and size, and each used by `main` (wgpu derives the
+//!    pipeline layout from the bindings the entry point uses, and refuses a bind group with
+//!    more); and the same workgroup size, which the host's dispatch counts assume.
+//!
+//! A mismatch, such as a kernel emitted for a scene with other primitive kinds, precision or
+//! outputs, is a one-line [`Error::Argument`] naming `--kernel FILE`. The variant that passes
+//! carries the file's [`KernelKey`], a hash of its text registered with the hook sources, so the
+//! pipeline cache never gives one file's pipeline to another.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::hooks::{self, HookKey};
+use super::shader::{self, Variant};
+use crate::error::{Error, Result};
+
+/// Which registered source a user kernel is: a hash of its text (see [`hooks`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct KernelKey(pub u64);
+
+/// A checked user kernel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UserKernel {
+    /// The file it came from, as given (for messages).
+    pub file: PathBuf,
+    pub source: Arc<str>,
+    pub key: KernelKey,
+    interface: Interface,
+}
+
+/// What the host must match: the kernel's resource bindings and its workgroup size.
+#[derive(Clone, Debug, PartialEq)]
+struct Interface {
+    bindings: Vec<Binding>,
+    workgroup_size: [u32; 3],
+}
+
+/// One resource binding of a kernel.
+#[derive(Clone, Debug, PartialEq)]
+struct Binding {
+    group: u32,
+    binding: u32,
+    name: String,
+    /// `uniform`, `storage, read` or `storage, read_write`.
+    space: String,
+    /// Bytes of its type (of one element for a runtime-sized array).
+    size: u32,
+    /// Whether the entry point uses it.
+    used: bool,
+}
+
+impl Binding {
+    fn describe(&self) -> String {
+        format!("`{}`: {}, {} bytes", self.name, self.space, self.size)
+    }
+}
+
+/// Reads and [`check`]s the kernel file at `path`.
+pub fn load(path: &Path) -> Result<UserKernel> {
+    let source =
+        std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
+    check(&source, path)
+}
+
+/// Validates a kernel's `source` (read from `file`, which labels errors) with naga, finds its
+/// entry point and registers it.
+pub fn check(source: &str, file: &Path) -> Result<UserKernel> {
+    let (module, info) = validate(source, file)?;
+    let interface = interface(&module, &info)
+        .ok_or_else(|| hooks::shader_error(file, source, 0, 0, no_entry_point()))?;
+    let (key, source) = hooks::register(source);
+    Ok(UserKernel {
+        file: file.to_owned(),
+        source,
+        key: KernelKey(key.0),
+        interface,
+    })
+}
+
+fn no_entry_point() -> String {
+    format!(
+        "no `@compute fn {}`: a kernel file is a whole kernel, as --emit-shader writes it",
+        shader::ENTRY_POINT
+    )
+}
+
+/// The source registered under `key`.
+pub fn registered_source(key: KernelKey) -> Option<Arc<str>> {
+    hooks::registered_source(HookKey(key.0))
+}
+
+/// Parses and validates `source` with naga; errors point at the file's line and column.
+fn validate(source: &str, file: &Path) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
+        let (offset, len) = e
+            .labels()
+            .map(|(span, _)| span)
+            .find(|span| span.is_defined())
+            .map_or((0, 0), hooks::span_range);
+        hooks::shader_error(file, source, offset, len, e.message().to_owned())
+    })?;
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
+    let info = validator.validate(&module).map_err(|e| {
+        // The innermost span (naga adds outer ones as the error climbs) is the most precise.
+        let (offset, len) = e
+            .spans()
+            .map(|(span, _)| *span)
+            .filter(|span| span.is_defined())
+            .last()
+            .map_or((0, 0), hooks::span_range);
+        hooks::shader_error(file, source, offset, len, hooks::error_chain(&e))
+    })?;
+    Ok((module, info))
+}
+
+/// The bindings and workgroup size of `module`'s compute entry point `main`, `None` without
+/// one.
+fn interface(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Option<Interface> {
+    let (index, entry) =
+        module.entry_points.iter().enumerate().find(|(_, e)| {
+            e.name == shader::ENTRY_POINT && e.stage == naga::ShaderStage::Compute
+        })?;
+    let uses = info.get_entry_point(index);
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .expect("a validated module has a layout");
+    let mut bindings: Vec<Binding> = module
+        .global_variables
+        .iter()
+        .filter_map(|(handle, g)| {
+            let at = g.binding.as_ref()?;
+            Some(Binding {
+                group: at.group,
+                binding: at.binding,
+                name: g.name.clone().unwrap_or_default(),
+                space: space_name(g.space),
+                size: layouter[g.ty].size,
+                used: !uses[handle].is_empty(),
+            })
+        })
+        .collect();
+    bindings.sort_by_key(|b| (b.group, b.binding));
+    Some(Interface {
+        bindings,
+        workgroup_size: entry.workgroup_size,
+    })
+}
+
+fn space_name(space: naga::AddressSpace) -> String {
+    match space {
+        naga::AddressSpace::Uniform => "uniform".into(),
+        naga::AddressSpace::Storage { access } if access.contains(naga::StorageAccess::STORE) => {
+            "storage, read_write".into()
+        }
+        naga::AddressSpace::Storage { .. } => "storage, read".into(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// The interface of the assembled kernel for `variant`.
+fn assembled_interface(variant: &Variant) -> Result<Interface> {
+    let assembled = Variant {
+        kernel: None,
+        ..*variant
+    };
+    let source = shader::kernel_source(&assembled)?;
+    let module = shader::validate(&source, "kernel")?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| Error::Device(format!("kernel: {e}")))?;
+    interface(&module, &info).ok_or_else(|| Error::Device(format!("kernel: {}", no_entry_point())))
+}
+
+/// Why a kernel with `ours` does not fit a host that binds `theirs`, if it does not.
+fn mismatch(theirs: &Interface, ours: &Interface) -> Option<String> {
+    for t in &theirs.bindings {
+        let Some(o) = ours
+            .bindings
+            .iter()
+            .find(|o| (o.group, o.binding) == (t.group, t.binding))
+        else {
+            return Some(format!(
+                "this scene and request bind @group({}) @binding({}) ({}), which the kernel does not declare",
+                t.group,
+                t.binding,
+                t.describe()
+            ));
+        };
+        if (&o.space, o.size) != (&t.space, t.size) {
+            return Some(format!(
+                "@group({}) @binding({}) is {} in the kernel, but this scene and request bind {}",
+                t.group,
+                t.binding,
+                o.describe(),
+                t.describe()
+            ));
+        }
+        if !o.used {
+            return Some(format!(
+                "@group({}) @binding({}) ({}) is declared but never used by `{}`; the host binds it for this scene and request, so the kernel must use it",
+                o.group,
+                o.binding,
+                o.describe(),
+                shader::ENTRY_POINT
+            ));
+        }
+    }
+    if let Some(o) = ours.bindings.iter().find(|o| {
+        !theirs
+            .bindings
+            .iter()
+            .any(|t| (t.group, t.binding) == (o.group, o.binding))
+    }) {
+        return Some(format!(
+            "the kernel declares @group({}) @binding({}) ({}), which this scene and request do not bind",
+            o.group,
+            o.binding,
+            o.describe()
+        ));
+    }
+    if ours.workgroup_size != theirs.workgroup_size {
+        return Some(format!(
+            "`{}` has @workgroup_size{:?}; the host dispatches for {:?}",
+            shader::ENTRY_POINT,
+            ours.workgroup_size,
+            theirs.workgroup_size
+        ));
+    }
+    None
+}
+
+impl UserKernel {
+    /// `variant`, running this kernel: an error when its bindings or workgroup size differ from
+    /// those of the assembled kernel for `variant` (module docs).
+    pub fn for_variant(&self, variant: Variant) -> Result<Variant> {
+        let theirs = assembled_interface(&variant)?;
+        if let Some(why) = mismatch(&theirs, &self.interface) {
+            return Err(Error::Argument {
+                option: format!("--kernel {}", self.file.display()),
+                message: format!(
+                    "{why} (a kernel emitted for another scene, precision or --outputs? write one for this render with --emit-shader)"
+                ),
+            });
+        }
+        Ok(Variant {
+            kernel: Some(self.key),
+            ..variant
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Algorithm;
+    use crate::math::Precision;
+
+    fn assembled(variant: &Variant) -> String {
+        shader::kernel_source(variant).unwrap()
+    }
+
+    #[test]
+    fn an_assembled_kernel_fits_its_own_variant_and_runs_as_itself() {
+        let variant = Variant::new(Precision::F32, Algorithm::Robust);
+        let source = assembled(&variant);
+        let kernel = check(&source, Path::new("k.wgsl")).unwrap();
+        let with = kernel.for_variant(variant).unwrap();
+        assert_eq!(with.kernel, Some(kernel.key));
+        assert_eq!(shader::kernel_source(&with).unwrap(), source);
+        // Another text is another key, so another pipeline.
+        let edited = check(&format!("{source}\n// edited\n"), Path::new("k.wgsl")).unwrap();
+        assert_ne!(edited.key, kernel.key);
+    }
+
+    #[test]
+    fn a_kernel_of_other_kinds_precision_or_outputs_does_not_fit() {
+        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let spheres_only = base.with_kinds(shader::Kinds {
+            spheres: true,
+            planes: false,
+            triangles: false,
+        });
+        let kernel = check(&assembled(&spheres_only), Path::new("s.wgsl")).unwrap();
+        let Err(Error::Argument { option, message }) = kernel.for_variant(base) else {
+            panic!("a spheres-only kernel fits every kind");
+        };
+        assert_eq!(option, "--kernel s.wgsl");
+        assert!(message.contains("@binding(2)"), "{message}");
+        assert!(!message.contains('\n'), "{message}");
+        let f64 = Variant::new(Precision::F64, Algorithm::Robust);
+        // f64 changes the size of everything real, Params first.
+        let message = kernel.for_variant(f64.with_kinds(spheres_only.kinds));
+        assert!(format!("{message:?}").contains("192 bytes"), "{message:?}");
+        let distance = base.with_outputs(crate::images::Outputs {
+            distance: true,
+            ..crate::images::Outputs::NONE
+        });
+        let kernel = check(&assembled(&distance), Path::new("d.wgsl")).unwrap();
+        let message = format!("{:?}", kernel.for_variant(base));
+        assert!(message.contains("@binding(6)"), "{message}");
+    }
+
+    #[test]
+    fn an_unused_binding_or_another_workgroup_size_does_not_fit() {
+        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let source = assembled(&base);
+        let unused = source.replace(
+            "out_id[index] = select(hit.object, -1, hit.object < 0);",
+            "",
+        );
+        assert_ne!(unused, source);
+        let kernel = check(&unused, Path::new("u.wgsl")).unwrap();
+        let message = format!("{:?}", kernel.for_variant(base));
+        assert!(message.contains("never used"), "{message}");
+        let wide = source.replace("@workgroup_size(8, 8)", "@workgroup_size(16, 4)");
+        let kernel = check(&wide, Path::new("w.wgsl")).unwrap();
+        let message = format!("{:?}", kernel.for_variant(base));
+        assert!(message.contains("workgroup_size"), "{message}");
+    }
+
+    #[test]
+    fn errors_point_at_the_files_line_and_column() {
+        let source = "fn f() -> f32 {\n    return 1.0;\n}\n\n@compute @workgroup_size(8, 8)\nfn main() {\n    let x: f32 = 1u;\n}\n";
+        match check(source, Path::new("bad.wgsl")) {
+            Err(Error::Shader { line, column, .. }) => assert_eq!((line, column), (7, 9)),
+            other => panic!("{other:?}"),
+        }
+        match check("fn f() {}\n", Path::new("none.wgsl")) {
+            Err(Error::Shader { message, .. }) => assert!(message.contains("@compute fn main")),
+            other => panic!("{other:?}"),
+        }
+    }
+}
