@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use raycast::Algorithm;
+use raycast::bvh::Accel;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
@@ -124,6 +125,28 @@ enum Command {
         /// Output folder (created if missing).
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
+    },
+    /// Time the stages of a frame (build, upload, trace) and the primary-ray rate, per mode and
+    /// acceleration: median of N runs after one warm-up.
+    Bench {
+        /// Scene file (JSON).
+        scene: PathBuf,
+        /// Image size in pixels (overrides the scene's resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Timed runs per configuration, after one warm-up run; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Print one JSON object per configuration, one per line, and nothing else on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
+        #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
+        mode: Vec<Mode>,
+        /// Comma-separated accelerations: auto (a BVH from 32 spheres and triangles on), bvh,
+        /// brute-force.
+        #[arg(long, value_delimiter = ',', default_value = "auto")]
+        accel: Vec<Accel>,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -264,6 +287,23 @@ fn run(command: Command) -> Result<ExitCode> {
             spp,
             output,
         } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        Command::Bench {
+            scene,
+            size,
+            runs,
+            json,
+            mode,
+            accel,
+        } => bench(
+            &scene,
+            size,
+            raycast::bench::Options {
+                runs: runs as usize,
+                modes: mode,
+                accels: accel,
+            },
+            json,
+        ),
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
@@ -526,6 +566,33 @@ fn tradeoff(
     };
     for path in tradeoff::run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
         say(format!("wrote {}", path.display()));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench(
+    scene_path: &Path,
+    size: Option<[u32; 2]>,
+    options: raycast::bench::Options,
+    json: bool,
+) -> Result<ExitCode> {
+    use raycast::bench;
+    options.check()?;
+    // The scene is validated before the GPU is opened.
+    let loaded = bench::load(scene_path, size)?;
+    let gpu = options.needs_gpu().then(Gpu::new).transpose()?;
+    if !json {
+        for line in bench::header(&loaded, &options, gpu.as_ref()) {
+            say(line);
+        }
+    }
+    let rows = bench::run(&loaded, &options, gpu.as_ref(), true, |row| {
+        if json {
+            say(serde_json::to_string(row).expect("a row serialises"));
+        }
+    })?;
+    if !json {
+        say(bench::to_table(&rows).trim_end());
     }
     Ok(ExitCode::SUCCESS)
 }
