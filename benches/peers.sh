@@ -100,15 +100,18 @@ with open(path, "w") as f:
 EOF
 }
 
-# Waits (up to WAIT_IDLE s) for other processes to be idle, as peer_bench.py does per peer.
+# Waits (up to WAIT_IDLE s) for other processes to be idle, as peer_bench.py does per peer,
+# and writes the CPUs they used just before into FILE. Args: FILE.
 wait_for_idle() {
+    rm -f "$1"
     [[ $wait_idle == 0 ]] && return 0
-    "$py" - "$peer_dir" "$wait_idle" <<'EOF'
+    "$py" - "$peer_dir" "$wait_idle" "$1" <<'EOF'
 import sys
 sys.path.insert(0, sys.argv[1])
 from peer_bench import wait_idle
 busy = wait_idle(float(sys.argv[2]))
 print("others using %.2f CPUs before raycast bench" % busy, file=sys.stderr)
+open(sys.argv[3], "w").write("%.2f\n" % busy)
 EOF
 }
 
@@ -120,7 +123,7 @@ peer_bench() { # WORKLOAD
 }
 
 raycast_bench() { # SCENE NAME
-    wait_for_idle
+    wait_for_idle "$out/raycast-$2.idle"
     "$raycast" bench "$1" --json --runs "$runs" ${raycast_args[@]+"${raycast_args[@]}"} |
         tee "$out/raycast-$2.jsonl" >&2
 }
@@ -172,11 +175,14 @@ def ratio(a, b):
 
 print("Mrays/s ratio = raycast / peer (above 1: raycast casts faster); build ratio = "
       "raycast / peer (below 1: raycast builds faster). raycast rows: Mrays/s from GPU "
-      "timestamps (kernel only) and from wall time (dispatch + readback); ratios use each.")
-for workload, raycast_file, peers_file in (("torus", "raycast-torus.jsonl", "peers-mesh.jsonl"),
-                                           ("spheres", "raycast-spheres.jsonl",
-                                            "peers-spheres.jsonl")):
-    ours = [r for r in lines(raycast_file) if "mode" in r]
+      "timestamps (kernel only) and from wall time (dispatch + readback); ratios use each. "
+      "others CPU: CPUs used by other processes, during the timed runs (peers) or just "
+      "before (raycast); above ~0.1 the numbers are contaminated.")
+for workload, peers_file in (("torus", "peers-mesh.jsonl"), ("spheres", "peers-spheres.jsonl")):
+    ours = [r for r in lines("raycast-%s.jsonl" % workload) if "mode" in r]
+    idle = os.path.join(out, "raycast-%s.idle" % workload)
+    # Other processes' CPU use: during the timed runs for peers, just before for raycast.
+    others = open(idle).read().strip() + " before" if os.path.exists(idle) else "-"
     peers = [r for r in lines(peers_file) if "peer" in r]
     setup = next((r for r in lines(peers_file) if r.get("kind") == "setup"), {})
     if ours:
@@ -193,12 +199,12 @@ for workload, raycast_file, peers_file in (("torus", "raycast-torus.jsonl", "pee
     for r in ours:
         name = "raycast %s %s%s" % (r["mode"], r["accel"],
                                     " (bvh)" if r["accel"] == "auto" and r["bvh"] else "")
-        print("| %s, GPU timestamps | %s | %s | %s | %.1f | - | | | |"
+        print("| %s, GPU timestamps | %s | %s | %s | %.1f | %s | | | |"
               % (name, num(r["build_s"]), num(r["trace_gpu_s"]), num(r["mrays_per_s"]),
-                 100 * r["hit_fraction"]))
-        print("| %s, wall | %s | %s | %s | %.1f | - | | | |"
+                 100 * r["hit_fraction"], others))
+        print("| %s, wall | %s | %s | %s | %.1f | %s | | | |"
               % (name, num(r["build_s"]), num(r["trace_s"]), num(r["mrays_per_s_wall"]),
-                 100 * r["hit_fraction"]))
+                 100 * r["hit_fraction"], others))
     us = ours[0] if ours else {}
     for p in peers:
         name = "%s %s" % (p["peer"], p.get("version", ""))
