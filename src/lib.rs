@@ -23,6 +23,7 @@
 pub mod accuracy;
 pub mod adaptive;
 pub mod algorithm;
+pub mod bench;
 pub mod bvh;
 pub mod camera;
 pub mod compare;

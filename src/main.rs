@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use raycast::Algorithm;
+use raycast::bvh::Accel;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
@@ -175,6 +176,28 @@ enum Command {
     CheckShader {
         /// WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`.
         file: PathBuf,
+    },
+    /// Time the stages of a frame (build, upload, trace) and the primary-ray rate, per mode and
+    /// acceleration: median of N runs after one warm-up.
+    Bench {
+        /// Scene file (JSON).
+        scene: PathBuf,
+        /// Image size in pixels (overrides the scene's resolution).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Timed runs per configuration, after one warm-up run; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Print one JSON object per configuration, one per line, and nothing else on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
+        #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
+        mode: Vec<Mode>,
+        /// Comma-separated accelerations: auto (a BVH from 32 spheres and triangles on), bvh,
+        /// brute-force.
+        #[arg(long, value_delimiter = ',', default_value = "auto")]
+        accel: Vec<Accel>,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -352,6 +375,23 @@ fn run(command: Command) -> Result<ExitCode> {
             say(format!("{}: ok", file.display()));
             Ok(ExitCode::SUCCESS)
         }
+        Command::Bench {
+            scene,
+            size,
+            runs,
+            json,
+            mode,
+            accel,
+        } => bench(
+            &scene,
+            size,
+            raycast::bench::Options {
+                runs: runs as usize,
+                modes: mode,
+                accels: accel,
+            },
+            json,
+        ),
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
@@ -625,8 +665,8 @@ fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result
             let source = raycast::gpu::shader::kernel_source(&variant)?;
             output::write_file(path, source.as_bytes())?;
         }
-        let peak =
-            render::peak_rss_mib().map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
+        let peak = raycast::bench::peak_rss_mib()
+            .map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
         say(format!(
             "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {} in {:.3} s{peak}",
             scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
@@ -882,6 +922,33 @@ fn specializations(
     output::write_file(out, text.as_bytes())?;
     say(text.trim_end());
     eprintln!("wrote {}", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench(
+    scene_path: &Path,
+    size: Option<[u32; 2]>,
+    options: raycast::bench::Options,
+    json: bool,
+) -> Result<ExitCode> {
+    use raycast::bench;
+    options.check()?;
+    // The scene is validated before the GPU is opened.
+    let loaded = bench::load(scene_path, size)?;
+    let gpu = options.needs_gpu().then(Gpu::new).transpose()?;
+    if !json {
+        for line in bench::header(&loaded, &options, gpu.as_ref()) {
+            say(line);
+        }
+    }
+    let rows = bench::run(&loaded, &options, gpu.as_ref(), true, |row| {
+        if json {
+            say(serde_json::to_string(row).expect("a row serialises"));
+        }
+    })?;
+    if !json {
+        say(bench::to_table(&rows).trim_end());
+    }
     Ok(ExitCode::SUCCESS)
 }
 

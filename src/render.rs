@@ -308,15 +308,6 @@ pub fn band_rows(width: u32) -> u32 {
     ((1u32 << 22) / width.max(1)).max(1)
 }
 
-/// The peak resident memory of this process in MiB (`VmHWM` in /proc/self/status), where the
-/// system reports it (Linux).
-pub fn peak_rss_mib() -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024.0)
-}
-
 /// Whether [`render_streamed`] can render `mode`: a GPU kernel in f32 or f64.
 pub fn can_stream(mode: Mode) -> bool {
     mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive

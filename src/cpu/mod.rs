@@ -45,8 +45,20 @@ pub fn render_with_progress<T: Real>(
     accel: Accel,
     rows_done: &AtomicU32,
 ) -> Images<T> {
-    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
     let prims = Primitives::<T>::for_render(scene, algorithm, accel);
+    render_primitives(scene, algorithm, &prims, rows_done)
+}
+
+/// Renders `scene` from primitives already laid out for `algorithm` by
+/// [`Primitives::for_render`] (through their BVH if they have one), counting finished rows in
+/// `rows_done`. Separates the build from the trace, for timing them apart.
+pub fn render_primitives<T: Real>(
+    scene: &Scene,
+    algorithm: Algorithm,
+    prims: &Primitives<T>,
+    rows_done: &AtomicU32,
+) -> Images<T> {
+    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
     let robust = algorithm == Algorithm::Robust;
     let mut images = Images::new_miss(frame.nx, frame.ny, scene.camera.focal_length);
     let width = frame.nx as usize;
@@ -63,9 +75,9 @@ pub fn render_with_progress<T: Real>(
         .for_each(|(i, ((id, distance), normal))| {
             for j in 0..width {
                 let out = if robust {
-                    main::main::<T, true>(&frame, &prims, i as u32, j as u32)
+                    main::main::<T, true>(&frame, prims, i as u32, j as u32)
                 } else {
-                    main::main::<T, false>(&frame, &prims, i as u32, j as u32)
+                    main::main::<T, false>(&frame, prims, i as u32, j as u32)
                 };
                 id[j] = out.id;
                 if let Some((n, d)) = out.surface {
