@@ -33,7 +33,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let max: usize = std::env::args()
         .nth(1)
-        .map_or(5_000_000, |s| s.parse().expect("MAX_TRIANGLES"));
+        .map_or(6_000_000, |s| s.parse().expect("MAX_TRIANGLES"));
     let min: usize = std::env::args()
         .nth(2)
         .map_or(0, |s| s.parse().expect("MIN_TRIANGLES"));
