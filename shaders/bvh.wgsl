@@ -101,6 +101,28 @@ fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<funct
     }
 }
 
+// A node as the traversal sees it: where the ray enters each child's box (NO_HIT when it
+// misses, leaves before min_t or enters beyond t_max) and where the children are.
+struct Visit {
+    t0: real,
+    t1: real,
+    reference0: u32,
+    count0: u32,
+    reference1: u32,
+    count1: u32,
+}
+
+// Reads node `node` (four vec4<u32>: fewer, wider loads) and tests the ray against both boxes.
+fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
+    let q0 = node_part(node, 0u);
+    let q1 = node_part(node, 1u);
+    let q2 = node_part(node, 2u);
+    let q3 = node_part(node, 3u);
+    let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, t_max);
+    let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, t_max);
+    return Visit(t0, t1, q0.w, q1.w, q2.w, q3.w);
+}
+
 #if PACKETS
 // Packet traversal: the rays of a subgroup walk the tree together, visiting a node when any of
 // them needs it, so every node and primitive is fetched once for all of them from one
@@ -114,24 +136,21 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let q0 = node_part(node, 0u);
-        let q1 = node_part(node, 1u);
-        let q2 = node_part(node, 2u);
-        let q3 = node_part(node, 3u);
-        let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
-        let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
-        let leaf0 = (q0.w & LEAF_BIT) != 0u;
-        let leaf1 = (q2.w & LEAF_BIT) != 0u;
+        let n = visit(node, ray, ri, min_t, (*best).t);
+        let t0 = n.t0;
+        let t1 = n.t1;
+        let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
+        let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
         if (leaf0 && subgroupAny(t0 != NO_HIT)) {
             if (t0 != NO_HIT) {
-                intersect_leaf(ray, min_t, q0.w & ~LEAF_BIT, q1.w, best);
+                intersect_leaf(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
             }
         }
         if (leaf1 && subgroupAny(t1 != NO_HIT)) {
             if (t1 != NO_HIT) {
-                intersect_leaf(ray, min_t, q2.w & ~LEAF_BIT, q3.w, best);
+                intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
             }
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
@@ -143,15 +162,15 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             let prefer0 = want0 && (!want1 || t0 <= t1);
             let prefer1 = want1 && (!want0 || t1 < t0);
             let first0 = subgroupAdd(select(0u, 1u, prefer0)) >= subgroupAdd(select(0u, 1u, prefer1));
-            stack_node[sp] = select(q0.w, q2.w, first0);
+            stack_node[sp] = select(n.reference0, n.reference1, first0);
             // A ray that does not need the waiting child never asks for it again.
             stack_t[sp] = select(select(T_FAR, t0, want0), select(T_FAR, t1, want1), first0);
             sp++;
-            node = select(q2.w, q0.w, first0);
+            node = select(n.reference1, n.reference0, first0);
         } else if (go0) {
-            node = q0.w;
+            node = n.reference0;
         } else if (go1) {
-            node = q2.w;
+            node = n.reference1;
         } else {
             var next = false;
             while (sp > 0u) {
@@ -181,33 +200,29 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        // One node is four vec4<u32>: fewer, wider loads.
-        let q0 = node_part(node, 0u);
-        let q1 = node_part(node, 1u);
-        let q2 = node_part(node, 2u);
-        let q3 = node_part(node, 3u);
-        let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, (*best).t);
-        let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, (*best).t);
-        let leaf0 = (q0.w & LEAF_BIT) != 0u;
-        let leaf1 = (q2.w & LEAF_BIT) != 0u;
+        let n = visit(node, ray, ri, min_t, (*best).t);
+        let t0 = n.t0;
+        let t1 = n.t1;
+        let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
+        let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         if (t0 != NO_HIT && leaf0) {
-            intersect_leaf(ray, min_t, q0.w & ~LEAF_BIT, q1.w, best);
+            intersect_leaf(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
         }
         if (t1 != NO_HIT && leaf1) {
-            intersect_leaf(ray, min_t, q2.w & ~LEAF_BIT, q3.w, best);
+            intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
         }
         let go0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
         let go1 = t1 != NO_HIT && !leaf1 && t1 <= (*best).t;
         if (go0 && go1) {
             let first0 = t0 <= t1;
-            stack_node[sp] = select(q0.w, q2.w, first0);
+            stack_node[sp] = select(n.reference0, n.reference1, first0);
             stack_t[sp] = select(t0, t1, first0);
             sp++;
-            node = select(q2.w, q0.w, first0);
+            node = select(n.reference1, n.reference0, first0);
         } else if (go0) {
-            node = q0.w;
+            node = n.reference0;
         } else if (go1) {
-            node = q2.w;
+            node = n.reference1;
         } else {
             var next = false;
             while (sp > 0u) {

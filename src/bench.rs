@@ -404,7 +404,11 @@ pub fn run(
     }
     let configurations = options.configurations();
     let frames = configurations.len() * (1 + options.runs);
-    let bar = progress_bar(progress, frames as u64);
+    let bar = crate::render::progress_bar(
+        progress,
+        frames as u64,
+        "bench {bar:24} {pos}/{len} frames: {wide_msg}",
+    );
     let mut rows = Vec::with_capacity(configurations.len());
     for config in configurations {
         bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
@@ -414,17 +418,6 @@ pub fn run(
     }
     bar.finish_and_clear();
     Ok(rows)
-}
-
-fn progress_bar(progress: bool, len: u64) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !progress || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    indicatif::ProgressBar::new(len).with_style(
-        indicatif::ProgressStyle::with_template("bench {bar:24} {pos}/{len} frames: {wide_msg}")
-            .expect("valid template"),
-    )
 }
 
 /// `auto`, `bvh` or `brute-force`, as `--accel` spells it.

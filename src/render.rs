@@ -299,6 +299,17 @@ pub fn render_request(
     }
 }
 
+/// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
+/// `enabled` and stderr is a terminal.
+pub fn progress_bar(enabled: bool, len: u64, template: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !enabled || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    indicatif::ProgressBar::new(len)
+        .with_style(indicatif::ProgressStyle::with_template(template).expect("valid template"))
+}
+
 /// Images above this many pixels are rendered and written in bands of rows
 /// ([`render_streamed`]), holding one band at a time.
 pub const STREAM_PIXELS: u64 = 1 << 24;

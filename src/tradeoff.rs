@@ -207,26 +207,17 @@ pub fn measure(
     let runs = options.runs.max(1);
     let needs_fine_reference = plan.iter().any(|&(_, n)| n > 1);
     let per_scene = 1 + usize::from(needs_fine_reference) + plan.len() * (1 + runs);
-    let bar = progress_bar(progress, (per_scene * scenes.len()) as u64);
+    let bar = crate::render::progress_bar(
+        progress,
+        (per_scene * scenes.len()) as u64,
+        "{bar:24} {pos}/{len} renders, {eta} left: {wide_msg}",
+    );
     let mut rows = Vec::new();
     for s in scenes {
         rows.extend(measure_scene(s, &plan, runs, gpu, &bar)?);
     }
     bar.finish_and_clear();
     Ok(rows)
-}
-
-fn progress_bar(progress: bool, len: u64) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !progress || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    indicatif::ProgressBar::new(len).with_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:24} {pos}/{len} renders, {eta} left: {wide_msg}",
-        )
-        .expect("valid template"),
-    )
 }
 
 /// One scene: the references, then each (mode, spp) of `plan`, `runs` timed runs each.

@@ -136,6 +136,37 @@ fn intersect_leaf<T: Real, const ROBUST: bool>(
     }
 }
 
+/// A node as the traversal sees it: where the ray enters each child's box (NO_HIT when it
+/// misses) and where the children are.
+pub struct Visit<T> {
+    pub t0: T,
+    pub t1: T,
+    pub reference0: u32,
+    pub count0: u32,
+    pub reference1: u32,
+    pub count1: u32,
+}
+
+/// Reads node `node` and tests the ray against both boxes.
+pub fn visit<T: Real>(
+    nodes: &[BvhNode],
+    node: u32,
+    ray: &Ray<T>,
+    ri: &RayInverse<T>,
+    min_t: T,
+    t_max: T,
+) -> Visit<T> {
+    let n = &nodes[node as usize];
+    Visit {
+        t0: box_entry(n.lo0, n.hi0, ray, ri, min_t, t_max),
+        t1: box_entry(n.lo1, n.hi1, ray, ri, min_t, t_max),
+        reference0: n.reference0,
+        count0: n.count0,
+        reference1: n.reference1,
+        count1: n.count1,
+    }
+}
+
 /// Ordered traversal: of two children hit, leaves are tested at once and the nearer inner
 /// node is visited first, the farther one waiting on a short stack with its entry distance,
 /// skipped when popped if a hit nearer than that entry has been found.
@@ -152,9 +183,8 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
     let mut sp = 0;
     let mut node = 0u32;
     loop {
-        let n = &nodes[node as usize];
-        let t0 = box_entry(n.lo0, n.hi0, ray, &ri, min_t, best.t);
-        let t1 = box_entry(n.lo1, n.hi1, ray, &ri, min_t, best.t);
+        let n = visit(nodes, node, ray, &ri, min_t, best.t);
+        let (t0, t1) = (n.t0, n.t1);
         let leaf0 = n.reference0 & LEAF_BIT != 0;
         let leaf1 = n.reference1 & LEAF_BIT != 0;
         if t0 != no_hit() && leaf0 {
