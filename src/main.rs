@@ -194,8 +194,8 @@ enum Command {
         /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
         #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
         mode: Vec<Mode>,
-        /// Comma-separated accelerations: auto (a BVH from 32 spheres and triangles on), bvh,
-        /// brute-force.
+        /// Comma-separated accelerations: auto (a BVH where spheres / 32 + triangles / 8 >= 1),
+        /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
         accel: Vec<Accel>,
     },
