@@ -110,14 +110,6 @@ pub fn color_rgba8(
     pixels.flat_map(|p| p.to_rgba8(background)).collect()
 }
 
-/// `color.png`: RGBA 8-bit, premultiplied alpha (or opaque over `background`).
-pub fn encode_color_png(width: u32, height: u32, rgba: &[u8]) -> super::EncodedFile {
-    super::EncodedFile {
-        name: "color.png",
-        bytes: super::pictures::png(width, height, rgba, image::ExtendedColorType::Rgba8),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

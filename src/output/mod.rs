@@ -16,9 +16,11 @@ use crate::images::{Images, Outputs};
 use crate::math::Real;
 use crate::supersample::Supersampled;
 
-pub use color::{PixelCoverage, Rgba, color_rgba8, encode_color_png, opaque, over, to_level};
+pub use color::{PixelCoverage, Rgba, color_rgba8, opaque, over, to_level};
 pub use npy::encode_npy;
-pub use pictures::{PALETTE, Pictures, depth_level, id_color, normal_color, pictures};
+pub use pictures::{
+    PALETTE, Picture, Pictures, depth_level, id_color, normal_color, picture_set, pictures,
+};
 
 /// An output format of `raycast render --format`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,15 +91,14 @@ pub fn encode_supersampled<T: Real>(
     let images = &ss.images;
     let mut files = Vec::new();
     for &format in formats {
-        files.extend(encode_outputs(images, &[format], outputs));
         match format {
-            Format::Png if outputs.color => {
-                let rgba = match &images.color {
-                    Some(hook) => hook.iter().flatten().copied().collect(),
-                    None => color_rgba8(ss.coverage(), background),
-                };
-                files.push(encode_color_png(images.width, images.height, &rgba));
+            Format::Png => {
+                let set = png_pictures(ss, outputs, background);
+                files.extend(set.iter().map(Picture::to_png));
             }
+            _ => files.extend(encode_outputs(images, &[format], outputs)),
+        }
+        match format {
             Format::Npy if alpha_npy && outputs.id => {
                 let shape = [images.height as usize, images.width as usize];
                 let bytes: Vec<u8> = ss.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
@@ -110,6 +111,31 @@ pub fn encode_supersampled<T: Real>(
         }
     }
     files
+}
+
+/// The png pictures of supersampled images before encoding: those [`encode_outputs`] writes,
+/// and `color.png` with `outputs.color` (see [`encode_supersampled`]).
+pub fn png_pictures<T: Real>(
+    ss: &Supersampled<T>,
+    outputs: Outputs,
+    background: Option<[u8; 3]>,
+) -> Vec<Picture> {
+    let images = &ss.images;
+    let mut set = picture_set(images, outputs, pictures::PNG_NAMES);
+    if outputs.color {
+        let rgba = match &images.color {
+            Some(hook) => hook.iter().flatten().copied().collect(),
+            None => color_rgba8(ss.coverage(), background),
+        };
+        set.push(Picture {
+            name: "color.png",
+            width: images.width,
+            height: images.height,
+            channels: 4,
+            pixels: rgba,
+        });
+    }
+    set
 }
 
 /// Encodes (see [`encode_supersampled`]) and writes into `dir`, all files or none; returns the

@@ -98,36 +98,82 @@ pub(super) fn png(
     bytes
 }
 
-/// `id.png`, `depth.png` and `normal.png`, those of `outputs` only.
-pub(super) fn encode_png<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
+/// A picture file before encoding: its name and 8-bit pixels, row-major from the top row,
+/// `channels` a pixel (1 grey, 3 RGB, 4 RGBA).
+pub struct Picture {
+    pub name: &'static str,
+    pub width: u32,
+    pub height: u32,
+    pub channels: usize,
+    pub pixels: Vec<u8>,
+}
+
+impl Picture {
+    /// The PNG colour type of its pixels.
+    pub fn png_color(&self) -> image::ExtendedColorType {
+        use image::ExtendedColorType::{L8, Rgb8, Rgba8};
+        match self.channels {
+            1 => L8,
+            3 => Rgb8,
+            _ => Rgba8,
+        }
+    }
+
+    pub fn to_png(&self) -> EncodedFile {
+        EncodedFile {
+            name: self.name,
+            bytes: png(self.width, self.height, &self.pixels, self.png_color()),
+        }
+    }
+
+    /// ASCII netpbm: `P3` for RGB, `P2` for grey.
+    pub fn to_ppm(&self) -> EncodedFile {
+        let magic = if self.channels == 1 { "P2" } else { "P3" };
+        EncodedFile {
+            name: self.name,
+            bytes: ppm(magic, self.width, self.height, self.channels, &self.pixels),
+        }
+    }
+}
+
+/// The id, depth and normal pictures of `outputs` only, named `names` (in that order).
+pub fn picture_set<T: Real>(
+    images: &Images<T>,
+    outputs: Outputs,
+    names: [&'static str; 3],
+) -> Vec<Picture> {
     let Pictures {
-        width: w,
-        height: h,
+        width,
+        height,
         id,
         depth,
         normal,
     } = pictures(images);
-    use image::ExtendedColorType::{L8, Rgb8};
-    let mut files = Vec::new();
-    if outputs.id {
-        files.push(EncodedFile {
-            name: "id.png",
-            bytes: png(w, h, &id, Rgb8),
-        });
-    }
-    if outputs.distance {
-        files.push(EncodedFile {
-            name: "depth.png",
-            bytes: png(w, h, &depth, L8),
-        });
-    }
-    if outputs.normal {
-        files.push(EncodedFile {
-            name: "normal.png",
-            bytes: png(w, h, &normal, Rgb8),
-        });
-    }
-    files
+    [
+        (outputs.id, names[0], 3, id),
+        (outputs.distance, names[1], 1, depth),
+        (outputs.normal, names[2], 3, normal),
+    ]
+    .into_iter()
+    .filter(|(wanted, ..)| *wanted)
+    .map(|(_, name, channels, pixels)| Picture {
+        name,
+        width,
+        height,
+        channels,
+        pixels,
+    })
+    .collect()
+}
+
+/// The names of the png pictures and of the ppm ones.
+pub const PNG_NAMES: [&str; 3] = ["id.png", "depth.png", "normal.png"];
+const PPM_NAMES: [&str; 3] = ["id.ppm", "depth.ppm", "normal.ppm"];
+
+/// `id.png`, `depth.png` and `normal.png`, those of `outputs` only.
+pub(super) fn encode_png<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
+    let set = picture_set(images, outputs, PNG_NAMES);
+    set.iter().map(Picture::to_png).collect()
 }
 
 /// ASCII netpbm: `P3` (RGB) or `P2` (grey), max value 255, one pixel per line.
@@ -143,33 +189,8 @@ fn ppm(magic: &str, width: u32, height: u32, channels: usize, pixels: &[u8]) -> 
 
 /// `id.ppm`, `depth.ppm` and `normal.ppm`, those of `outputs` only.
 pub(super) fn encode_ppm<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
-    let Pictures {
-        width: w,
-        height: h,
-        id,
-        depth,
-        normal,
-    } = pictures(images);
-    let mut files = Vec::new();
-    if outputs.id {
-        files.push(EncodedFile {
-            name: "id.ppm",
-            bytes: ppm("P3", w, h, 3, &id),
-        });
-    }
-    if outputs.distance {
-        files.push(EncodedFile {
-            name: "depth.ppm",
-            bytes: ppm("P2", w, h, 1, &depth),
-        });
-    }
-    if outputs.normal {
-        files.push(EncodedFile {
-            name: "normal.ppm",
-            bytes: ppm("P3", w, h, 3, &normal),
-        });
-    }
-    files
+    let set = picture_set(images, outputs, PPM_NAMES);
+    set.iter().map(Picture::to_ppm).collect()
 }
 
 #[cfg(test)]

@@ -1,15 +1,16 @@
 //! Files written band by band, for images too large to hold whole (a 16384 x 16384 render is
-//! 5 GiB of f32 images): each band of rows is encoded by the same writers as a whole image
-//! ([`super::encode_supersampled`]), and its rows are appended to the open files, so the
-//! streamed files have exactly the pixels (and for ppm and npy, the bytes) of the whole-image
-//! ones. As with [`super::write_files`], everything goes to temporary names first and is
+//! 5 GiB of f32 images): each band of rows is mapped by the same code as a whole image (png:
+//! [`super::png_pictures`], raw pixels fed to a streaming png encoder; ppm and npy:
+//! [`super::encode_supersampled`], whose bodies are appended after the whole image's header),
+//! so the streamed files have exactly the pixels (and for ppm and npy, the bytes) of the
+//! whole-image ones. As with [`super::write_files`], everything goes to temporary names first and is
 //! renamed into place only when every file is complete: none or all.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::{EncodedFile, Format, encode_npy, encode_supersampled};
+use super::{EncodedFile, Format, Picture, encode_npy, encode_supersampled, png_pictures};
 use crate::error::{Error, Result};
 use crate::images::Outputs;
 use crate::math::Real;
@@ -27,6 +28,21 @@ enum Sink {
     Png(Box<png::StreamWriter<'static, BufWriter<File>>>),
     /// The bodies (after the header) of the bands' files.
     Raw(BufWriter<File>),
+}
+
+/// One file of a band: a png picture's raw pixels, or another format's encoded bytes.
+enum BandFile {
+    Picture(Picture),
+    Encoded(EncodedFile),
+}
+
+impl BandFile {
+    fn name(&self) -> &'static str {
+        match self {
+            BandFile::Picture(p) => p.name,
+            BandFile::Encoded(f) => f.name,
+        }
+    }
 }
 
 /// Writes the files of a render band by band (see the module docs).
@@ -62,9 +78,26 @@ impl BandWriter {
         }
     }
 
+    /// The band's files, in the same order for every band: png pictures as raw pixels, the
+    /// other formats encoded.
+    fn band_files<T: Real>(&self, band: &Supersampled<T>) -> Vec<BandFile> {
+        let mut files = Vec::new();
+        for &format in &self.formats {
+            if format == Format::Png {
+                let set = png_pictures(band, self.outputs, self.background);
+                files.extend(set.into_iter().map(BandFile::Picture));
+            } else {
+                let encoded =
+                    encode_supersampled(band, &[format], self.outputs, self.background, false);
+                files.extend(encoded.into_iter().map(BandFile::Encoded));
+            }
+        }
+        files
+    }
+
     /// Appends the next band of rows (from the top, in order).
     pub fn write_band<T: Real>(&mut self, band: &Supersampled<T>) -> Result<()> {
-        let files = encode_supersampled(band, &self.formats, self.outputs, self.background, false);
+        let files = self.band_files(band);
         if self.streams.is_empty() {
             self.streams = files
                 .iter()
@@ -73,9 +106,10 @@ impl BandWriter {
         }
         for (stream, file) in self.streams.iter_mut().zip(&files) {
             let io = |e: std::io::Error| Error::io(&stream.tmp, format!("cannot write: {e}"));
-            match &mut stream.sink {
-                Sink::Png(w) => w.write_all(&png_pixels(file)?).map_err(io)?,
-                Sink::Raw(w) => w.write_all(body(file)).map_err(io)?,
+            match (&mut stream.sink, file) {
+                (Sink::Png(w), BandFile::Picture(p)) => w.write_all(&p.pixels).map_err(io)?,
+                (Sink::Raw(w), BandFile::Encoded(f)) => w.write_all(body(f)).map_err(io)?,
+                _ => unreachable!("every band has the same files in the same order"),
             }
         }
         self.rows_written += band.images.height;
@@ -119,31 +153,30 @@ impl BandWriter {
     }
 
     /// Opens `file`'s stream at the whole image's size, writing its header.
-    fn open(&self, file: &EncodedFile) -> Result<Stream> {
-        let path = self.dir.join(file.name);
-        let tmp = self
-            .dir
-            .join(format!(".{}.tmp-{}", file.name, std::process::id()));
+    fn open(&self, file: &BandFile) -> Result<Stream> {
+        let name = file.name();
+        let path = self.dir.join(name);
+        let tmp = self.dir.join(format!(".{name}.tmp-{}", std::process::id()));
         let io = |e: String| Error::io(&tmp, format!("cannot write: {e}"));
-        let out = BufWriter::new(File::create(&tmp).map_err(|e| io(e.to_string()))?);
-        let sink = if file.name.ends_with(".png") {
-            let info = png::Decoder::new(std::io::Cursor::new(&file.bytes[..]))
-                .read_info()
-                .map_err(|e| io(e.to_string()))?
-                .info()
-                .clone();
-            let mut encoder = png::Encoder::new(out, self.width, self.height);
-            encoder.set_color(info.color_type);
-            encoder.set_depth(info.bit_depth);
-            let writer = encoder.write_header().map_err(|e| io(e.to_string()))?;
-            Sink::Png(Box::new(
-                writer.into_stream_writer().map_err(|e| io(e.to_string()))?,
-            ))
-        } else {
-            let mut out = out;
-            out.write_all(&self.header(file))
-                .map_err(|e| io(e.to_string()))?;
-            Sink::Raw(out)
+        let mut out = BufWriter::new(File::create(&tmp).map_err(|e| io(e.to_string()))?);
+        let sink = match file {
+            BandFile::Picture(p) => {
+                let mut encoder = png::Encoder::new(out, self.width, self.height);
+                encoder.set_color(match p.channels {
+                    1 => png::ColorType::Grayscale,
+                    3 => png::ColorType::Rgb,
+                    _ => png::ColorType::Rgba,
+                });
+                encoder.set_depth(png::BitDepth::Eight);
+                let writer = encoder.write_header().map_err(|e| io(e.to_string()))?;
+                let stream = writer.into_stream_writer().map_err(|e| io(e.to_string()))?;
+                Sink::Png(Box::new(stream))
+            }
+            BandFile::Encoded(f) => {
+                out.write_all(&self.header(f))
+                    .map_err(|e| io(e.to_string()))?;
+                Sink::Raw(out)
+            }
         };
         Ok(Stream { path, tmp, sink })
     }
@@ -200,16 +233,4 @@ fn body(file: &EncodedFile) -> &[u8] {
         let third = newlines.nth(2).map_or(b.len(), |(k, _)| k + 1);
         &b[third..]
     }
-}
-
-/// The raw pixel rows of a band's PNG.
-fn png_pixels(file: &EncodedFile) -> Result<Vec<u8>> {
-    let fail = |e: png::DecodingError| Error::Device(format!("re-reading {}: {e}", file.name));
-    let mut reader = png::Decoder::new(std::io::Cursor::new(&file.bytes[..]))
-        .read_info()
-        .map_err(fail)?;
-    let mut pixels = vec![0; reader.output_buffer_size().unwrap_or(0)];
-    let frame = reader.next_frame(&mut pixels).map_err(fail)?;
-    pixels.truncate(frame.buffer_size());
-    Ok(pixels)
 }
