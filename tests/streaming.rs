@@ -62,8 +62,13 @@ fn same_files(whole: &Path, banded: &Path) {
 #[test]
 fn bands_give_the_files_of_a_whole_render() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: [(&str, &[&str]); 4] = [
+    let cases: [(&str, &[&str]); 5] = [
         ("scenes/course/bunny.json", &[]),
+        // Three pixels wide: an (H, 3) array must not be taken for an (H, W, 3) one.
+        (
+            "scenes/course/two-spheres-and-plane.json",
+            &["--size", "3x20"],
+        ),
         (
             "scenes/course/two-spheres-and-plane.json",
             &["--precision", "f64"],

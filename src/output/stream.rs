@@ -191,13 +191,19 @@ impl BandWriter {
                 .nth(1)
                 .and_then(|s| s.split('\'').next())
                 .unwrap_or("<f4");
-            let channels = if header.contains(", 3)") { 3 } else { 1 };
-            let shape: &[usize] = if channels == 3 {
-                &[h as usize, w as usize, 3]
-            } else {
-                &[h as usize, w as usize]
-            };
-            encode_npy(descr, shape, &[])
+            // The band's shape with the whole image's rows: (rows, W) or (rows, W, 3).
+            let mut shape: Vec<usize> = header
+                .split("'shape': (")
+                .nth(1)
+                .and_then(|s| s.split(')').next())
+                .unwrap_or("")
+                .split(',')
+                .filter_map(|d| d.trim().parse().ok())
+                .collect();
+            if let Some(rows) = shape.first_mut() {
+                *rows = h as usize;
+            }
+            encode_npy(descr, &shape, &[])
         } else {
             // ppm: "P3\nW H\n255\n" with the band's magic.
             let magic = String::from_utf8_lossy(&file.bytes[..2]).into_owned();
