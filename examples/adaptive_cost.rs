@@ -7,6 +7,8 @@ use std::time::Instant;
 
 use raycast::Algorithm::Robust;
 use raycast::gpu::Gpu;
+use raycast::math::Precision;
+use raycast::render::on_gpu;
 
 fn median(mut t: Vec<f64>) -> f64 {
     t.sort_by(f64::total_cmp);
@@ -40,13 +42,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Ok::<(), raycast::Error>(())
             };
             time(0, &mut || {
-                raycast::gpu::render::<f32>(&gpu, &scene, Robust).map(|_| ())
+                let variant = gpu.scene_variant(&scene, Precision::F32, Robust);
+                on_gpu::<f32>(&gpu, &scene, variant, false).map(|_| ())
             })?;
             time(1, &mut || {
-                raycast::gpu::render::<f64>(&gpu, &scene, Robust).map(|_| ())
+                let variant = gpu.scene_variant(&scene, Precision::F64, Robust);
+                on_gpu::<f64>(&gpu, &scene, variant, false).map(|_| ())
             })?;
             time(2, &mut || {
-                raycast::gpu::render_with_certainty(&gpu, &scene).map(|_| ())
+                raycast::adaptive::certainty_pass(&gpu, &scene, false).map(|_| ())
             })?;
             time(3, &mut || {
                 fraction = raycast::adaptive::render_adaptive(&gpu, &scene)?.recast_fraction();

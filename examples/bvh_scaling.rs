@@ -70,13 +70,13 @@ fn main() {
         let mut builds = Vec::new();
         let mut kernels = Vec::new();
         for run in 0..4 {
-            let (_, s) = raycast::gpu::render_stages::<f32>(&gpu, &scene, variant).unwrap();
+            let (_, s) = raycast::render::on_gpu::<f32>(&gpu, &scene, variant, true).unwrap();
             if run > 0 {
                 builds.push(s.build_s);
                 kernels.push(s.kernel_s.unwrap_or(s.trace_s));
             }
         }
-        let bvh = raycast::bvh::Bvh::build(&scene, Robust);
+        let bvh = raycast::prepare::bvh::Bvh::build(&scene, Robust);
         let bytes = 52.0 + bvh.bytes() as f64 / triangles as f64;
         let kernel = median(kernels);
         let base = *first.get_or_insert(kernel);

@@ -3,11 +3,12 @@
 use std::sync::Arc;
 
 use raycast::Algorithm::Robust;
-use raycast::bvh::{Bvh, LEAF_BIT, SPHERE_LEAF};
-use raycast::cpu::bvh::{box_entry, ray_inverse};
 use raycast::cpu::camera::camera_ray;
+use raycast::cpu::traverse::{box_entry, ray_inverse};
 use raycast::cpu::triangle::intersect_triangle;
-use raycast::cpu::types::{Primitives, kernel_frame, no_hit};
+use raycast::cpu::types::no_hit;
+use raycast::prepare::bvh::{Bvh, LEAF_BIT, SPHERE_LEAF};
+use raycast::prepare::{Primitives, kernel_frame};
 
 fn main() {
     let path = std::env::args().nth(1).expect("usage: bvh_stats SCENE");

@@ -15,7 +15,7 @@ fn main() {
     let scene = raycast::Scene::load(path.as_ref()).unwrap();
     println!("load {:.3} s", t.elapsed().as_secs_f64());
     let t = Instant::now();
-    let bvh = raycast::bvh::Bvh::build(&scene, raycast::Algorithm::Robust);
+    let bvh = raycast::prepare::bvh::Bvh::build(&scene, raycast::Algorithm::Robust);
     println!(
         "build {:.3} s, {} nodes, depth {}",
         t.elapsed().as_secs_f64(),
@@ -66,7 +66,7 @@ fn main() {
     let [w, h] = scene.camera.resolution;
     for round in 0..5 {
         for (name, variant) in &variants {
-            let (_, s) = raycast::gpu::render_stages::<f32>(&gpu, &scene, *variant).unwrap();
+            let (_, s) = raycast::render::on_gpu::<f32>(&gpu, &scene, *variant, true).unwrap();
             let k = s.kernel_s.unwrap_or(f64::NAN);
             println!(
                 "{round} {name:8} build {:.3} upload {:.3} trace {:.3} kernel {:.3} s: {:.1} Mrays/s",

@@ -1,5 +1,6 @@
-// Resources of the ray-casting kernel. Keep in sync with src/gpu/layout.rs and
-// src/gpu/render.rs (binding numbers). Offsets are f32 / f64.
+// Resources of the ray-casting kernel. Keep the structs in sync with src/gpu/layout.rs; the
+// host binds its buffers by these names (src/gpu/dispatch.rs), so binding numbers need only be
+// distinct. Offsets are f32 / f64.
 #import types
 
 struct Params {
@@ -98,7 +99,7 @@ fn triangle_at(k: u32) -> Triangle {
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
 #endif
 #if BVH
-// The BVH over spheres and triangles (src/bvh.rs): 64-byte nodes, four vec4<u32> each, in
+// The BVH over spheres and triangles (src/prepare/bvh.rs): 64-byte nodes, four vec4<u32> each, in
 // chunks of 2^CHUNK_BITS nodes like the triangles.
 @group(0) @binding(9) var<storage, read> bvh_nodes: array<vec4<u32>>;
 #if CHUNKS_2

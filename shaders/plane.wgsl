@@ -1,5 +1,8 @@
 // Ray/plane intersection. CPU mirror: src/cpu/plane.rs.
 #import types
+#if CERTAINTY
+#import certainty
+#endif
 
 #if ROBUST
 // Point-normal form; the host stores the plane's point nearest the eye, so p - o is small.

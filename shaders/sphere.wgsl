@@ -1,5 +1,8 @@
 // Ray/sphere intersection. CPU mirror: src/cpu/sphere.rs.
 #import types
+#if CERTAINTY
+#import certainty
+#endif
 
 #if ROBUST
 // The discriminant from the squared distance between the centre and the ray line (as in

@@ -1,5 +1,8 @@
 // Ray/triangle intersection. CPU mirror: src/cpu/triangle.rs.
 #import types
+#if CERTAINTY
+#import certainty
+#endif
 
 #if ROBUST
 #if RECHECK_F64

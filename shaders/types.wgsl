@@ -56,36 +56,3 @@ struct Triangle {
     c: vec3<real>,        // offset 32 / 64
     _pad2: real,          // offset 44 / 88
 }                         // size 48 / 96
-
-#if CERTAINTY
-// The certainty test of adaptive precision (CPU mirror: src/cpu/margin.rs, with the same
-// bounds). Each robust intersect_* function records here whether the decision it just made
-// (hit or miss) is certain, where it hits or would hit, and the condition factor of that t.
-var<private> decision_certain: bool;
-var<private> decision_t: real;
-var<private> decision_t_condition: real;
-
-// Safety factor over the first-order error bounds.
-const MARGIN_K: real = 2.0;
-
-fn decide(certain: bool, t: real, t_condition: real) {
-    decision_certain = certain;
-    decision_t = t;
-    decision_t_condition = t_condition;
-}
-
-// |q| exceeds MARGIN_K times its first-order error bound EPS * scale: its sign is certain.
-fn is_certain(q: real, scale: real) -> bool {
-    return abs(q) >= MARGIN_K * EPS * scale;
-}
-
-// The conservative start test decides as exact arithmetic would.
-fn start_certain(t: real, min_t: real, t_condition: real) -> bool {
-    return abs(t - min_t) >= EPS * (16.0 + 8.0 * MARGIN_K * t_condition) * abs(t);
-}
-
-// Two hits are certainly in this order.
-fn gap_certain(t1: real, c1: real, t2: real, c2: real) -> bool {
-    return abs(t2 - t1) >= EPS * (16.0 + 8.0 * MARGIN_K * max(c1, c2)) * (abs(t1) + abs(t2));
-}
-#endif

@@ -1,9 +1,13 @@
 //! Adaptive precision: f64 answers at close to f32 cost.
 //!
+//! Both passes go through the scene's BVH where it has one (the certainty pass searches each
+//! ray a little beyond its nearest hit, by that hit's error bound, so that no object the exact
+//! search could find first is skipped), and share it.
+//!
 //! A robust f32 pass also decides, per pixel, whether its hit/miss and id are certain: every
 //! decision it makes (sphere discriminant, plane parallel cutoff, triangle edge functions, the
 //! start test, the order of the two nearest objects) is compared with twice its first-order
-//! error bound (`shaders/types.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
+//! error bound (`shaders/certainty.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
 //! where they are derived). Uncertain pixels are cast again in f64 (on the GPU where it has
 //! `SHADER_F64`, else on the CPU) and merged in. The images are f32: the decisions (hit/miss,
 //! id) are those of f64 on every pixel, and re-cast pixels carry their f64 distance and normal
@@ -13,8 +17,11 @@
 use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::Result;
-use crate::gpu::{self, Gpu};
-use crate::images::Images;
+use crate::gpu::shader::Variant;
+use crate::gpu::{self, Gpu, Job};
+use crate::images::{Images, Pixel};
+use crate::math::Precision;
+use crate::prepare::Prepared;
 use crate::scene::Scene;
 
 /// An adaptive render and what it re-cast.
@@ -25,8 +32,8 @@ pub struct Adaptive {
     /// Whether the re-cast ran on the GPU (else on the CPU).
     pub recast_on_gpu: bool,
     /// GPU kernel time in seconds of the certainty pass plus the re-cast pass (timestamp
-    /// queries; see [`gpu::render_timed`]), from [`render_adaptive_timed`] only; `None` from
-    /// [`render_adaptive`], without `TIMESTAMP_QUERY`, or when pixels were re-cast on the CPU.
+    /// queries), from [`render_adaptive_timed`] only; `None` from [`render_adaptive`], without
+    /// `TIMESTAMP_QUERY`, or when pixels were re-cast on the CPU.
     pub kernel_s: Option<f64>,
 }
 
@@ -47,16 +54,33 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     adaptive(gpu, scene, true)
 }
 
-fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
-    let (first, certain, first_s) = if timed {
-        gpu::render_with_certainty_timed(gpu, scene)?
-    } else {
-        let (first, certain) = gpu::render_with_certainty(gpu, scene)?;
-        (first, certain, None)
+/// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its
+/// hit/miss and id are certain; and the preparation it used.
+pub fn certainty_pass(
+    gpu: &Gpu,
+    scene: &Scene,
+    timed: bool,
+) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
+    let variant = Variant {
+        certainty: true,
+        ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
     };
-    let uncertain: Vec<usize> = (0..certain.len()).filter(|&k| !certain[k]).collect();
-    let mut images = first;
+    let prepared = gpu::prepare::<f32>(scene, &variant);
+    let first = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
+    Ok((first, prepared))
+}
+
+fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
+    let (first, prepared) = certainty_pass(gpu, scene, timed)?;
+    let certain = first
+        .certainty
+        .expect("a certainty variant reports certainty");
+    let uncertain: Vec<u32> = (0..certain.len() as u32)
+        .filter(|&k| !certain[k as usize])
+        .collect();
+    let mut images = first.images;
     let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64);
+    let first_s = first.stages.kernel_s;
     if uncertain.is_empty() {
         return Ok(Adaptive {
             images,
@@ -65,21 +89,23 @@ fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
             kernel_s: first_s,
         });
     }
-    let (exact, kernel_s) = if recast_on_gpu && timed {
-        let (exact, second_s) =
-            gpu::render_pixels_timed::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?;
-        (exact, first_s.zip(second_s).map(|(a, b)| a + b))
-    } else if recast_on_gpu {
-        let exact = gpu::render_pixels::<f64>(gpu, scene, Algorithm::Robust, &uncertain)?;
-        (exact, None)
+    // The f64 pass walks the same BVH.
+    let exact = Prepared::<f64>::with_bvh(scene, Algorithm::Robust, prepared.bvh().cloned());
+    let (pixels, kernel_s): (Vec<Pixel<f64>>, _) = if recast_on_gpu {
+        let variant = gpu.scene_variant(scene, Precision::F64, Algorithm::Robust);
+        let job = Job::new(variant).pixels(&uncertain).timed(timed);
+        let second = gpu::run(gpu, &exact, job)?;
+        let pixels = (0..uncertain.len()).map(|k| second.images.pixel(k));
+        let second_s = second.stages.kernel_s;
+        (pixels.collect(), first_s.zip(second_s).map(|(a, b)| a + b))
     } else {
-        let exact = cpu::render_pixels::<f64>(scene, Algorithm::Robust, &uncertain);
-        (exact, None)
+        (cpu::render_pixels(&exact, &uncertain), None)
     };
-    for (k, pixel) in uncertain.iter().zip(exact) {
-        images.id[*k] = pixel.id;
-        images.distance[*k] = pixel.distance as f32;
-        images.normal[*k] = pixel.normal.map(|c| c as f32);
+    for (k, pixel) in uncertain.iter().zip(pixels) {
+        let k = *k as usize;
+        images.id[k] = pixel.id;
+        images.distance[k] = pixel.distance as f32;
+        images.normal[k] = pixel.normal.map(|c| c as f32);
     }
     Ok(Adaptive {
         images,

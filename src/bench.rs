@@ -4,12 +4,12 @@
 //! Per configuration ([`measure`]): one warm-up frame (which compiles the GPU kernel), then
 //! [`Options::runs`] timed frames, each with its stages timed apart and the median over the
 //! runs reported ([`Row`]):
-//! - GPU modes run [`gpu::render_stages`]: primitives rounded and laid out and the BVH built
+//! - GPU modes run [`crate::render::on_gpu`]: primitives rounded and laid out and the BVH built
 //!   (`build_s`), the scene's buffers uploaded (`upload_s`), every tile dispatched and read
 //!   back (`trace_s`, wall clock) and the kernel's GPU time from timestamp queries
 //!   (`trace_gpu_s`).
-//! - CPU modes time [`Primitives::for_render`] (the BVH build and the layout, `build_s`) apart
-//!   from [`cpu::render_primitives`] on those primitives (`trace_s`); nothing is uploaded.
+//! - CPU modes time [`Prepared::new`] (the BVH build and the layout, `build_s`) apart from
+//!   [`cpu::render_prepared`] on it (`trace_s`); nothing is uploaded.
 //!
 //! Adaptive precision runs two passes whose stages do not add up to one frame, and is not
 //! measured here (`raycast tradeoff` times it as a whole).
@@ -21,12 +21,13 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::algorithm::Algorithm;
-use crate::bvh::{Accel, Bvh};
-use crate::cpu::{self, types::Primitives};
+use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu, layout::GpuTriangle};
 use crate::images::{Images, MISS};
 use crate::math::{Precision, Real};
+use crate::prepare::Prepared;
+use crate::prepare::bvh::{Accel, Bvh};
 use crate::render::{Arithmetic, Device, Mode};
 use crate::scene::{Object, Scene};
 use crate::tradeoff::{format_seconds, median};
@@ -204,7 +205,7 @@ pub struct Row {
     /// [`Scene::load`] once, before every configuration (the same value on every row).
     pub load_s: f64,
     /// BVH build (when used) and primitive layout: [`gpu::Stages::build_s`] on the GPU,
-    /// [`Primitives::for_render`] on the CPU.
+    /// [`Prepared::new`] on the CPU.
     pub build_s: f64,
     /// The warm-up frame's kernel compilation ([`gpu::Stages::compile_s`]); `None` on the CPU.
     pub compile_s: Option<f64>,
@@ -267,11 +268,11 @@ fn run_once(scene: &Scene, mode: Mode, accel: Accel, gpu: Option<&Gpu>) -> Resul
             };
             let (hits, stages) = match precision {
                 Precision::F32 => {
-                    let (images, stages) = gpu::render_stages::<f32>(gpu, scene, variant)?;
+                    let (images, stages) = crate::render::on_gpu::<f32>(gpu, scene, variant, true)?;
                     (hits(&images), stages)
                 }
                 Precision::F64 => {
-                    let (images, stages) = gpu::render_stages::<f64>(gpu, scene, variant)?;
+                    let (images, stages) = crate::render::on_gpu::<f64>(gpu, scene, variant, true)?;
                     (hits(&images), stages)
                 }
             };
@@ -291,10 +292,10 @@ fn run_once(scene: &Scene, mode: Mode, accel: Accel, gpu: Option<&Gpu>) -> Resul
 
 fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Run {
     let start = Instant::now();
-    let prims = Primitives::<T>::for_render(scene, algorithm, accel);
+    let prepared = Prepared::<T>::new(scene, algorithm, accel);
     let build_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let images = cpu::render_primitives(scene, algorithm, &prims, &AtomicU32::new(0));
+    let images = cpu::render_prepared(&prepared, &AtomicU32::new(0));
     let trace_s = start.elapsed().as_secs_f64();
     Run {
         build_s,

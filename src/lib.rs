@@ -3,20 +3,39 @@
 //! A ray caster whose per-pixel work runs as a WGSL compute shader on any Vulkan GPU, or on
 //! Mesa's lavapipe on a plain CPU.
 //!
-//! The data flows one way:
+//! The data flows one way, through one path for every mode (docs/architecture.md):
 //!
 //! ```text
 //! scene file --Scene::load--> Scene (validated, f64)
-//!            --camera::Frame + primitives--> gpu::render::<f32 | f64> --> Images (id, distance, normal)
-//!            --output::write--> png / ppm / npy files
+//!   --prepare::Prepared--> camera frame, camera-relative primitives in the kernel's precision, BVH
+//!   --gpu::run(Job) | cpu::render_prepared--> Images (id, distance, normal)
+//!   --output::write_*--> png / ppm / npy files
 //! ```
 //!
+//! [`render::render`] does all of it for a [`render::Mode`] (device, precision, algorithm):
+//!
 //! ```no_run
-//! use raycast::{Scene, gpu::Gpu, output::{write_images, Format}};
+//! use raycast::render::{self, Arithmetic, Device, Mode};
+//! use raycast::{Algorithm, Scene, gpu::Gpu, output::Format};
+//! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+//! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
+//! let mode = Mode { device: Device::Gpu, precision: Arithmetic::F32, algorithm: Algorithm::Robust };
+//! let images = render::render(&scene, mode, Some(&gpu), false)?;
+//! images.write("out".as_ref(), &[Format::Png, Format::Npy])?;
+//! # Ok::<(), raycast::Error>(())
+//! ```
+//!
+//! The stages one by one, typed by precision:
+//!
+//! ```no_run
+//! use raycast::{Algorithm, Scene, gpu::{self, Gpu, Job}, math::Precision};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?;
-//! let images = raycast::gpu::render::<f32>(&gpu, &scene, raycast::Algorithm::Robust)?;
-//! write_images(&images, "out".as_ref(), &[Format::Png])?;
+//! let variant = gpu.scene_variant(&scene, Precision::F32, Algorithm::Robust);
+//! let prepared = gpu::prepare::<f32>(&scene, &variant);
+//! let rendered = gpu::run(&gpu, &prepared, Job::new(variant).timed(true))?;
+//! println!("{} hits, kernel {:?} s", rendered.images.id.iter().filter(|&&id| id >= 0).count(),
+//!     rendered.stages.kernel_s);
 //! # Ok::<(), raycast::Error>(())
 //! ```
 
@@ -24,7 +43,6 @@ pub mod accuracy;
 pub mod adaptive;
 pub mod algorithm;
 pub mod bench;
-pub mod bvh;
 pub mod camera;
 pub mod compare;
 pub mod cpu;
@@ -33,6 +51,7 @@ pub mod gpu;
 pub mod images;
 pub mod math;
 pub mod output;
+pub mod prepare;
 pub mod render;
 pub mod scene;
 pub mod specialize;

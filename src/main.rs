@@ -5,12 +5,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use raycast::Algorithm;
-use raycast::bvh::Accel;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
 use raycast::images::{Output, Outputs};
 use raycast::output::{self, Format};
+use raycast::prepare::bvh::Accel;
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
 use raycast::supersample;

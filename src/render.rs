@@ -8,15 +8,18 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::algorithm::Algorithm;
-use crate::bvh::Accel;
 use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
-use crate::gpu::{self, Gpu};
+use crate::gpu::layout::GpuReal;
+use crate::gpu::shader::Variant;
+use crate::gpu::{self, Gpu, Job, Stages};
 use crate::images::{Images, Outputs};
 use crate::math::Precision;
 use crate::output::{self, Format};
+use crate::prepare::Prepared;
+use crate::prepare::bvh::Accel;
 use crate::scene::Scene;
 
 /// Where a render runs.
@@ -200,14 +203,11 @@ impl Request {
             Arithmetic::F64 => Precision::F64,
             _ => Precision::F32,
         };
-        let outputs = self.kernel_outputs();
-        let variant = gpu.request_variant(
-            scene,
-            precision,
-            mode.algorithm,
-            outputs,
-            self.shade.as_ref(),
-        );
+        let mut variant = gpu.scene_variant(scene, precision, mode.algorithm);
+        if let Some(hook) = &self.shade {
+            variant = variant.with_shade(hook.key);
+        }
+        let variant = variant.with_outputs(self.kernel_outputs());
         match &self.kernel {
             Some(kernel) => kernel.for_variant(variant),
             None => Ok(variant),
@@ -286,10 +286,8 @@ pub fn render_request(
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             Ok(match mode.precision {
-                Arithmetic::F32 => {
-                    AnyImages::F32(gpu::render_with_variant::<f32>(gpu, scene, variant)?)
-                }
-                _ => AnyImages::F64(gpu::render_with_variant::<f64>(gpu, scene, variant)?),
+                Arithmetic::F32 => AnyImages::F32(on_gpu::<f32>(gpu, scene, variant, false)?.0),
+                _ => AnyImages::F64(on_gpu::<f64>(gpu, scene, variant, false)?.0),
             })
         }
         Device::Cpu => Ok(match mode.precision {
@@ -297,6 +295,19 @@ pub fn render_request(
             _ => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
         }),
     }
+}
+
+/// Renders `scene` with the kernel `variant` (prepared for it), timing the stages and, with
+/// `timed`, the kernel.
+pub fn on_gpu<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    timed: bool,
+) -> Result<(Images<R>, Stages)> {
+    let prepared = gpu::prepare::<R>(scene, &variant);
+    let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
+    Ok((r.images, r.stages))
 }
 
 /// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
@@ -325,7 +336,7 @@ pub fn can_stream(mode: Mode) -> bool {
 }
 
 /// Renders `scene` on the GPU in bands of at most `max_rows` rows, handing each band to
-/// `sink` from the top as soon as it is read back (see [`gpu::render_streamed`]). Only for
+/// `sink` from the top as soon as it is read back (see [`gpu::Job::sink`]). Only for
 /// modes where [`can_stream`] holds.
 pub fn render_streamed(
     scene: &Scene,
@@ -341,26 +352,27 @@ pub fn render_streamed(
             message: format!("{mode} cannot be rendered in bands (GPU f32 or f64 only)"),
         });
     }
-    let precision = match mode.precision {
-        Arithmetic::F32 => Precision::F32,
-        _ => Precision::F64,
-    };
-    let outputs = request.kernel_outputs();
-    let shade = request.shade.as_ref();
-    let variant = gpu.request_variant(scene, precision, mode.algorithm, outputs, shade);
-    match precision {
-        Precision::F32 => {
-            gpu::render_streamed::<f32>(gpu, scene, variant, max_rows, &mut |_, band| {
-                sink(AnyImages::F32(band))
-            })?
-        }
-        Precision::F64 => {
-            gpu::render_streamed::<f64>(gpu, scene, variant, max_rows, &mut |_, band| {
-                sink(AnyImages::F64(band))
-            })?
-        }
-    };
-    Ok(())
+    let variant = request.kernel_variant(gpu, scene, mode)?;
+    fn bands<R: GpuReal>(
+        gpu: &Gpu,
+        scene: &Scene,
+        variant: Variant,
+        max_rows: u32,
+        sink: &mut dyn FnMut(Images<R>) -> Result<()>,
+    ) -> Result<()> {
+        let prepared = gpu::prepare::<R>(scene, &variant);
+        let mut each = |_, band| sink(band);
+        let job = Job::new(variant).rows(max_rows).timed(true).sink(&mut each);
+        gpu::run(gpu, &prepared, job).map(|_| ())
+    }
+    match mode.precision {
+        Arithmetic::F32 => bands::<f32>(gpu, scene, variant, max_rows, &mut |b| {
+            sink(AnyImages::F32(b))
+        }),
+        _ => bands::<f64>(gpu, scene, variant, max_rows, &mut |b| {
+            sink(AnyImages::F64(b))
+        }),
+    }
 }
 
 /// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
@@ -377,12 +389,14 @@ pub fn render_timed(
             Ok((AnyImages::F32(a.images), a.kernel_s))
         }
         (Device::Gpu, Arithmetic::F32, Some(g)) => {
-            let (images, s) = gpu::render_timed::<f32>(g, scene, mode.algorithm)?;
-            Ok((AnyImages::F32(images), s))
+            let variant = g.scene_variant(scene, Precision::F32, mode.algorithm);
+            let (images, s) = on_gpu::<f32>(g, scene, variant, true)?;
+            Ok((AnyImages::F32(images), s.kernel_s))
         }
         (Device::Gpu, Arithmetic::F64, Some(g)) => {
-            let (images, s) = gpu::render_timed::<f64>(g, scene, mode.algorithm)?;
-            Ok((AnyImages::F64(images), s))
+            let variant = g.scene_variant(scene, Precision::F64, mode.algorithm);
+            let (images, s) = on_gpu::<f64>(g, scene, variant, true)?;
+            Ok((AnyImages::F64(images), s.kernel_s))
         }
         // The CPU, and the errors of [`render`].
         _ => Ok((render(scene, mode, gpu, false)?, None)),
@@ -403,8 +417,9 @@ fn cpu_with_progress<T: crate::math::Real>(
     let rows = scene.camera.resolution[1];
     let done = AtomicU32::new(0);
     std::thread::scope(|s| {
-        let worker =
-            s.spawn(|| cpu::render_with_progress::<T>(scene, algorithm, Accel::Auto, &done));
+        let worker = s.spawn(|| {
+            cpu::render_prepared::<T>(&Prepared::new(scene, algorithm, Accel::Auto), &done)
+        });
         let start = Instant::now();
         let mut bar: Option<indicatif::ProgressBar> = None;
         while !worker.is_finished() {

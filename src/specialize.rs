@@ -17,7 +17,7 @@
 //! timestamp queries), or of the wall trace times where the device has no timestamps.
 //!
 //! [`crossover`] measures where a BVH starts to pay (random spheres and triangles, n = 2 to 256),
-//! the measurement behind [`crate::bvh::CROSSOVER`].
+//! the measurement behind [`crate::prepare::bvh::CROSSOVER`].
 
 use std::path::{Path, PathBuf};
 
@@ -207,7 +207,7 @@ pub fn has_kernel_times(gpu: &Gpu) -> bool {
 /// The time of one render with `variant`, in seconds: the kernel's GPU time, or the wall trace
 /// time without timestamps.
 fn time_once(gpu: &Gpu, scene: &Scene, variant: Variant) -> Result<f64> {
-    let (_, stages): (_, Stages) = crate::gpu::render_stages::<f32>(gpu, scene, variant)?;
+    let (_, stages): (_, Stages) = crate::render::on_gpu::<f32>(gpu, scene, variant, true)?;
     Ok(stages.kernel_s.unwrap_or(stages.trace_s))
 }
 
@@ -610,8 +610,8 @@ fn crossover_section(rows: &[CrossoverRow]) -> String {
          spheres / {} + triangles / {} >= 1 (`bvh::CROSSOVER`, `bvh::TRIANGLE_CROSSOVER`).\n\n{}",
         from("spheres"),
         from("triangles"),
-        crate::bvh::CROSSOVER,
-        crate::bvh::TRIANGLE_CROSSOVER,
+        crate::prepare::bvh::CROSSOVER,
+        crate::prepare::bvh::TRIANGLE_CROSSOVER,
         crossover_table(rows)
     )
 }

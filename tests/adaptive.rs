@@ -64,7 +64,8 @@ fn adaptive_equals_f64_on_every_extreme_pixel() {
 
 /// (certain pixels disagreeing with f64, all pixels disagreeing with f64) of the f32 pass.
 fn certain_disagreements(scene: &Scene) -> (usize, usize) {
-    let (first, certain) = raycast::gpu::render_with_certainty(gpu(), scene).unwrap();
+    let (pass, _) = raycast::adaptive::certainty_pass(gpu(), scene, false).unwrap();
+    let (first, certain) = (pass.images, pass.certainty.unwrap());
     let truth = raycast::cpu::render::<f64>(scene, Robust);
     let wrong: Vec<usize> = (0..first.len())
         .filter(|&k| first.id[k] != truth.id[k])

@@ -274,7 +274,7 @@ thread_local! {
 }
 
 fn render<R: GpuReal>(scene: &Scene) -> Images<R> {
-    raycast::gpu::render::<R>(gpu(), scene, ALGORITHM.get()).unwrap()
+    common::gpu_scene::<R>(gpu(), scene, ALGORITHM.get()).unwrap()
 }
 
 /// What a pixel must show.

@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 
 use common::repo_path;
 use raycast::Algorithm;
-use raycast::bvh::Bvh;
+use raycast::prepare::bvh::Bvh;
 
 /// Every key of a `--json` line, in order.
 const KEYS: [&str; 26] = [

@@ -13,10 +13,10 @@ mod common;
 use std::path::Path;
 
 use raycast::Algorithm::{self, Robust, Textbook};
-use raycast::bvh::{Accel, Bvh, MAX_DEPTH};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::{Precision, Real, vec3};
+use raycast::prepare::bvh::{Accel, Bvh, MAX_DEPTH};
 use raycast::scene::Scene;
 
 /// `n` random small triangles in a cube of side 2 seen from z = 5: boxes overlap in depth, so
@@ -147,9 +147,9 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 packets: gpu.has_subgroups(),
                 ..gpu.scene_variant(&scene, Precision::F32, algorithm)
             };
-            let bvh32 = raycast::gpu::render_with_variant::<f32>(gpu, &scene, variant(true));
+            let bvh32 = common::gpu_variant::<f32>(gpu, &scene, variant(true));
             let bvh32 = bvh32.unwrap();
-            let brute32 = raycast::gpu::render_with_variant::<f32>(gpu, &scene, variant(false));
+            let brute32 = common::gpu_variant::<f32>(gpu, &scene, variant(false));
             let brute32 = brute32.unwrap();
             // Where the textbook f32 formulas are wrong, as on the CPU (see above).
             let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Accel::BruteForce);
@@ -160,7 +160,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 packets: false,
                 ..variant(true)
             };
-            let per_ray = raycast::gpu::render_with_variant::<f32>(gpu, &scene, per_ray);
+            let per_ray = common::gpu_variant::<f32>(gpu, &scene, per_ray);
             assert_eq!(
                 per_ray.unwrap(),
                 cpu32,
@@ -177,8 +177,8 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 bvh,
                 ..gpu.scene_variant(&scene, Precision::F64, algorithm)
             };
-            let bvh64 = raycast::gpu::render_with_variant::<f64>(gpu, &scene, variant64(true));
-            let brute64 = raycast::gpu::render_with_variant::<f64>(gpu, &scene, variant64(false));
+            let bvh64 = common::gpu_variant::<f64>(gpu, &scene, variant64(true));
+            let brute64 = common::gpu_variant::<f64>(gpu, &scene, variant64(false));
             assert_eq!(
                 bvh64.unwrap().id,
                 brute64.unwrap().id,
@@ -193,7 +193,7 @@ fn bvh_depth_stays_within_the_traversal_stack() {
     for (name, scene) in scenes() {
         let bvh = Bvh::build(&scene, Robust);
         assert!(bvh.depth() <= MAX_DEPTH, "{name}: depth {}", bvh.depth());
-        let n = raycast::bvh::bounded_count(&scene);
+        let n = raycast::prepare::bvh::bounded_count(&scene);
         assert_eq!(
             bvh.sphere_order.len() + bvh.triangle_order.len(),
             n,

@@ -36,7 +36,7 @@ struct Comparison {
 fn compare_with_course<R: GpuReal>(name: &str) -> (Comparison, Pictures) {
     let scene = course_scene(name);
     assert_eq!(scene.camera.resolution, [640, 360]);
-    let ours = pictures(&raycast::gpu::render::<R>(gpu(), &scene, Textbook).unwrap());
+    let ours = pictures(&common::gpu_scene::<R>(gpu(), &scene, Textbook).unwrap());
     let pixels = (ours.width * ours.height) as usize;
     let id_ref = course_render(name, "id");
     let same_id: Vec<bool> = ours
@@ -183,7 +183,7 @@ fn two_spheres_and_plane() {
 fn course_spot_pixels() {
     let at = |name: &str, row: u32, col: u32| {
         let scene = course_scene(name);
-        let p = pictures(&raycast::gpu::render::<f64>(gpu(), &scene, Textbook).unwrap());
+        let p = pictures(&common::gpu_scene::<f64>(gpu(), &scene, Textbook).unwrap());
         let k = (row * p.width + col) as usize;
         (
             [p.id[3 * k], p.id[3 * k + 1], p.id[3 * k + 2]],

@@ -46,7 +46,7 @@ fn check_cpu_f32_matches_gpu(label: &str, scene: &raycast::Scene) {
 
 fn check_cpu_f32_matches_gpu_with(label: &str, scene: &raycast::Scene, algorithm: Algorithm) {
     let cpu = raycast::cpu::render::<f32>(scene, algorithm);
-    let gpu = raycast::gpu::render::<f32>(gpu(), scene, algorithm).unwrap();
+    let gpu = common::gpu_scene::<f32>(gpu(), scene, algorithm).unwrap();
     let pixels = cpu.len();
     let id_differs = (0..pixels).filter(|&k| cpu.id[k] != gpu.id[k]).count();
     let (mut max_ulps, mut hits) = (0, 0);
@@ -100,7 +100,7 @@ fn cpu_f32_reproduces_gpu_f32_on_random_scenes() {
 fn gpu_f32_agrees_with_cpu_f64_on_random_scenes() {
     for seed in 1..=6 {
         let scene = random_scene(seed, [160, 120]);
-        let a = AnyImages::F32(raycast::gpu::render::<f32>(gpu(), &scene, Textbook).unwrap());
+        let a = AnyImages::F32(common::gpu_scene::<f32>(gpu(), &scene, Textbook).unwrap());
         let b = AnyImages::F64(raycast::cpu::render::<f64>(&scene, Robust));
         let r = compare(&a, &b).report;
         println!("random {seed}: {}", serde_json::to_string(&r).unwrap());

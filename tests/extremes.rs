@@ -21,8 +21,8 @@ use std::path::{Path, PathBuf};
 use common::*;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu::margin::{Margins, margins};
-use raycast::cpu::types::{Primitives, kernel_frame};
 use raycast::images::{Images, MISS};
+use raycast::prepare::{Primitives, kernel_frame};
 use raycast::scene::{Object, Scene};
 
 struct Extreme {
@@ -57,7 +57,7 @@ fn kind(e: &Extreme) -> &str {
 }
 
 fn gpu_render<R: raycast::gpu::layout::GpuReal>(scene: &Scene, a: Algorithm) -> Images<R> {
-    raycast::gpu::render::<R>(gpu(), scene, a).unwrap()
+    common::gpu_scene::<R>(gpu(), scene, a).unwrap()
 }
 
 fn truth(scene: &Scene) -> Images<f64> {

@@ -24,7 +24,7 @@ fn gpu_without_f64() -> Gpu {
 fn f64_without_shader_f64_is_a_clear_error() {
     let gpu = gpu_without_f64();
     let scene = common::course_scene("triangle");
-    let err = raycast::gpu::render::<f64>(&gpu, &scene, Textbook)
+    let err = common::gpu_scene::<f64>(&gpu, &scene, Textbook)
         .unwrap_err()
         .to_string();
     assert!(
@@ -42,8 +42,8 @@ fn robust_f32_without_f64_still_renders_the_course_bunny() {
             .contains(&"RECHECK_F64")
     );
     let scene = common::course_scene("bunny");
-    let without = raycast::gpu::render::<f32>(&gpu, &scene, Robust).unwrap();
-    let with = raycast::gpu::render::<f32>(common::gpu(), &scene, Robust).unwrap();
+    let without = common::gpu_scene::<f32>(&gpu, &scene, Robust).unwrap();
+    let with = common::gpu_scene::<f32>(common::gpu(), &scene, Robust).unwrap();
     // Without the recheck only pixels on near-zero edge functions can differ.
     let differing = (0..with.len())
         .filter(|&k| with.id[k] != without.id[k])

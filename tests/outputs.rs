@@ -8,7 +8,6 @@ mod common;
 use std::process::Command;
 
 use raycast::Algorithm::{Robust, Textbook};
-use raycast::gpu;
 use raycast::gpu::layout::GpuReal;
 use raycast::images::{Images, MISS, Outputs};
 
@@ -29,7 +28,7 @@ fn bits<R: GpuReal>(values: &[R]) -> Vec<u64> {
 fn check<R: GpuReal>(scene: &raycast::Scene, name: &str) {
     let g = common::gpu();
     for algorithm in [Textbook, Robust] {
-        let full: Images<R> = gpu::render(g, scene, algorithm).unwrap();
+        let full: Images<R> = common::gpu_scene(g, scene, algorithm).unwrap();
         assert!(
             full.id.iter().any(|&id| id != MISS),
             "{name}: no hit at all"
@@ -40,7 +39,7 @@ fn check<R: GpuReal>(scene: &raycast::Scene, name: &str) {
             only(false, false, true),
             only(false, true, true),
         ] {
-            let part: Images<R> = gpu::render_outputs(g, scene, algorithm, outputs, None).unwrap();
+            let part: Images<R> = common::gpu_outputs(g, scene, algorithm, outputs, None).unwrap();
             let what = format!("{name} {algorithm} {outputs:?}");
             let miss = Images::<R>::new_miss(full.width, full.height, full.focal_length);
             let expected_id = if outputs.id { &full.id } else { &miss.id };

@@ -46,7 +46,7 @@ fn shaded<R: GpuReal>(scene: &Scene, algorithm: Algorithm, hook: &ShadeHook) -> 
         ..Outputs::NONE
     };
     let images: Images<R> =
-        raycast::gpu::render_outputs(common::gpu(), scene, algorithm, color, Some(hook)).unwrap();
+        common::gpu_outputs(common::gpu(), scene, algorithm, color, Some(hook)).unwrap();
     images.color.expect("a hooked render has colours")
 }
 
@@ -196,8 +196,7 @@ fn check_normal_as_colour<R: GpuReal>(scene: &Scene, algorithm: Algorithm, name:
         ..Outputs::NONE
     };
     let images: Images<R> =
-        raycast::gpu::render_outputs(common::gpu(), scene, algorithm, outputs, Some(&hook))
-            .unwrap();
+        common::gpu_outputs(common::gpu(), scene, algorithm, outputs, Some(&hook)).unwrap();
     let color = images.color.as_ref().unwrap();
     let mut misses = 0;
     for (k, (n, c)) in images.normal.iter().zip(color).enumerate() {
@@ -284,7 +283,7 @@ fn pixel_resolution_and_id_reach_the_hook() {
         assert_eq!(*c, [j as u8, i as u8, 40, 30], "pixel {k}");
     }
     let ids = hook_ids(&scene);
-    let images: Images<f32> = raycast::gpu::render(common::gpu(), &scene, Robust).unwrap();
+    let images: Images<f32> = common::gpu_scene(common::gpu(), &scene, Robust).unwrap();
     assert_eq!(ids, images.id);
 }
 

@@ -43,14 +43,14 @@ fn specialised_kernels_render_like_the_general_one() {
         let scene = scene(&objects);
         let kinds = Kinds::of_scene(&scene);
         for algorithm in [Textbook, Robust] {
-            let special32 = raycast::gpu::render::<f32>(gpu, &scene, algorithm).unwrap();
+            let special32 = common::gpu_scene::<f32>(gpu, &scene, algorithm).unwrap();
             let general = gpu.variant(Precision::F32, algorithm);
             assert_eq!(general.kinds, Kinds::ALL);
-            let general32 = raycast::gpu::render_with_variant::<f32>(gpu, &scene, general).unwrap();
+            let general32 = common::gpu_variant::<f32>(gpu, &scene, general).unwrap();
             assert_eq!(special32, general32, "f32 {algorithm} {kinds:?}");
-            let special64 = raycast::gpu::render::<f64>(gpu, &scene, algorithm).unwrap();
+            let special64 = common::gpu_scene::<f64>(gpu, &scene, algorithm).unwrap();
             let general = gpu.variant(Precision::F64, algorithm);
-            let general64 = raycast::gpu::render_with_variant::<f64>(gpu, &scene, general).unwrap();
+            let general64 = common::gpu_variant::<f64>(gpu, &scene, general).unwrap();
             assert_eq!(special64, general64, "f64 {algorithm} {kinds:?}");
         }
         if bits == 0 {
@@ -90,7 +90,7 @@ fn emit_shader_writes_the_specialised_kernel() {
         String::from_utf8_lossy(&out.stderr)
     );
     let source = std::fs::read_to_string(&file).unwrap();
-    let module = raycast::gpu::shader::validate(&source, "kernel.wgsl").unwrap();
+    let (module, _) = raycast::gpu::shader::validate(&source, "kernel.wgsl").unwrap();
     let names: Vec<&str> = module
         .functions
         .iter()

@@ -20,8 +20,8 @@ fn same_as_storage(name: &str, scene: &raycast::Scene) {
         uniform_prims: true,
         ..storage
     };
-    let a = raycast::gpu::render_with_variant::<f32>(gpu, scene, storage).unwrap();
-    let b = raycast::gpu::render_with_variant::<f32>(gpu, scene, uniform).unwrap();
+    let a = common::gpu_variant::<f32>(gpu, scene, storage).unwrap();
+    let b = common::gpu_variant::<f32>(gpu, scene, uniform).unwrap();
     assert!(a.id.iter().any(|&id| id >= 0), "{name}: something is hit");
     assert_eq!(a, b, "f32 {name}");
     if gpu.uniform_fits(scene, Precision::F64) {
@@ -30,8 +30,8 @@ fn same_as_storage(name: &str, scene: &raycast::Scene) {
             uniform_prims: true,
             ..storage
         };
-        let a = raycast::gpu::render_with_variant::<f64>(gpu, scene, storage).unwrap();
-        let b = raycast::gpu::render_with_variant::<f64>(gpu, scene, uniform).unwrap();
+        let a = common::gpu_variant::<f64>(gpu, scene, storage).unwrap();
+        let b = common::gpu_variant::<f64>(gpu, scene, uniform).unwrap();
         assert_eq!(a, b, "f64 {name}");
     }
 }
@@ -68,8 +68,8 @@ fn small_meshes_render_the_same_from_uniform_buffers() {
             uniform_prims: true,
             ..storage
         };
-        let a = raycast::gpu::render_with_variant::<f32>(gpu, &scene, storage).unwrap();
-        let b = raycast::gpu::render_with_variant::<f32>(gpu, &scene, uniform).unwrap();
+        let a = common::gpu_variant::<f32>(gpu, &scene, storage).unwrap();
+        let b = common::gpu_variant::<f32>(gpu, &scene, uniform).unwrap();
         assert_eq!(a, b, "f32, bvh {bvh}");
         let storage = Variant {
             bvh,
@@ -79,8 +79,8 @@ fn small_meshes_render_the_same_from_uniform_buffers() {
             uniform_prims: true,
             ..storage
         };
-        let a = raycast::gpu::render_with_variant::<f64>(gpu, &scene, storage).unwrap();
-        let b = raycast::gpu::render_with_variant::<f64>(gpu, &scene, uniform).unwrap();
+        let a = common::gpu_variant::<f64>(gpu, &scene, storage).unwrap();
+        let b = common::gpu_variant::<f64>(gpu, &scene, uniform).unwrap();
         assert_eq!(a, b, "f64, bvh {bvh}");
     }
     let mut bunny = common::course_scene("bunny");
@@ -102,6 +102,6 @@ fn primitives_beyond_a_uniform_binding_are_refused() {
         uniform_prims: true,
         ..gpu.scene_variant(&scene, Precision::F64, Robust)
     };
-    let err = raycast::gpu::render_with_variant::<f64>(gpu, &scene, variant).unwrap_err();
+    let err = common::gpu_variant::<f64>(gpu, &scene, variant).unwrap_err();
     assert!(err.to_string().contains("uniform"), "{err}");
 }

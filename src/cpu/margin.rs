@@ -28,8 +28,9 @@
 //!   the surface, `1 + |d| / |d.n|` for planes seen at a grazing angle, 1 for triangles.
 
 use super::camera::camera_ray;
-use super::types::{Frame, Primitives, Ray};
+use super::types::{Frame, Ray};
 use crate::math::{Vec3, dot, length};
+use crate::prepare::Primitives;
 
 /// Safety factor `K` over the first-order error bounds.
 pub const K: f64 = 2.0;

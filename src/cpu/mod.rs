@@ -5,14 +5,14 @@
 //! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
-pub mod bvh;
 pub mod camera;
+pub mod entry;
 pub mod hit;
-pub mod main;
 pub mod margin;
 pub mod plane;
 pub mod scene;
 pub mod sphere;
+pub mod traverse;
 pub mod triangle;
 pub mod types;
 
@@ -21,46 +21,30 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
-use crate::bvh::Accel;
 use crate::images::{Images, MISS, Pixel};
 use crate::math::Real;
+use crate::prepare::Prepared;
+use crate::prepare::bvh::Accel;
 use crate::scene::Scene;
-use types::Primitives;
 
 /// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`,
 /// through a BVH where it pays.
 pub fn render<T: Real>(scene: &Scene, algorithm: Algorithm) -> Images<T> {
-    render_with_progress(scene, algorithm, Accel::Auto, &AtomicU32::new(0))
+    render_with(scene, algorithm, Accel::Auto)
 }
 
 /// As [`render`], searching with `accel` (for example brute force, the BVH's oracle).
 pub fn render_with<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Images<T> {
-    render_with_progress(scene, algorithm, accel, &AtomicU32::new(0))
+    render_prepared(&Prepared::new(scene, algorithm, accel), &AtomicU32::new(0))
 }
 
-/// As [`render_with`], counting finished rows in `rows_done` (for a progress display).
-pub fn render_with_progress<T: Real>(
-    scene: &Scene,
-    algorithm: Algorithm,
-    accel: Accel,
-    rows_done: &AtomicU32,
-) -> Images<T> {
-    let prims = Primitives::<T>::for_render(scene, algorithm, accel);
-    render_primitives(scene, algorithm, &prims, rows_done)
-}
-
-/// Renders `scene` from primitives already laid out for `algorithm` by
-/// [`Primitives::for_render`] (through their BVH if they have one), counting finished rows in
-/// `rows_done`. Separates the build from the trace, for timing them apart.
-pub fn render_primitives<T: Real>(
-    scene: &Scene,
-    algorithm: Algorithm,
-    prims: &Primitives<T>,
-    rows_done: &AtomicU32,
-) -> Images<T> {
-    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
-    let robust = algorithm == Algorithm::Robust;
-    let mut images = Images::new_miss(frame.nx, frame.ny, scene.camera.focal_length);
+/// Renders a prepared scene (through its BVH if it has one), counting finished rows in
+/// `rows_done` (for a progress display).
+pub fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -> Images<T> {
+    let frame = &prepared.frame;
+    let prims = &prepared.primitives;
+    let robust = prepared.algorithm == Algorithm::Robust;
+    let mut images = Images::new_miss(frame.nx, frame.ny, prepared.focal_length);
     let width = frame.nx as usize;
     let Images {
         id,
@@ -75,9 +59,9 @@ pub fn render_primitives<T: Real>(
         .for_each(|(i, ((id, distance), normal))| {
             for j in 0..width {
                 let out = if robust {
-                    main::main::<T, true>(&frame, prims, i as u32, j as u32)
+                    entry::main::<T, true>(frame, prims, i as u32, j as u32)
                 } else {
-                    main::main::<T, false>(&frame, prims, i as u32, j as u32)
+                    entry::main::<T, false>(frame, prims, i as u32, j as u32)
                 };
                 id[j] = out.id;
                 if let Some((n, d)) = out.surface {
@@ -90,23 +74,19 @@ pub fn render_primitives<T: Real>(
     images
 }
 
-/// Renders only the listed pixels (row-major indices) of `scene`, in list order.
-pub fn render_pixels<T: Real>(
-    scene: &Scene,
-    algorithm: Algorithm,
-    pixels: &[usize],
-) -> Vec<Pixel<T>> {
-    let frame = types::kernel_frame(scene, algorithm).cast::<T>();
-    let prims = Primitives::<T>::for_render(scene, algorithm, Accel::Auto);
-    let width = frame.nx as usize;
+/// Renders only the listed pixels (row-major indices) of a prepared scene, in list order.
+pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pixel<T>> {
+    let frame = &prepared.frame;
+    let prims = &prepared.primitives;
+    let width = frame.nx;
     pixels
         .par_iter()
         .map(|&k| {
-            let (i, j) = ((k / width) as u32, (k % width) as u32);
-            let out = if algorithm == Algorithm::Robust {
-                main::main::<T, true>(&frame, &prims, i, j)
+            let (i, j) = (k / width, k % width);
+            let out = if prepared.algorithm == Algorithm::Robust {
+                entry::main::<T, true>(frame, prims, i, j)
             } else {
-                main::main::<T, false>(&frame, &prims, i, j)
+                entry::main::<T, false>(frame, prims, i, j)
             };
             match out.surface {
                 Some((normal, distance)) => Pixel {

@@ -1,13 +1,14 @@
 //! Mirror of shaders/scene.wgsl: the nearest hit over every primitive (brute force), or the
-//! planes by brute force and the rest through the BVH (src/cpu/bvh.rs).
+//! planes by brute force and the rest through the BVH (src/cpu/traverse.rs).
 
-use super::bvh::traverse_bvh;
 pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
+use super::traverse::traverse_bvh;
 use super::triangle::{intersect_triangle, triangle_normal};
-use super::types::{Primitives, Ray, t_far};
+use super::types::{Ray, t_far};
 use crate::math::{Real, Vec3};
+use crate::prepare::Primitives;
 
 pub fn nearest_hit<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,

@@ -17,19 +17,18 @@
 //! Every error is an [`Error::Shader`]: `FILE:LINE:COLUMN: error: MESSAGE`, then the source line
 //! and a caret under the column (columns count characters, from 1).
 //!
-//! A checked hook is registered under a [`HookKey`], a hash of its source, which the kernel
+//! A checked hook is registered under a [`SourceKey`], a hash of its source, which the kernel
 //! [`Variant`] carries (so it stays `Copy` and a cache key); the assembler takes the source from
 //! the registry. Sources stay registered for the life of the process.
 
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, OnceLock};
 
 use super::shader::{self, Variant};
+use super::source::{SourceKey, error_chain, register, shader_error, span_range};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
-use crate::images::Outputs;
 use crate::math::Precision;
 
 /// The function a hook file defines.
@@ -39,18 +38,13 @@ pub const HOOK_INPUT: &str = "ShadeHit";
 /// `shaders/hooks.wgsl`: the declaration of [`HOOK_INPUT`], appended to the user's text.
 pub const PRELUDE: &str = include_str!("../../shaders/hooks.wgsl");
 
-/// Which registered hook source a kernel includes: a hash of the source, unique within the
-/// process (a colliding different source gets the next free value).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct HookKey(pub u64);
-
 /// A checked user shader.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShadeHook {
     /// The file it came from, as given (for messages).
     pub file: PathBuf,
     pub source: Arc<str>,
-    pub key: HookKey,
+    pub key: SourceKey,
 }
 
 /// Reads and [`check`]s the hook file at `path`.
@@ -58,40 +52,6 @@ pub fn load(path: &Path) -> Result<ShadeHook> {
     let source =
         std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
     check(&source, path)
-}
-
-fn registry() -> &'static Mutex<HashMap<HookKey, Arc<str>>> {
-    static SOURCES: OnceLock<Mutex<HashMap<HookKey, Arc<str>>>> = OnceLock::new();
-    SOURCES.get_or_init(Mutex::default)
-}
-
-/// Registers `source`, returning its key (the same key for the same text). User kernels
-/// (`render --kernel`, [`super::kernel`]) are registered here too.
-pub(crate) fn register(source: &str) -> (HookKey, Arc<str>) {
-    let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    source.hash(&mut hasher);
-    let mut key = HookKey(hasher.finish());
-    let mut sources = registry().lock().expect("hook registry lock");
-    loop {
-        match sources.get(&key) {
-            Some(s) if **s == *source => return (key, s.clone()),
-            Some(_) => key.0 = key.0.wrapping_add(1),
-            None => {
-                let s: Arc<str> = source.into();
-                sources.insert(key, s.clone());
-                return (key, s);
-            }
-        }
-    }
-}
-
-/// The source registered under `key`.
-pub fn registered_source(key: HookKey) -> Option<Arc<str>> {
-    registry()
-        .lock()
-        .expect("hook registry lock")
-        .get(&key)
-        .cloned()
 }
 
 /// Checks a hook's `source` (read from `file`, which labels errors) and registers it (module
@@ -153,25 +113,6 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
         source,
         key,
     })
-}
-
-pub(crate) fn span_range(span: naga::Span) -> (usize, usize) {
-    let r = span.to_range().unwrap_or(0..0);
-    (r.start, r.end - r.start)
-}
-
-/// An error's message followed by its causes, `: `-separated, without repeats.
-pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut parts = vec![e.to_string()];
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        let text = c.to_string();
-        if parts.last() != Some(&text) {
-            parts.push(text);
-        }
-        cause = c.source();
-    }
-    parts.join(": ")
 }
 
 type Locate<'a> = dyn Fn(usize, usize, String) -> Error + 'a;
@@ -338,17 +279,39 @@ fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)
     names
 }
 
-/// The variants whose global names a hook must avoid: every variant a device may build, each
-/// with every output, and one with a placeholder hook (so every `#if` block that declares names
-/// is in one of them).
+/// The variants whose global names a hook must avoid: a few that together hold every `#if`
+/// block that declares a name (every kind, output, chunk, the BVH by ray and by packet, the
+/// certainty test, a pixel list, f64 and its recheck, a placeholder hook). A test checks that
+/// they declare the same names as every variant a device may build; assembling only these keeps
+/// a hook's check fast (every variant took half a second).
 fn kernel_variants() -> Vec<Variant> {
-    let mut variants: Vec<Variant> = shader::all_variants()
-        .into_iter()
-        .map(|v| v.with_outputs(Outputs::GEOMETRY))
-        .collect();
     let (placeholder, _) =
         register("fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(0.0); }\n");
-    variants.push(Variant::new(Precision::F32, Algorithm::Robust).with_shade(placeholder));
+    let mut variants = Vec::new();
+    for precision in [Precision::F32, Precision::F64] {
+        for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
+            let base = Variant {
+                bvh: true,
+                chunks: shader::MAX_CHUNKS,
+                ..Variant::new(precision, algorithm)
+            };
+            variants.push(Variant {
+                certainty: algorithm == Algorithm::Robust,
+                ..base
+            });
+            variants.push(Variant {
+                pixel_list: true,
+                packets: true,
+                ..base
+            });
+            variants.push(Variant {
+                uniform_prims: true,
+                chunks: 1,
+                ..base
+            });
+            variants.push(base.with_shade(placeholder));
+        }
+    }
     variants
 }
 
@@ -393,7 +356,7 @@ fn check_names(module: &naga::Module, located: &Locate) -> Result<()> {
 
 /// The general kernel (f32 robust, every kind and output) with the hook registered under
 /// `key` validates; an error inside the hook's lines is reported at the user's line.
-fn check_in_kernel(key: HookKey, source: &str, file: &Path) -> Result<()> {
+fn check_in_kernel(key: SourceKey, source: &str, file: &Path) -> Result<()> {
     let variant = Variant::new(Precision::F32, Algorithm::Robust).with_shade(key);
     let kernel = shader::kernel_source(&variant)?;
     let start = hook_offset(&kernel, key).expect("the kernel includes the hook");
@@ -413,77 +376,38 @@ fn check_in_kernel(key: HookKey, source: &str, file: &Path) -> Result<()> {
             )
         }
     };
-    let module = naga::front::wgsl::parse_str(&kernel).map_err(|e| {
-        let (offset, len) = e.labels().next().map_or((0, 0), |(s, _)| span_range(s));
-        fail(offset, len, e.message().to_owned())
-    })?;
-    let mut validator = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    );
-    validator.validate(&module).map_err(|e| {
-        let (offset, len) = e
-            .spans()
-            .map(|(span, _)| *span)
-            .filter(|span| span.is_defined())
-            .last()
-            .map_or((0, 0), span_range);
-        fail(offset, len, error_chain(&e))
-    })?;
+    super::source::validate_located(&kernel, &fail)?;
     Ok(())
 }
 
-/// The banner line the assembler writes above a hook's source.
-pub(crate) fn banner(key: HookKey) -> String {
-    format!("// ---- user shade hook {:016x}\n", key.0)
-}
-
 /// Where the hook's source begins in an assembled `kernel`.
-pub fn hook_offset(kernel: &str, key: HookKey) -> Option<usize> {
-    let banner = banner(key);
+pub fn hook_offset(kernel: &str, key: SourceKey) -> Option<usize> {
+    let banner = shader::banner(key);
     kernel.find(&banner).map(|at| at + banner.len())
-}
-
-/// An [`Error::Shader`] at byte `offset` of `source` (clamped to it), underlining `len` bytes.
-pub(crate) fn shader_error(
-    file: &Path,
-    source: &str,
-    offset: usize,
-    len: usize,
-    message: String,
-) -> Error {
-    let mut offset = offset.min(source.len());
-    while !source.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    let line_start = source[..offset].rfind('\n').map_or(0, |k| k + 1);
-    let line_end = source[offset..]
-        .find('\n')
-        .map_or(source.len(), |k| offset + k);
-    let line_text = source[line_start..line_end].trim_end_matches('\r');
-    let before = &source[line_start..offset];
-    let column = before.chars().count() + 1;
-    let underlined = source[offset..line_end.max(offset)]
-        .char_indices()
-        .take_while(|(k, _)| *k < len)
-        .count()
-        .max(1);
-    let pad: String = before
-        .chars()
-        .map(|c| if c == '\t' { '\t' } else { ' ' })
-        .collect();
-    Error::Shader {
-        file: file.to_owned(),
-        line: source[..offset].matches('\n').count() + 1,
-        column,
-        message,
-        excerpt: format!("{line_text}\n{pad}{}", "^".repeat(underlined)),
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::images::Outputs;
+
+    /// The few variants [`kernel_names`] assembles declare every name any variant declares.
+    #[test]
+    fn the_name_variants_cover_every_variant() {
+        let mut all = std::collections::HashSet::new();
+        for variant in shader::all_variants() {
+            let source = shader::kernel_source(&variant.with_outputs(Outputs::GEOMETRY)).unwrap();
+            let module = naga::front::wgsl::parse_str(&source).unwrap();
+            for (_, name, _) in global_names(&module) {
+                if name != HOOK_FUNCTION && name != HOOK_INPUT {
+                    all.insert(name);
+                }
+            }
+        }
+        let few: std::collections::HashSet<String> = kernel_names().keys().cloned().collect();
+        let missing: Vec<&String> = all.difference(&few).collect();
+        assert!(missing.is_empty(), "names of no name variant: {missing:?}");
+    }
 
     const GOOD: &str = "fn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(hit.normal * 0.5 + 0.5, 1.0);\n}\n";
 
@@ -505,7 +429,10 @@ mod tests {
         let a = check(GOOD, Path::new("a.wgsl")).unwrap();
         let b = check(GOOD, Path::new("b.wgsl")).unwrap();
         assert_eq!(a.key, b.key);
-        assert_eq!(registered_source(a.key).as_deref(), Some(GOOD));
+        assert_eq!(
+            super::super::source::registered_source(a.key).as_deref(),
+            Some(GOOD)
+        );
         let other = GOOD.replace("0.5 + 0.5", "0.25 + 0.5");
         let c = check(&other, Path::new("c.wgsl")).unwrap();
         assert_ne!(a.key, c.key);
@@ -546,7 +473,7 @@ mod tests {
             let variant = variant.with_shade(hook.key);
             assert!(variant.defines().contains(&"USER_SHADE"));
             let source = shader::kernel_source(&variant).unwrap();
-            if let Err(e) = shader::validate(&source, &format!("{variant:?}")) {
+            if let Err(e) = shader::validate(&source, format!("{variant:?}")) {
                 panic!("{e}");
             }
         }

@@ -13,19 +13,15 @@
 //!
 //! A mismatch, such as a kernel emitted for a scene with other primitive kinds, precision or
 //! outputs, is a one-line [`Error::Argument`] naming `--kernel FILE`. The variant that passes
-//! carries the file's [`KernelKey`], a hash of its text registered with the hook sources, so the
+//! carries the file's [`SourceKey`], a hash of its text in the source registry, so the
 //! pipeline cache never gives one file's pipeline to another.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::hooks::{self, HookKey};
 use super::shader::{self, Variant};
+use super::source::{self, SourceKey};
 use crate::error::{Error, Result};
-
-/// Which registered source a user kernel is: a hash of its text (see [`hooks`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct KernelKey(pub u64);
 
 /// A checked user kernel.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,35 +29,15 @@ pub struct UserKernel {
     /// The file it came from, as given (for messages).
     pub file: PathBuf,
     pub source: Arc<str>,
-    pub key: KernelKey,
+    pub key: SourceKey,
     interface: Interface,
 }
 
 /// What the host must match: the kernel's resource bindings and its workgroup size.
 #[derive(Clone, Debug, PartialEq)]
 struct Interface {
-    bindings: Vec<Binding>,
+    bindings: Vec<source::Binding>,
     workgroup_size: [u32; 3],
-}
-
-/// One resource binding of a kernel.
-#[derive(Clone, Debug, PartialEq)]
-struct Binding {
-    group: u32,
-    binding: u32,
-    name: String,
-    /// `uniform`, `storage, read` or `storage, read_write`.
-    space: String,
-    /// Bytes of its type (of one element for a runtime-sized array).
-    size: u32,
-    /// Whether the entry point uses it.
-    used: bool,
-}
-
-impl Binding {
-    fn describe(&self) -> String {
-        format!("`{}`: {}, {} bytes", self.name, self.space, self.size)
-    }
 }
 
 /// Reads and [`check`]s the kernel file at `path`.
@@ -74,14 +50,14 @@ pub fn load(path: &Path) -> Result<UserKernel> {
 /// Validates a kernel's `source` (read from `file`, which labels errors) with naga, finds its
 /// entry point and registers it.
 pub fn check(source: &str, file: &Path) -> Result<UserKernel> {
-    let (module, info) = validate(source, file)?;
+    let (module, info) = shader::validate(source, file)?;
     let interface = interface(&module, &info)
-        .ok_or_else(|| hooks::shader_error(file, source, 0, 0, no_entry_point()))?;
-    let (key, source) = hooks::register(source);
+        .ok_or_else(|| source::shader_error(file, source, 0, 0, no_entry_point()))?;
+    let (key, source) = source::register(source);
     Ok(UserKernel {
         file: file.to_owned(),
         source,
-        key: KernelKey(key.0),
+        key,
         interface,
     })
 }
@@ -93,81 +69,19 @@ fn no_entry_point() -> String {
     )
 }
 
-/// The source registered under `key`.
-pub fn registered_source(key: KernelKey) -> Option<Arc<str>> {
-    hooks::registered_source(HookKey(key.0))
-}
-
-/// Parses and validates `source` with naga; errors point at the file's line and column.
-fn validate(source: &str, file: &Path) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
-    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
-        let (offset, len) = e
-            .labels()
-            .map(|(span, _)| span)
-            .find(|span| span.is_defined())
-            .map_or((0, 0), hooks::span_range);
-        hooks::shader_error(file, source, offset, len, e.message().to_owned())
-    })?;
-    let mut validator = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    );
-    let info = validator.validate(&module).map_err(|e| {
-        // The innermost span (naga adds outer ones as the error climbs) is the most precise.
-        let (offset, len) = e
-            .spans()
-            .map(|(span, _)| *span)
-            .filter(|span| span.is_defined())
-            .last()
-            .map_or((0, 0), hooks::span_range);
-        hooks::shader_error(file, source, offset, len, hooks::error_chain(&e))
-    })?;
-    Ok((module, info))
-}
-
 /// The bindings and workgroup size of `module`'s compute entry point `main`, `None` without
 /// one.
 fn interface(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Option<Interface> {
-    let (index, entry) =
-        module.entry_points.iter().enumerate().find(|(_, e)| {
-            e.name == shader::ENTRY_POINT && e.stage == naga::ShaderStage::Compute
-        })?;
-    let uses = info.get_entry_point(index);
-    let mut layouter = naga::proc::Layouter::default();
-    layouter
-        .update(module.to_ctx())
-        .expect("a validated module has a layout");
-    let mut bindings: Vec<Binding> = module
-        .global_variables
+    let entry = module
+        .entry_points
         .iter()
-        .filter_map(|(handle, g)| {
-            let at = g.binding.as_ref()?;
-            Some(Binding {
-                group: at.group,
-                binding: at.binding,
-                name: g.name.clone().unwrap_or_default(),
-                space: space_name(g.space),
-                size: layouter[g.ty].size,
-                used: !uses[handle].is_empty(),
-            })
-        })
-        .collect();
+        .find(|e| e.name == shader::ENTRY_POINT && e.stage == naga::ShaderStage::Compute)?;
+    let mut bindings = source::bindings(module, info);
     bindings.sort_by_key(|b| (b.group, b.binding));
     Some(Interface {
         bindings,
         workgroup_size: entry.workgroup_size,
     })
-}
-
-fn space_name(space: naga::AddressSpace) -> String {
-    match space {
-        naga::AddressSpace::Uniform => "uniform".into(),
-        naga::AddressSpace::Storage { access } if access.contains(naga::StorageAccess::STORE) => {
-            "storage, read_write".into()
-        }
-        naga::AddressSpace::Storage { .. } => "storage, read".into(),
-        other => format!("{other:?}"),
-    }
 }
 
 /// The interface of the assembled kernel for `variant`.
@@ -177,13 +91,7 @@ fn assembled_interface(variant: &Variant) -> Result<Interface> {
         ..*variant
     };
     let source = shader::kernel_source(&assembled)?;
-    let module = shader::validate(&source, "kernel")?;
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .map_err(|e| Error::Device(format!("kernel: {e}")))?;
+    let (module, info) = shader::validate(&source, Path::new("kernel"))?;
     interface(&module, &info).ok_or_else(|| Error::Device(format!("kernel: {}", no_entry_point())))
 }
 

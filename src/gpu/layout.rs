@@ -9,6 +9,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::camera::Frame;
+use crate::cpu::types::{Plane, Sphere, Triangle};
 use crate::math::Real;
 use crate::scene::Projection;
 
@@ -91,7 +92,8 @@ macro_rules! pod_for_gpu_real {
 pod_for_gpu_real!(GpuFrame, GpuParams, GpuSphere, GpuPlane, GpuTriangle);
 
 impl<R: GpuReal> GpuFrame<R> {
-    pub fn new(frame: &Frame<f64>) -> Self {
+    /// `frame` rounded to `R` (exact when it is in `R` already).
+    pub fn new<T: Real>(frame: &Frame<T>) -> Self {
         let f = frame.cast::<R>();
         GpuFrame {
             eye: f.eye.to_array(),
@@ -102,6 +104,39 @@ impl<R: GpuReal> GpuFrame<R> {
             height: f.height,
             w: f.w.to_array(),
             min_t: f.min_t,
+        }
+    }
+}
+
+impl<R: GpuReal> From<&Sphere<R>> for GpuSphere<R> {
+    fn from(s: &Sphere<R>) -> Self {
+        GpuSphere {
+            center: s.center.to_array(),
+            radius: s.radius,
+        }
+    }
+}
+
+impl<R: GpuReal> From<&Plane<R>> for GpuPlane<R> {
+    fn from(q: &Plane<R>) -> Self {
+        GpuPlane {
+            point: q.point.to_array(),
+            _pad0: R::ZERO,
+            normal: q.normal.to_array(),
+            _pad1: R::ZERO,
+        }
+    }
+}
+
+impl<R: GpuReal> From<&Triangle<R>> for GpuTriangle<R> {
+    fn from(t: &Triangle<R>) -> Self {
+        GpuTriangle {
+            a: t.a.to_array(),
+            _pad0: R::ZERO,
+            b: t.b.to_array(),
+            _pad1: R::ZERO,
+            c: t.c.to_array(),
+            _pad2: R::ZERO,
         }
     }
 }
@@ -145,7 +180,7 @@ mod tests {
     fn check_precision<R: GpuReal>() {
         let variant = shader::Variant::new(R::PRECISION, crate::Algorithm::Robust);
         let source = shader::kernel_source(&variant).unwrap();
-        let m = shader::validate(&source, "kernel").unwrap();
+        let (m, _) = shader::validate(&source, "kernel").unwrap();
         macro_rules! fields {
             ($t:ty: $($f:ident),*) => { &[$((stringify!($f), offset_of!($t, $f))),*] };
         }

@@ -1,18 +1,21 @@
-//! The GPU side: getting a device ([`Gpu::new`]) is separate from running on one
-//! ([`render`]), so tests and library users can bring their own `wgpu::Device`.
+//! The GPU side: getting a device ([`Gpu::new`]) is separate from running on one ([`run`]), so
+//! tests and library users can bring their own `wgpu::Device`.
+//!
+//! - [`shader`] assembles the kernel's WGSL for a [`shader::Variant`] from `shaders/`;
+//! - [`source`] keeps the user's sources, validates WGSL with located errors and reflects a
+//!   kernel's bindings; [`hooks`] and [`kernel`] check shade hooks and kernel files;
+//! - [`layout`] is the byte layout of the kernel's structs;
+//! - [`dispatch`] runs a [`Job`] on a prepared scene: the one way every render reaches the GPU.
 
+pub mod dispatch;
 pub mod hooks;
 pub mod kernel;
 pub mod layout;
 pub mod probe;
-mod render;
 pub mod shader;
+pub mod source;
 
-pub use render::{
-    Stages, TileSink, max_tile_rows, render, render_in_tiles, render_outputs, render_pixels,
-    render_pixels_timed, render_stages, render_streamed, render_timed, render_with_certainty,
-    render_with_certainty_timed, render_with_variant,
-};
+pub use dispatch::{Job, Rays, Rendered, Stages, TileSink, max_tile_rows, prepare, run};
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -35,7 +38,7 @@ pub struct Gpu {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
-    pipelines: Mutex<HashMap<Variant, wgpu::ComputePipeline>>,
+    pipelines: Mutex<HashMap<Variant, dispatch::Compiled>>,
 }
 
 impl Gpu {
@@ -50,7 +53,7 @@ impl Gpu {
     ) -> Variant {
         let general = self.variant(precision, algorithm);
         Variant {
-            bvh: crate::bvh::worth_it(scene),
+            bvh: crate::prepare::bvh::worth_it(scene),
             chunks: shader::chunks_for(scene, general.chunk_bits),
             uniform_prims: shader::UNIFORM_BY_DEFAULT && self.uniform_fits(scene, precision),
             ..general.with_kinds(shader::Kinds::of_scene(scene))
@@ -66,23 +69,6 @@ impl Gpu {
     ) -> bool {
         let limit = self.device.limits().max_uniform_buffer_binding_size;
         limit >= shader::UNIFORM_BYTES && shader::UniformCapacity::of(precision).fits(scene)
-    }
-
-    /// The kernel variant for `scene` that writes `outputs`, calling `shade` for the colour
-    /// (`outputs.color` needs the hook; without one it is dropped).
-    pub fn request_variant(
-        &self,
-        scene: &crate::scene::Scene,
-        precision: crate::math::Precision,
-        algorithm: crate::Algorithm,
-        outputs: crate::images::Outputs,
-        shade: Option<&hooks::ShadeHook>,
-    ) -> Variant {
-        let mut variant = self.scene_variant(scene, precision, algorithm);
-        if let Some(hook) = shade {
-            variant = variant.with_shade(hook.key);
-        }
-        variant.with_outputs(outputs)
     }
 
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.

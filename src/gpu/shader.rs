@@ -3,8 +3,7 @@
 //! are kept or dropped by the kernel's [`Variant`]. The result is one WGSL source that naga
 //! validates before any pipeline is made.
 
-use super::hooks::{self, HookKey};
-use super::kernel::KernelKey;
+use super::source::{self, SourceKey};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::images::Outputs;
@@ -65,8 +64,7 @@ pub struct Variant {
     pub pixel_list: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
-    /// Spheres and triangles are found through a BVH (src/bvh.rs) instead of brute force.
-    /// Not combined with `certainty`, whose test needs every primitive's decision.
+    /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
     pub bvh: bool,
     /// The device has subgroup operations: the rays of a subgroup traverse the BVH together.
     pub packets: bool,
@@ -81,7 +79,7 @@ pub struct Variant {
     pub outputs: Outputs,
     /// The user's shade hook compiled in (its source is registered in [`hooks`] under this
     /// key), called for every pixel to write `out_color`.
-    pub shade: Option<HookKey>,
+    pub shade: Option<SourceKey>,
     /// Spheres, planes and triangles in uniform buffers (`var<uniform>` fixed-size arrays of
     /// [`UNIFORM_BYTES`]) instead of storage buffers (`UNIFORM_PRIMS`). Only where they fit
     /// ([`UniformCapacity::fits`]) and in one chunk ([`Variant::uses_uniform_prims`]).
@@ -91,7 +89,7 @@ pub struct Variant {
     /// A complete kernel from the user (`render --kernel FILE`, [`super::kernel`]) runs instead
     /// of the assembled one: its source is registered under this key, and the rest of the
     /// variant says what the host binds and reads back for it.
-    pub kernel: Option<KernelKey>,
+    pub kernel: Option<SourceKey>,
 }
 
 /// Bytes of each uniform binding of the primitives: 64 KiB, WebGPU's default
@@ -150,7 +148,7 @@ pub const MAX_CHUNKS: u8 = 4;
 /// primitives has fewer than n nodes), at most [`MAX_CHUNKS`]: a scene needing more is refused
 /// before rendering.
 pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
-    let n = crate::bvh::bounded_count(scene).max(1) as u64;
+    let n = crate::prepare::bvh::bounded_count(scene).max(1) as u64;
     n.div_ceil(1 << chunk_bits).min(MAX_CHUNKS as u64) as u8
 }
 
@@ -203,7 +201,7 @@ impl Variant {
 
     /// This variant calling the shade hook registered under `key` for every pixel and writing
     /// its colour.
-    pub fn with_shade(self, key: HookKey) -> Variant {
+    pub fn with_shade(self, key: SourceKey) -> Variant {
         Variant {
             shade: Some(key),
             outputs: Outputs {
@@ -281,10 +279,17 @@ impl Variant {
 }
 
 impl Variant {
-    /// Whether the kernel traverses a BVH: asked for, something bounded to put in it, and no
-    /// certainty test.
+    /// Whether the kernel traverses a BVH: asked for, and something bounded to put in it.
     pub fn uses_bvh(&self) -> bool {
-        self.bvh && !self.certainty && (self.kinds.spheres || self.kinds.triangles)
+        self.bvh && (self.kinds.spheres || self.kinds.triangles)
+    }
+
+    /// How the scene is prepared for this kernel: through a BVH exactly when it traverses one.
+    pub fn accel(&self) -> crate::prepare::bvh::Accel {
+        match self.uses_bvh() {
+            true => crate::prepare::bvh::Accel::Bvh,
+            false => crate::prepare::bvh::Accel::BruteForce,
+        }
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -302,14 +307,15 @@ pub const MODULES: &[(&str, &str)] = &[
     ("plane", include_str!("../../shaders/plane.wgsl")),
     ("triangle", include_str!("../../shaders/triangle.wgsl")),
     ("hit", include_str!("../../shaders/hit.wgsl")),
-    ("bvh", include_str!("../../shaders/bvh.wgsl")),
+    ("traverse", include_str!("../../shaders/traverse.wgsl")),
+    ("certainty", include_str!("../../shaders/certainty.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
     ("hooks", include_str!("../../shaders/hooks.wgsl")),
-    ("main", include_str!("../../shaders/main.wgsl")),
+    ("entry", include_str!("../../shaders/entry.wgsl")),
 ];
 
 /// The module holding the kernel's entry point.
-pub const ENTRY_MODULE: &str = "main";
+pub const ENTRY_MODULE: &str = "entry";
 /// The kernel's entry point function.
 pub const ENTRY_POINT: &str = "main";
 
@@ -321,7 +327,7 @@ const USER_MODULE: &str = "user";
 fn module_source(name: &str, variant: &Variant) -> Option<String> {
     let precision = variant.precision;
     if name == USER_MODULE {
-        return hooks::registered_source(variant.shade?).map(|s| s.to_string());
+        return source::registered_source(variant.shade?).map(|s| s.to_string());
     }
     if name == PRECISION_MODULE {
         // Written as literals: naga's constant evaluator does no f64 arithmetic.
@@ -427,7 +433,7 @@ fn include(
     if name == USER_MODULE {
         // The user's text is appended as it is, never preprocessed.
         let key = variant.shade.expect("a user module has a key");
-        out.push_str(&hooks::banner(key));
+        out.push_str(&banner(key));
         out.push_str(&source);
         if !source.ends_with('\n') {
             out.push('\n');
@@ -463,33 +469,18 @@ pub fn imports(source: &str) -> impl Iterator<Item = &str> {
     source.lines().filter_map(import_name)
 }
 
-/// Parses and validates WGSL with naga, returning the module or an error that quotes naga's
-/// report (with line and column in `label`'s source).
-pub fn validate(source: &str, label: &str) -> Result<naga::Module> {
-    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
-        Error::Device(format!(
-            "{label}: {}",
-            e.emit_to_string_with_path(source, label).trim_end()
-        ))
-    })?;
-    let mut validator = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    );
-    validator.validate(&module).map_err(|e| {
-        Error::Device(format!(
-            "{label}: {}",
-            e.emit_to_string_with_path(source, label).trim_end()
-        ))
-    })?;
-    Ok(module)
+pub use source::validate;
+
+/// The banner line the assembler writes above a shade hook's source.
+pub(crate) fn banner(key: SourceKey) -> String {
+    format!("// ---- user shade hook {:016x}\n", key.0)
 }
 
 /// The full kernel source for `variant`: the user's kernel where it names one, else the
 /// assembled one.
 pub fn kernel_source(variant: &Variant) -> Result<String> {
     if let Some(key) = variant.kernel {
-        return super::kernel::registered_source(key)
+        return source::registered_source(key)
             .map(|s| s.to_string())
             .ok_or_else(|| Error::Device(format!("no user kernel registered as {key:?}")));
     }
@@ -600,7 +591,7 @@ mod tests {
         for (name, _) in MODULES {
             // The traversal module needs the BVH's bindings.
             let variants = all_variants().into_iter();
-            for variant in variants.filter(|v| *name != "bvh" || v.uses_bvh()) {
+            for variant in variants.filter(|v| *name != "traverse" || v.uses_bvh()) {
                 let source = assemble(name, &variant).unwrap();
                 let label = format!("shaders/{name}.wgsl ({variant:?})");
                 if let Err(e) = validate(&source, &label) {
@@ -610,30 +601,76 @@ mod tests {
         }
     }
 
+    /// The host binds buffers by name, so nothing but naga and wgpu would notice two resources
+    /// declared at one binding number: every variant, certainty and pixel list together too,
+    /// has distinct numbers.
+    #[test]
+    fn no_two_resources_share_a_binding() {
+        let both = Variant {
+            certainty: true,
+            pixel_list: true,
+            bvh: true,
+            chunks: MAX_CHUNKS,
+            ..Variant::new(Precision::F32, Algorithm::Robust)
+        };
+        for variant in all_variants().into_iter().chain([both]) {
+            let (module, info) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+            let mut seen = std::collections::HashMap::new();
+            for b in source::bindings(&module, &info) {
+                if let Some(other) = seen.insert((b.group, b.binding), b.name.clone()) {
+                    panic!(
+                        "{other} and {} share @binding({}) in {variant:?}",
+                        b.name, b.binding
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn kernel_has_its_entry_point() {
         let variant = Variant::new(Precision::F32, Algorithm::Textbook);
-        let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+        let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
     }
 
     #[test]
     fn each_module_is_included_once() {
         let hook = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
-        let hook = hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
+        let hook = super::super::hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
         let variant = Variant {
             bvh: true,
             ..Variant::new(Precision::F64, Algorithm::Robust)
         };
-        for (variant, with_hook) in [(variant, false), (variant.with_shade(hook.key), true)] {
+        let certainty = Variant {
+            certainty: true,
+            ..Variant::new(Precision::F32, Algorithm::Robust)
+        };
+        for (variant, with_hook) in [
+            (variant, false),
+            (variant.with_shade(hook.key), true),
+            (certainty, false),
+            (
+                Variant {
+                    bvh: true,
+                    ..certainty
+                },
+                false,
+            ),
+        ] {
             let source = kernel_source(&variant).unwrap();
-            assert!(source.contains("alias real = f64;"));
+            assert!(source.contains(&format!("alias real = {};", variant.precision.name())));
             for (name, _) in MODULES {
                 let banner = format!("// ---- shaders/{name}.wgsl\n");
-                let expected = usize::from(*name != "hooks" || with_hook);
+                let expected = usize::from(match *name {
+                    "hooks" => with_hook,
+                    "certainty" => variant.certainty,
+                    "traverse" => variant.bvh,
+                    _ => true,
+                });
                 assert_eq!(source.matches(&banner).count(), expected, "{name}");
             }
-            let hooks_in = source.matches(&hooks::banner(hook.key)).count();
+            let hooks_in = source.matches(&banner(hook.key)).count();
             assert_eq!(hooks_in, usize::from(with_hook));
         }
     }
@@ -658,7 +695,7 @@ mod tests {
             ] {
                 let variant = base.with_kinds(kinds);
                 let source = kernel_source(&variant).unwrap();
-                let module = validate(&source, &format!("{variant:?}")).unwrap();
+                let (module, _) = validate(&source, format!("{variant:?}")).unwrap();
                 let names: Vec<&str> = module
                     .functions
                     .iter()
@@ -754,7 +791,7 @@ mod tests {
                 (Outputs::GEOMETRY, true),
             ] {
                 let variant = base.with_outputs(outputs);
-                let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+                let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
                 let called = called_functions(&module);
                 let calls = |f: &str| called.iter().any(|c| c == f);
                 assert!(calls("nearest_hit"), "{called:?}");
@@ -816,7 +853,7 @@ mod tests {
                 ),
             ] {
                 assert_eq!(variant.uses_uniform_prims(), uniform);
-                let module = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+                let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
                 let mut layouter = naga::proc::Layouter::default();
                 layouter.update(module.to_ctx()).unwrap();
                 for (name, count) in [

@@ -4,7 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use raycast::Algorithm;
 use raycast::gpu::Gpu;
+use raycast::gpu::hooks::ShadeHook;
+use raycast::gpu::layout::GpuReal;
+use raycast::gpu::shader::Variant;
+use raycast::images::{Images, Outputs};
+use raycast::scene::Scene;
 
 /// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
@@ -19,6 +25,55 @@ pub fn gpu() -> &'static Gpu {
         Gpu::new()
             .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter (lavapipe is enough): {e}"))
     })
+}
+
+/// `scene` rendered on `gpu` by the kernel `variant` (the scene prepared for it).
+pub fn gpu_variant<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+) -> raycast::Result<Images<R>> {
+    raycast::render::on_gpu::<R>(gpu, scene, variant, false).map(|(images, _)| images)
+}
+
+/// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
+pub fn gpu_scene<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+) -> raycast::Result<Images<R>> {
+    gpu_variant(
+        gpu,
+        scene,
+        gpu.scene_variant(scene, R::PRECISION, algorithm),
+    )
+}
+
+/// [`gpu_scene`] computing only `outputs`, with the shade hook `shade` for the colour.
+pub fn gpu_outputs<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    outputs: Outputs,
+    shade: Option<&ShadeHook>,
+) -> raycast::Result<Images<R>> {
+    let mut variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
+    if let Some(hook) = shade {
+        variant = variant.with_shade(hook.key);
+    }
+    gpu_variant(gpu, scene, variant.with_outputs(outputs))
+}
+
+/// [`gpu_variant`] in dispatches of at most `max_rows` image rows.
+pub fn gpu_tiles<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    max_rows: u32,
+) -> raycast::Result<Images<R>> {
+    let prepared = raycast::gpu::prepare::<R>(scene, &variant);
+    let job = raycast::gpu::Job::new(variant).rows(max_rows);
+    raycast::gpu::run(gpu, &prepared, job).map(|r| r.images)
 }
 
 pub fn repo_path(relative: &str) -> PathBuf {

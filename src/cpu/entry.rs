@@ -1,9 +1,10 @@
-//! Mirror of shaders/main.wgsl: the work of one pixel.
+//! Mirror of shaders/entry.wgsl: the work of one pixel.
 
 use super::camera::camera_ray;
 use super::scene::{hit_normal, nearest_hit};
-use super::types::{Frame, Primitives};
+use super::types::Frame;
 use crate::math::{Real, length};
+use crate::prepare::Primitives;
 
 /// What the kernel writes for one pixel: object id (-1 on a miss), distance and normal
 /// (`None` on a miss).
@@ -12,7 +13,7 @@ pub struct PixelOut<T> {
     pub surface: Option<([T; 3], T)>,
 }
 
-/// The kernel's entry point for pixel (`i`, `j`) (`main` in shaders/main.wgsl).
+/// The kernel's entry point for pixel (`i`, `j`) (`main` in shaders/entry.wgsl).
 pub fn main<T: Real, const ROBUST: bool>(
     frame: &Frame<T>,
     prims: &Primitives<T>,

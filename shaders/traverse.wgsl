@@ -1,5 +1,5 @@
 // Nearest-hit search over the spheres and triangles through the BVH built on the host
-// (src/bvh.rs). CPU mirror: src/cpu/bvh.rs.
+// (src/prepare/bvh.rs). CPU mirror: src/cpu/traverse.rs.
 #import types
 #import bindings
 #import hit
@@ -9,8 +9,11 @@
 #if TRIANGLES
 #import triangle
 #endif
+#if CERTAINTY
+#import certainty
+#endif
 
-// At least MAX_DEPTH in src/bvh.rs: one entry per level at most is waiting.
+// At least MAX_DEPTH in src/prepare/bvh.rs: one entry per level at most is waiting.
 const BVH_STACK: u32 = 40u;
 const LEAF_BIT: u32 = 0x80000000u;
 const SPHERE_LEAF: u32 = 0x80000000u;
@@ -70,35 +73,55 @@ fn is_closer_ordered(t: real, object: u32, index: u32, base: u32, best: Hit) -> 
     return prim_order[base + index] < prim_order[base + best.index];
 }
 
+// Keeps primitive `index` of a kind (`base`: the kind's offset in `objects` and `prim_order`)
+// as the nearest hit if its `t` is closer. With CERTAINTY every decision is recorded, misses
+// too; without, a miss loads nothing.
+fn keep_ordered(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
+#if CERTAINTY
+    let object = objects[base + index];
+    let closer = is_closer_ordered(t, object, index, base, *best);
+    record(t, object, closer, *best);
+    if (closer) {
+        *best = Hit(t, i32(object), kind, index);
+    }
+#else
+    if (t != NO_HIT) {
+        let object = objects[base + index];
+        if (is_closer_ordered(t, object, index, base, *best)) {
+            *best = Hit(t, i32(object), kind, index);
+        }
+    }
+#endif
+}
+
 // Tests the `count` primitives of a leaf from `first`.
 fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
     let n = count & ~SPHERE_LEAF;
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         for (var k = first; k < first + n; k++) {
-            let t = intersect_sphere(ray, spheres[k], min_t);
-            if (t != NO_HIT) {
-                let object = objects[k];
-                if (is_closer_ordered(t, object, k, 0u, *best)) {
-                    *best = Hit(t, i32(object), KIND_SPHERE, k);
-                }
-            }
+            keep_ordered(intersect_sphere(ray, spheres[k], min_t), KIND_SPHERE, k, 0u, best);
         }
 #endif
     } else {
 #if TRIANGLES
         let base = params.sphere_count + params.plane_count;
         for (var k = first; k < first + n; k++) {
-            let t = intersect_triangle(ray, triangle_at(k), min_t);
-            if (t != NO_HIT) {
-                let object = objects[base + k];
-                if (is_closer_ordered(t, object, k, base, *best)) {
-                    *best = Hit(t, i32(object), KIND_TRIANGLE, k);
-                }
-            }
+            keep_ordered(intersect_triangle(ray, triangle_at(k), min_t), KIND_TRIANGLE, k, base, best);
         }
 #endif
     }
+}
+
+// The farthest a box may start and still be searched: the nearest hit so far, and with
+// CERTAINTY beyond it by that hit's error bound (cull_bound in certainty.wgsl). The CPU
+// mirror, which has no certainty pass, uses best.t.
+fn cull_t(best: Hit) -> real {
+#if CERTAINTY
+    return cull_bound(best);
+#else
+    return best.t;
+#endif
 }
 
 // A node as the traversal sees it: where the ray enters each child's box (NO_HIT when it
@@ -136,7 +159,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let n = visit(node, ray, ri, min_t, (*best).t);
+        let n = visit(node, ray, ri, min_t, cull_t(*best));
         let t0 = n.t0;
         let t1 = n.t1;
         let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
@@ -153,8 +176,8 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
                 intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
             }
         }
-        let want0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
-        let want1 = t1 != NO_HIT && !leaf1 && t1 <= (*best).t;
+        let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
+        let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
         let go0 = subgroupAny(want0);
         let go1 = subgroupAny(want1);
         if (go0 && go1) {
@@ -175,7 +198,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             var next = false;
             while (sp > 0u) {
                 sp--;
-                if (subgroupAny(stack_t[sp] <= (*best).t && stack_t[sp] != T_FAR)) {
+                if (subgroupAny(stack_t[sp] <= cull_t(*best) && stack_t[sp] != T_FAR)) {
                     // The same value in every lane; broadcast so the compiler knows the
                     // node's address is uniform.
                     node = subgroupBroadcastFirst(stack_node[sp]);
@@ -200,7 +223,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let n = visit(node, ray, ri, min_t, (*best).t);
+        let n = visit(node, ray, ri, min_t, cull_t(*best));
         let t0 = n.t0;
         let t1 = n.t1;
         let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
@@ -211,8 +234,8 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         if (t1 != NO_HIT && leaf1) {
             intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
         }
-        let go0 = t0 != NO_HIT && !leaf0 && t0 <= (*best).t;
-        let go1 = t1 != NO_HIT && !leaf1 && t1 <= (*best).t;
+        let go0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
+        let go1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
         if (go0 && go1) {
             let first0 = t0 <= t1;
             stack_node[sp] = select(n.reference0, n.reference1, first0);
@@ -227,7 +250,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             var next = false;
             while (sp > 0u) {
                 sp--;
-                if (stack_t[sp] <= (*best).t) {
+                if (stack_t[sp] <= cull_t(*best)) {
                     node = stack_node[sp];
                     next = true;
                     break;

@@ -1,7 +1,7 @@
 //! The bounding volume hierarchy over a scene's bounded primitives (spheres and triangles):
 //! built on the host with a binned surface-area heuristic (SAH), in parallel, and flattened
-//! into one array of [`BvhNode`]s that the WGSL kernel (shaders/bvh.wgsl) and the CPU reference
-//! (src/cpu/bvh.rs) traverse the same way. Planes are unbounded and stay outside it.
+//! into one array of [`BvhNode`]s that the WGSL kernel (shaders/traverse.wgsl) and the CPU reference
+//! (src/cpu/traverse.rs) traverse the same way. Planes are unbounded and stay outside it.
 //!
 //! Correctness first: a node is skipped only when the ray certainly misses every primitive in
 //! it, so the BVH finds exactly the hits brute force finds. Boxes are grown by a relative
@@ -12,13 +12,13 @@
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
+use super::{kernel_frame, kernel_origin};
 use crate::algorithm::Algorithm;
-use crate::cpu::types::{kernel_frame, kernel_origin};
 use crate::math::{Vec3, length};
 use crate::scene::{Object, Scene};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
-/// per level, so `BVH_STACK` in shaders/bvh.wgsl must be at least this.
+/// per level, so `BVH_STACK` in shaders/traverse.wgsl must be at least this.
 pub const MAX_DEPTH: usize = 40;
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
 /// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
@@ -118,7 +118,7 @@ pub struct BvhNode {
     pub count1: u32,     // offset 60
 } // size 64
 
-// The kernel reads a node as four vec4<u32> (shaders/bvh.wgsl).
+// The kernel reads a node as four vec4<u32> (shaders/traverse.wgsl).
 const _: () = assert!(size_of::<BvhNode>() == 64);
 
 /// A child as its parent stores it.
@@ -456,7 +456,7 @@ fn grown(boxes: impl Iterator<Item = (Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<I
 
 impl Bvh {
     /// The BVH over `scene`'s spheres and triangles in the kernel's coordinates for
-    /// `algorithm` (camera-relative for the robust set), as [`crate::cpu::types::Primitives`]
+    /// `algorithm` (camera-relative for the robust set), as [`super::Primitives`]
     /// lays them out. Spheres and triangles get separate subtrees, so every leaf holds one kind.
     pub fn build(scene: &Scene, algorithm: Algorithm) -> Bvh {
         let origin = kernel_origin(scene, algorithm);

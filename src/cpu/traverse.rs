@@ -1,17 +1,18 @@
-//! Mirror of shaders/bvh.wgsl: the nearest hit over the spheres and triangles through the BVH
-//! built by src/bvh.rs.
+//! Mirror of shaders/traverse.wgsl: the nearest hit over the spheres and triangles through the BVH
+//! built by src/prepare/bvh.rs.
 
 use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
-use super::types::{Primitives, Ray, no_hit, t_far};
-use crate::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
+use super::types::{Ray, no_hit, t_far};
 use crate::math::{Real, Vec3};
+use crate::prepare::Primitives;
+use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
 
 /// The traversal stack's size (`BVH_STACK` in WGSL).
 const BVH_STACK: usize = MAX_DEPTH;
 
-/// Relative widening of every slab interval (2^-16): see shaders/bvh.wgsl.
+/// Relative widening of every slab interval (2^-16): see shaders/traverse.wgsl.
 fn box_slack<T: Real>() -> T {
     T::from_f64(1.0 / 65536.0)
 }
@@ -93,6 +94,29 @@ fn is_closer_ordered<T: Real>(
     key(index) < key(best.index)
 }
 
+/// Keeps primitive `index` of a kind as the nearest hit if its `t` is closer (`objects` and
+/// `key` are the kind's object ids and scene-order keys).
+fn keep_ordered<T: Real>(
+    t: T,
+    kind: u32,
+    index: u32,
+    objects: &[u32],
+    key: impl Fn(u32) -> u32,
+    best: &mut Hit<T>,
+) {
+    if t != no_hit() {
+        let object = objects[index as usize];
+        if is_closer_ordered(t, object, index, key, best) {
+            *best = Hit {
+                t,
+                object: object as i32,
+                kind,
+                index,
+            };
+        }
+    }
+}
+
 /// Tests the `count` primitives of a leaf from `first`.
 fn intersect_leaf<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
@@ -106,34 +130,22 @@ fn intersect_leaf<T: Real, const ROBUST: bool>(
     if count & SPHERE_LEAF != 0 {
         for k in first..first + n {
             let t = intersect_sphere::<T, ROBUST>(ray, &prims.spheres[k as usize], min_t);
-            if t != no_hit() {
-                let object = prims.sphere_objects[k as usize];
-                if is_closer_ordered(t, object, k, |i| prims.sphere_key(i), best) {
-                    *best = Hit {
-                        t,
-                        object: object as i32,
-                        kind: KIND_SPHERE,
-                        index: k,
-                    };
-                }
-            }
+            let key = |i| prims.sphere_key(i);
+            keep_ordered(t, KIND_SPHERE, k, &prims.sphere_objects, key, best);
         }
     } else {
         for k in first..first + n {
             let t = intersect_triangle::<T, ROBUST>(ray, &prims.triangles[k as usize], min_t);
-            if t != no_hit() {
-                let object = prims.triangle_objects[k as usize];
-                if is_closer_ordered(t, object, k, |i| prims.triangle_key(i), best) {
-                    *best = Hit {
-                        t,
-                        object: object as i32,
-                        kind: KIND_TRIANGLE,
-                        index: k,
-                    };
-                }
-            }
+            let key = |i| prims.triangle_key(i);
+            keep_ordered(t, KIND_TRIANGLE, k, &prims.triangle_objects, key, best);
         }
     }
+}
+
+/// The farthest a box may start and still be searched (`cull_t` in WGSL, whose certainty pass
+/// searches further; the CPU has no certainty pass).
+fn cull_t<T: Real>(best: &Hit<T>) -> T {
+    best.t
 }
 
 /// A node as the traversal sees it: where the ray enters each child's box (NO_HIT when it
@@ -183,7 +195,7 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
     let mut sp = 0;
     let mut node = 0u32;
     loop {
-        let n = visit(nodes, node, ray, &ri, min_t, best.t);
+        let n = visit(nodes, node, ray, &ri, min_t, cull_t(best));
         let (t0, t1) = (n.t0, n.t1);
         let leaf0 = n.reference0 & LEAF_BIT != 0;
         let leaf1 = n.reference1 & LEAF_BIT != 0;
@@ -195,8 +207,8 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
             let first = n.reference1 & !LEAF_BIT;
             intersect_leaf::<T, ROBUST>(ray, min_t, prims, first, n.count1, best);
         }
-        let go0 = t0 != no_hit() && !leaf0 && t0 <= best.t;
-        let go1 = t1 != no_hit() && !leaf1 && t1 <= best.t;
+        let go0 = t0 != no_hit() && !leaf0 && t0 <= cull_t(best);
+        let go1 = t1 != no_hit() && !leaf1 && t1 <= cull_t(best);
         if go0 && go1 {
             let first0 = t0 <= t1;
             stack_node[sp] = if first0 { n.reference1 } else { n.reference0 };
@@ -211,7 +223,7 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
             let mut next = false;
             while sp > 0 {
                 sp -= 1;
-                if stack_t[sp] <= best.t {
+                if stack_t[sp] <= cull_t(best) {
                     node = stack_node[sp];
                     next = true;
                     break;

@@ -60,7 +60,7 @@ fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHi
 
 #if PIXEL_LIST
 // The pixels to cast, as row-major indices; params.tile_rows holds how many there are.
-@group(0) @binding(7) var<storage, read> pixel_list: array<u32>;
+@group(0) @binding(17) var<storage, read> pixel_list: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(

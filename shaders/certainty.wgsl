@@ -1,0 +1,154 @@
+// The certainty test of adaptive precision's first pass (CERTAINTY): whether a pixel's hit/miss
+// and nearest object are those of exact arithmetic. CPU counterpart: src/cpu/margin.rs, which
+// derives the same bounds in f64 (it judges margins, it does not mirror this pass).
+#import types
+#import hit
+
+// Each robust intersect_* function records here whether the decision it just made (hit or
+// miss) is certain, where it hits or would hit, and the condition factor of that t.
+var<private> decision_certain: bool;
+var<private> decision_t: real;
+var<private> decision_t_condition: real;
+
+// Safety factor over the first-order error bounds.
+const MARGIN_K: real = 2.0;
+
+fn decide(certain: bool, t: real, t_condition: real) {
+    decision_certain = certain;
+    decision_t = t;
+    decision_t_condition = t_condition;
+}
+
+// |q| exceeds MARGIN_K times its first-order error bound EPS * scale: its sign is certain.
+fn is_certain(q: real, scale: real) -> bool {
+    return abs(q) >= MARGIN_K * EPS * scale;
+}
+
+// The conservative start test decides as exact arithmetic would.
+fn start_certain(t: real, min_t: real, t_condition: real) -> bool {
+    return abs(t - min_t) >= EPS * (16.0 + 8.0 * MARGIN_K * t_condition) * abs(t);
+}
+
+// Two hits are certainly in this order.
+fn gap_certain(t1: real, c1: real, t2: real, c2: real) -> bool {
+    return abs(t2 - t1) >= EPS * (16.0 + 8.0 * MARGIN_K * max(c1, c2)) * (abs(t1) + abs(t2));
+}
+
+// A decision kept for the certainty test: where, for which object, how well conditioned.
+struct Decision {
+    t: real,
+    object: i32,          // -1: none
+    t_condition: real,
+}
+
+// What the certainty test needs of all decisions of a pixel (CPU mirror: margins_of in
+// src/cpu/margin.rs): whether some hit is certain, whether every miss is, the nearest hit's
+// certainty, the nearest hit of another object, and the two nearest uncertain misses of
+// different objects (one of them is of another object than the final nearest hit).
+struct Certainty {
+    any_certain_hit: bool,
+    all_misses_certain: bool,
+    best_certain: bool,
+    best_condition: real,
+    second: Decision,
+    miss1: Decision,
+    miss2: Decision,
+    // The smallest distance beyond which the BVH traversal skipped boxes (cull_bound).
+    cull_floor: real,
+}
+
+var<private> certainty: Certainty;
+
+// Resets the pixel's certainty state before its nearest-hit search.
+fn start_certainty() {
+    let none = Decision(T_FAR, -1, 1.0);
+    certainty = Certainty(false, true, false, 1.0, none, none, none, T_FAR);
+}
+
+// Keeps `d` if it is nearer than `first` or `second`, `first` and `second` being of
+// different objects.
+fn keep_two(d: Decision, first: ptr<function, Decision>, second: ptr<function, Decision>) {
+    if ((*first).object < 0 || d.t < (*first).t) {
+        if (d.object != (*first).object) {
+            *second = *first;
+        }
+        *first = d;
+    } else if (d.object != (*first).object && ((*second).object < 0 || d.t < (*second).t)) {
+        *second = d;
+    }
+}
+
+// Records the decision the last intersect_* call made, before `best` is updated.
+fn record(t: real, object: u32, closer: bool, best: Hit) {
+    let d = Decision(decision_t, i32(object), decision_t_condition);
+    if (t == NO_HIT) {
+        certainty.all_misses_certain = certainty.all_misses_certain && decision_certain;
+        if (!decision_certain) {
+            var m1 = certainty.miss1;
+            var m2 = certainty.miss2;
+            keep_two(d, &m1, &m2);
+            certainty.miss1 = m1;
+            certainty.miss2 = m2;
+        }
+        return;
+    }
+    certainty.any_certain_hit = certainty.any_certain_hit || decision_certain;
+    var first = Decision(best.t, best.object, certainty.best_condition);
+    var second = certainty.second;
+    keep_two(d, &first, &second);
+    certainty.second = second;
+    if (closer) {
+        certainty.best_certain = decision_certain;
+        certainty.best_condition = decision_t_condition;
+    }
+}
+
+// Whether the pixel's hit/miss and nearest object are certain.
+fn is_pixel_certain(best: Hit) -> bool {
+    if (best.object < 0) {
+        return certainty.all_misses_certain;
+    }
+    if (!certainty.any_certain_hit || !certainty.best_certain) {
+        return false;
+    }
+    // A box skipped by the traversal may hold an object the exact nearest hit belongs to.
+    if (t_upper(best.t, certainty.best_condition) > certainty.cull_floor) {
+        return false;
+    }
+    let second = certainty.second;
+    if (second.object >= 0 && second.object != best.object
+        && !gap_certain(best.t, certainty.best_condition, second.t, second.t_condition)) {
+        return false;
+    }
+    var miss = certainty.miss1;
+    if (miss.object == best.object) {
+        miss = certainty.miss2;
+    }
+    if (miss.object >= 0) {
+        // An uncertain miss that might turn into a hit before the nearest one.
+        if (miss.t <= best.t || !gap_certain(best.t, certainty.best_condition, miss.t, miss.t_condition)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// An upper bound of the exact t of a hit computed as `t` with condition factor `c`: t plus its
+// error bound as in start_certain.
+fn t_upper(t: real, c: real) -> real {
+    return t + EPS * (16.0 + 8.0 * MARGIN_K * c) * abs(t);
+}
+
+// How far the BVH traversal must search beyond the nearest hit so far for the certainty test
+// to see every object that could be nearer in exact arithmetic: a box whose entry lies beyond
+// t_upper of the nearest hit holds nothing the exact search would find first. Records the bound
+// as used; a nearest hit found later with a larger bound makes the pixel uncertain
+// (is_pixel_certain), since boxes skipped before may then matter.
+fn cull_bound(best: Hit) -> real {
+    if (best.object < 0) {
+        return best.t;
+    }
+    let bound = t_upper(best.t, certainty.best_condition);
+    certainty.cull_floor = min(certainty.cull_floor, bound);
+    return bound;
+}

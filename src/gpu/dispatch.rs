@@ -1,0 +1,893 @@
+//! Runs the kernel on a device: the one entry for every GPU render is [`run`], which takes a
+//! prepared scene ([`Prepared`]) and a [`Job`]: the kernel [`Variant`], the rays to cast (the
+//! camera's, in tiles of image rows, or a list of its pixels), whether to time it, and where
+//! tiles go when the image is streamed. It uploads the primitives, binds every buffer by the
+//! name the kernel gives it (from naga's reflection of the kernel), dispatches and reads back
+//! the outputs the variant writes.
+
+use bytemuck::Pod;
+use wgpu::util::DeviceExt;
+
+use super::Gpu;
+use super::layout::{
+    GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
+};
+use super::shader::{self, Variant};
+use crate::error::{Error, Result};
+use crate::images::{Images, MISS};
+use crate::math::Precision;
+use crate::prepare::{Prepared, Primitives};
+use crate::scene::Scene;
+
+/// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl).
+const WORKGROUP: u32 = 8;
+/// Invocations per workgroup of a pixel-list kernel (`@workgroup_size(64)`).
+const LIST_WORKGROUP: u32 = 64;
+/// Bytes of output per pixel and unit of precision: `vec4<real>` surface.
+const SURFACE_REALS: u64 = 4;
+/// Bytes of output per pixel: `i32` id.
+const ID_BYTES: u64 = 4;
+
+/// Which rays a [`Job`] casts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rays<'a> {
+    /// The camera's ray through the centre of every pixel, in tiles of image rows.
+    Camera,
+    /// The camera rays of the listed pixels only (row-major indices), in list order: one
+    /// invocation per listed pixel, so the cost follows the length of the list. The images
+    /// come back as one row of `list.len()` pixels.
+    Pixels(&'a [u32]),
+}
+
+/// What receives the tiles of a streamed render: the first image row of the tile and its
+/// images (the tile's rows only).
+pub type TileSink<'a, R> = &'a mut dyn FnMut(u32, Images<R>) -> Result<()>;
+
+/// One GPU render: what [`run`] does with a prepared scene.
+pub struct Job<'a, R> {
+    /// The kernel: the scene's kinds, precision, algorithm, outputs, hook or user kernel,
+    /// certainty test. Its `pixel_list` is set by [`run`] from `rays`.
+    pub variant: Variant,
+    pub rays: Rays<'a>,
+    /// At most this many image rows per dispatch (fewer where the device's limits require).
+    pub max_rows: Option<u32>,
+    /// Measure the kernel's GPU time with timestamp queries ([`Stages::kernel_s`]).
+    pub timed: bool,
+    /// Hand each tile to this sink as soon as it is read back, from the top, instead of
+    /// holding the whole image ([`Rendered::images`] is then empty).
+    pub sink: Option<TileSink<'a, R>>,
+}
+
+impl<'a, R> Job<'a, R> {
+    /// The camera's rays through `variant`, untimed, whole.
+    pub fn new(variant: Variant) -> Self {
+        Job {
+            variant,
+            rays: Rays::Camera,
+            max_rows: None,
+            timed: false,
+            sink: None,
+        }
+    }
+
+    /// Casts the listed pixels only ([`Rays::Pixels`]).
+    pub fn pixels(self, list: &'a [u32]) -> Self {
+        Job {
+            rays: Rays::Pixels(list),
+            ..self
+        }
+    }
+
+    /// At most `max_rows` image rows per dispatch.
+    pub fn rows(self, max_rows: u32) -> Self {
+        Job {
+            max_rows: Some(max_rows.max(1)),
+            ..self
+        }
+    }
+
+    /// Measures the kernel's GPU time.
+    pub fn timed(self, timed: bool) -> Self {
+        Job { timed, ..self }
+    }
+
+    /// Streams the tiles to `sink`.
+    pub fn sink(self, sink: TileSink<'a, R>) -> Self {
+        Job {
+            sink: Some(sink),
+            ..self
+        }
+    }
+}
+
+/// What [`run`] returns.
+pub struct Rendered<R> {
+    /// The images (one row of the listed pixels for [`Rays::Pixels`]; empty when streamed).
+    pub images: Images<R>,
+    /// Per-pixel certainty flags, in a certainty variant.
+    pub certainty: Option<Vec<bool>>,
+    pub stages: Stages,
+}
+
+/// `scene` prepared for `variant`: in its precision and algorithm, through a BVH where the
+/// variant traverses one.
+pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Prepared<R> {
+    Prepared::new(scene, variant.algorithm, variant.accel())
+}
+
+/// Runs `job` on `prepared` (module docs).
+pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Result<Rendered<R>> {
+    let Job {
+        variant,
+        rays,
+        max_rows,
+        timed,
+        mut sink,
+    } = job;
+    let variant = Variant {
+        pixel_list: matches!(rays, Rays::Pixels(_)),
+        ..variant
+    };
+    if variant.precision != R::PRECISION || variant.uses_bvh() != prepared.bvh().is_some() {
+        return Err(Error::Device(format!(
+            "the kernel variant ({} precision, BVH {}) does not fit the prepared scene ({}, BVH {})",
+            variant.precision.name(),
+            variant.uses_bvh(),
+            R::PRECISION.name(),
+            prepared.bvh().is_some()
+        )));
+    }
+    let clock = std::time::Instant::now();
+    let layout = Layout::new(&prepared.primitives);
+    let mut stages = Stages {
+        build_s: prepared.build_s + clock.elapsed().as_secs_f64(),
+        ..Stages::default()
+    };
+    let [nx, ny] = prepared.resolution();
+    let tile_rows =
+        check_limits(gpu, [nx, ny], &variant, &layout)?.min(max_rows.unwrap_or(u32::MAX));
+    let list_capacity =
+        (gpu.max_binding() / surface_bytes(R::PRECISION)).min(u32::MAX as u64) as u32;
+    // The dispatches: (first row or list entry, rows or pixels).
+    let parts: Vec<(u32, u32)> = match rays {
+        Rays::Camera => (0..ny)
+            .step_by(tile_rows as usize)
+            .map(|row| (row, tile_rows.min(ny - row)))
+            .collect(),
+        Rays::Pixels(list) => (0..list.len() as u32)
+            .step_by(list_capacity as usize)
+            .map(|start| (start, list_capacity.min(list.len() as u32 - start)))
+            .collect(),
+    };
+    let capacity = match rays {
+        Rays::Camera => tile_rows as u64 * nx as u64,
+        Rays::Pixels(list) => (list.len() as u64).min(list_capacity as u64),
+    };
+
+    let clock = std::time::Instant::now();
+    let kernel = pipeline(gpu, variant)?;
+    stages.compile_s = clock.elapsed().as_secs_f64();
+    let device = &gpu.device;
+
+    let clock = std::time::Instant::now();
+    let uploaded = layout.upload(gpu, &variant);
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
+    stages.upload_s = clock.elapsed().as_secs_f64();
+
+    let clock = std::time::Instant::now();
+    let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("params"),
+        size: size_of::<GpuParams<R>>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let list_buffer = match rays {
+        Rays::Pixels(_) => Some(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pixel_list"),
+            size: capacity.max(1) * 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })),
+        Rays::Camera => None,
+    };
+    let outputs = OutputBuffers::new(gpu, &variant, capacity);
+    let mut buffers: Vec<(String, &wgpu::Buffer)> =
+        uploaded.iter().map(|(name, b)| (name.clone(), b)).collect();
+    buffers.push(("params".into(), &params_buffer));
+    buffers.extend(list_buffer.iter().map(|b| ("pixel_list".to_owned(), b)));
+    buffers.extend(outputs.named());
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("raycast"),
+        layout: &kernel.pipeline.get_bind_group_layout(0),
+        entries: &kernel.entries(&buffers)?,
+    });
+
+    // Streamed, the tiles go to the sink and only the tile in hand is held.
+    let whole = match rays {
+        Rays::Camera if sink.is_some() => [nx, 0],
+        Rays::Camera => [nx, ny],
+        Rays::Pixels(list) => [list.len() as u32, 1],
+    };
+    let new_images = |[w, h]: [u32; 2]| {
+        let mut images = Images::new_miss(w, h, prepared.focal_length);
+        images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
+        images
+    };
+    let mut images = new_images(whole);
+    let mut certainty = variant.certainty.then(|| vec![false; images.len()]);
+    let timer = if timed { PassTimer::new(gpu) } else { None };
+    let mut kernel_s = timer.as_ref().map(|_| 0.0);
+    let frame = GpuFrame::new(&prepared.frame);
+    let origin = prepared.origin.cast::<R>().to_array();
+    for (first, count) in parts {
+        let params = GpuParams::<R> {
+            frame,
+            projection: projection_code(prepared.frame.projection),
+            nx,
+            ny,
+            row_offset: if variant.pixel_list { 0 } else { first },
+            tile_rows: count,
+            sphere_count: layout.spheres.len() as u32,
+            plane_count: layout.planes.len() as u32,
+            triangle_count: layout.triangles.len() as u32,
+            origin,
+            _pad0: R::ZERO,
+        };
+        gpu.queue
+            .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
+        let (groups, pixels) = match rays {
+            Rays::Camera => (
+                [nx.div_ceil(WORKGROUP), count.div_ceil(WORKGROUP)],
+                count as u64 * nx as u64,
+            ),
+            Rays::Pixels(list) => {
+                let part = &list[first as usize..(first + count) as usize];
+                let buffer = list_buffer.as_ref().expect("a pixel list has its buffer");
+                gpu.queue
+                    .write_buffer(buffer, 0, bytemuck::cast_slice(part));
+                (list_groups(gpu, count), count as u64)
+            }
+        };
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("raycast"),
+                timestamp_writes: timer.as_ref().map(PassTimer::pass_writes),
+            });
+            pass.set_pipeline(&kernel.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], 1);
+        }
+        if let Some(timer) = &timer {
+            timer.resolve(&mut encoder);
+        }
+        outputs.copy_to_readback(&mut encoder, pixels);
+        gpu.queue.submit([encoder.finish()]);
+        match (&rays, sink.as_mut()) {
+            (Rays::Camera, Some(sink)) => {
+                let mut tile = new_images([nx, count]);
+                read_tile(gpu, &outputs, &variant, pixels as usize, 0, &mut tile, None)?;
+                sink(first, tile)?;
+            }
+            _ => {
+                let start = match rays {
+                    Rays::Camera => first as usize * nx as usize,
+                    Rays::Pixels(_) => first as usize,
+                };
+                read_tile(
+                    gpu,
+                    &outputs,
+                    &variant,
+                    pixels as usize,
+                    start,
+                    &mut images,
+                    certainty.as_deref_mut(),
+                )?;
+            }
+        }
+        if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
+            *total += timer.read_seconds(gpu)?;
+        }
+    }
+    stages.trace_s = clock.elapsed().as_secs_f64();
+    stages.kernel_s = kernel_s;
+    Ok(Rendered {
+        images,
+        certainty,
+        stages,
+    })
+}
+
+/// Workgroups for `count` listed pixels, `LIST_WORKGROUP` invocations each, laid out in rows of
+/// at most the device's limit per dimension.
+fn list_groups(gpu: &Gpu, count: u32) -> [u32; 2] {
+    let groups = count.div_ceil(LIST_WORKGROUP);
+    let max_groups = gpu.device.limits().max_compute_workgroups_per_dimension;
+    [groups.min(max_groups), groups.div_ceil(max_groups)]
+}
+
+/// A scene's primitives in the GPU's layout (the values of [`Primitives`], padded as WGSL lays
+/// them out), and the object id of each: spheres first, then planes, then triangles. With a
+/// BVH, spheres and triangles are in its order, and `order` holds each one's index in the
+/// scene's.
+struct Layout<R> {
+    spheres: Vec<GpuSphere<R>>,
+    planes: Vec<GpuPlane<R>>,
+    triangles: Vec<GpuTriangle<R>>,
+    objects: Vec<u32>,
+    nodes: Vec<crate::prepare::bvh::BvhNode>,
+    order: Vec<u32>,
+}
+
+impl<R: GpuReal> Layout<R> {
+    fn new(p: &Primitives<R>) -> Layout<R> {
+        let (nodes, order) = match &p.bvh {
+            Some(bvh) => {
+                let planes = 0..p.planes.len() as u32;
+                let order = [
+                    &bvh.sphere_order[..],
+                    &planes.collect::<Vec<_>>(),
+                    &bvh.triangle_order,
+                ]
+                .concat();
+                (bvh.nodes.clone(), order)
+            }
+            None => (Vec::new(), Vec::new()),
+        };
+        Layout {
+            spheres: p.spheres.iter().map(GpuSphere::from).collect(),
+            planes: p.planes.iter().map(GpuPlane::from).collect(),
+            triangles: p.triangles.iter().map(GpuTriangle::from).collect(),
+            objects: [&p.sphere_objects[..], &p.plane_objects, &p.triangle_objects].concat(),
+            nodes,
+            order,
+        }
+    }
+
+    /// The scene's buffers, named as the kernel's globals (shaders/bindings.wgsl): spheres,
+    /// planes, triangles and object ids, and the BVH's nodes and primitive order; triangles
+    /// and nodes in `variant.chunks` buffers each (`triangles`, `triangles_2`, ...).
+    fn upload(&self, gpu: &Gpu, variant: &Variant) -> Vec<(String, wgpu::Buffer)> {
+        // With UNIFORM_PRIMS, spheres, planes and triangles are uniform buffers (one chunk).
+        let uniform = variant
+            .uses_uniform_prims()
+            .then(|| shader::UniformCapacity::of(variant.precision));
+        let (spheres, planes, triangles) = match uniform {
+            Some(c) => (
+                uniform_buffer(gpu, "spheres", &self.spheres, c.spheres),
+                uniform_buffer(gpu, "planes", &self.planes, c.planes),
+                vec![uniform_buffer(
+                    gpu,
+                    "triangles",
+                    &self.triangles,
+                    c.triangles,
+                )],
+            ),
+            None => (
+                storage_buffer(gpu, "spheres", &self.spheres),
+                storage_buffer(gpu, "planes", &self.planes),
+                chunked_upload(gpu, "triangles", &self.triangles, variant),
+            ),
+        };
+        let mut named = vec![
+            ("spheres".to_owned(), spheres),
+            ("planes".to_owned(), planes),
+            (
+                "objects".to_owned(),
+                storage_buffer(gpu, "objects", &self.objects),
+            ),
+            (
+                "prim_order".to_owned(),
+                storage_buffer(gpu, "prim_order", &self.order),
+            ),
+        ];
+        named.extend(chunk_names("triangles").zip(triangles));
+        let nodes = chunked_upload(gpu, "bvh_nodes", &self.nodes, variant);
+        named.extend(chunk_names("bvh_nodes").zip(nodes));
+        named
+    }
+}
+
+/// The names of the chunks of a chunked binding: `name`, `name_2`, `name_3`, ...
+fn chunk_names(name: &str) -> impl Iterator<Item = String> + '_ {
+    (1..).map(move |k| match k {
+        1 => name.to_owned(),
+        k => format!("{name}_{k}"),
+    })
+}
+
+/// A compiled kernel and the resources its entry point uses, by name and binding number.
+#[derive(Clone)]
+pub(crate) struct Compiled {
+    pipeline: wgpu::ComputePipeline,
+    bindings: Vec<(String, u32)>,
+}
+
+impl Compiled {
+    /// The bind group entries: for each resource the kernel uses, the buffer of that name.
+    fn entries<'a>(
+        &self,
+        buffers: &[(String, &'a wgpu::Buffer)],
+    ) -> Result<Vec<wgpu::BindGroupEntry<'a>>> {
+        self.bindings
+            .iter()
+            .map(|(name, binding)| {
+                let (_, buffer) = buffers.iter().find(|(n, _)| n == name).ok_or_else(|| {
+                    Error::Device(format!(
+                        "the kernel binds `{name}` (@binding({binding})), which this render does not provide"
+                    ))
+                })?;
+                Ok(wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                })
+            })
+            .collect()
+    }
+}
+
+/// The kernel for `variant`, compiled once per [`Gpu`].
+fn pipeline(gpu: &Gpu, variant: Variant) -> Result<Compiled> {
+    let mut cache = gpu.pipelines.lock().expect("pipeline cache lock");
+    if let Some(p) = cache.get(&variant) {
+        return Ok(p.clone());
+    }
+    let p = create_pipeline(gpu, &variant)?;
+    cache.insert(variant, p.clone());
+    Ok(p)
+}
+
+fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
+    let source = shader::kernel_source(variant)?;
+    // Validated with naga first, so a shader error reads as WGSL line and column, and so the
+    // bindings are known by name.
+    let (module, info) = shader::validate(&source, std::path::Path::new("kernel"))?;
+    let bindings = super::source::bindings(&module, &info)
+        .into_iter()
+        .filter(|b| b.used)
+        .map(|b| (b.name, b.binding))
+        .collect();
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let shader_module = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("raycast kernel"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let pipeline = gpu
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("raycast kernel"),
+            layout: None,
+            module: &shader_module,
+            entry_point: Some(shader::ENTRY_POINT),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(Error::Device(format!(
+            "cannot create the kernel pipeline: {e}"
+        )));
+    }
+    Ok(Compiled { pipeline, bindings })
+}
+
+/// The image rows one dispatch may cover for `variant` on this device: an error when not one
+/// row fits, when f64 is asked for without `SHADER_F64`, or when the primitives exceed the
+/// bindings the variant declares.
+fn check_limits<R: GpuReal>(
+    gpu: &Gpu,
+    [nx, ny]: [u32; 2],
+    variant: &Variant,
+    layout: &Layout<R>,
+) -> Result<u32> {
+    if R::PRECISION == Precision::F64 && !gpu.device.features().contains(wgpu::Features::SHADER_F64)
+    {
+        return Err(Error::Device(format!(
+            "--precision f64: the adapter {} has no f64 shader support (SHADER_F64); use --precision f32",
+            gpu.info().name
+        )));
+    }
+    let limits = gpu.device.limits();
+    let max_width = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+    let rows = max_tile_rows(&limits, nx, R::PRECISION);
+    if nx as u64 > max_width || rows == 0 {
+        return Err(Error::Argument {
+            option: "resolution".into(),
+            message: format!(
+                "{nx}x{ny} is wider than this device can dispatch (at most {} pixels per row)",
+                max_width.min(limits.max_storage_buffer_binding_size / surface_bytes(R::PRECISION))
+            ),
+        });
+    }
+    let capacity = shader::UniformCapacity::of(R::PRECISION);
+    let counts = [
+        (layout.spheres.len(), capacity.spheres),
+        (layout.planes.len(), capacity.planes),
+        (layout.triangles.len(), capacity.triangles),
+    ];
+    if variant.uses_uniform_prims() && counts.iter().any(|&(n, cap)| n > cap as usize) {
+        return Err(Error::Device(format!(
+            "{} spheres, {} planes and {} triangles do not fit uniform buffers of {} bytes (at most {capacity:?})",
+            counts[0].0,
+            counts[1].0,
+            counts[2].0,
+            shader::UNIFORM_BYTES
+        )));
+    }
+    let chunk = 1u64 << variant.chunk_bits;
+    let needed = (layout.triangles.len().max(layout.nodes.len()) as u64).div_ceil(chunk);
+    if needed > variant.chunks as u64 {
+        return Err(Error::Device(format!(
+            "{} triangles ({} BVH nodes) need {needed} storage bindings of {chunk}; this kernel binds {} (at most {} triangles on this device)",
+            layout.triangles.len(),
+            layout.nodes.len(),
+            variant.chunks,
+            chunk * shader::MAX_CHUNKS as u64
+        )));
+    }
+    Ok(rows.min(ny))
+}
+
+/// `items` in `variant.chunks` storage buffers of 2^`variant.chunk_bits` items (the last ones
+/// possibly a zeroed placeholder).
+fn chunked_upload<T: Pod>(
+    gpu: &Gpu,
+    label: &str,
+    items: &[T],
+    variant: &Variant,
+) -> Vec<wgpu::Buffer> {
+    let chunk = 1usize << variant.chunk_bits;
+    (0..variant.chunks as usize)
+        .map(|k| {
+            let part = items.get(k * chunk..).unwrap_or(&[]);
+            storage_buffer(gpu, label, &part[..part.len().min(chunk)])
+        })
+        .collect()
+}
+
+fn surface_bytes(precision: Precision) -> u64 {
+    SURFACE_REALS
+        * match precision {
+            Precision::F32 => 4,
+            Precision::F64 => 8,
+        }
+}
+
+/// The most image rows one dispatch can cover at `width` pixels per row under `limits`
+/// (output binding size and workgroups per dimension); 0 if not even one row fits.
+pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Precision) -> u32 {
+    let binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+    let by_memory = binding / (width as u64 * surface_bytes(precision));
+    let by_dispatch = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+    by_memory.min(by_dispatch).min(u32::MAX as u64) as u32
+}
+
+/// A buffer the kernel writes and the host copies out of.
+fn output_buffer(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
+}
+
+/// A buffer the host maps to read results.
+fn readback_buffer(gpu: &Gpu, size: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A storage buffer holding `items`, or one zeroed element when there are none
+/// (WGSL bindings may not be empty; the count in `Params` stays 0).
+fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
+    let placeholder = [T::zeroed()];
+    let items = if items.is_empty() {
+        &placeholder
+    } else {
+        items
+    };
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(items),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+}
+
+/// A uniform buffer holding `items` zero-padded to `capacity` items: the size of the
+/// fixed-size array the kernel declares (UNIFORM_PRIMS), which wgpu requires it to have.
+fn uniform_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], capacity: u32) -> wgpu::Buffer {
+    let mut bytes = vec![0u8; capacity as usize * size_of::<T>()];
+    let data: &[u8] = bytemuck::cast_slice(items);
+    bytes[..data.len()].copy_from_slice(data);
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+}
+
+/// GPU time of compute passes from timestamp queries: one written at the beginning and one at
+/// the end of each pass, resolved and copied to a mappable buffer after it.
+struct PassTimer {
+    query_set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period_ns: f64,
+}
+
+impl PassTimer {
+    const BYTES: u64 = 2 * wgpu::QUERY_SIZE as u64;
+
+    /// A timer, or `None` when the device has no `TIMESTAMP_QUERY`.
+    fn new(gpu: &Gpu) -> Option<PassTimer> {
+        if !gpu
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+        {
+            return None;
+        }
+        let period_ns = f64::from(gpu.queue.get_timestamp_period());
+        if period_ns <= 0.0 {
+            return None;
+        }
+        let device = &gpu.device;
+        let query_set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("kernel timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: Self::BYTES,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Some(PassTimer {
+            query_set,
+            resolve: buffer(
+                "timestamp resolve",
+                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            readback: buffer(
+                "timestamp readback",
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            ),
+            period_ns,
+        })
+    }
+
+    /// The pass's timestamp writes: index 0 at its beginning, 1 at its end.
+    fn pass_writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.query_set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// Records the resolve and the copy to the readback buffer, after the timed pass.
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.query_set, 0..2, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, Self::BYTES);
+    }
+
+    /// Seconds between the two timestamps of the last submitted timed pass.
+    fn read_seconds(&self, gpu: &Gpu) -> Result<f64> {
+        map_for_reading(gpu, &self.readback)?;
+        let ticks = {
+            let view = self
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| Error::Device(format!("GPU timestamp readback failed: {e}")))?;
+            let t: &[u64] = bytemuck::cast_slice(&view[..]);
+            t[1].saturating_sub(t[0])
+        };
+        self.readback.unmap();
+        Ok(ticks as f64 * self.period_ns * 1e-9)
+    }
+}
+
+/// Maps `buffer` for reading and waits until the GPU has finished what was submitted.
+fn map_for_reading(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<()> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Device(format!("GPU did not finish: {e}")))?;
+    rx.recv()
+        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?
+        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))
+}
+
+/// Wall-clock seconds of the stages of one render, and the kernel's GPU time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stages {
+    /// Primitives rounded and laid out for the GPU, the BVH built (when the kernel uses one).
+    pub build_s: f64,
+    /// The kernel pipeline made (0 when it was cached).
+    pub compile_s: f64,
+    /// The scene's buffers created and filled on the device.
+    pub upload_s: f64,
+    /// Every tile dispatched and read back.
+    pub trace_s: f64,
+    /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
+    pub kernel_s: Option<f64>,
+}
+
+/// A per-pixel output buffer of the kernel (shaders/bindings.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Slot {
+    /// `out_surface`: normal and distance, `vec4<real>`.
+    Surface,
+    /// `out_id`: `i32`.
+    Id,
+    /// `out_certain`: `u32` flags (certainty variants).
+    Certain,
+    /// `out_color`: the shade hook's colour, `pack4x8unorm`.
+    Color,
+}
+
+impl Slot {
+    /// The kernel's name for the buffer (shaders/bindings.wgsl).
+    fn name(self) -> &'static str {
+        match self {
+            Slot::Surface => "out_surface",
+            Slot::Id => "out_id",
+            Slot::Certain => "out_certain",
+            Slot::Color => "out_color",
+        }
+    }
+
+    fn pixel_bytes(self, precision: Precision) -> u64 {
+        match self {
+            Slot::Surface => surface_bytes(precision),
+            Slot::Id | Slot::Certain | Slot::Color => ID_BYTES,
+        }
+    }
+}
+
+/// The output buffers a variant writes, each for `capacity` pixels, and one readback buffer
+/// holding them one after another (at `capacity` pixels each).
+struct OutputBuffers {
+    /// Slot, buffer, and its offset in the readback buffer.
+    slots: Vec<(Slot, wgpu::Buffer, u64)>,
+    readback: wgpu::Buffer,
+    precision: Precision,
+}
+
+impl OutputBuffers {
+    /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
+    /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
+    /// colours with a shade hook.
+    fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
+        let o = variant.outputs;
+        let wanted = [
+            (o.distance || o.normal, Slot::Surface),
+            (o.id, Slot::Id),
+            (variant.certainty, Slot::Certain),
+            (o.color, Slot::Color),
+        ];
+        let mut slots = Vec::new();
+        let mut offset = 0;
+        for (present, slot) in wanted {
+            if present {
+                let size = capacity * slot.pixel_bytes(variant.precision);
+                slots.push((slot, output_buffer(gpu, slot.name(), size), offset));
+                offset += size;
+            }
+        }
+        OutputBuffers {
+            slots,
+            // A mapped buffer may not be empty.
+            readback: readback_buffer(gpu, offset.max(4)),
+            precision: variant.precision,
+        }
+    }
+
+    /// The buffers by the kernel's names.
+    fn named(&self) -> impl Iterator<Item = (String, &wgpu::Buffer)> {
+        self.slots
+            .iter()
+            .map(|(slot, b, _)| (slot.name().to_owned(), b))
+    }
+
+    /// Records the copies of the first `pixels` pixels of each output to the readback buffer.
+    fn copy_to_readback(&self, encoder: &mut wgpu::CommandEncoder, pixels: u64) {
+        for (slot, buffer, offset) in &self.slots {
+            let size = pixels * slot.pixel_bytes(self.precision);
+            encoder.copy_buffer_to_buffer(buffer, 0, &self.readback, *offset, size);
+        }
+    }
+
+    /// The bytes of `slot` for `pixels` pixels in the mapped readback `view`.
+    fn bytes<'v>(&self, view: &'v [u8], slot: Slot, pixels: usize) -> Option<&'v [u8]> {
+        let (_, _, offset) = self.slots.iter().find(|(s, _, _)| *s == slot)?;
+        let at = *offset as usize;
+        Some(&view[at..at + pixels * slot.pixel_bytes(self.precision) as usize])
+    }
+}
+
+/// Copies one dispatch's results out of the readback buffer into `images` from pixel index
+/// `start` (row-major; and into `certainty` alike): only the outputs
+/// `variant` asks for; the others keep their miss values. A pixel is a hit where its id says
+/// so, or, without ids, where its surface is not zero (every hit has a distance of at least
+/// `min_t |dir| > 0` and a unit normal).
+fn read_tile<R: GpuReal>(
+    gpu: &Gpu,
+    outputs: &OutputBuffers,
+    variant: &Variant,
+    pixels: usize,
+    start: usize,
+    images: &mut Images<R>,
+    certainty: Option<&mut [bool]>,
+) -> Result<()> {
+    let readback = &outputs.readback;
+    map_for_reading(gpu, readback)?;
+    {
+        let view = readback
+            .get_mapped_range(..)
+            .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
+        let surface: Option<&[[R; 4]]> = outputs
+            .bytes(&view, Slot::Surface, pixels)
+            .map(bytemuck::cast_slice);
+        let ids: Option<&[i32]> = outputs
+            .bytes(&view, Slot::Id, pixels)
+            .map(bytemuck::cast_slice);
+        if let (Some(certainty), Some(flags)) =
+            (certainty, outputs.bytes(&view, Slot::Certain, pixels))
+        {
+            let flags: &[u32] = bytemuck::cast_slice(flags);
+            for (k, flag) in flags.iter().enumerate() {
+                certainty[start + k] = *flag != 0;
+            }
+        }
+        if let (Some(colors), Some(bytes)) =
+            (&mut images.color, outputs.bytes(&view, Slot::Color, pixels))
+        {
+            let packed: &[u32] = bytemuck::cast_slice(bytes);
+            for (k, c) in packed.iter().enumerate() {
+                // pack4x8unorm puts red in the lowest byte.
+                colors[start + k] = c.to_le_bytes();
+            }
+        }
+        let o = variant.outputs;
+        for k in 0..pixels {
+            let px = start + k;
+            let hit = match (ids, surface) {
+                (Some(ids), _) => ids[k] != MISS,
+                (None, Some(s)) => s[k] != [R::ZERO; 4],
+                (None, None) => false,
+            };
+            if let Some(ids) = ids {
+                images.id[px] = ids[k];
+            }
+            if let (true, Some(s)) = (hit, surface) {
+                let s = s[k];
+                if o.normal {
+                    images.normal[px] = [s[0], s[1], s[2]];
+                }
+                if o.distance {
+                    images.distance[px] = s[3];
+                }
+            }
+        }
+    }
+    readback.unmap();
+    Ok(())
+}

@@ -1,0 +1,204 @@
+//! Preparation: what a render needs before any ray is cast, built once per scene and request
+//! and used alike by the GPU kernel ([`crate::gpu::run`]) and the CPU reference
+//! ([`crate::cpu`]): the kernel's coordinate origin, the camera frame in those coordinates, the
+//! primitives rounded to the kernel's precision, and the BVH ([`bvh`]) that orders them.
+//!
+//! ```text
+//! Scene (f64) --kernel_origin, kernel_frame--> Frame<T>
+//!             --Primitives::new / with_bvh--> Primitives<T> (+ Arc<Bvh>)
+//! ```
+
+pub mod bvh;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::algorithm::Algorithm;
+use crate::cpu::types::{Frame, Plane, Sphere, Triangle};
+use crate::math::{Real, Vec3, dot, vec3};
+use crate::scene::{Object, Scene};
+use bvh::{Accel, Bvh};
+
+/// A scene prepared for the kernel in precision `T`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prepared<T> {
+    pub algorithm: Algorithm,
+    /// The camera frame in the kernel's coordinates, rounded to `T`.
+    pub frame: Frame<T>,
+    /// Where the kernel's coordinates are measured from, in world coordinates
+    /// ([`kernel_origin`]).
+    pub origin: Vec3<f64>,
+    pub primitives: Primitives<T>,
+    /// The camera's focal length in scene units: the distance `depth.png` maps to white.
+    pub focal_length: f64,
+    /// Seconds spent building the BVH and rounding the primitives.
+    pub build_s: f64,
+}
+
+impl<T: Real> Prepared<T> {
+    /// `scene` prepared for `algorithm`, through a BVH built here where `accel` asks for one.
+    pub fn new(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Prepared<T> {
+        let clock = Instant::now();
+        let bvh = accel
+            .uses_bvh(scene)
+            .then(|| Arc::new(Bvh::build(scene, algorithm)));
+        Prepared {
+            build_s: 0.0,
+            ..Prepared::with_bvh(scene, algorithm, bvh)
+        }
+        .timed(clock)
+    }
+
+    /// `scene` prepared for `algorithm` with a BVH already built for the same scene and
+    /// algorithm (shared between precisions), or none.
+    pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Prepared<T> {
+        let clock = Instant::now();
+        let primitives = match bvh {
+            Some(bvh) => Primitives::with_bvh(scene, algorithm, bvh),
+            None => Primitives::new(scene, algorithm),
+        };
+        Prepared {
+            algorithm,
+            frame: kernel_frame(scene, algorithm).cast(),
+            origin: kernel_origin(scene, algorithm),
+            primitives,
+            focal_length: scene.camera.focal_length,
+            build_s: 0.0,
+        }
+        .timed(clock)
+    }
+
+    fn timed(self, since: Instant) -> Self {
+        Prepared {
+            build_s: since.elapsed().as_secs_f64(),
+            ..self
+        }
+    }
+
+    /// The image size `[nx, ny]` in pixels.
+    pub fn resolution(&self) -> [u32; 2] {
+        [self.frame.nx, self.frame.ny]
+    }
+
+    /// The BVH the primitives are ordered by, if any.
+    pub fn bvh(&self) -> Option<&Arc<Bvh>> {
+        self.primitives.bvh.as_ref()
+    }
+}
+
+/// A scene's primitives rounded to precision `T`, by kind, each with its object id
+/// (`objects` in shaders/bindings.wgsl holds the ids in the order spheres, planes, triangles).
+/// With a BVH, spheres and triangles are stored in its order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Primitives<T> {
+    pub spheres: Vec<Sphere<T>>,
+    pub planes: Vec<Plane<T>>,
+    pub triangles: Vec<Triangle<T>>,
+    pub sphere_objects: Vec<u32>,
+    pub plane_objects: Vec<u32>,
+    pub triangle_objects: Vec<u32>,
+    /// The BVH the spheres and triangles are ordered by, if the render uses one.
+    pub bvh: Option<Arc<Bvh>>,
+}
+
+/// Where the kernel's coordinates are measured from: the world origin for
+/// [`Algorithm::Textbook`], the eye for [`Algorithm::Robust`] (camera-relative rendering: the
+/// subtraction happens here in f64, so f32 precision sits where the camera is).
+pub fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
+    match algorithm {
+        Algorithm::Textbook => vec3(0.0, 0.0, 0.0),
+        Algorithm::Robust => scene.camera.eye,
+    }
+}
+
+/// The camera frame in the kernel's coordinates (f64, not yet rounded).
+pub fn kernel_frame(scene: &Scene, algorithm: Algorithm) -> Frame<f64> {
+    let mut frame = Frame::new(&scene.camera, scene.camera.resolution);
+    frame.eye = frame.eye - kernel_origin(scene, algorithm);
+    frame
+}
+
+impl<T: Real> Primitives<T> {
+    /// Every object of `scene` in the kernel's coordinates for `algorithm`, rounded from f64
+    /// to `T`; a soup adds all its triangles under its one id. Robust planes are stored by
+    /// their point nearest the eye, `((p - e).n) n`, computed in f64.
+    pub fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
+        let origin = kernel_origin(scene, algorithm);
+        let mut p = Primitives {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            triangles: Vec::new(),
+            sphere_objects: Vec::new(),
+            plane_objects: Vec::new(),
+            triangle_objects: Vec::new(),
+            bvh: None,
+        };
+        for (id, object) in scene.objects.iter().enumerate() {
+            let id = id as u32;
+            match object {
+                Object::Sphere { center, radius } => {
+                    p.spheres.push(Sphere {
+                        center: (*center - origin).cast(),
+                        radius: T::from_f64(*radius),
+                    });
+                    p.sphere_objects.push(id);
+                }
+                Object::Plane { point, normal } => {
+                    let point = match algorithm {
+                        Algorithm::Textbook => *point,
+                        Algorithm::Robust => *normal * dot(*point - origin, *normal),
+                    };
+                    p.planes.push(Plane {
+                        point: point.cast(),
+                        normal: normal.cast(),
+                    });
+                    p.plane_objects.push(id);
+                }
+                Object::Triangle { corners } => p.push_triangle(id, corners, origin),
+                Object::Soup { triangles, .. } => triangles
+                    .iter()
+                    .for_each(|t| p.push_triangle(id, t, origin)),
+            }
+        }
+        p
+    }
+
+    /// [`Primitives::new`] with the spheres and triangles in the order of `bvh` (built by
+    /// [`Bvh::build`] for the same scene and algorithm), which the traversal then uses.
+    pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
+        let p = Primitives::new(scene, algorithm);
+        let permute = |order: &[u32]| order.iter().map(|k| *k as usize).collect::<Vec<_>>();
+        let (s, t) = (permute(&bvh.sphere_order), permute(&bvh.triangle_order));
+        Primitives {
+            spheres: s.iter().map(|&k| p.spheres[k]).collect(),
+            sphere_objects: s.iter().map(|&k| p.sphere_objects[k]).collect(),
+            triangles: t.iter().map(|&k| p.triangles[k]).collect(),
+            triangle_objects: t.iter().map(|&k| p.triangle_objects[k]).collect(),
+            planes: p.planes,
+            plane_objects: p.plane_objects,
+            bvh: Some(bvh),
+        }
+    }
+
+    /// The index in the scene's own order of sphere `k` of this list (ties between primitives
+    /// of one object go to the lower one, whatever order they are stored in).
+    pub fn sphere_key(&self, k: u32) -> u32 {
+        self.bvh.as_ref().map_or(k, |b| b.sphere_order[k as usize])
+    }
+
+    /// As [`Primitives::sphere_key`], for triangle `k`.
+    pub fn triangle_key(&self, k: u32) -> u32 {
+        self.bvh
+            .as_ref()
+            .map_or(k, |b| b.triangle_order[k as usize])
+    }
+
+    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle, origin: Vec3<f64>) {
+        self.triangles.push(Triangle {
+            a: (t[0] - origin).cast(),
+            b: (t[1] - origin).cast(),
+            c: (t[2] - origin).cast(),
+        });
+        self.triangle_objects.push(id);
+    }
+}
