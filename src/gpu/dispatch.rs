@@ -128,6 +128,11 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         pixel_list: matches!(rays, Rays::Pixels(_)),
         ..variant
     };
+    if variant.pixel_list && sink.is_some() {
+        return Err(Error::Device(
+            "a pixel list comes back whole; only camera rays are streamed".into(),
+        ));
+    }
     if variant.precision != R::PRECISION || variant.uses_bvh() != prepared.bvh().is_some() {
         return Err(Error::Device(format!(
             "the kernel variant ({} precision, BVH {}) does not fit the prepared scene ({}, BVH {})",
@@ -237,17 +242,19 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         };
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
-        let (groups, pixels) = match rays {
+        // Workgroups, pixels cast, and the index of the first in the images.
+        let (groups, pixels, start) = match rays {
             Rays::Camera => (
                 [nx.div_ceil(WORKGROUP), count.div_ceil(WORKGROUP)],
                 count as u64 * nx as u64,
+                first as usize * nx as usize,
             ),
             Rays::Pixels(list) => {
                 let part = &list[first as usize..(first + count) as usize];
                 let buffer = list_buffer.as_ref().expect("a pixel list has its buffer");
                 gpu.queue
                     .write_buffer(buffer, 0, bytemuck::cast_slice(part));
-                (list_groups(gpu, count), count as u64)
+                (list_groups(gpu, count), count as u64, first as usize)
             }
         };
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -265,27 +272,21 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         }
         outputs.copy_to_readback(&mut encoder, pixels);
         gpu.queue.submit([encoder.finish()]);
-        match (&rays, sink.as_mut()) {
-            (Rays::Camera, Some(sink)) => {
+        match sink.as_mut() {
+            Some(sink) => {
                 let mut tile = new_images([nx, count]);
                 read_tile(gpu, &outputs, &variant, pixels as usize, 0, &mut tile, None)?;
                 sink(first, tile)?;
             }
-            _ => {
-                let start = match rays {
-                    Rays::Camera => first as usize * nx as usize,
-                    Rays::Pixels(_) => first as usize,
-                };
-                read_tile(
-                    gpu,
-                    &outputs,
-                    &variant,
-                    pixels as usize,
-                    start,
-                    &mut images,
-                    certainty.as_deref_mut(),
-                )?;
-            }
+            None => read_tile(
+                gpu,
+                &outputs,
+                &variant,
+                pixels as usize,
+                start,
+                &mut images,
+                certainty.as_deref_mut(),
+            )?,
         }
         if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
             *total += timer.read_seconds(gpu)?;
@@ -312,17 +313,17 @@ fn list_groups(gpu: &Gpu, count: u32) -> [u32; 2] {
 /// them out), and the object id of each: spheres first, then planes, then triangles. With a
 /// BVH, spheres and triangles are in its order, and `order` holds each one's index in the
 /// scene's.
-struct Layout<R> {
+struct Layout<'a, R> {
     spheres: Vec<GpuSphere<R>>,
     planes: Vec<GpuPlane<R>>,
     triangles: Vec<GpuTriangle<R>>,
     objects: Vec<u32>,
-    nodes: Vec<crate::prepare::bvh::BvhNode>,
+    nodes: &'a [crate::prepare::bvh::BvhNode],
     order: Vec<u32>,
 }
 
-impl<R: GpuReal> Layout<R> {
-    fn new(p: &Primitives<R>) -> Layout<R> {
+impl<'a, R: GpuReal> Layout<'a, R> {
+    fn new(p: &'a Primitives<R>) -> Layout<'a, R> {
         let (nodes, order) = match &p.bvh {
             Some(bvh) => {
                 let planes = 0..p.planes.len() as u32;
@@ -332,9 +333,9 @@ impl<R: GpuReal> Layout<R> {
                     &bvh.triangle_order,
                 ]
                 .concat();
-                (bvh.nodes.clone(), order)
+                (&bvh.nodes[..], order)
             }
-            None => (Vec::new(), Vec::new()),
+            None => (&[][..], Vec::new()),
         };
         Layout {
             spheres: p.spheres.iter().map(GpuSphere::from).collect(),
@@ -384,7 +385,7 @@ impl<R: GpuReal> Layout<R> {
             ),
         ];
         named.extend(chunk_names("triangles").zip(triangles));
-        let nodes = chunked_upload(gpu, "bvh_nodes", &self.nodes, variant);
+        let nodes = chunked_upload(gpu, "bvh_nodes", self.nodes, variant);
         named.extend(chunk_names("bvh_nodes").zip(nodes));
         named
     }
@@ -444,7 +445,7 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     // Validated with naga first, so a shader error reads as WGSL line and column, and so the
     // bindings are known by name.
     let (module, info) = shader::validate(&source, std::path::Path::new("kernel"))?;
-    let bindings = super::source::bindings(&module, &info)
+    let bindings = super::source::bindings(&module, &info, shader::ENTRY_POINT)
         .into_iter()
         .filter(|b| b.used)
         .map(|b| (b.name, b.binding))
@@ -481,7 +482,7 @@ fn check_limits<R: GpuReal>(
     gpu: &Gpu,
     [nx, ny]: [u32; 2],
     variant: &Variant,
-    layout: &Layout<R>,
+    layout: &Layout<'_, R>,
 ) -> Result<u32> {
     if R::PRECISION == Precision::F64 && !gpu.device.features().contains(wgpu::Features::SHADER_F64)
     {

@@ -76,7 +76,7 @@ fn interface(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Option<In
         .entry_points
         .iter()
         .find(|e| e.name == shader::ENTRY_POINT && e.stage == naga::ShaderStage::Compute)?;
-    let mut bindings = source::bindings(module, info);
+    let mut bindings = source::bindings(module, info, shader::ENTRY_POINT);
     bindings.sort_by_key(|b| (b.group, b.binding));
     Some(Interface {
         bindings,

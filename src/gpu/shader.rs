@@ -616,7 +616,7 @@ mod tests {
         for variant in all_variants().into_iter().chain([both]) {
             let (module, info) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
             let mut seen = std::collections::HashMap::new();
-            for b in source::bindings(&module, &info) {
+            for b in source::bindings(&module, &info, ENTRY_POINT) {
                 if let Some(other) = seen.insert((b.group, b.binding), b.name.clone()) {
                     panic!(
                         "{other} and {} share @binding({}) in {variant:?}",

@@ -1,5 +1,5 @@
 //! WGSL sources as the host handles them: one registry of the user's sources (shade hooks and
-//! kernel files), keyed by a hash of their text so a kernel [`super::shader::Variant`] stays
+//! kernel files), keyed by a hash of their text so a kernel variant stays
 //! `Copy` and a cache key; one validation with naga whose errors point at the file's line and
 //! column; and the reflection of a kernel's resource bindings, by which the host binds buffers
 //! by name. Sources stay registered for the life of the process.
@@ -113,12 +113,17 @@ impl Binding {
     }
 }
 
-/// The resource bindings `module` declares, and whether its compute entry point `main` uses
+/// The resource bindings `module` declares, and whether its compute entry point `entry` uses
 /// each (none is used without one).
-pub fn bindings(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Vec<Binding> {
-    let entry = module.entry_points.iter().position(|e| {
-        e.name == super::shader::ENTRY_POINT && e.stage == naga::ShaderStage::Compute
-    });
+pub fn bindings(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    entry: &str,
+) -> Vec<Binding> {
+    let entry = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == entry && e.stage == naga::ShaderStage::Compute);
     let mut layouter = naga::proc::Layouter::default();
     layouter
         .update(module.to_ctx())

@@ -42,11 +42,7 @@ impl<T: Real> Prepared<T> {
         let bvh = accel
             .uses_bvh(scene)
             .then(|| Arc::new(Bvh::build(scene, algorithm)));
-        Prepared {
-            build_s: 0.0,
-            ..Prepared::with_bvh(scene, algorithm, bvh)
-        }
-        .timed(clock)
+        Prepared::with_bvh(scene, algorithm, bvh).timed(clock)
     }
 
     /// `scene` prepared for `algorithm` with a BVH already built for the same scene and
