@@ -6,7 +6,12 @@ shared machine's load falls on all of them alike. Prints a markdown table of med
 ratios against `--precision f32` at the same scene, with each mode's target from the
 one-render-path issue (every mode shares the traversal, so none should cost much more).
 
+With `--baseline PATH` (a raycast binary built from another commit) every mode also runs on
+that binary, in turn with this one within each round, and the table gains the ratio of the
+two: how a change moved each mode, measured side by side.
+
 Usage: benches/modes.py [--scene FILE] [--size WxH] [--rounds N] [--binary PATH]
+                        [--baseline PATH]
 Default: scenes/course/bunny.json at 1920x1080, 5 rounds, target/release/raycast (built with
 `cargo build --release` first). Not part of CI: it measures, it asserts nothing.
 """
@@ -28,6 +33,10 @@ def modes(size, half):
         ("f32", ["--size", size], None),
         ("adaptive", ["--size", size, "--precision", "adaptive"], 1.25),
         ("f64", ["--size", size, "--precision", "f64"], 1.5),
+        ("f32 textbook", ["--size", size, "--algorithm", "textbook"], None),
+        ("f64 textbook", ["--size", size, "--precision", "f64", "--algorithm", "textbook"], None),
+        ("cpu f32", ["--size", size, "--device", "cpu", "--precision", "f32"], None),
+        ("cpu f64", ["--size", size, "--device", "cpu"], None),
         ("--shader toon.wgsl", ["--size", size, "--shader", "shaders/examples/toon.wgsl"], 1.25),
         ("--band-rows 270", ["--size", size, "--band-rows", "270"], 1.25),
         (f"--spp 4 at {half}", ["--size", half, "--spp", "4"], 1.3),
@@ -51,24 +60,34 @@ def main():
     p.add_argument("--size", default="1920x1080")
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--binary", default=str(REPO / "target/release/raycast"))
+    p.add_argument("--baseline", help="another raycast binary, run side by side")
     a = p.parse_args()
     w, h = (int(x) for x in a.size.split("x"))
     half = f"{w // 2}x{h // 2}"
     table = modes(a.size, half)
-    times = {label: [] for label, _, _ in table}
+    binaries = [a.binary] + ([a.baseline] if a.baseline else [])
+    times = {(b, label): [] for b in binaries for label, _, _ in table}
     with tempfile.TemporaryDirectory() as out:
         for _ in range(a.rounds + 1):  # the first round warms caches and is dropped
             for label, extra, _ in table:
-                times[label].append(run(a.binary, a.scene, extra, out))
+                for b in binaries:
+                    times[b, label].append(run(b, a.scene, extra, out))
     median = {k: statistics.median(v[1:]) for k, v in times.items()}
-    print(f"`benches/modes.py --scene {a.scene} --size {a.size} --rounds {a.rounds}`"
+    print(f"`benches/modes.py --scene {a.scene} --size {a.size} --rounds {a.rounds}"
+          f"{' --baseline ' + a.baseline if a.baseline else ''}`"
           f" (wall time of `raycast render ... --format png,npy`, median of {a.rounds} rounds)\n")
-    print("| mode | median s | vs f32 | target |")
-    print("|---|---:|---:|---:|")
+    extra = " | baseline s | this / baseline" if a.baseline else ""
+    print(f"| mode | median s | vs f32 | target{extra} |")
+    print("|---|---:|---:|---:" + ("|---:|---:" if a.baseline else "") + "|")
     for label, _, target in table:
-        ratio = median[label] / median["f32"]
+        this = median[a.binary, label]
+        ratio = this / median[a.binary, "f32"]
         goal = "-" if target is None else f"<= {target}x"
-        print(f"| {label} | {median[label]:.3f} | {ratio:.2f}x | {goal} |")
+        row = f"| {label} | {this:.3f} | {ratio:.2f}x | {goal}"
+        if a.baseline:
+            base = median[a.baseline, label]
+            row += f" | {base:.3f} | {this / base:.2f}x"
+        print(row + " |")
     return 0
 
 
