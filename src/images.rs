@@ -32,6 +32,24 @@ pub struct Images<T> {
     pub focal_length: f64,
     /// RGBA, 8 bits a channel, from the user's shade hook (`--shader`), when one ran.
     pub color: Option<Vec<[u8; 4]>>,
+    /// How much of each pixel its samples covered, when the images were supersampled
+    /// (`--spp`, [`crate::supersample::reduce`]); `None` for one ray per pixel.
+    pub coverage: Option<Coverage>,
+}
+
+/// Per-pixel coverage of a supersampled render, row-major like the images.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coverage {
+    /// Samples per pixel, `s * s`.
+    pub spp: u32,
+    /// Number of samples of the pixel that hit some object.
+    pub hits: Vec<u32>,
+    /// `hits / spp` as f32 (the division of two integers, correctly rounded: exact when `spp`
+    /// is a power of two).
+    pub alpha: Vec<f32>,
+    /// Sum of `palette[id % 9]` (8-bit levels) over the samples that hit, from which
+    /// `color.png` is made.
+    pub color_sum: Vec<[u32; 3]>,
 }
 
 impl<T: Real> Images<T> {
@@ -46,6 +64,7 @@ impl<T: Real> Images<T> {
             normal: vec![[T::ZERO; 3]; n],
             focal_length,
             color: None,
+            coverage: None,
         }
     }
 

@@ -9,19 +9,19 @@
 //! scene file --Scene::load--> Scene (validated, f64)
 //!   --prepare::Prepared--> camera frame, camera-relative primitives in the kernel's precision, BVH
 //!   --gpu::run(Job) | cpu::render_prepared--> Images (id, distance, normal)
-//!   --output::write_*--> png / ppm / npy files
+//!   --output::write(Encoding)--> png / ppm / npy files
 //! ```
 //!
 //! [`render::render`] does all of it for a [`render::Mode`] (device, precision, algorithm):
 //!
 //! ```no_run
 //! use raycast::render::{self, Arithmetic, Device, Mode};
-//! use raycast::{Algorithm, Scene, gpu::Gpu, output::Format};
+//! use raycast::{Algorithm, Scene, gpu::Gpu, output::{Encoding, Format}};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let mode = Mode { device: Device::Gpu, precision: Arithmetic::F32, algorithm: Algorithm::Robust };
 //! let images = render::render(&scene, mode, Some(&gpu), false)?;
-//! images.write("out".as_ref(), &[Format::Png, Format::Npy])?;
+//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?)?;
 //! # Ok::<(), raycast::Error>(())
 //! ```
 //!

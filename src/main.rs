@@ -8,11 +8,10 @@ use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
-use raycast::images::{Output, Outputs};
+use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::prepare::bvh::Accel;
-use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
-use raycast::scene::Scene;
+use raycast::render::{self, Arithmetic, Device, Mode};
 use raycast::supersample;
 
 #[derive(Parser)]
@@ -310,21 +309,23 @@ fn run(command: Command) -> Result<ExitCode> {
                 precision: precision.unwrap_or(device.default_precision()),
                 algorithm,
             };
-            render(&RenderArgs {
-                scene_path: scene.as_deref(),
-                out_dir: &output,
+            let encoding = output::Encoding {
+                background,
+                ..output::Encoding::new(&format, outputs.as_deref())?
+            };
+            let spec = render::Spec {
+                scene,
                 size,
-                formats: &format,
                 mode,
                 spp,
-                background,
-                emit_shader: emit_shader.as_deref(),
-                kernel: kernel.as_deref(),
-                outputs: outputs.as_deref(),
-                shader: shader.as_deref(),
-                watch,
                 band_rows,
-            })?;
+                shader,
+                kernel,
+                out_dir: output,
+                encoding,
+                emit_shader,
+            };
+            render(&spec, watch)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Compare {
@@ -335,14 +336,14 @@ fn run(command: Command) -> Result<ExitCode> {
             b_scene,
             output,
             fail_above,
-        } => compare(
-            &scene,
-            b_scene.as_deref(),
+        } => compare(&compare::Spec {
+            scene,
+            b_scene,
             size,
-            [a, b],
-            output.as_deref(),
-            &fail_above,
-        ),
+            modes: [a, b],
+            out_dir: output,
+            bounds: fail_above,
+        }),
         Command::Accuracy {
             scenes,
             size,
@@ -400,159 +401,29 @@ fn run(command: Command) -> Result<ExitCode> {
     }
 }
 
-fn load(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
-    let mut scene = match path {
-        Some(path) => Scene::load(path)?,
-        None => Scene::default_scene(),
-    };
-    if let Some(size) = size {
-        scene.camera.resolution = size;
-    }
-    Ok(scene)
-}
-
-/// Opens the GPU only when some mode needs it.
-fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
-    if modes.iter().any(|m| m.device == Device::Gpu) {
-        Ok(Some(Gpu::new()?))
-    } else {
-        Ok(None)
-    }
-}
-
-/// What `raycast render` was asked for.
-struct RenderArgs<'a> {
-    scene_path: Option<&'a Path>,
-    out_dir: &'a Path,
-    size: Option<[u32; 2]>,
-    formats: &'a [Format],
-    mode: Mode,
-    spp: Option<u32>,
-    background: Option<[u8; 3]>,
-    emit_shader: Option<&'a Path>,
-    kernel: Option<&'a Path>,
-    /// `--outputs`, when given.
-    outputs: Option<&'a [Output]>,
-    shader: Option<&'a Path>,
-    watch: bool,
-    band_rows: Option<u32>,
-}
-
-/// The outputs a render computes and writes: those of `--outputs`, else every output the
-/// formats write (color only with png). Colour without png is an error.
-fn chosen_outputs(list: Option<&[Output]>, formats: &[Format]) -> Result<Outputs> {
-    let png = formats.contains(&Format::Png);
-    let Some(list) = list else {
-        return Ok(Outputs {
-            color: png,
-            ..Outputs::ALL
-        });
-    };
-    let outputs = Outputs::of(list);
-    if outputs.color && !png {
+/// Renders once, or with `watch` again whenever a file it reads changes, for ever.
+fn render(spec: &render::Spec, watch: bool) -> Result<()> {
+    if watch && spec.watched_files().is_empty() {
         return Err(raycast::Error::Argument {
-            option: "--outputs color".into(),
-            message: "color is written as color.png only; add png to --format".into(),
+            option: "--watch".into(),
+            message: "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel".into(),
         });
     }
-    Ok(outputs)
-}
-
-/// The kernel a GPU render in `mode` at `spp` samples per pixel runs first (for adaptive
-/// precision: its f32 certainty pass, which writes every output), specialised for `scene` and
-/// `request`.
-fn kernel_for(
-    gpu: &Gpu,
-    scene: &Scene,
-    mode: Mode,
-    request: &render::Request,
-    spp: u32,
-) -> Result<raycast::gpu::shader::Variant> {
-    if mode.precision == Arithmetic::Adaptive {
-        let precision = raycast::math::Precision::F32;
-        return Ok(raycast::gpu::shader::Variant {
-            certainty: true,
-            ..gpu.scene_variant(scene, precision, mode.algorithm)
-        });
-    }
-    supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
-}
-
-/// The option combinations `render` refuses, before anything is read.
-fn check_render_args(args: &RenderArgs) -> Result<()> {
-    let refuse = |option: &str, message: &str| {
-        Err(raycast::Error::Argument {
-            option: option.into(),
-            message: message.into(),
-        })
-    };
-    let gpu = args.mode.device == Device::Gpu;
-    if args.emit_shader.is_some() && !gpu {
-        return refuse(
-            "--emit-shader",
-            "the CPU reference runs no shader; use --device gpu",
-        );
-    }
-    if args.watch && args.scene_path.is_none() && args.shader.is_none() && args.kernel.is_none() {
-        return refuse(
-            "--watch",
-            "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel",
-        );
-    }
-    if args.kernel.is_some() {
-        if !gpu {
-            return refuse(
-                "--kernel",
-                "the CPU reference runs no shader; use --device gpu",
-            );
-        }
-        if args.mode.precision == Arithmetic::Adaptive {
-            return refuse(
-                "--kernel",
-                "runs with --precision f32 or f64 (adaptive precision runs two kernels)",
-            );
-        }
-    }
-    if args.shader.is_some() {
-        if !gpu {
-            return refuse(
-                "--shader",
-                "the CPU reference runs no shader; use --device gpu",
-            );
-        }
-        if args.mode.precision == Arithmetic::Adaptive {
-            return refuse("--shader", "runs with --precision f32 or f64, not adaptive");
-        }
-        if args.background.is_some() {
-            return refuse(
-                "--background",
-                "a shade hook colours the background itself (it is called for misses too)",
-            );
-        }
-        if !chosen_outputs(args.outputs, args.formats)?.color {
-            return refuse(
-                "--shader",
-                "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
-            );
-        }
-    }
-    Ok(())
-}
-
-fn render(args: &RenderArgs) -> Result<()> {
-    check_render_args(args)?;
-    let outputs = chosen_outputs(args.outputs, args.formats)?;
-    if !args.watch {
-        let gpu = gpu_for(&[args.mode])?;
-        return render_once(args, outputs, gpu.as_ref());
-    }
+    spec.check()?;
     // One device for every render, so kernels compiled once stay cached.
-    let gpu = gpu_for(&[args.mode])?;
+    let gpu = render::gpu_for(&[spec.mode])?;
+    let render_once = || {
+        spec.run(gpu.as_ref())
+            .map(|s| s.lines().into_iter().for_each(say))
+    };
+    if !watch {
+        return render_once();
+    }
     loop {
-        let files = watched_files(args);
+        let files = spec.watched_files();
         // Taken before rendering: a change during the render triggers the next one.
         let before = stamps(&files);
-        if let Err(e) = render_once(args, outputs, gpu.as_ref()) {
+        if let Err(e) = render_once() {
             report(&e);
         }
         let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
@@ -576,215 +447,17 @@ fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
         .collect()
 }
 
-/// The files `--watch` polls: the scene file and the meshes it names (as far as it loads),
-/// the shader file and the kernel file.
-fn watched_files(args: &RenderArgs) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = Vec::new();
-    if let Some(scene) = args.scene_path {
-        files.push(scene.to_owned());
-        if let Ok(loaded) = Scene::load(scene) {
-            let base = scene.parent().unwrap_or(Path::new(""));
-            for object in &loaded.objects {
-                if let raycast::scene::Object::Soup { path, .. } = object {
-                    files.push(base.join(path));
-                }
-            }
-        }
-    }
-    files.extend(args.shader.map(Path::to_owned));
-    files.extend(args.kernel.map(Path::to_owned));
-    files
-}
-
-/// One render: reads the scene and the shader, renders, writes.
-fn render_once(args: &RenderArgs, outputs: Outputs, gpu: Option<&Gpu>) -> Result<()> {
-    let RenderArgs {
-        scene_path,
-        out_dir,
-        size,
-        formats,
-        mode,
-        spp,
-        background,
-        emit_shader,
-        shader,
-        kernel,
-        ..
-    } = *args;
-    let scene = load(scene_path, size)?;
-    let shade = shader.map(gpu::hooks::load).transpose()?;
-    let kernel = kernel.map(gpu::kernel::load).transpose()?;
-    let request = render::Request {
-        outputs,
-        shade,
-        kernel,
-    };
-    if let (Some(_), Some(g)) = (&request.kernel, gpu) {
-        // A kernel whose bindings do not fit is refused before the output folder is made.
-        kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
-    }
-    output::check_writable(out_dir)?;
-    if let Some(path) = emit_shader {
-        output::check_writable(
-            path.parent()
-                .filter(|p| !p.as_os_str().is_empty())
-                .unwrap_or(Path::new(".")),
-        )?;
-    }
-    let mut recast = None;
-    let [nx, ny] = scene.camera.resolution;
-    let huge = nx as u64 * ny as u64 > render::STREAM_PIXELS;
-    // A kernel file runs through the whole-image path only.
-    let can_stream = spp.is_none() && render::can_stream(mode) && request.kernel.is_none();
-    if args.band_rows.is_some() && !can_stream {
-        return Err(raycast::Error::Argument {
-            option: "--band-rows".into(),
-            message: "bands are rendered on the GPU in f32 or f64, without --spp or --kernel"
-                .into(),
-        });
-    }
-    let streamed = (huge || args.band_rows.is_some()) && can_stream;
-    if let (true, Some(g)) = (streamed, gpu) {
-        let rows = args.band_rows.unwrap_or(render::band_rows(nx));
-        let mut writer =
-            output::stream::BandWriter::new(out_dir, [nx, ny], formats, outputs, background);
-        let (done, elapsed) = render::timed(|| {
-            render::render_streamed(&scene, mode, g, &request, rows, &mut |band| match band {
-                render::AnyImages::F32(i) => {
-                    writer.write_band(&supersample::Supersampled::from_images(i))
-                }
-                render::AnyImages::F64(i) => {
-                    writer.write_band(&supersample::Supersampled::from_images(i))
-                }
-            })
-        });
-        done?;
-        let written = writer.finish()?;
-        if let Some(path) = emit_shader {
-            let variant = kernel_for(g, &scene, mode, &request, 1)?;
-            let source = raycast::gpu::shader::kernel_source(&variant)?;
-            output::write_file(path, source.as_bytes())?;
-        }
-        let peak = raycast::bench::peak_rss_mib()
-            .map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
-        say(format!(
-            "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {} in {:.3} s{peak}",
-            scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
-            g.info().name,
-            elapsed.as_secs_f64()
-        ));
-        for path in written {
-            say(format!("wrote {}", path.display()));
-        }
-        return Ok(());
-    }
-    let (images, elapsed) = render::timed(|| match (mode.precision, spp, gpu) {
-        // Plain adaptive renders report how much they re-cast in f64.
-        (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
-            let a = raycast::adaptive::render_adaptive(g, &scene)?;
-            recast = Some((a.recast_fraction(), a.recast_on_gpu));
-            Ok(supersample::AnySupersampled::F32(
-                supersample::Supersampled::from_images(a.images),
-            ))
-        }
-        _ => {
-            let spp = spp.unwrap_or(1);
-            supersample::supersample_request(&scene, mode, gpu, spp, true, &request)
-        }
-    });
-    let written = images?.write(out_dir, formats, outputs, background, spp.is_some())?;
-    let on = gpu.map_or("the CPU".to_owned(), |g| g.info().name);
-    let samples = spp.map_or(String::new(), |n| format!(", {n} spp"));
-    let shaded = shader.map_or(String::new(), |p| format!(", shaded by {}", p.display()));
-    say(format!(
-        "rendered {} ({nx}x{ny}{samples}, {mode}{shaded}) on {on} in {:.3} s",
-        scene_path.map_or("the default scene".into(), |p| p.display().to_string()),
-        elapsed.as_secs_f64()
-    ));
-    if let (Some(path), Some(g)) = (emit_shader, gpu) {
-        let variant = kernel_for(g, &scene, mode, &request, spp.unwrap_or(1))?;
-        let source = raycast::gpu::shader::kernel_source(&variant)?;
-        output::write_file(path, source.as_bytes())?;
-        say(format!("wrote {}", path.display()));
-    }
-    if let Some((fraction, on_gpu)) = recast {
-        let on = if on_gpu { "the GPU" } else { "the CPU" };
-        say(format!(
-            "re-cast {:.3}% of pixels in f64 on {on}",
-            100.0 * fraction
-        ));
-    }
-    for path in written {
-        say(format!("wrote {}", path.display()));
-    }
-    Ok(())
-}
-
-fn compare(
-    scene_path: &Path,
-    b_scene_path: Option<&Path>,
-    size: Option<[u32; 2]>,
-    modes: [Mode; 2],
-    out_dir: Option<&Path>,
-    bounds: &[(String, f64)],
-) -> Result<ExitCode> {
-    let scene_a = load(Some(scene_path), size)?;
-    let mut scene_b = load(Some(b_scene_path.unwrap_or(scene_path)), size)?;
-    // Side b must be comparable pixel for pixel.
-    scene_b.camera.resolution = scene_a.camera.resolution;
-    if let Some(dir) = out_dir {
-        output::check_writable(dir)?;
-    }
-    let gpu = gpu_for(&modes)?;
-    let (a, time_a) = render::timed(|| render::render(&scene_a, modes[0], gpu.as_ref(), true));
-    let (b, time_b) = render::timed(|| render::render(&scene_b, modes[1], gpu.as_ref(), true));
-    let (a, b) = (a?, b?);
-    let c = compare::compare(&a, &b);
-    let mut json = serde_json::json!({
-        "scene": scene_path.display().to_string(),
-        "size": scene_a.camera.resolution,
-        "a": {"mode": modes[0].to_string(), "time_s": time_a.as_secs_f64()},
-        "b": {"mode": modes[1].to_string(), "time_s": time_b.as_secs_f64()},
-    });
-    if let Some(p) = b_scene_path {
-        json["b"]["scene"] = p.display().to_string().into();
-    }
-    let report = serde_json::to_value(&c.report).expect("a report serialises");
-    json.as_object_mut()
-        .expect("an object")
-        .extend(report.as_object().expect("an object").clone());
-    say(json);
-    if let Some(dir) = out_dir {
-        write_compare_pictures(&c, &b, dir)?;
-    }
-    let crossed = compare::exceeded(&c.report, bounds);
-    for line in &crossed {
-        eprintln!("fail-above: {line}");
-    }
-    Ok(if crossed.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    })
-}
-
-fn write_compare_pictures(c: &compare::Comparison, b: &AnyImages, dir: &Path) -> Result<()> {
-    let base = match b {
-        AnyImages::F32(i) => output::pictures(i).normal,
-        AnyImages::F64(i) => output::pictures(i).normal,
-    };
-    let files = [
-        ("mismatch.png", compare::mismatch_picture(c, &base)),
-        ("distance_error.png", compare::distance_error_picture(c)),
-    ]
-    .map(|(name, img)| output::EncodedFile {
-        name,
-        bytes: output::encode_png_rgb(&img),
-    });
-    for path in output::write_files(dir, &files)? {
+fn compare(spec: &compare::Spec) -> Result<ExitCode> {
+    let gpu = render::gpu_for(&spec.modes)?;
+    let outcome = spec.run(gpu.as_ref())?;
+    say(&outcome.json);
+    for path in &outcome.written {
         eprintln!("wrote {}", path.display());
     }
-    Ok(())
+    for line in &outcome.exceeded {
+        eprintln!("fail-above: {line}");
+    }
+    Ok(ExitCode::from(u8::from(!outcome.exceeded.is_empty())))
 }
 
 fn accuracy(

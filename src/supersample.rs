@@ -34,9 +34,9 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
-use crate::images::{Images, MISS, Outputs};
+use crate::images::{Coverage, Images, MISS};
 use crate::math::Real;
-use crate::output::{self, Format, PixelCoverage};
+use crate::output;
 use crate::render::{self, AnyImages, Mode, Request};
 use crate::scene::Scene;
 
@@ -60,54 +60,6 @@ pub fn side(spp: u32) -> std::result::Result<u32, String> {
     Ok(s)
 }
 
-/// Supersampled images: the reduced [`Images`] plus coverage, for `spp` samples per pixel.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Supersampled<T> {
-    /// Per pixel: majority id, distance and normal averaged over the majority object's samples.
-    pub images: Images<T>,
-    /// Coverage `hits / spp` as f32 (the division of two integers, correctly rounded: exact
-    /// when `spp` is a power of two, i.e. `s` is).
-    pub alpha: Vec<f32>,
-    /// Number of samples of the pixel that hit some object; `alpha = hits / spp` exactly.
-    pub hits: Vec<u32>,
-    /// Sum of `palette[id % 9]` (8-bit levels) over the samples that hit.
-    pub color_sum: Vec<[u32; 3]>,
-    /// Samples per pixel, `s * s`.
-    pub spp: u32,
-}
-
-impl<T: Real> Supersampled<T> {
-    /// One sample per pixel: `images` unchanged, alpha 1 where it hits and 0 where it misses.
-    pub fn from_images(images: Images<T>) -> Self {
-        let hits: Vec<u32> = images.id.iter().map(|&id| u32::from(id != MISS)).collect();
-        let alpha = hits.iter().map(|&h| h as f32).collect();
-        let color_sum = images
-            .id
-            .iter()
-            .map(|&id| output::id_color(id).map(u32::from))
-            .collect();
-        Supersampled {
-            images,
-            alpha,
-            hits,
-            color_sum,
-            spp: 1,
-        }
-    }
-
-    /// Per-pixel coverage, row-major, for [`crate::output::color_rgba8`].
-    pub fn coverage(&self) -> impl Iterator<Item = PixelCoverage> + '_ {
-        self.hits
-            .iter()
-            .zip(&self.color_sum)
-            .map(|(&hits, &color_sum)| PixelCoverage {
-                spp: self.spp,
-                hits,
-                color_sum,
-            })
-    }
-}
-
 /// One reduced pixel.
 struct Pixel<T> {
     id: i32,
@@ -118,8 +70,9 @@ struct Pixel<T> {
 }
 
 /// Reduces a fine render of `s * nx` by `s * ny` samples to `nx` by `ny` pixels, each from its
-/// `s x s` block (module docs). Panics if `s` is 0 or does not divide the fine size.
-pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
+/// `s x s` block (module docs), with their [`Coverage`]. Panics if `s` is 0 or does not divide
+/// the fine size.
+pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Images<T> {
     assert!(
         s >= 1 && fine.width.is_multiple_of(s) && fine.height.is_multiple_of(s),
         "a {}x{} image is not made of {s}x{s} blocks",
@@ -134,14 +87,14 @@ pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
             reduce_block(fine, s, i, j, ids)
         })
         .collect();
-    let mut out = Supersampled {
-        images: Images::new_miss(w, h, fine.focal_length),
-        alpha: Vec::with_capacity(pixels.len()),
-        hits: Vec::with_capacity(pixels.len()),
-        color_sum: Vec::with_capacity(pixels.len()),
+    let mut out = Images::new_miss(w, h, fine.focal_length);
+    let mut coverage = Coverage {
         spp: s * s,
+        hits: Vec::with_capacity(pixels.len()),
+        alpha: Vec::with_capacity(pixels.len()),
+        color_sum: Vec::with_capacity(pixels.len()),
     };
-    out.images.color = fine.color.as_ref().map(|fine_color| {
+    out.color = fine.color.as_ref().map(|fine_color| {
         (0..w as usize * h as usize)
             .map(|k| {
                 let (i, j) = ((k / w as usize) as u32, (k % w as usize) as u32);
@@ -150,13 +103,14 @@ pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Supersampled<T> {
             .collect()
     });
     for (k, p) in pixels.into_iter().enumerate() {
-        out.images.id[k] = p.id;
-        out.images.distance[k] = p.distance;
-        out.images.normal[k] = p.normal;
-        out.alpha.push(p.hits as f32 / out.spp as f32);
-        out.hits.push(p.hits);
-        out.color_sum.push(p.color_sum);
+        out.id[k] = p.id;
+        out.distance[k] = p.distance;
+        out.normal[k] = p.normal;
+        coverage.alpha.push(p.hits as f32 / coverage.spp as f32);
+        coverage.hits.push(p.hits);
+        coverage.color_sum.push(p.color_sum);
     }
+    out.coverage = Some(coverage);
     out
 }
 
@@ -245,83 +199,17 @@ fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec
     pixel
 }
 
-/// Supersampled images in whichever precision they were rendered in.
-#[derive(Clone, Debug, PartialEq)]
-pub enum AnySupersampled {
-    F32(Supersampled<f32>),
-    F64(Supersampled<f64>),
-}
-
-impl AnySupersampled {
-    pub fn spp(&self) -> u32 {
-        match self {
-            AnySupersampled::F32(x) => x.spp,
-            AnySupersampled::F64(x) => x.spp,
-        }
-    }
-
-    /// The reduced images.
-    pub fn images(&self) -> AnyImages {
-        match self {
-            AnySupersampled::F32(x) => AnyImages::F32(x.images.clone()),
-            AnySupersampled::F64(x) => AnyImages::F64(x.images.clone()),
-        }
-    }
-
-    /// The per-pixel majority ids.
-    pub fn id(&self) -> &[i32] {
-        match self {
-            AnySupersampled::F32(x) => &x.images.id,
-            AnySupersampled::F64(x) => &x.images.id,
-        }
-    }
-
-    /// Samples that hit, per pixel.
-    pub fn hits(&self) -> &[u32] {
-        match self {
-            AnySupersampled::F32(x) => &x.hits,
-            AnySupersampled::F64(x) => &x.hits,
-        }
-    }
-
-    /// Coverage per pixel, `hits / spp` as f32.
-    pub fn alpha(&self) -> &[f32] {
-        match self {
-            AnySupersampled::F32(x) => &x.alpha,
-            AnySupersampled::F64(x) => &x.alpha,
-        }
-    }
-
-    /// Encodes and writes the files of `outputs` (see [`output::encode_supersampled`]).
-    pub fn write(
-        &self,
-        dir: &std::path::Path,
-        formats: &[Format],
-        outputs: Outputs,
-        background: Option<[u8; 3]>,
-        alpha_npy: bool,
-    ) -> Result<Vec<std::path::PathBuf>> {
-        match self {
-            AnySupersampled::F32(x) => {
-                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
-            }
-            AnySupersampled::F64(x) => {
-                output::write_supersampled(x, dir, formats, outputs, background, alpha_npy)
-            }
-        }
-    }
-}
-
 /// Renders `scene` in `mode` with `spp` samples per pixel (a perfect square, else an
-/// [`Error::Argument`] naming `--spp`) and reduces it (module docs). `spp = 1` is a plain
-/// [`render::render`]. The fine render is held whole: `spp` times the memory of a plain one.
+/// [`Error::Argument`] naming `--spp`) and reduces it (module docs): images with their
+/// [`Coverage`]. `spp = 1` is a plain [`render::render`] with coverage. The fine render is held
+/// whole: `spp` times the memory of a plain one.
 pub fn supersample(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
     spp: u32,
     progress: bool,
-) -> Result<AnySupersampled> {
+) -> Result<AnyImages> {
     supersample_request(scene, mode, gpu, spp, progress, &Request::default())
 }
 
@@ -334,30 +222,11 @@ pub fn supersample_request(
     spp: u32,
     progress: bool,
     request: &Request,
-) -> Result<AnySupersampled> {
-    let s = side(spp).map_err(|message| Error::Argument {
-        option: "--spp".into(),
-        message,
-    })?;
+) -> Result<AnyImages> {
+    let (fine_scene, s) = sample_scene(scene, spp)?;
     if s == 1 {
-        return Ok(
-            match render::render_request(scene, mode, gpu, progress, request)? {
-                AnyImages::F32(i) => AnySupersampled::F32(Supersampled::from_images(i)),
-                AnyImages::F64(i) => AnySupersampled::F64(Supersampled::from_images(i)),
-            },
-        );
+        return Ok(render::render_request(scene, mode, gpu, progress, request)?.reduce(1));
     }
-    let [nx, ny] = scene.camera.resolution;
-    let too_big = || Error::Argument {
-        option: format!("--spp {spp}"),
-        message: format!("{nx}x{ny} pixels times {s}x{s} samples overflow the image size"),
-    };
-    let fine_resolution = [
-        nx.checked_mul(s).ok_or_else(too_big)?,
-        ny.checked_mul(s).ok_or_else(too_big)?,
-    ];
-    let mut fine_scene = scene.clone();
-    fine_scene.camera.resolution = fine_resolution;
     let fine_request = sample_request(request, spp);
     let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
     let fine = fine.map_err(|e| match e {
@@ -367,10 +236,28 @@ pub fn supersample_request(
         },
         other => other,
     })?;
-    Ok(match fine {
-        AnyImages::F32(i) => AnySupersampled::F32(reduce(&i, s)),
-        AnyImages::F64(i) => AnySupersampled::F64(reduce(&i, s)),
-    })
+    Ok(fine.reduce(s))
+}
+
+/// The scene whose pixels are the samples of `scene` at `spp` samples per pixel (module docs),
+/// and `s = sqrt(spp)`; an [`Error::Argument`] naming `--spp` when `spp` is not a perfect
+/// square or the sample image would be too large.
+pub fn sample_scene(scene: &Scene, spp: u32) -> Result<(Scene, u32)> {
+    let s = side(spp).map_err(|message| Error::Argument {
+        option: "--spp".into(),
+        message,
+    })?;
+    let [nx, ny] = scene.camera.resolution;
+    let too_big = || Error::Argument {
+        option: format!("--spp {spp}"),
+        message: format!("{nx}x{ny} pixels times {s}x{s} samples overflow the image size"),
+    };
+    let mut fine = scene.clone();
+    fine.camera.resolution = [
+        nx.checked_mul(s).ok_or_else(too_big)?,
+        ny.checked_mul(s).ok_or_else(too_big)?,
+    ];
+    Ok((fine, s))
 }
 
 /// What the render of the samples is asked for at `spp` samples per pixel: `request`, with
@@ -409,9 +296,10 @@ pub fn spp_errors(
     gpu: Option<&Gpu>,
 ) -> Result<Vec<SppError>> {
     let truth = supersample(scene, reference, gpu, reference_spp, false)?;
-    let alpha = |x: &AnySupersampled| -> Vec<f64> {
-        let n = x.spp() as f64;
-        x.hits().iter().map(|&h| h as f64 / n).collect()
+    let alpha = |x: &AnyImages| -> Vec<f64> {
+        let c = x.coverage().expect("supersampled images have coverage");
+        let n = c.spp as f64;
+        c.hits.iter().map(|&h| h as f64 / n).collect()
     };
     let truth_alpha = alpha(&truth);
     let pixels = truth_alpha.len().max(1) as f64;
@@ -444,6 +332,10 @@ pub fn spp_errors(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn cov(r: &Images<f32>) -> &Coverage {
+        r.coverage.as_ref().expect("reduced images have coverage")
+    }
 
     /// A `w x h` fine image from per-sample ids; hits get distance `10 + id` and normal +z.
     fn fine(w: u32, h: u32, ids: &[i32]) -> Images<f32> {
@@ -485,38 +377,44 @@ mod tests {
         //   row 1:  1 -1 | -1 -1
         let img = fine(4, 2, &[0, 0, -1, 1, 1, -1, -1, -1]);
         let r = reduce(&img, 2);
-        assert_eq!((r.images.width, r.images.height, r.spp), (2, 1, 4));
-        assert_eq!(r.images.id, [0, 1]);
-        assert_eq!(r.hits, [3, 1]);
-        assert_eq!(r.alpha, [0.75, 0.25]);
+        assert_eq!((r.width, r.height, cov(&r).spp), (2, 1, 4));
+        assert_eq!(r.id, [0, 1]);
+        assert_eq!(cov(&r).hits, [3, 1]);
+        assert_eq!(cov(&r).alpha, [0.75, 0.25]);
         // Means over the majority object's samples only: object 0's two samples.
-        assert_eq!(r.images.distance, [10.0, 11.0]);
-        assert_eq!(r.images.normal, [[0.0, 0.0, 1.0]; 2]);
+        assert_eq!(r.distance, [10.0, 11.0]);
+        assert_eq!(r.normal, [[0.0, 0.0, 1.0]; 2]);
         let [red, blue] = [output::PALETTE[0], output::PALETTE[1]].map(|c| c.map(u32::from));
         let two_red_one_blue: Vec<u32> = (0..3).map(|c| 2 * red[c] + blue[c]).collect();
-        assert_eq!(r.color_sum[0].to_vec(), two_red_one_blue);
-        assert_eq!(r.color_sum[1], blue);
+        assert_eq!(cov(&r).color_sum[0].to_vec(), two_red_one_blue);
+        assert_eq!(cov(&r).color_sum[1], blue);
     }
 
     #[test]
     fn ties_go_to_the_lower_id_and_misses_stay_misses() {
         // 2 samples of object 3, 2 of object 2: object 2 wins.
         let r = reduce(&fine(2, 2, &[3, 2, 2, 3]), 2);
-        assert_eq!(r.images.id, [2]);
-        assert_eq!(r.images.distance, [12.0]);
-        assert_eq!(r.hits, [4]);
-        assert_eq!(r.alpha, [1.0]);
+        assert_eq!(r.id, [2]);
+        assert_eq!(r.distance, [12.0]);
+        assert_eq!(cov(&r).hits, [4]);
+        assert_eq!(cov(&r).alpha, [1.0]);
         // A block of misses: MISS, +inf, zero normal, alpha 0.
         let r = reduce(&fine(3, 3, &[-1; 9]), 3);
-        assert_eq!(r.images.id, [MISS]);
-        assert_eq!(r.images.distance, [f32::INFINITY]);
-        assert_eq!(r.images.normal, [[0.0; 3]]);
-        assert_eq!((r.hits[0], r.alpha[0], r.color_sum[0]), (0, 0.0, [0; 3]));
+        assert_eq!(r.id, [MISS]);
+        assert_eq!(r.distance, [f32::INFINITY]);
+        assert_eq!(r.normal, [[0.0; 3]]);
+        assert_eq!(
+            (cov(&r).hits[0], cov(&r).alpha[0], cov(&r).color_sum[0]),
+            (0, 0.0, [0; 3])
+        );
         // 1 of 9: alpha is 1/9 rounded to f32; hits keeps it exact.
         let mut ids = [-1; 9];
         ids[4] = 7;
         let r = reduce(&fine(3, 3, &ids), 3);
-        assert_eq!((r.images.id[0], r.hits[0], r.alpha[0]), (7, 1, 1.0 / 9.0));
+        assert_eq!(
+            (r.id[0], cov(&r).hits[0], cov(&r).alpha[0]),
+            (7, 1, 1.0 / 9.0)
+        );
     }
 
     #[test]
@@ -526,13 +424,13 @@ mod tests {
         img.distance[..2].copy_from_slice(&[1.0, 2.0]);
         img.normal[..2].copy_from_slice(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
         let r = reduce(&img, 2);
-        assert_eq!(r.images.distance, [1.5]);
+        assert_eq!(r.distance, [1.5]);
         let h = std::f32::consts::FRAC_1_SQRT_2;
-        let n = r.images.normal[0];
+        let n = r.normal[0];
         assert!((n[0] - h).abs() < 1e-7 && (n[1] - h).abs() < 1e-7 && n[2] == 0.0);
         // Opposite normals average to zero: kept zero, not NaN.
         img.normal[1] = [-1.0, 0.0, 0.0];
-        assert_eq!(reduce(&img, 2).images.normal, [[0.0; 3]]);
+        assert_eq!(reduce(&img, 2).normal, [[0.0; 3]]);
     }
 
     #[test]
@@ -541,9 +439,16 @@ mod tests {
         img.normal[0] = [0.6, 0.8, 1e-30];
         img.distance[2] = 0.1 + 0.2;
         let r = reduce(&img, 1);
-        assert_eq!(r, Supersampled::from_images(img.clone()));
-        assert_eq!(r.images, img);
-        assert_eq!(r.alpha, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+        // The coverage of one sample per pixel is what the writers assume without one.
+        assert_eq!(output::pixel_coverage(&r), output::pixel_coverage(&img));
+        assert_eq!(cov(&r).alpha, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+        assert_eq!(
+            Images {
+                coverage: None,
+                ..r
+            },
+            img
+        );
     }
 
     #[test]
@@ -558,8 +463,8 @@ mod tests {
         color[3] = [255; 4];
         img.color = Some(color);
         let r = reduce(&img, 2);
-        assert_eq!(r.images.color, Some(vec![[25, 0, 255, 255], [64; 4]]));
-        assert_eq!(reduce(&fine(2, 2, &[0; 4]), 2).images.color, None);
+        assert_eq!(r.color, Some(vec![[25, 0, 255, 255], [64; 4]]));
+        assert_eq!(reduce(&fine(2, 2, &[0; 4]), 2).color, None);
     }
 
     #[test]

@@ -38,7 +38,7 @@ use crate::gpu::Gpu;
 use crate::output::EncodedFile;
 use crate::render::{self, AnyImages, Arithmetic, Device, Mode};
 use crate::scene::Scene;
-use crate::supersample::{self, AnySupersampled};
+use crate::supersample;
 
 pub use plot::{LogAxis, plot};
 
@@ -239,7 +239,7 @@ fn measure_scene(
         ));
         let r = supersample::supersample(scene, REFERENCE, gpu, REFERENCE_SPP, false)?;
         bar.inc(1);
-        Some(r.images())
+        Some(r)
     } else {
         None
     };
@@ -322,27 +322,10 @@ fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Resul
             recast_fraction: None,
         });
     }
-    let s = supersample::side(spp).map_err(|message| Error::Argument {
-        option: "--spp".into(),
-        message,
-    })?;
-    let [nx, ny] = scene.camera.resolution;
-    let fine_size = nx.checked_mul(s).zip(ny.checked_mul(s));
-    let Some((fx, fy)) = fine_size else {
-        return Err(Error::Argument {
-            option: format!("--spp {spp}"),
-            message: format!("{nx}x{ny} pixels times {s}x{s} samples overflow the image size"),
-        });
-    };
-    let mut fine = scene.clone();
-    fine.camera.resolution = [fx, fy];
+    let (fine, s) = supersample::sample_scene(scene, spp)?;
     let (images, kernel_s) = render::render_timed(&fine, mode, gpu)?;
-    let reduced = match images {
-        AnyImages::F32(i) => AnySupersampled::F32(supersample::reduce(&i, s)),
-        AnyImages::F64(i) => AnySupersampled::F64(supersample::reduce(&i, s)),
-    };
     Ok(Frame {
-        images: reduced.images(),
+        images: images.reduce(s),
         kernel_s,
         recast_fraction: None,
     })

@@ -12,10 +12,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use common::gpu;
+use raycast::images::Coverage;
 use raycast::images::MISS;
 use raycast::output::{self, PALETTE, PixelCoverage};
 use raycast::render::{self, AnyImages, Mode};
-use raycast::supersample::{self, AnySupersampled};
+use raycast::supersample;
 use raycast::{Images, Scene};
 
 fn scene(json: &str) -> Scene {
@@ -39,24 +40,29 @@ fn gpu_for(m: Mode) -> Option<&'static raycast::gpu::Gpu> {
     (m.device == render::Device::Gpu).then(gpu)
 }
 
-fn supersample(scene: &Scene, m: &str, spp: u32) -> AnySupersampled {
+fn supersample(scene: &Scene, m: &str, spp: u32) -> AnyImages {
     let m = mode(m);
     supersample::supersample(scene, m, gpu_for(m), spp, false)
         .unwrap_or_else(|e| panic!("{m} at {spp} spp: {e}"))
 }
 
 /// Distances of the reduced images in f64.
-fn distances(x: &AnySupersampled) -> Vec<f64> {
+fn distances(x: &AnyImages) -> Vec<f64> {
     match x {
-        AnySupersampled::F32(x) => x.images.distance.iter().map(|&d| d as f64).collect(),
-        AnySupersampled::F64(x) => x.images.distance.clone(),
+        AnyImages::F32(x) => x.distance.iter().map(|&d| d as f64).collect(),
+        AnyImages::F64(x) => x.distance.clone(),
     }
 }
 
-fn coverage(x: &AnySupersampled) -> Vec<PixelCoverage> {
+/// The coverage of supersampled images.
+fn cov(x: &AnyImages) -> &Coverage {
+    x.coverage().expect("supersampled images have coverage")
+}
+
+fn coverage(x: &AnyImages) -> Vec<PixelCoverage> {
     match x {
-        AnySupersampled::F32(x) => x.coverage().collect(),
-        AnySupersampled::F64(x) => x.coverage().collect(),
+        AnyImages::F32(x) => output::pixel_coverage(x),
+        AnyImages::F64(x) => output::pixel_coverage(x),
     }
 }
 
@@ -85,8 +91,8 @@ fn half_plane_edge_through_pixel_centres_has_alpha_one_half() {
         for s in [2u32, 4, 8] {
             let n = s * s;
             let x = supersample(&scene, m, n);
-            assert_eq!(x.spp(), n);
-            for (k, (&alpha, &hits)) in x.alpha().iter().zip(x.hits()).enumerate() {
+            assert_eq!(cov(&x).spp, n);
+            for (k, (&alpha, &hits)) in cov(&x).alpha.iter().zip(&cov(&x).hits).enumerate() {
                 let col = k % 16;
                 let (want_alpha, want_hits, want_id) = match col.cmp(&EDGE_COLUMN) {
                     std::cmp::Ordering::Less => (1.0, n, 0),
@@ -123,7 +129,7 @@ fn a_tie_goes_to_the_lower_id_and_colours_mix_by_coverage() {
     for m in ["gpu:f32:robust", "cpu:f64:robust"] {
         let x = supersample(&scene, m, 16);
         let d = distances(&x);
-        let cov = coverage(&x);
+        let pixels = coverage(&x);
         let [plane, tri] = [PALETTE[0], PALETTE[1]];
         for k in 0..x.id().len() {
             let col = k % 16;
@@ -137,8 +143,8 @@ fn a_tie_goes_to_the_lower_id_and_colours_mix_by_coverage() {
             let at = format!("{m}, pixel {k}");
             assert_eq!(x.id()[k], id, "{at}");
             assert_eq!(d[k], dist, "{at}");
-            assert_eq!(x.alpha()[k], 1.0, "{at}");
-            assert_eq!(cov[k].to_rgba8(None), [rgb[0], rgb[1], rgb[2], 255], "{at}");
+            assert_eq!(cov(&x).alpha[k], 1.0, "{at}");
+            assert_eq!(pixels[k].to_rgba8(None), [rgb[0], rgb[1], rgb[2], 255], "{at}");
         }
     }
 }
@@ -199,8 +205,8 @@ fn sphere_coverage_is_the_count_of_stratum_centres_in_the_disc() {
                     partial += 1;
                 }
                 let at = format!("{m}, s = {s}, pixel {k}");
-                assert_eq!(x.hits()[k], c, "{at}");
-                assert_eq!(x.alpha()[k], c as f32 / n as f32, "{at}");
+                assert_eq!(cov(&x).hits[k], c, "{at}");
+                assert_eq!(cov(&x).alpha[k], c as f32 / n as f32, "{at}");
                 assert_eq!(x.id()[k], if c == 0 { MISS } else { 0 }, "{at}");
             }
             let pixels = want.len();
@@ -225,9 +231,9 @@ fn total_sphere_coverage_approaches_the_disc_area() {
     for s in [2u32, 4, 8] {
         let n = s * s;
         let x = supersample(&scene, "gpu:f32:robust", n);
-        let total: f64 = x.alpha().iter().map(|&a| a as f64).sum();
+        let total: f64 = cov(&x).alpha.iter().map(|&a| a as f64).sum();
         // Exact total of hits / N, as f32 alphas are exact here (N a power of two).
-        let hits: u32 = x.hits().iter().sum();
+        let hits: u32 = cov(&x).hits.iter().sum();
         assert_eq!(total, hits as f64 / n as f64);
         // Only strata the circle crosses can be wrong, each by one stratum (1/N pixel); a
         // circle of radius R crosses at most 8 R / h + 8 cells of side h = pixel / s.
@@ -419,13 +425,23 @@ fn one_sample_per_pixel_is_the_plain_render() {
     for m in ["gpu:f32:robust", "cpu:f64:robust"] {
         let plain = render::render(&scene, mode(m), gpu_for(mode(m)), false).unwrap();
         let x = supersample(&scene, m, 1);
-        assert_eq!(x.images(), plain, "{m}");
+        let images = match x.clone() {
+            AnyImages::F32(i) => AnyImages::F32(Images {
+                coverage: None,
+                ..i
+            }),
+            AnyImages::F64(i) => AnyImages::F64(Images {
+                coverage: None,
+                ..i
+            }),
+        };
+        assert_eq!(images, plain, "{m}");
         let ids: Vec<i32> = match &plain {
             AnyImages::F32(i) => i.id.clone(),
             AnyImages::F64(i) => i.id.clone(),
         };
         let alpha: Vec<f32> = ids.iter().map(|&id| f32::from(id != MISS)).collect();
-        assert_eq!(x.alpha(), alpha);
+        assert_eq!(cov(&x).alpha, alpha);
     }
 }
 
@@ -442,7 +458,7 @@ fn reduce_of_a_rendered_fine_image_matches_supersample() {
     let direct = supersample::reduce(&fine, 3);
     assert_eq!(
         supersample(&scene, "gpu:f32:robust", 9),
-        AnySupersampled::F32(direct)
+        AnyImages::F32(direct)
     );
 }
 

@@ -1,6 +1,7 @@
 //! Comparing two renders of the same scene pixel by pixel: hit/miss and id agreement, distance
 //! error where both hit, normal angle error where both hit.
 
+mod command;
 mod pictures;
 
 use serde::Serialize;
@@ -9,6 +10,7 @@ use crate::images::{Images, MISS};
 use crate::math::{Precision, Real};
 use crate::render::AnyImages;
 
+pub use command::{Outcome, Spec};
 pub use pictures::{distance_error_picture, mismatch_picture};
 
 /// What `raycast compare` prints (besides the modes and times).

@@ -17,6 +17,10 @@
 //! encoder computes `round(C / N)` in integers, not in floating point. A premultiplied channel
 //! never exceeds its alpha after rounding, since `C <= 255 H` and rounding is monotone.
 
+use super::pictures::id_color;
+use crate::images::{Images, MISS};
+use crate::math::Real;
+
 /// A premultiplied RGBA colour, each component in `[0, 1]`: `[r*a, g*a, b*a, a]`.
 pub type Rgba = [f64; 4];
 
@@ -108,6 +112,32 @@ pub fn color_rgba8(
     background: Option<[u8; 3]>,
 ) -> Vec<u8> {
     pixels.flat_map(|p| p.to_rgba8(background)).collect()
+}
+
+/// The coverage of each pixel of `images`, row-major: their [`Coverage`] when supersampled,
+/// else one sample per pixel (a hit covers the pixel with its palette colour, a miss not at all).
+pub fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
+    match &images.coverage {
+        Some(c) => c
+            .hits
+            .iter()
+            .zip(&c.color_sum)
+            .map(|(&hits, &color_sum)| PixelCoverage {
+                spp: c.spp,
+                hits,
+                color_sum,
+            })
+            .collect(),
+        None => images
+            .id
+            .iter()
+            .map(|&id| PixelCoverage {
+                spp: 1,
+                hits: u32::from(id != MISS),
+                color_sum: id_color(id).map(u32::from),
+            })
+            .collect(),
+    }
 }
 
 #[cfg(test)]

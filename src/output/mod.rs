@@ -12,11 +12,10 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
-use crate::images::{Images, Outputs};
+use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
-use crate::supersample::Supersampled;
 
-pub use color::{PixelCoverage, Rgba, color_rgba8, opaque, over, to_level};
+pub use color::{PixelCoverage, Rgba, color_rgba8, opaque, over, pixel_coverage, to_level};
 pub use npy::encode_npy;
 pub use pictures::{
     PALETTE, Picture, Pictures, depth_level, id_color, normal_color, picture_set, pictures,
@@ -53,79 +52,101 @@ pub struct EncodedFile {
     pub bytes: Vec<u8>,
 }
 
-/// Encodes `images` in each of `formats`: the id, depth and normal files.
-pub fn encode<T: Real>(images: &Images<T>, formats: &[Format]) -> Vec<EncodedFile> {
-    encode_outputs(images, formats, Outputs::GEOMETRY)
+/// The files a render writes: in which formats, of which outputs, and `color.png` composited
+/// over what.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Encoding {
+    pub formats: Vec<Format>,
+    /// The outputs written; `color` only with png (`color.png`).
+    pub outputs: Outputs,
+    /// The opaque colour `color.png` is composited over (`--background`); `None`: transparent,
+    /// premultiplied alpha.
+    pub background: Option<[u8; 3]>,
 }
 
-/// Encodes `images` in each of `formats`: the files of the id, distance and normal `outputs`
-/// only (`id.*`; `depth.png`, `depth.ppm`, `distance.npy`; `normal.*`).
-pub fn encode_outputs<T: Real>(
-    images: &Images<T>,
-    formats: &[Format],
-    outputs: Outputs,
-) -> Vec<EncodedFile> {
-    let mut files = Vec::new();
-    for format in formats {
-        match format {
-            Format::Png => files.extend(pictures::encode_png(images, outputs)),
-            Format::Ppm => files.extend(pictures::encode_ppm(images, outputs)),
-            Format::Npy => files.extend(npy::encode_all(images, outputs)),
+impl Encoding {
+    /// The outputs of `list` (`--outputs`) in `formats`, or without a list every output the
+    /// formats write (`color.png` with png). Colour without png is an error naming
+    /// `--outputs color`.
+    pub fn new(formats: &[Format], list: Option<&[Output]>) -> Result<Encoding> {
+        let png = formats.contains(&Format::Png);
+        let outputs = match list {
+            None => Outputs {
+                color: png,
+                ..Outputs::ALL
+            },
+            Some(list) => Outputs::of(list),
+        };
+        if outputs.color && !png {
+            return Err(Error::Argument {
+                option: "--outputs color".into(),
+                message: "color is written as color.png only; add png to --format".into(),
+            });
         }
+        Ok(Encoding {
+            formats: formats.to_vec(),
+            outputs,
+            background: None,
+        })
     }
-    files
 }
 
-/// Encodes supersampled images: in each of `formats` the files [`encode_outputs`] writes for
-/// the reduced images, plus with `outputs.color` `color.png` with `png` (the shade hook's
-/// RGBA as it returned it, where [`Images::color`] holds it; else the palette by coverage,
-/// premultiplied alpha, or opaque over `background`, see [`PixelCoverage::to_rgba8`]) and,
-/// with `outputs.id` and `alpha_npy`, `alpha.npy` (float32, H x W) with `npy`.
-pub fn encode_supersampled<T: Real>(
-    ss: &Supersampled<T>,
-    formats: &[Format],
+/// Encodes `images` as `encoding` asks, in each of its formats: `id.*`; `depth.png`,
+/// `depth.ppm`, `distance.npy`; `normal.*`; `color.png` (the shade hook's RGBA as it returned
+/// it, where [`Images::color`] holds it; else the palette by coverage, premultiplied alpha, or
+/// opaque over the background, see [`PixelCoverage::to_rgba8`]); and for supersampled images
+/// with ids, `alpha.npy` (float32, H x W).
+pub fn encode<T: Real>(images: &Images<T>, encoding: &Encoding) -> Vec<EncodedFile> {
+    let Encoding {
+        formats,
+        outputs,
+        background,
+    } = encoding;
+    formats
+        .iter()
+        .flat_map(|&f| encode_format(images, f, *outputs, *background))
+        .collect()
+}
+
+/// The files of one format (see [`encode`]).
+pub(super) fn encode_format<T: Real>(
+    images: &Images<T>,
+    format: Format,
     outputs: Outputs,
     background: Option<[u8; 3]>,
-    alpha_npy: bool,
 ) -> Vec<EncodedFile> {
-    let images = &ss.images;
-    let mut files = Vec::new();
-    for &format in formats {
-        match format {
-            Format::Png => {
-                let set = png_pictures(ss, outputs, background);
-                files.extend(set.iter().map(Picture::to_png));
-            }
-            _ => files.extend(encode_outputs(images, &[format], outputs)),
-        }
-        match format {
-            Format::Npy if alpha_npy && outputs.id => {
+    match format {
+        Format::Png => png_pictures(images, outputs, background)
+            .iter()
+            .map(Picture::to_png)
+            .collect(),
+        Format::Ppm => pictures::encode_ppm(images, outputs),
+        Format::Npy => {
+            let mut files = npy::encode_all(images, outputs);
+            if let (Some(c), true) = (&images.coverage, outputs.id) {
                 let shape = [images.height as usize, images.width as usize];
-                let bytes: Vec<u8> = ss.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
+                let bytes: Vec<u8> = c.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
                 files.push(EncodedFile {
                     name: "alpha.npy",
                     bytes: encode_npy("<f4", &shape, &bytes),
                 });
             }
-            _ => {}
+            files
         }
     }
-    files
 }
 
-/// The png pictures of supersampled images before encoding: those [`encode_outputs`] writes,
-/// and `color.png` with `outputs.color` (see [`encode_supersampled`]).
+/// The png pictures of `images` before encoding: those of `outputs` (see [`encode`]).
 pub fn png_pictures<T: Real>(
-    ss: &Supersampled<T>,
+    images: &Images<T>,
     outputs: Outputs,
     background: Option<[u8; 3]>,
 ) -> Vec<Picture> {
-    let images = &ss.images;
     let mut set = picture_set(images, outputs, pictures::PNG_NAMES);
     if outputs.color {
         let rgba = match &images.color {
             Some(hook) => hook.iter().flatten().copied().collect(),
-            None => color_rgba8(ss.coverage(), background),
+            None => color_rgba8(pixel_coverage(images).into_iter(), background),
         };
         set.push(Picture {
             name: "color.png",
@@ -138,21 +159,11 @@ pub fn png_pictures<T: Real>(
     set
 }
 
-/// Encodes (see [`encode_supersampled`]) and writes into `dir`, all files or none; returns the
-/// files written.
-pub fn write_supersampled<T: Real>(
-    ss: &Supersampled<T>,
-    dir: &Path,
-    formats: &[Format],
-    outputs: Outputs,
-    background: Option<[u8; 3]>,
-    alpha_npy: bool,
-) -> Result<Vec<PathBuf>> {
+/// Encodes (see [`encode`]) and writes into `dir`, all files or none; returns the files
+/// written.
+pub fn write<T: Real>(images: &Images<T>, dir: &Path, encoding: &Encoding) -> Result<Vec<PathBuf>> {
     check_writable(dir)?;
-    write_files(
-        dir,
-        &encode_supersampled(ss, formats, outputs, background, alpha_npy),
-    )
+    write_files(dir, &encode(images, encoding))
 }
 
 /// PNG bytes of an RGB image.
@@ -222,16 +233,6 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         Error::io(path, format!("cannot write: {e}"))
     })
-}
-
-/// Encodes and writes `images` into `dir` in `formats`; returns the files written.
-pub fn write_images<T: Real>(
-    images: &Images<T>,
-    dir: &Path,
-    formats: &[Format],
-) -> Result<Vec<PathBuf>> {
-    check_writable(dir)?;
-    write_files(dir, &encode(images, formats))
 }
 
 #[cfg(test)]

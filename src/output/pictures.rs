@@ -170,12 +170,6 @@ pub fn picture_set<T: Real>(
 pub const PNG_NAMES: [&str; 3] = ["id.png", "depth.png", "normal.png"];
 const PPM_NAMES: [&str; 3] = ["id.ppm", "depth.ppm", "normal.ppm"];
 
-/// `id.png`, `depth.png` and `normal.png`, those of `outputs` only.
-pub(super) fn encode_png<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
-    let set = picture_set(images, outputs, PNG_NAMES);
-    set.iter().map(Picture::to_png).collect()
-}
-
 /// ASCII netpbm: `P3` (RGB) or `P2` (grey), max value 255, one pixel per line.
 fn ppm(magic: &str, width: u32, height: u32, channels: usize, pixels: &[u8]) -> Vec<u8> {
     use std::fmt::Write;

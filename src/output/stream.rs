@@ -1,7 +1,7 @@
 //! Files written band by band, for images too large to hold whole (a 16384 x 16384 render is
 //! 5 GiB of f32 images): each band of rows is mapped by the same code as a whole image (png:
 //! [`super::png_pictures`], raw pixels fed to a streaming png encoder; ppm and npy:
-//! [`super::encode_supersampled`], whose bodies are appended after the whole image's header),
+//! [`super::encode`], whose bodies are appended after the whole image's header),
 //! so the streamed files have exactly the pixels (and for ppm and npy, the bytes) of the
 //! whole-image ones. As with [`super::write_files`], everything goes to temporary names first and is
 //! renamed into place only when every file is complete: none or all.
@@ -10,11 +10,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::{EncodedFile, Format, Picture, encode_npy, encode_supersampled, png_pictures};
+use super::{EncodedFile, Encoding, Format, Picture, encode_format, encode_npy, png_pictures};
 use crate::error::{Error, Result};
-use crate::images::Outputs;
+use crate::images::Images;
 use crate::math::Real;
-use crate::supersample::Supersampled;
 
 /// One file being written: its final path, its temporary path, its encoder.
 struct Stream {
@@ -50,29 +49,19 @@ pub struct BandWriter {
     dir: PathBuf,
     width: u32,
     height: u32,
-    formats: Vec<Format>,
-    outputs: Outputs,
-    background: Option<[u8; 3]>,
+    encoding: Encoding,
     streams: Vec<Stream>,
     rows_written: u32,
 }
 
 impl BandWriter {
     /// A writer for a `width` x `height` render into `dir`; files open with the first band.
-    pub fn new(
-        dir: &Path,
-        [width, height]: [u32; 2],
-        formats: &[Format],
-        outputs: Outputs,
-        background: Option<[u8; 3]>,
-    ) -> BandWriter {
+    pub fn new(dir: &Path, [width, height]: [u32; 2], encoding: &Encoding) -> BandWriter {
         BandWriter {
             dir: dir.to_owned(),
             width,
             height,
-            formats: formats.to_vec(),
-            outputs,
-            background,
+            encoding: encoding.clone(),
             streams: Vec::new(),
             rows_written: 0,
         }
@@ -80,15 +69,19 @@ impl BandWriter {
 
     /// The band's files, in the same order for every band: png pictures as raw pixels, the
     /// other formats encoded.
-    fn band_files<T: Real>(&self, band: &Supersampled<T>) -> Vec<BandFile> {
+    fn band_files<T: Real>(&self, band: &Images<T>) -> Vec<BandFile> {
+        let Encoding {
+            formats,
+            outputs,
+            background,
+        } = &self.encoding;
         let mut files = Vec::new();
-        for &format in &self.formats {
+        for &format in formats {
             if format == Format::Png {
-                let set = png_pictures(band, self.outputs, self.background);
+                let set = png_pictures(band, *outputs, *background);
                 files.extend(set.into_iter().map(BandFile::Picture));
             } else {
-                let encoded =
-                    encode_supersampled(band, &[format], self.outputs, self.background, false);
+                let encoded = encode_format(band, format, *outputs, *background);
                 files.extend(encoded.into_iter().map(BandFile::Encoded));
             }
         }
@@ -96,7 +89,8 @@ impl BandWriter {
     }
 
     /// Appends the next band of rows (from the top, in order).
-    pub fn write_band<T: Real>(&mut self, band: &Supersampled<T>) -> Result<()> {
+    /// Bands are never supersampled.
+    pub fn write_band<T: Real>(&mut self, band: &Images<T>) -> Result<()> {
         let files = self.band_files(band);
         if self.streams.is_empty() {
             self.streams = files
@@ -112,7 +106,7 @@ impl BandWriter {
                 _ => unreachable!("every band has the same files in the same order"),
             }
         }
-        self.rows_written += band.images.height;
+        self.rows_written += band.height;
         Ok(())
     }
 

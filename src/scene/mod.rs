@@ -77,6 +77,19 @@ pub struct Scene {
     pub objects: Vec<Object>,
 }
 
+/// The scene of `path` ([`Scene::load`]), or without one the built-in default scene, with its
+/// resolution replaced by `size` where given (`--size`).
+pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
+    let mut scene = match path {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default_scene(),
+    };
+    if let Some(size) = size {
+        scene.camera.resolution = size;
+    }
+    Ok(scene)
+}
+
 impl Scene {
     /// Reads and validates a scene file; mesh paths are relative to the file's folder.
     pub fn load(path: &Path) -> Result<Scene> {

@@ -1,9 +1,13 @@
-//! One entry point for every way of rendering: device (GPU kernel or CPU reference) x
-//! precision (f32 or f64) x algorithm (textbook or robust), as the CLI spells them
-//! (`gpu:f32`, `cpu:f64:textbook`).
+//! One entry point for every way of rendering, in every [`Mode`] ([`render`]), and the policy
+//! of a render to files ([`Spec`]: whole or in bands, supersampled, adaptive).
 
-use std::fmt;
-use std::str::FromStr;
+mod files;
+mod mode;
+
+pub use files::{Spec, Summary};
+pub use mode::{Arithmetic, DEFAULT_ALGORITHM, Device, Mode};
+
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
@@ -15,131 +19,13 @@ use crate::gpu::kernel::UserKernel;
 use crate::gpu::layout::GpuReal;
 use crate::gpu::shader::Variant;
 use crate::gpu::{self, Gpu, Job, Stages};
-use crate::images::{Images, Outputs};
+use crate::images::{Coverage, Images, Outputs};
 use crate::math::Precision;
-use crate::output::{self, Format};
+use crate::output::{self, Encoding};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Accel;
 use crate::scene::Scene;
-
-/// Where a render runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Device {
-    /// The WGSL kernel on the wgpu adapter.
-    Gpu,
-    /// The CPU reference (rayon threads).
-    Cpu,
-}
-
-impl Device {
-    /// f32 on the GPU (what GPUs are fast at), f64 on the CPU (the reference).
-    pub fn default_precision(self) -> Arithmetic {
-        match self {
-            Device::Gpu => Arithmetic::F32,
-            Device::Cpu => Arithmetic::F64,
-        }
-    }
-}
-
-/// The arithmetic of a render: one precision throughout, or adaptive (robust f32, with the
-/// pixels it cannot be sure of cast again in f64; see [`crate::adaptive`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Arithmetic {
-    F32,
-    F64,
-    Adaptive,
-}
-
-impl From<Precision> for Arithmetic {
-    fn from(p: Precision) -> Self {
-        match p {
-            Precision::F32 => Arithmetic::F32,
-            Precision::F64 => Arithmetic::F64,
-        }
-    }
-}
-
-impl FromStr for Arithmetic {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "adaptive" => Ok(Arithmetic::Adaptive),
-            other => other
-                .parse::<Precision>()
-                .map(Arithmetic::from)
-                .map_err(|_| {
-                    format!("unknown precision `{other}` (expected f32, f64 or adaptive)")
-                }),
-        }
-    }
-}
-
-impl fmt::Display for Arithmetic {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Arithmetic::F32 => "f32",
-            Arithmetic::F64 => "f64",
-            Arithmetic::Adaptive => "adaptive",
-        })
-    }
-}
-
-impl FromStr for Device {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "gpu" => Ok(Device::Gpu),
-            "cpu" => Ok(Device::Cpu),
-            other => Err(format!("unknown device `{other}` (expected gpu or cpu)")),
-        }
-    }
-}
-
-/// The algorithm set used unless one is named.
-pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
-
-/// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
-/// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the device's default precision
-/// and the robust set.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Mode {
-    pub device: Device,
-    pub precision: Arithmetic,
-    pub algorithm: Algorithm,
-}
-
-impl FromStr for Mode {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let mut parts = s.split(':');
-        let device: Device = parts.next().unwrap_or_default().parse()?;
-        let mut mode = Mode {
-            device,
-            precision: device.default_precision(),
-            algorithm: DEFAULT_ALGORITHM,
-        };
-        if let Some(p) = parts.next() {
-            mode.precision = p.parse()?;
-        }
-        if let Some(a) = parts.next() {
-            mode.algorithm = a.parse()?;
-        }
-        if parts.next().is_some() {
-            return Err(format!("`{s}`: expected DEVICE[:PRECISION][:ALGORITHM]"));
-        }
-        Ok(mode)
-    }
-}
-
-impl fmt::Display for Mode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let device = match self.device {
-            Device::Gpu => "gpu",
-            Device::Cpu => "cpu",
-        };
-        write!(f, "{device}:{}:{}", self.precision, self.algorithm)
-    }
-}
+use crate::supersample;
 
 /// Images in whichever precision they were rendered in.
 #[derive(Clone, Debug, PartialEq)]
@@ -149,15 +35,36 @@ pub enum AnyImages {
 }
 
 impl AnyImages {
-    /// Encodes and writes the images (see [`output::write_images`]).
-    pub fn write(
-        &self,
-        dir: &std::path::Path,
-        formats: &[Format],
-    ) -> Result<Vec<std::path::PathBuf>> {
+    /// Encodes and writes the images (see [`output::write`]).
+    pub fn write(&self, dir: &Path, encoding: &Encoding) -> Result<Vec<PathBuf>> {
         match self {
-            AnyImages::F32(i) => output::write_images(i, dir, formats),
-            AnyImages::F64(i) => output::write_images(i, dir, formats),
+            AnyImages::F32(i) => output::write(i, dir, encoding),
+            AnyImages::F64(i) => output::write(i, dir, encoding),
+        }
+    }
+
+    /// Images of `s x s` samples per pixel reduced to one pixel each, with their coverage
+    /// ([`supersample::reduce`]).
+    pub fn reduce(&self, s: u32) -> AnyImages {
+        match self {
+            AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
+            AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
+        }
+    }
+
+    /// The per-pixel object ids.
+    pub fn id(&self) -> &[i32] {
+        match self {
+            AnyImages::F32(i) => &i.id,
+            AnyImages::F64(i) => &i.id,
+        }
+    }
+
+    /// The coverage of supersampled images.
+    pub fn coverage(&self) -> Option<&Coverage> {
+        match self {
+            AnyImages::F32(i) => i.coverage.as_ref(),
+            AnyImages::F64(i) => i.coverage.as_ref(),
         }
     }
 }
@@ -227,6 +134,15 @@ impl Request {
     }
 }
 
+/// A GPU device when one of `modes` needs it.
+pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
+    if modes.iter().any(|m| m.device == Device::Gpu) {
+        Ok(Some(Gpu::new()?))
+    } else {
+        Ok(None)
+    }
+}
+
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; with `progress`, a CPU
 /// render that takes over a second shows a progress bar on stderr when it is a terminal.
 pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> Result<AnyImages> {
@@ -241,32 +157,7 @@ pub fn render_request(
     progress: bool,
     request: &Request,
 ) -> Result<AnyImages> {
-    if request.shade.is_some() && request.outputs.color {
-        let ok = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
-        if !ok {
-            return Err(Error::Argument {
-                option: "--shader".into(),
-                message: if mode.device == Device::Cpu {
-                    "the CPU reference runs no shader; use --device gpu".into()
-                } else {
-                    "runs with --precision f32 or f64, not adaptive".into()
-                },
-            });
-        }
-    }
-    if request.kernel.is_some() {
-        let plain = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
-        if !plain {
-            return Err(Error::Argument {
-                option: "--kernel".into(),
-                message: if mode.device == Device::Cpu {
-                    "the CPU reference runs no shader; use --device gpu".into()
-                } else {
-                    "runs with --precision f32 or f64 (adaptive precision runs two kernels)".into()
-                },
-            });
-        }
-    }
+    check_request(mode, request)?;
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
@@ -295,6 +186,38 @@ pub fn render_request(
             _ => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
         }),
     }
+}
+
+/// Refuses what `request` asks of a `mode` that cannot do it: a shade hook that colours
+/// `color.png` or a kernel file, other than on the GPU in f32 or f64.
+pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
+    let shades = request.shade.is_some() && request.outputs.color;
+    check_kernels(mode, request.kernel.is_some(), shades)
+}
+
+/// [`check_request`] for a request with a kernel file and a colouring shade hook or not.
+fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
+    let refuse = |option: &str| {
+        let message = if mode.device == Device::Cpu {
+            "the CPU reference runs no shader; use --device gpu"
+        } else if option == "--kernel" {
+            "runs with --precision f32 or f64 (adaptive precision runs two kernels)"
+        } else {
+            "runs with --precision f32 or f64, not adaptive"
+        };
+        Err(Error::Argument {
+            option: option.into(),
+            message: message.into(),
+        })
+    };
+    let kernels = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
+    if kernel && !kernels {
+        return refuse("--kernel");
+    }
+    if shade && !kernels {
+        return refuse("--shader");
+    }
+    Ok(())
 }
 
 /// Renders `scene` with the kernel `variant` (prepared for it), timing the stages and, with
@@ -449,28 +372,4 @@ pub fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
     let start = Instant::now();
     let value = f();
     (value, start.elapsed())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn modes_parse_with_device_defaults() {
-        let m: Mode = "cpu".parse().unwrap();
-        let expected = Mode {
-            device: Device::Cpu,
-            precision: Arithmetic::F64,
-            algorithm: Algorithm::Robust,
-        };
-        assert_eq!(m, expected);
-        let m: Mode = "gpu:adaptive".parse().unwrap();
-        assert_eq!(m.precision, Arithmetic::Adaptive);
-        let m: Mode = "gpu:f64:textbook".parse().unwrap();
-        assert_eq!(m.to_string(), "gpu:f64:textbook");
-        assert!("tpu:f32".parse::<Mode>().is_err());
-        assert!("gpu:f16".parse::<Mode>().is_err());
-        assert!("gpu:f32:fast".parse::<Mode>().is_err());
-        assert!("gpu:f32:robust:x".parse::<Mode>().is_err());
-    }
 }

@@ -1,0 +1,96 @@
+//! `raycast compare`: two renders of a scene (or of two scenes with one camera size), their
+//! report as one JSON object, optional pictures, and the bounds it must stay within.
+
+use std::path::PathBuf;
+
+use super::{Comparison, compare, distance_error_picture, exceeded, mismatch_picture};
+use crate::error::Result;
+use crate::gpu::Gpu;
+use crate::output::{self, EncodedFile};
+use crate::render::{self, AnyImages, Mode};
+use crate::scene;
+
+/// What `raycast compare` is asked for.
+#[derive(Clone, Debug)]
+pub struct Spec {
+    pub scene: PathBuf,
+    /// Side b's scene, rendered at side a's size; `None`: the same scene.
+    pub b_scene: Option<PathBuf>,
+    /// Overrides the scenes' resolution.
+    pub size: Option<[u32; 2]>,
+    /// Side a, and side b (the reference for relative errors).
+    pub modes: [Mode; 2],
+    /// Where to write `mismatch.png` and `distance_error.png`, if anywhere.
+    pub out_dir: Option<PathBuf>,
+    /// Metric bounds (`--fail-above`).
+    pub bounds: Vec<(String, f64)>,
+}
+
+/// What a comparison found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The modes, scenes, times and the [`super::Report`], as one JSON object.
+    pub json: serde_json::Value,
+    /// One line per bound exceeded.
+    pub exceeded: Vec<String>,
+    /// The pictures written.
+    pub written: Vec<PathBuf>,
+}
+
+impl Spec {
+    /// Renders both sides, compares them and writes the pictures. `gpu` is needed where a
+    /// side is a GPU mode.
+    pub fn run(&self, gpu: Option<&Gpu>) -> Result<Outcome> {
+        let scene_a = scene::load_sized(Some(&self.scene), self.size)?;
+        let b_path = self.b_scene.as_ref().unwrap_or(&self.scene);
+        let mut scene_b = scene::load_sized(Some(b_path), self.size)?;
+        // Side b must be comparable pixel for pixel.
+        scene_b.camera.resolution = scene_a.camera.resolution;
+        if let Some(dir) = &self.out_dir {
+            output::check_writable(dir)?;
+        }
+        let [mode_a, mode_b] = self.modes;
+        let (a, time_a) = render::timed(|| render::render(&scene_a, mode_a, gpu, true));
+        let (b, time_b) = render::timed(|| render::render(&scene_b, mode_b, gpu, true));
+        let (a, b) = (a?, b?);
+        let c = compare(&a, &b);
+        let mut json = serde_json::json!({
+            "scene": self.scene.display().to_string(),
+            "size": scene_a.camera.resolution,
+            "a": {"mode": mode_a.to_string(), "time_s": time_a.as_secs_f64()},
+            "b": {"mode": mode_b.to_string(), "time_s": time_b.as_secs_f64()},
+        });
+        if let Some(p) = &self.b_scene {
+            json["b"]["scene"] = p.display().to_string().into();
+        }
+        let report = serde_json::to_value(&c.report).expect("a report serialises");
+        if let (Some(fields), serde_json::Value::Object(report)) = (json.as_object_mut(), report) {
+            fields.extend(report);
+        }
+        let written = match &self.out_dir {
+            Some(dir) => output::write_files(dir, &pictures(&c, &b))?,
+            None => Vec::new(),
+        };
+        Ok(Outcome {
+            json,
+            exceeded: exceeded(&c.report, &self.bounds),
+            written,
+        })
+    }
+}
+
+/// `mismatch.png` over side b's normals, and `distance_error.png`.
+fn pictures(c: &Comparison, b: &AnyImages) -> [EncodedFile; 2] {
+    let base = match b {
+        AnyImages::F32(i) => output::pictures(i).normal,
+        AnyImages::F64(i) => output::pictures(i).normal,
+    };
+    [
+        ("mismatch.png", mismatch_picture(c, &base)),
+        ("distance_error.png", distance_error_picture(c)),
+    ]
+    .map(|(name, img)| EncodedFile {
+        name,
+        bytes: output::encode_png_rgb(&img),
+    })
+}

@@ -1,0 +1,293 @@
+//! A render to files, as `raycast render` asks for it: which scene, which mode, how many
+//! samples, which shader, where to write. [`Spec::run`] decides how the render goes:
+//!
+//! - on the GPU in f32 or f64 without `--spp` or a kernel file, images above
+//!   [`STREAM_PIXELS`] pixels, or any with `band_rows`, are rendered and written in bands of
+//!   rows ([`render_streamed`] into an [`output::stream::BandWriter`]), one band held at a
+//!   time;
+//! - adaptive precision alone (GPU, robust) reports how much it re-cast in f64;
+//! - anything else renders the whole image, supersampled with `spp`
+//!   ([`supersample::supersample_request`]), and writes it all or nothing.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use super::{AnyImages, Arithmetic, Device, Mode, Request, STREAM_PIXELS, band_rows, can_stream};
+use super::{check_kernels, render_streamed, timed};
+use crate::adaptive;
+use crate::algorithm::Algorithm;
+use crate::error::{Error, Result};
+use crate::gpu::shader::{self, Variant};
+use crate::gpu::{self, Gpu};
+use crate::math::Precision;
+use crate::output::{self, Encoding};
+use crate::scene::{self, Object, Scene};
+use crate::supersample;
+
+/// Everything a render to files is asked for.
+#[derive(Clone, Debug)]
+pub struct Spec {
+    /// The scene file; `None`: the built-in default scene.
+    pub scene: Option<PathBuf>,
+    /// Overrides the scene's resolution.
+    pub size: Option<[u32; 2]>,
+    pub mode: Mode,
+    /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
+    pub spp: Option<u32>,
+    /// Render and write in bands of at most this many rows.
+    pub band_rows: Option<u32>,
+    /// A shade hook file colouring `color.png`.
+    pub shader: Option<PathBuf>,
+    /// A complete kernel file run instead of the assembled one.
+    pub kernel: Option<PathBuf>,
+    /// The output folder, created if missing.
+    pub out_dir: PathBuf,
+    pub encoding: Encoding,
+    /// Also write the kernel the render ran (its first pass, for adaptive precision) here.
+    pub emit_shader: Option<PathBuf>,
+}
+
+/// What a render to files did, for the user.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    /// The scene file, or "the default scene".
+    pub scene: String,
+    pub size: [u32; 2],
+    pub mode: Mode,
+    pub spp: Option<u32>,
+    pub shader: Option<PathBuf>,
+    /// The adapter, or "the CPU".
+    pub device: String,
+    pub elapsed: Duration,
+    /// Rows per band, when rendered in bands.
+    pub bands: Option<u32>,
+    /// The process's peak memory in MiB, where known (reported for renders in bands).
+    pub peak_mib: Option<f64>,
+    /// Adaptive precision: the fraction of pixels cast again in f64, and whether on the GPU.
+    pub recast: Option<(f64, bool)>,
+    /// The files written, the emitted kernel first.
+    pub written: Vec<PathBuf>,
+}
+
+impl Summary {
+    /// The lines `raycast render` prints.
+    pub fn lines(&self) -> Vec<String> {
+        let [nx, ny] = self.size;
+        let (mode, device, seconds) = (self.mode, &self.device, self.elapsed.as_secs_f64());
+        let first = match self.bands {
+            Some(rows) => {
+                let peak = self
+                    .peak_mib
+                    .map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
+                format!(
+                    "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {device} in {seconds:.3} s{peak}",
+                    self.scene
+                )
+            }
+            None => {
+                let samples = self.spp.map_or(String::new(), |n| format!(", {n} spp"));
+                let shaded = (self.shader.as_ref())
+                    .map_or(String::new(), |p| format!(", shaded by {}", p.display()));
+                format!(
+                    "rendered {} ({nx}x{ny}{samples}, {mode}{shaded}) on {device} in {seconds:.3} s",
+                    self.scene
+                )
+            }
+        };
+        let recast = self.recast.map(|(fraction, on_gpu)| {
+            let on = if on_gpu { "the GPU" } else { "the CPU" };
+            format!("re-cast {:.3}% of pixels in f64 on {on}", 100.0 * fraction)
+        });
+        let written = (self.written.iter()).map(|p| format!("wrote {}", p.display()));
+        std::iter::once(first)
+            .chain(recast)
+            .chain(written)
+            .collect()
+    }
+}
+
+impl Spec {
+    /// Refuses the option combinations that cannot render, before anything is read.
+    pub fn check(&self) -> Result<()> {
+        let refuse = |option: &str, message: &str| {
+            Err(Error::Argument {
+                option: option.into(),
+                message: message.into(),
+            })
+        };
+        let gpu = self.mode.device == Device::Gpu;
+        if self.emit_shader.is_some() && !gpu {
+            return refuse(
+                "--emit-shader",
+                "the CPU reference runs no shader; use --device gpu",
+            );
+        }
+        check_kernels(self.mode, self.kernel.is_some(), self.shader.is_some())?;
+        if self.shader.is_some() {
+            if self.encoding.background.is_some() {
+                return refuse(
+                    "--background",
+                    "a shade hook colours the background itself (it is called for misses too)",
+                );
+            }
+            if !self.encoding.outputs.color {
+                return refuse(
+                    "--shader",
+                    "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
+                );
+            }
+        }
+        if self.band_rows.is_some() && !self.streamable() {
+            return refuse(
+                "--band-rows",
+                "bands are rendered on the GPU in f32 or f64, without --spp or --kernel",
+            );
+        }
+        Ok(())
+    }
+
+    /// Whether the render can go in bands: a GPU kernel in f32 or f64, one sample per pixel,
+    /// the assembled kernel.
+    fn streamable(&self) -> bool {
+        self.spp.is_none() && can_stream(self.mode) && self.kernel.is_none()
+    }
+
+    /// The files a watching render polls: the scene file and the meshes it names (as far as
+    /// it loads), the shader file and the kernel file.
+    pub fn watched_files(&self) -> Vec<PathBuf> {
+        let mut files: Vec<PathBuf> = Vec::new();
+        if let Some(scene) = &self.scene {
+            files.push(scene.clone());
+            if let Ok(loaded) = Scene::load(scene) {
+                let base = scene.parent().unwrap_or(Path::new(""));
+                for object in &loaded.objects {
+                    if let Object::Soup { path, .. } = object {
+                        files.push(base.join(path));
+                    }
+                }
+            }
+        }
+        files.extend(self.shader.clone());
+        files.extend(self.kernel.clone());
+        files
+    }
+
+    /// Reads the scene and the shader, renders and writes every file (all or none), and the
+    /// kernel with `emit_shader`. `gpu` is needed for a GPU mode.
+    pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
+        self.check()?;
+        let scene = scene::load_sized(self.scene.as_deref(), self.size)?;
+        let request = Request {
+            outputs: self.encoding.outputs,
+            shade: self.shader.as_deref().map(gpu::hooks::load).transpose()?,
+            kernel: self.kernel.as_deref().map(gpu::kernel::load).transpose()?,
+        };
+        let gpu = match (self.mode.device, gpu) {
+            (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
+            (Device::Gpu, gpu) => gpu,
+            (Device::Cpu, _) => None,
+        };
+        if let (Some(_), Some(g)) = (&request.kernel, gpu) {
+            // A kernel whose bindings do not fit is refused before the output folder is made.
+            self.first_kernel(g, &scene, &request)?;
+        }
+        output::check_writable(&self.out_dir)?;
+        if let Some(path) = &self.emit_shader {
+            let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
+            output::check_writable(dir.unwrap_or(Path::new(".")))?;
+        }
+        let [nx, ny] = scene.camera.resolution;
+        let huge = nx as u64 * ny as u64 > STREAM_PIXELS;
+        let mut summary = Summary {
+            scene: (self.scene.as_ref())
+                .map_or("the default scene".into(), |p| p.display().to_string()),
+            size: [nx, ny],
+            mode: self.mode,
+            spp: self.spp,
+            shader: self.shader.clone(),
+            device: gpu.map_or("the CPU".to_owned(), |g| g.info().name),
+            elapsed: Duration::ZERO,
+            bands: None,
+            peak_mib: None,
+            recast: None,
+            written: Vec::new(),
+        };
+        let files =
+            match gpu {
+                Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
+                    let rows = self.band_rows.unwrap_or(band_rows(nx));
+                    summary.bands = Some(rows);
+                    let mut writer =
+                        output::stream::BandWriter::new(&self.out_dir, [nx, ny], &self.encoding);
+                    let (done, elapsed) =
+                        timed(|| {
+                            render_streamed(&scene, self.mode, g, &request, rows, &mut |band| {
+                                match band {
+                                    AnyImages::F32(i) => writer.write_band(&i),
+                                    AnyImages::F64(i) => writer.write_band(&i),
+                                }
+                            })
+                        });
+                    done?;
+                    summary.elapsed = elapsed;
+                    summary.peak_mib = crate::bench::peak_rss_mib();
+                    writer.finish()?
+                }
+                _ => {
+                    let (images, elapsed) = timed(|| self.render_whole(&scene, gpu, &request));
+                    let (images, recast) = images?;
+                    summary.elapsed = elapsed;
+                    summary.recast = recast;
+                    images.write(&self.out_dir, &self.encoding)?
+                }
+            };
+        if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
+            let source = shader::kernel_source(&self.first_kernel(g, &scene, &request)?)?;
+            output::write_file(path, source.as_bytes())?;
+            summary.written.push(path.clone());
+        }
+        summary.written.extend(files);
+        Ok(summary)
+    }
+
+    /// The whole image, supersampled with `spp`, and for plain adaptive precision the
+    /// fraction re-cast in f64 and whether on the GPU.
+    fn render_whole(
+        &self,
+        scene: &Scene,
+        gpu: Option<&Gpu>,
+        request: &Request,
+    ) -> Result<(AnyImages, Option<(f64, bool)>)> {
+        let mode = self.mode;
+        match (mode.precision, self.spp, gpu) {
+            (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
+                let a = adaptive::render_adaptive(g, scene)?;
+                let recast = (a.recast_fraction(), a.recast_on_gpu);
+                Ok((AnyImages::F32(a.images), Some(recast)))
+            }
+            (_, None, _) => Ok((
+                super::render_request(scene, mode, gpu, true, request)?,
+                None,
+            )),
+            (_, Some(spp), _) => {
+                let images =
+                    supersample::supersample_request(scene, mode, gpu, spp, true, request)?;
+                Ok((images, None))
+            }
+        }
+    }
+
+    /// The kernel the render runs first (for adaptive precision: its f32 certainty pass,
+    /// which writes every output), specialised for `scene` and `request`.
+    fn first_kernel(&self, gpu: &Gpu, scene: &Scene, request: &Request) -> Result<Variant> {
+        let mode = self.mode;
+        if mode.precision == Arithmetic::Adaptive {
+            return Ok(Variant {
+                certainty: true,
+                ..gpu.scene_variant(scene, Precision::F32, mode.algorithm)
+            });
+        }
+        let spp = self.spp.unwrap_or(1);
+        supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
+    }
+}

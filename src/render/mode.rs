@@ -1,0 +1,152 @@
+//! The modes of a render: device (GPU kernel or CPU reference) x precision (f32, f64 or
+//! adaptive) x algorithm (textbook or robust), as the CLI spells them (`gpu:f32`,
+//! `cpu:f64:textbook`).
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::algorithm::Algorithm;
+use crate::math::Precision;
+
+/// Where a render runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Device {
+    /// The WGSL kernel on the wgpu adapter.
+    Gpu,
+    /// The CPU reference (rayon threads).
+    Cpu,
+}
+
+impl Device {
+    /// f32 on the GPU (what GPUs are fast at), f64 on the CPU (the reference).
+    pub fn default_precision(self) -> Arithmetic {
+        match self {
+            Device::Gpu => Arithmetic::F32,
+            Device::Cpu => Arithmetic::F64,
+        }
+    }
+}
+
+/// The arithmetic of a render: one precision throughout, or adaptive (robust f32, with the
+/// pixels it cannot be sure of cast again in f64; see [`crate::adaptive`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Arithmetic {
+    F32,
+    F64,
+    Adaptive,
+}
+
+impl From<Precision> for Arithmetic {
+    fn from(p: Precision) -> Self {
+        match p {
+            Precision::F32 => Arithmetic::F32,
+            Precision::F64 => Arithmetic::F64,
+        }
+    }
+}
+
+impl FromStr for Arithmetic {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "adaptive" => Ok(Arithmetic::Adaptive),
+            other => other
+                .parse::<Precision>()
+                .map(Arithmetic::from)
+                .map_err(|_| {
+                    format!("unknown precision `{other}` (expected f32, f64 or adaptive)")
+                }),
+        }
+    }
+}
+
+impl fmt::Display for Arithmetic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Arithmetic::F32 => "f32",
+            Arithmetic::F64 => "f64",
+            Arithmetic::Adaptive => "adaptive",
+        })
+    }
+}
+
+impl FromStr for Device {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "gpu" => Ok(Device::Gpu),
+            "cpu" => Ok(Device::Cpu),
+            other => Err(format!("unknown device `{other}` (expected gpu or cpu)")),
+        }
+    }
+}
+
+/// The algorithm set used unless one is named.
+pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
+
+/// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
+/// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the device's default precision
+/// and the robust set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mode {
+    pub device: Device,
+    pub precision: Arithmetic,
+    pub algorithm: Algorithm,
+}
+
+impl FromStr for Mode {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let mut parts = s.split(':');
+        let device: Device = parts.next().unwrap_or_default().parse()?;
+        let mut mode = Mode {
+            device,
+            precision: device.default_precision(),
+            algorithm: DEFAULT_ALGORITHM,
+        };
+        if let Some(p) = parts.next() {
+            mode.precision = p.parse()?;
+        }
+        if let Some(a) = parts.next() {
+            mode.algorithm = a.parse()?;
+        }
+        if parts.next().is_some() {
+            return Err(format!("`{s}`: expected DEVICE[:PRECISION][:ALGORITHM]"));
+        }
+        Ok(mode)
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let device = match self.device {
+            Device::Gpu => "gpu",
+            Device::Cpu => "cpu",
+        };
+        write!(f, "{device}:{}:{}", self.precision, self.algorithm)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn modes_parse_with_device_defaults() {
+        let m: Mode = "cpu".parse().unwrap();
+        let expected = Mode {
+            device: Device::Cpu,
+            precision: Arithmetic::F64,
+            algorithm: Algorithm::Robust,
+        };
+        assert_eq!(m, expected);
+        let m: Mode = "gpu:adaptive".parse().unwrap();
+        assert_eq!(m.precision, Arithmetic::Adaptive);
+        let m: Mode = "gpu:f64:textbook".parse().unwrap();
+        assert_eq!(m.to_string(), "gpu:f64:textbook");
+        assert!("tpu:f32".parse::<Mode>().is_err());
+        assert!("gpu:f16".parse::<Mode>().is_err());
+        assert!("gpu:f32:fast".parse::<Mode>().is_err());
+        assert!("gpu:f32:robust:x".parse::<Mode>().is_err());
+    }
+}
