@@ -12,7 +12,7 @@ use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::prepare::bvh::Accel;
 use raycast::render::{self, Arithmetic, Device, Mode};
-use raycast::supersample;
+use raycast::{scene, supersample};
 
 #[derive(Parser)]
 #[command(
@@ -35,7 +35,7 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         output: PathBuf,
         /// Image size in pixels, e.g. 1920x1080 (overrides the scene's resolution).
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// Comma-separated output formats: png, ppm, npy.
         #[arg(long, value_delimiter = ',', default_value = "png")]
@@ -53,11 +53,11 @@ enum Command {
         algorithm: Algorithm,
         /// Samples per pixel, a perfect square s*s (1, 4, 9, 16, 64, 256, ...): one at the
         /// centre of each of s x s strata; id by majority, coverage alpha. Adds alpha.npy to npy.
-        #[arg(long, value_name = "N", value_parser = parse_spp)]
+        #[arg(long, value_name = "N", value_parser = supersample::parse_spp)]
         spp: Option<u32>,
         /// Composite color.png over this opaque colour, R,G,B in 0..255 (default: transparent,
         /// premultiplied alpha).
-        #[arg(long, value_name = "R,G,B", value_parser = parse_background)]
+        #[arg(long, value_name = "R,G,B", value_parser = output::parse_background)]
         background: Option<[u8; 3]>,
         /// Also write the assembled WGSL kernel this render ran (specialised for the scene and
         /// the mode) to this file.
@@ -92,7 +92,7 @@ enum Command {
         /// Scene file (JSON).
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// First render, DEVICE[:PRECISION][:ALGORITHM].
         #[arg(long, default_value = "gpu:f32:robust")]
@@ -116,7 +116,7 @@ enum Command {
         #[arg(required = true)]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// The mode every other is compared with, DEVICE[:PRECISION][:ALGORITHM].
         #[arg(long, default_value = "cpu:f64:robust")]
@@ -136,14 +136,14 @@ enum Command {
         #[arg(required = true)]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// Timed runs per mode, after one warm-up run; the median is reported.
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// Comma-separated sample counts at which gpu:f32:robust is also measured (against
         /// cpu:f64:robust at 64 spp); every mode is measured at 1.
-        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = parse_spp)]
+        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = supersample::parse_spp)]
         spp: Vec<u32>,
         /// Output folder (created if missing).
         #[arg(short, long, value_name = "DIR")]
@@ -182,7 +182,7 @@ enum Command {
         /// Scene file (JSON).
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// Timed runs per configuration, after one warm-up run; the median is reported.
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
@@ -200,42 +200,6 @@ enum Command {
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
-}
-
-fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
-    let err = || format!("expected WIDTHxHEIGHT such as 640x360, got `{s}`");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let w: u32 = w.trim().parse().map_err(|_| err())?;
-    let h: u32 = h.trim().parse().map_err(|_| err())?;
-    if w == 0 || h == 0 {
-        return Err(format!("image size must be at least 1x1, got `{s}`"));
-    }
-    Ok([w, h])
-}
-
-/// `--spp N`: a perfect square (see [`supersample::side`]).
-fn parse_spp(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
-    supersample::side(n).map(|_| n)
-}
-
-/// `--background R,G,B`, each 0..255.
-fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
-    let err = || {
-        format!("expected R,G,B with each of the three in 0..255, such as 255,255,255, got `{s}`")
-    };
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 3 {
-        return Err(err());
-    }
-    let mut rgb = [0u8; 3];
-    for (c, part) in rgb.iter_mut().zip(parts) {
-        *c = part.trim().parse().map_err(|_| err())?;
-    }
-    Ok(rgb)
 }
 
 fn main() -> ExitCode {

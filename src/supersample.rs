@@ -60,6 +60,15 @@ pub fn side(spp: u32) -> std::result::Result<u32, String> {
     Ok(s)
 }
 
+/// A sample count as `--spp` takes it: a whole number that is a perfect square (see [`side`]).
+pub fn parse_spp(s: &str) -> std::result::Result<u32, String> {
+    let n: u32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
+    side(n).map(|_| n)
+}
+
 /// One reduced pixel.
 struct Pixel<T> {
     id: i32,

@@ -144,7 +144,11 @@ fn a_tie_goes_to_the_lower_id_and_colours_mix_by_coverage() {
             assert_eq!(x.id()[k], id, "{at}");
             assert_eq!(d[k], dist, "{at}");
             assert_eq!(cov(&x).alpha[k], 1.0, "{at}");
-            assert_eq!(pixels[k].to_rgba8(None), [rgb[0], rgb[1], rgb[2], 255], "{at}");
+            assert_eq!(
+                pixels[k].to_rgba8(None),
+                [rgb[0], rgb[1], rgb[2], 255],
+                "{at}"
+            );
         }
     }
 }

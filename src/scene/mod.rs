@@ -77,6 +77,18 @@ pub struct Scene {
     pub objects: Vec<Object>,
 }
 
+/// An image size written `WIDTHxHEIGHT` (`--size 640x360`), each at least 1.
+pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
+    let err = || format!("expected WIDTHxHEIGHT such as 640x360, got `{s}`");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let w: u32 = w.trim().parse().map_err(|_| err())?;
+    let h: u32 = h.trim().parse().map_err(|_| err())?;
+    if w == 0 || h == 0 {
+        return Err(format!("image size must be at least 1x1, got `{s}`"));
+    }
+    Ok([w, h])
+}
+
 /// The scene of `path` ([`Scene::load`]), or without one the built-in default scene, with its
 /// resolution replaced by `size` where given (`--size`).
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
