@@ -39,10 +39,8 @@
 //! # Ok::<(), raycast::Error>(())
 //! ```
 
-pub mod accuracy;
 pub mod adaptive;
 pub mod algorithm;
-pub mod bench;
 pub mod camera;
 pub mod compare;
 pub mod cpu;
@@ -54,9 +52,8 @@ pub mod output;
 pub mod prepare;
 pub mod render;
 pub mod scene;
-pub mod specialize;
+pub mod study;
 pub mod supersample;
-pub mod tradeoff;
 
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};

@@ -1,6 +1,6 @@
 //! `raycast`: the command-line front end of the library.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -12,6 +12,7 @@ use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::prepare::bvh::Accel;
 use raycast::render::{self, Arithmetic, Device, Mode};
+use raycast::study::{self, Stream};
 use raycast::{scene, supersample};
 
 #[derive(Parser)]
@@ -154,7 +155,7 @@ enum Command {
     /// markdown and write it to --out.
     Specializations {
         /// Scene files, or folders of scene files (their *.json, in name order).
-        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = raycast::specialize::DEFAULT_SCENES)]
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specialize::DEFAULT_SCENES)]
         scenes: Vec<PathBuf>,
         /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
         /// where it exists (else the table says it was not measured).
@@ -314,27 +315,32 @@ fn run(command: Command) -> Result<ExitCode> {
             reference,
             modes,
             markdown,
-        } => accuracy(&scenes, size, reference, modes, markdown.as_deref()),
+        } => {
+            let markdown = markdown.as_deref();
+            study::accuracy::command(&scenes, size, reference, modes, markdown, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Tradeoff {
             scenes,
             size,
             runs,
             spp,
             output,
-        } => tradeoff(&scenes, size, runs as usize, spp, &output),
+        } => {
+            study::tradeoff::command(&scenes, size, runs as usize, spp, &output, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Specializations {
             scenes,
             torus,
             runs,
             no_crossover,
             out,
-        } => specializations(
-            &scenes,
-            torus.as_deref(),
-            runs as usize,
-            !no_crossover,
-            &out,
-        ),
+        } => {
+            let (torus, runs) = (torus.as_deref(), runs as usize);
+            study::specialize::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::CheckShader { file } => {
             gpu::hooks::load(&file)?;
             say(format!("{}: ok", file.display()));
@@ -347,16 +353,15 @@ fn run(command: Command) -> Result<ExitCode> {
             json,
             mode,
             accel,
-        } => bench(
-            &scene,
-            size,
-            raycast::bench::Options {
+        } => {
+            let options = study::bench::Options {
                 runs: runs as usize,
                 modes: mode,
                 accels: accel,
-            },
-            json,
-        ),
+            };
+            study::bench::command(&scene, size, options, json, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
@@ -424,182 +429,10 @@ fn compare(spec: &compare::Spec) -> Result<ExitCode> {
     Ok(ExitCode::from(u8::from(!outcome.exceeded.is_empty())))
 }
 
-fn accuracy(
-    scenes: &[PathBuf],
-    size: Option<[u32; 2]>,
-    reference: Mode,
-    modes: Option<Vec<Mode>>,
-    markdown: Option<&Path>,
-) -> Result<ExitCode> {
-    use raycast::accuracy;
-    let dir = markdown.map(|f| f.parent().unwrap_or(Path::new("")));
-    if let Some(dir) = dir.filter(|d| !d.as_os_str().is_empty()) {
-        output::check_writable(dir)?;
+/// Prints a study's line on the stream it names.
+fn say_on(stream: Stream, line: &str) {
+    match stream {
+        Stream::Stdout => say(line),
+        Stream::Stderr => eprintln!("{line}"),
     }
-    let needs_gpu = modes
-        .as_ref()
-        .is_none_or(|m| m.iter().any(|m| m.device == Device::Gpu))
-        || reference.device == Device::Gpu;
-    let gpu = if needs_gpu { Some(Gpu::new()?) } else { None };
-    let options = accuracy::Options {
-        size,
-        reference,
-        modes: modes.unwrap_or_else(|| accuracy::default_modes(gpu.as_ref())),
-    };
-    let result = accuracy::run(scenes, &options, gpu.as_ref(), |k, path| {
-        eprintln!("[{}/{}] {}", k + 1, scenes.len(), path.display());
-    })?;
-    say(accuracy::to_markdown(&result.rows).trim_end());
-    if let Some(file) = markdown {
-        let provenance = accuracy::Provenance {
-            command: command_line(),
-            adapter: gpu.map(|g| {
-                let info = g.info();
-                (info.name, info.driver_info)
-            }),
-            date: accuracy::utc_date_today(),
-            reference,
-        };
-        let text = accuracy::document(&provenance, &result, dir);
-        let tmp = file.with_extension("md.tmp");
-        std::fs::write(&tmp, text)
-            .and_then(|()| std::fs::rename(&tmp, file))
-            .map_err(|e| raycast::Error::Io {
-                path: file.to_owned(),
-                message: format!("cannot write: {e}"),
-            })?;
-        eprintln!("wrote {}", file.display());
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-fn tradeoff(
-    scenes: &[PathBuf],
-    size: Option<[u32; 2]>,
-    runs: usize,
-    spp: Vec<u32>,
-    dir: &Path,
-) -> Result<ExitCode> {
-    use raycast::{accuracy, tradeoff};
-    // Scenes are validated before the GPU is opened or the folder created.
-    let scenes = tradeoff::load_scenes(scenes, size)?;
-    output::check_writable(dir)?;
-    let gpu = Gpu::new()?;
-    let options = tradeoff::Options {
-        size,
-        runs,
-        spp,
-        modes: accuracy::default_modes(Some(&gpu)),
-    };
-    let provenance = accuracy::Provenance {
-        command: command_line(),
-        adapter: Some((gpu.info().name, gpu.info().driver_info)),
-        date: accuracy::utc_date_today(),
-        reference: tradeoff::REFERENCE,
-    };
-    for path in tradeoff::run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
-        say(format!("wrote {}", path.display()));
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-fn specializations(
-    scenes: &[PathBuf],
-    torus: Option<&Path>,
-    runs: usize,
-    crossover: bool,
-    out: &Path,
-) -> Result<ExitCode> {
-    use raycast::specialize::{self, DEFAULT_TORUS};
-    let mut files = specialize::scene_files(scenes)?;
-    let mut notes = Vec::new();
-    match torus {
-        Some(path) => files.push(path.to_owned()),
-        None if Path::new(DEFAULT_TORUS).is_file() => files.push(DEFAULT_TORUS.into()),
-        None => notes.push(format!(
-            "The 518,400-triangle torus was not measured: `{DEFAULT_TORUS}` is absent \
-             (benches/peers.sh makes it; or give `--torus FILE`)."
-        )),
-    }
-    // Scenes are validated and the folder checked before the GPU is opened.
-    let named = specialize::load_scenes(&files)?;
-    let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
-    output::check_writable(dir.unwrap_or(Path::new(".")))?;
-    let gpu = Gpu::new()?;
-    let (mut rows, mut spreads) = (Vec::new(), Vec::new());
-    for (k, scene) in named.iter().enumerate() {
-        eprintln!("[{}/{}] {}", k + 1, named.len(), scene.name);
-        let (r, s) = specialize::scene_rows(&gpu, scene, runs)?;
-        rows.extend(r);
-        spreads.extend(s);
-    }
-    let crossover = if crossover {
-        Some(specialize::crossover(&gpu, runs, |kind, n| {
-            eprintln!("crossover: {n} {kind}");
-        })?)
-    } else {
-        None
-    };
-    let info = gpu.info();
-    let report = specialize::Report {
-        provenance: specialize::Provenance {
-            command: command_line(),
-            adapter: (info.name, info.driver_info),
-            date: raycast::accuracy::utc_date_today(),
-            runs,
-            kernel_times: specialize::has_kernel_times(&gpu),
-        },
-        scenes: named,
-        rows,
-        spreads,
-        notes,
-        crossover,
-    };
-    let text = specialize::document(&report);
-    output::write_file(out, text.as_bytes())?;
-    say(text.trim_end());
-    eprintln!("wrote {}", out.display());
-    Ok(ExitCode::SUCCESS)
-}
-
-fn bench(
-    scene_path: &Path,
-    size: Option<[u32; 2]>,
-    options: raycast::bench::Options,
-    json: bool,
-) -> Result<ExitCode> {
-    use raycast::bench;
-    options.check()?;
-    // The scene is validated before the GPU is opened.
-    let loaded = bench::load(scene_path, size)?;
-    let gpu = options.needs_gpu().then(Gpu::new).transpose()?;
-    if !json {
-        for line in bench::header(&loaded, &options, gpu.as_ref()) {
-            say(line);
-        }
-    }
-    let rows = bench::run(&loaded, &options, gpu.as_ref(), true, |row| {
-        if json {
-            say(serde_json::to_string(row).expect("a row serialises"));
-        }
-    })?;
-    if !json {
-        say(bench::to_table(&rows).trim_end());
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// `raycast ARGS...` as typed (arguments with spaces or quotes quoted).
-fn command_line() -> String {
-    let args = std::env::args().skip(1).map(|a| {
-        if a.is_empty() || a.contains([' ', '"', '\'', '\\']) {
-            format!("'{}'", a.replace('\'', "'\\''"))
-        } else {
-            a
-        }
-    });
-    std::iter::once("raycast".to_owned())
-        .chain(args)
-        .collect::<Vec<_>>()
-        .join(" ")
 }

@@ -7,8 +7,8 @@ mod common;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use raycast::accuracy;
-use raycast::tradeoff::{CSV_COLUMNS, SUPERSAMPLED_MODE};
+use raycast::study::accuracy;
+use raycast::study::tradeoff::{CSV_COLUMNS, SUPERSAMPLED_MODE};
 
 fn raycast(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_raycast"))
@@ -125,7 +125,7 @@ fn writes_csv_markdown_and_plot_with_one_row_per_supported_mode_and_spp() {
 
     let png = image::open(out.join("tradeoff.png")).unwrap();
     let expected_size = {
-        let rows = raycast::tradeoff::plot(&[], "");
+        let rows = raycast::study::tradeoff::plot(&[], "");
         (rows.width(), rows.height())
     };
     assert_eq!((png.width(), png.height()), expected_size);

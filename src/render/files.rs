@@ -230,7 +230,7 @@ impl Spec {
                         });
                     done?;
                     summary.elapsed = elapsed;
-                    summary.peak_mib = crate::bench::peak_rss_mib();
+                    summary.peak_mib = super::peak_rss_mib();
                     writer.finish()?
                 }
                 _ => {

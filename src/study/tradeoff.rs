@@ -30,12 +30,16 @@ mod plot;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::accuracy::{self, Provenance, cell, format_error};
+use super::accuracy;
+use super::{
+    NamedScene, Provenance, Stream, Table, cell, format_error, format_seconds, load_scenes, median,
+    plural,
+};
 use crate::algorithm::Algorithm;
 use crate::compare;
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
-use crate::output::EncodedFile;
+use crate::output::{self, EncodedFile};
 use crate::render::{self, AnyImages, Arithmetic, Device, Mode};
 use crate::scene::Scene;
 use crate::supersample;
@@ -152,32 +156,6 @@ impl Row {
     }
 }
 
-/// A scene to measure: its name (the file's stem) and the scene at the size measured.
-#[derive(Clone, Debug)]
-pub struct NamedScene {
-    pub name: String,
-    pub scene: Scene,
-}
-
-/// Loads (and so validates) every scene, with `size` overriding their resolution.
-pub fn load_scenes(paths: &[PathBuf], size: Option<[u32; 2]>) -> Result<Vec<NamedScene>> {
-    paths
-        .iter()
-        .map(|path| {
-            let mut scene = Scene::load(path)?;
-            if let Some(size) = size {
-                scene.camera.resolution = size;
-            }
-            let name = path
-                .file_stem()
-                .unwrap_or(path.as_os_str())
-                .to_string_lossy()
-                .into_owned();
-            Ok(NamedScene { name, scene })
-        })
-        .collect()
-}
-
 /// Checks the sample counts (perfect squares, see [`supersample::side`]) and that `gpu` can run
 /// every mode.
 fn check(options: &Options, gpu: Option<&Gpu>) -> Result<()> {
@@ -274,14 +252,14 @@ fn measure_scene(
         let kernel_s = kernels
             .into_iter()
             .collect::<Option<Vec<f64>>>()
-            .map(|mut k| median(&mut k));
+            .map(|k| median(&k));
         rows.push(Row {
             scene: s.name.clone(),
             mode,
             spp,
             reference_spp,
             pixels: c.pixels,
-            wall_s: median(&mut walls),
+            wall_s: median(&walls),
             kernel_s,
             hit_mismatch: c.hit_mismatch,
             id_mismatch: c.id_mismatch,
@@ -329,20 +307,6 @@ fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Resul
         kernel_s,
         recast_fraction: None,
     })
-}
-
-/// The median (the mean of the middle two for an even count); sorts `values`. 0 if empty.
-pub fn median(values: &mut [f64]) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        (values[n / 2 - 1] + values[n / 2]) / 2.0
-    }
 }
 
 /// Column names of [`to_csv`].
@@ -404,16 +368,6 @@ pub fn to_csv(rows: &[Row]) -> String {
     s
 }
 
-/// Seconds with three significant digits and no exponent (`0.0123`, `1.23`, `123`), at most
-/// six decimals.
-pub fn format_seconds(s: f64) -> String {
-    if !(s.is_finite() && s > 0.0) {
-        return format!("{s}");
-    }
-    let decimals = (2 - s.log10().floor() as i32).clamp(0, 6) as usize;
-    format!("{s:.decimals$}")
-}
-
 /// Column headings of [`to_markdown`].
 pub const MD_COLUMNS: [&str; 13] = [
     "scene",
@@ -434,13 +388,10 @@ pub const MD_COLUMNS: [&str; 13] = [
 /// The rows as a markdown table (heading, alignment line, one line per row), ending in a
 /// newline.
 pub fn to_markdown(rows: &[Row]) -> String {
-    let mut s = format!("| {} |\n", MD_COLUMNS.join(" | "));
-    s += "|---|---|";
-    s += &"---:|".repeat(MD_COLUMNS.len() - 2);
-    s += "\n";
+    let mut table = Table::text_then_numbers(&MD_COLUMNS, 2);
     for r in rows {
         let fraction = r.mismatch_fraction();
-        let cells = [
+        table.row([
             cell(&r.scene),
             r.mode.to_string(),
             r.spp.to_string(),
@@ -455,37 +406,20 @@ pub fn to_markdown(rows: &[Row]) -> String {
             format_error(r.normal_max_deg),
             r.recast_fraction
                 .map_or("-".to_owned(), |f| format!("{:.2}%", 100.0 * f)),
-        ];
-        s += &format!("| {} |\n", cells.join(" | "));
+        ]);
     }
-    s
+    table.markdown()
 }
 
 /// Where and how the measurement was made, in one line of text (the plot's subtitle).
 pub fn provenance_line(p: &Provenance, runs: usize) -> String {
-    let adapter = match &p.adapter {
-        Some((name, driver)) => format!("{name} ({driver})"),
-        None => "no GPU".to_owned(),
-    };
+    let adapter = p.adapter_text().unwrap_or_else(|| "no GPU".to_owned());
     let runs = plural(runs, "run");
     format!("{adapter}, median of {runs}, {} (UTC)", p.date)
 }
 
-/// `1 run`, `5 runs`.
-fn plural(n: usize, what: &str) -> String {
-    if n == 1 {
-        format!("1 {what}")
-    } else {
-        format!("{n} {what}s")
-    }
-}
-
 /// `tradeoff.md`: a title, the provenance line, what the columns mean, the plot and the table.
 pub fn document(p: &Provenance, options: &Options, scenes: &[NamedScene], rows: &[Row]) -> String {
-    let adapter = match &p.adapter {
-        Some((name, driver)) => format!("on {name} ({driver})"),
-        None => "without a GPU".to_owned(),
-    };
     let sizes: Vec<String> = scenes
         .iter()
         .map(|s| {
@@ -494,12 +428,7 @@ pub fn document(p: &Provenance, options: &Options, scenes: &[NamedScene], rows: 
         })
         .collect();
     let mut s = String::from("# Speed and accuracy of every mode\n\n");
-    s += &format!(
-        "Generated by `{}` {adapter}, {} (UTC). Scenes: {}.\n\n",
-        p.command,
-        p.date,
-        sizes.join(", ")
-    );
+    s += &format!("{} Scenes: {}.\n\n", p.generated_by(), sizes.join(", "));
     s += &format!(
         "Each row is one scene in one mode (`device:precision:algorithm`) at `spp` samples per \
          pixel, after one warm-up frame. *wall*: the median over {runs} of the wall time \
@@ -517,7 +446,7 @@ pub fn document(p: &Provenance, options: &Options, scenes: &[NamedScene], rows: 
          largest angle between the normals there (`-`: no such pixel, `0`: exact). *re-cast*: \
          the share of pixels adaptive precision cast again in f64.\n\n",
         runs = plural(options.runs.max(1), "frame"),
-        reference = p.reference,
+        reference = REFERENCE,
         ss = SUPERSAMPLED_MODE,
     );
     s += "![wall time against mismatch fraction and distance error](tradeoff.png)\n\n";
@@ -545,7 +474,7 @@ pub fn files(
         },
         EncodedFile {
             name: png,
-            bytes: crate::output::encode_png_rgb(&picture),
+            bytes: output::encode_png_rgb(&picture),
         },
     ]
 }
@@ -561,9 +490,36 @@ pub fn run(
     provenance: &Provenance,
     progress: bool,
 ) -> Result<Vec<PathBuf>> {
-    crate::output::check_writable(dir)?;
+    output::check_writable(dir)?;
     let rows = measure(scenes, options, gpu, progress)?;
-    crate::output::write_files(dir, &files(provenance, options, scenes, &rows))
+    output::write_files(dir, &files(provenance, options, scenes, &rows))
+}
+
+/// `raycast tradeoff`: loads `scenes` (validated before the GPU is opened or `dir` created),
+/// measures them in every mode the GPU supports with a progress bar, writes the three files
+/// into `dir` and names each on stdout.
+pub fn command(
+    scenes: &[PathBuf],
+    size: Option<[u32; 2]>,
+    runs: usize,
+    spp: Vec<u32>,
+    dir: &Path,
+    mut say: impl FnMut(Stream, &str),
+) -> Result<()> {
+    let scenes = load_scenes(scenes, size)?;
+    output::check_writable(dir)?;
+    let gpu = Gpu::new()?;
+    let options = Options {
+        size,
+        runs,
+        spp,
+        modes: accuracy::default_modes(Some(&gpu)),
+    };
+    let provenance = Provenance::now(Some(&gpu));
+    for path in run(&scenes, dir, &options, Some(&gpu), &provenance, true)? {
+        say(Stream::Stdout, &format!("wrote {}", path.display()));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -667,23 +623,6 @@ mod tests {
              2.5e-7 | 0 | - |"
         );
         assert!(lines[3].ends_with("| - | 3 | 9 | 2.1e-4 | 1.5e-6 | 2.5e-7 | 0 | 1.23% |"));
-    }
-
-    #[test]
-    fn seconds_have_three_significant_digits() {
-        assert_eq!(format_seconds(0.012345), "0.0123");
-        assert_eq!(format_seconds(1.2345), "1.23");
-        assert_eq!(format_seconds(123.45), "123");
-        assert_eq!(format_seconds(0.000_001_234), "0.000001");
-        assert_eq!(format_seconds(0.0), "0");
-    }
-
-    #[test]
-    fn medians() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
-        assert_eq!(median(&mut [7.0]), 7.0);
-        assert_eq!(median(&mut []), 0.0);
     }
 
     #[test]

@@ -20,6 +20,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::{Stream, Table, format_seconds, median, plural};
 use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
@@ -28,9 +29,8 @@ use crate::images::{Images, MISS};
 use crate::math::{Precision, Real};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::{Accel, Bvh};
-use crate::render::{Arithmetic, Device, Mode};
+use crate::render::{self, Arithmetic, Device, Mode};
 use crate::scene::{Object, Scene};
-use crate::tradeoff::{format_seconds, median};
 
 /// `--runs` unless given.
 pub const DEFAULT_RUNS: usize = 5;
@@ -327,8 +327,8 @@ pub fn measure(
         timed.push(run_once(scene, mode, accel, gpu)?);
         tick();
     }
-    let peak_rss_mb = peak_rss_mib();
-    let column = |f: fn(&Run) -> f64| median(&mut timed.iter().map(f).collect::<Vec<_>>());
+    let peak_rss_mb = render::peak_rss_mib();
+    let column = |f: fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
     let build_s = column(|r| r.build_s);
     let trace_s = column(|r| r.trace_s);
     let upload_s = timed[0]
@@ -338,7 +338,7 @@ pub fn measure(
         .iter()
         .map(|r| r.kernel_s)
         .collect::<Option<Vec<f64>>>()
-        .map(|mut k| median(&mut k));
+        .map(|k| median(&k));
 
     let [nx, ny] = scene.camera.resolution;
     let rays = nx as u64 * ny as u64;
@@ -430,20 +430,6 @@ pub fn accel_name(accel: Accel) -> &'static str {
     }
 }
 
-/// `VmHWM` (peak resident set) of this process in MiB, from /proc/self/status.
-pub fn peak_rss_mib() -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line
-        .trim_start_matches("VmHWM:")
-        .trim()
-        .trim_end_matches("kB")
-        .trim()
-        .parse()
-        .ok()?;
-    Some(kib / 1024.0)
-}
-
 /// Resets `VmHWM` to the current resident set (Linux: `5` written to /proc/self/clear_refs),
 /// so each configuration's peak is its own; where that fails the peak is the process's.
 fn reset_peak_rss() {
@@ -494,14 +480,6 @@ pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<Stri
     lines
 }
 
-fn plural(n: usize, what: &str) -> String {
-    if n == 1 {
-        format!("{n} {what}")
-    } else {
-        format!("{n} {what}s")
-    }
-}
-
 /// Column headings of [`to_table`].
 pub const COLUMNS: [&str; 11] = [
     "mode",
@@ -520,69 +498,61 @@ pub const COLUMNS: [&str; 11] = [
 /// The rows as an aligned markdown table, ending in a line break.
 pub fn to_table(rows: &[Row]) -> String {
     let seconds = |s: Option<f64>| s.map_or("-".to_owned(), format_seconds);
-    let cells: Vec<[String; 11]> = rows
-        .iter()
-        .map(|r| {
-            let accel = if r.accel == "auto" {
-                format!("auto ({})", if r.bvh { "bvh" } else { "brute-force" })
-            } else {
-                r.accel.clone()
-            };
-            [
-                r.mode.clone(),
-                accel,
-                format_seconds(r.build_s),
-                seconds(r.upload_s),
-                format_seconds(r.trace_s),
-                seconds(r.trace_gpu_s),
-                format!("{:.2}", r.mrays_per_s),
-                format!("{:.2}", r.mrays_per_s_wall),
-                format!("{:.1}", 100.0 * r.hit_fraction),
-                r.peak_rss_mb.map_or("-".into(), |m| format!("{m:.0}")),
-                r.bytes_per_triangle
-                    .map_or("-".into(), |b| format!("{b:.1}")),
-            ]
-        })
-        .collect();
-    let mut widths = COLUMNS.map(str::len);
-    for row in &cells {
-        for (w, c) in widths.iter_mut().zip(row) {
-            *w = (*w).max(c.len());
+    let mut table = Table::text_then_numbers(&COLUMNS, 2);
+    for r in rows {
+        let accel = if r.accel == "auto" {
+            format!("auto ({})", if r.bvh { "bvh" } else { "brute-force" })
+        } else {
+            r.accel.clone()
+        };
+        table.row([
+            r.mode.clone(),
+            accel,
+            format_seconds(r.build_s),
+            seconds(r.upload_s),
+            format_seconds(r.trace_s),
+            seconds(r.trace_gpu_s),
+            format!("{:.2}", r.mrays_per_s),
+            format!("{:.2}", r.mrays_per_s_wall),
+            format!("{:.1}", 100.0 * r.hit_fraction),
+            r.peak_rss_mb.map_or("-".into(), |m| format!("{m:.0}")),
+            r.bytes_per_triangle
+                .map_or("-".into(), |b| format!("{b:.1}")),
+        ]);
+    }
+    table.aligned()
+}
+
+/// `raycast bench`: loads the scene (timed, and validated before the GPU is opened), measures
+/// every configuration of `options` with a progress bar, and prints the [`header`] and the
+/// table, or with `json` one JSON object per configuration and nothing else, on stdout.
+pub fn command(
+    scene: &Path,
+    size: Option<[u32; 2]>,
+    options: Options,
+    json: bool,
+    mut say: impl FnMut(Stream, &str),
+) -> Result<()> {
+    options.check()?;
+    let loaded = load(scene, size)?;
+    let gpu = options.needs_gpu().then(Gpu::new).transpose()?;
+    if !json {
+        for line in header(&loaded, &options, gpu.as_ref()) {
+            say(Stream::Stdout, &line);
         }
     }
-    let line = |cells: &[String]| {
-        let padded: Vec<String> = cells
-            .iter()
-            .zip(widths)
-            .enumerate()
-            // Text left, numbers right.
-            .map(|(k, (c, w))| {
-                if k < 2 {
-                    format!("{c:<w$}")
-                } else {
-                    format!("{c:>w$}")
-                }
-            })
-            .collect();
-        format!("| {} |\n", padded.join(" | "))
-    };
-    let mut out = line(&COLUMNS.map(String::from));
-    let rule: Vec<String> = widths
-        .iter()
-        .enumerate()
-        .map(|(k, &w)| {
-            if k < 2 {
-                "-".repeat(w)
-            } else {
-                format!("{}:", "-".repeat(w - 1))
-            }
-        })
-        .collect();
-    out += &format!("| {} |\n", rule.join(" | "));
-    for row in &cells {
-        out += &line(row);
+    let rows = run(&loaded, &options, gpu.as_ref(), true, |row| {
+        if json {
+            say(
+                Stream::Stdout,
+                &serde_json::to_string(row).expect("a row serialises"),
+            );
+        }
+    })?;
+    if !json {
+        say(Stream::Stdout, to_table(&rows).trim_end());
     }
-    out
+    Ok(())
 }
 
 #[cfg(test)]
@@ -661,7 +631,7 @@ mod tests {
     #[test]
     fn peak_rss_reads_proc() {
         if Path::new("/proc/self/status").exists() {
-            assert!(peak_rss_mib().is_some_and(|m| m > 0.0));
+            assert!(render::peak_rss_mib().is_some_and(|m| m > 0.0));
         }
     }
 }

@@ -6,7 +6,7 @@
 //! errors are relative to it). One [`Row`] per scene and mode.
 //!
 //! ```no_run
-//! use raycast::accuracy::{self, Options};
+//! use raycast::study::accuracy::{self, Options};
 //! use raycast::gpu::Gpu;
 //! let gpu = Gpu::new()?;
 //! let options = Options::new(accuracy::default_modes(Some(&gpu)));
@@ -18,12 +18,14 @@
 
 use std::path::{Path, PathBuf};
 
+use super::{Align, Provenance, Stream, Table, cell, format_error, scene_name};
 use crate::algorithm::Algorithm;
 use crate::compare;
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::images::{Images, MISS};
 use crate::math::Real;
+use crate::output;
 use crate::render::{self, AnyImages, Arithmetic, Device, Mode};
 use crate::scene::Scene;
 
@@ -127,6 +129,8 @@ impl SceneInfo {
 /// The scenes measured and a row per scene and mode, scene by scene in the order given.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Accuracy {
+    /// The mode every row is compared with.
+    pub reference: Mode,
     pub scenes: Vec<SceneInfo>,
     pub rows: Vec<Row>,
 }
@@ -170,13 +174,6 @@ pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
         .collect()
 }
 
-fn scene_name(path: &Path) -> String {
-    path.file_stem()
-        .unwrap_or(path.as_os_str())
-        .to_string_lossy()
-        .into_owned()
-}
-
 /// Measures every scene of `paths` in every mode of `options`, calling `progress(k, path)`
 /// before scene `k` (0-based). Scenes are loaded (and so validated) before anything renders.
 ///
@@ -214,6 +211,7 @@ pub fn run(
         )?);
     }
     Ok(Accuracy {
+        reference: options.reference,
         scenes: infos,
         rows,
     })
@@ -309,30 +307,12 @@ pub const COLUMNS: [&str; 9] = [
     "time (s)",
 ];
 
-/// An error value: `-` when there was nothing to measure, `0` when exact, else two significant
-/// digits (`1.2e-7`).
-pub fn format_error(x: Option<f64>) -> String {
-    match x {
-        None => "-".to_owned(),
-        Some(0.0) => "0".to_owned(),
-        Some(x) => format!("{x:.1e}"),
-    }
-}
-
-/// Text safe inside a markdown table cell: pipes escaped, line breaks as spaces.
-pub fn cell(text: &str) -> String {
-    text.replace('|', "\\|").replace(['\n', '\r'], " ")
-}
-
 /// The rows as a markdown table (heading, alignment line, one line per row; numbers
 /// right-aligned), ending in a newline.
 pub fn to_markdown(rows: &[Row]) -> String {
-    let mut s = format!("| {} |\n", COLUMNS.join(" | "));
-    s += "|---|---|";
-    s += &"---:|".repeat(COLUMNS.len() - 2);
-    s += "\n";
+    let mut table = Table::text_then_numbers(&COLUMNS, 2);
     for r in rows {
-        let cells = [
+        table.row([
             cell(&r.scene),
             r.mode.to_string(),
             r.hit_mismatch.to_string(),
@@ -342,30 +322,29 @@ pub fn to_markdown(rows: &[Row]) -> String {
             format_error(r.normal_angle_max_deg),
             r.non_finite.to_string(),
             format!("{:.4}", r.time_s),
-        ];
-        s += &format!("| {} |\n", cells.join(" | "));
+        ]);
     }
-    s
+    table.markdown()
 }
 
 /// The scenes as a markdown table: name (linked to its file, relative to `base` if the file
 /// lies under it), kind, what it probes, its invariant.
 pub fn scenes_markdown(scenes: &[SceneInfo], base: Option<&Path>) -> String {
-    let mut s = "| scene | kind | probes | invariant |\n|---|---|---|---|\n".to_owned();
+    let mut table = Table::new(&["scene", "kind", "probes", "invariant"], &[Align::Left; 4]);
     for info in scenes {
         let link = match base.and_then(|b| relative_link(b, &info.path)) {
             Some(link) => format!("[{}]({})", cell(&info.name), link),
             None => cell(&info.name),
         };
         let text = |t: &Option<String>| t.as_deref().map_or("-".to_owned(), cell);
-        s += &format!(
-            "| {link} | {} | {} | {} |\n",
+        table.row([
+            link,
             text(&info.kind),
             text(&info.probes),
-            text(&info.invariant)
-        );
+            text(&info.invariant),
+        ]);
     }
-    s
+    table.markdown()
 }
 
 /// `path` as a link from a document in folder `from`: `../` for every folder of `from` that is
@@ -394,31 +373,13 @@ fn relative_link(from: &Path, path: &Path) -> Option<String> {
     Some(parts.join("/"))
 }
 
-/// Where and how a document was generated.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Provenance {
-    /// The command line, e.g. `raycast accuracy scenes/extremes/*.json --markdown FILE`.
-    pub command: String,
-    /// The adapter's name and `driver_info` (the Mesa version on lavapipe); `None` without a GPU.
-    pub adapter: Option<(String, String)>,
-    /// `YYYY-MM-DD` (UTC).
-    pub date: String,
-    pub reference: Mode,
-}
-
 /// The markdown file `--markdown` writes: a title, the provenance line, a paragraph explaining
 /// the columns, the scenes table and the results table. Links to the scene files are relative
 /// to `dir`, the folder the document is written to.
 pub fn document(p: &Provenance, result: &Accuracy, dir: Option<&Path>) -> String {
-    let adapter = match &p.adapter {
-        Some((name, driver)) => format!("on {name} ({driver})"),
-        None => "without a GPU".to_owned(),
-    };
     let mut s = String::from("# Accuracy of every mode, scene by scene\n\n");
-    s += &format!(
-        "Generated by `{}` {adapter}, {} (UTC).\n\n",
-        p.command, p.date
-    );
+    s += &p.generated_by();
+    s += "\n\n";
     s += &format!(
         "Each scene was rendered once in the reference mode `{}` and then in every mode below; \
          each mode is compared with the reference pixel by pixel. *hit/miss mismatches*: pixels \
@@ -433,7 +394,7 @@ pub fn document(p: &Provenance, result: &Accuracy, dir: Option<&Path>) -> String
          compiled beforehand). Modes are `device:precision:algorithm`. The reference's own row \
          measures its determinism. What each scene probes and what must hold in it is in the \
          first table; the scenes are written by `scenes/extremes/make_meshes.py`.\n\n",
-        p.reference
+        result.reference
     );
     s += "## Scenes\n\n";
     s += &scenes_markdown(&result.scenes, dir);
@@ -442,27 +403,43 @@ pub fn document(p: &Provenance, result: &Accuracy, dir: Option<&Path>) -> String
     s
 }
 
-/// Today's date in UTC as `YYYY-MM-DD`.
-pub fn utc_date_today() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    utc_date(secs)
-}
-
-/// The UTC date `YYYY-MM-DD` of `secs` seconds after 1970-01-01T00:00Z (the proleptic
-/// Gregorian calendar; H. Hinnant's `civil_from_days`).
-pub fn utc_date(secs: u64) -> String {
-    let z = (secs / 86_400) as i64 + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!("{year:04}-{month:02}-{day:02}")
+/// `raycast accuracy`: measures `scenes` in `modes` (by default [`default_modes`]) against
+/// `reference`, a progress line per scene on stderr, prints the table on stdout and, with
+/// `markdown`, writes the [`document`] to that file. The file's folder is checked before the
+/// GPU is opened.
+pub fn command(
+    scenes: &[PathBuf],
+    size: Option<[u32; 2]>,
+    reference: Mode,
+    modes: Option<Vec<Mode>>,
+    markdown: Option<&Path>,
+    mut say: impl FnMut(Stream, &str),
+) -> Result<()> {
+    let dir = markdown.map(|f| f.parent().unwrap_or(Path::new("")));
+    if let Some(dir) = dir.filter(|d| !d.as_os_str().is_empty()) {
+        output::check_writable(dir)?;
+    }
+    let needs_gpu = modes
+        .as_ref()
+        .is_none_or(|m| m.iter().any(|m| m.device == Device::Gpu))
+        || reference.device == Device::Gpu;
+    let gpu = needs_gpu.then(Gpu::new).transpose()?;
+    let options = Options {
+        size,
+        reference,
+        modes: modes.unwrap_or_else(|| default_modes(gpu.as_ref())),
+    };
+    let result = run(scenes, &options, gpu.as_ref(), |k, path| {
+        let line = format!("[{}/{}] {}", k + 1, scenes.len(), path.display());
+        say(Stream::Stderr, &line);
+    })?;
+    say(Stream::Stdout, to_markdown(&result.rows).trim_end());
+    if let Some(file) = markdown {
+        let text = document(&Provenance::now(gpu.as_ref()), &result, dir);
+        output::write_file(file, text.as_bytes())?;
+        say(Stream::Stderr, &format!("wrote {}", file.display()));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -524,17 +501,7 @@ mod tests {
     }
 
     #[test]
-    fn errors_format_with_two_digits() {
-        assert_eq!(format_error(None), "-");
-        assert_eq!(format_error(Some(0.0)), "0");
-        assert_eq!(format_error(Some(1.0)), "1.0e0");
-        assert_eq!(format_error(Some(0.000_345_6)), "3.5e-4");
-        assert_eq!(format_error(Some(f64::INFINITY)), "inf");
-    }
-
-    #[test]
     fn cells_escape_pipes_and_line_breaks() {
-        assert_eq!(cell("a|b\nc"), "a\\|b c");
         let mut r = sample_row();
         r.scene = "odd|name".into();
         let md = to_markdown(&[r]);
@@ -590,9 +557,9 @@ mod tests {
             command: "raycast accuracy a.json --markdown docs/x.md".into(),
             adapter: Some(("llvmpipe".into(), "Mesa 25.0.7".into())),
             date: "2025-01-02".into(),
-            reference: DEFAULT_REFERENCE,
         };
         let result = Accuracy {
+            reference: DEFAULT_REFERENCE,
             scenes: vec![],
             rows: vec![sample_row()],
         };
@@ -604,14 +571,6 @@ mod tests {
         ));
         assert!(doc.contains("reference mode `cpu:f64:robust`"));
         assert!(doc.ends_with(&to_markdown(&result.rows)));
-    }
-
-    #[test]
-    fn dates_are_gregorian_utc() {
-        assert_eq!(utc_date(0), "1970-01-01");
-        assert_eq!(utc_date(951_782_400), "2000-02-29");
-        assert_eq!(utc_date(1_709_164_799), "2024-02-28");
-        assert_eq!(utc_date(1_735_689_600), "2025-01-01");
     }
 
     #[test]

@@ -21,12 +21,14 @@
 
 use std::path::{Path, PathBuf};
 
+use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
 use crate::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Kinds, Variant};
 use crate::gpu::{Gpu, Stages};
 use crate::images::Outputs;
 use crate::math::{Precision, vec3};
+use crate::output;
 use crate::scene::Scene;
 
 /// Above this many triangles brute force is not timed (the torus's 518,400 would take minutes
@@ -66,12 +68,6 @@ impl Specialisation {
             Specialisation::Uniform => ("uniform memory", "uniform buffers", "storage buffers"),
         }
     }
-}
-
-/// A scene to measure, with the name its rows carry.
-pub struct NamedScene {
-    pub name: String,
-    pub scene: Scene,
 }
 
 /// One row: a specialisation on one scene.
@@ -241,7 +237,7 @@ pub fn interleaved_times(
     Ok(times
         .into_iter()
         .map(|t| {
-            let median_s = median(t.clone());
+            let median_s = median(&t);
             let spread = (quantile(&t, 0.75) - quantile(&t, 0.25)) / median_s;
             Timing { median_s, spread }
         })
@@ -255,18 +251,6 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     let at = q * (v.len() - 1) as f64;
     let (lo, hi) = (at.floor() as usize, at.ceil() as usize);
     v[lo] + (v[hi] - v[lo]) * (at - lo as f64)
-}
-
-/// The median (the mean of the middle two for an even count).
-pub fn median(mut v: Vec<f64>) -> f64 {
-    assert!(!v.is_empty(), "a median of nothing");
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Measures every specialisation on `scene` (`runs` timed rounds); also returns the spread of
@@ -321,39 +305,13 @@ pub fn scene_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// Loads `files`, each named by its file stem.
-pub fn load_scenes(files: &[PathBuf]) -> Result<Vec<NamedScene>> {
-    files
-        .iter()
-        .map(|path| {
-            let name = path
-                .file_stem()
-                .unwrap_or(path.as_os_str())
-                .to_string_lossy()
-                .into_owned();
-            Ok(NamedScene {
-                name,
-                scene: Scene::load(path)?,
-            })
-        })
-        .collect()
-}
-
-/// What generated a table: the command, the adapter and driver, the date, the rounds.
-pub struct Provenance {
-    pub command: String,
-    /// The adapter's name and `driver_info` (the Mesa version on lavapipe).
-    pub adapter: (String, String),
-    /// `YYYY-MM-DD` (UTC).
-    pub date: String,
-    pub runs: usize,
-    /// Whether the times are GPU kernel times (timestamp queries) rather than wall trace times.
-    pub kernel_times: bool,
-}
-
 /// Everything the document holds.
 pub struct Report {
     pub provenance: Provenance,
+    /// Timed rounds per kernel, after one warm-up round.
+    pub runs: usize,
+    /// Whether the times are GPU kernel times (timestamp queries) rather than wall trace times.
+    pub kernel_times: bool,
     pub scenes: Vec<NamedScene>,
     pub rows: Vec<Row>,
     /// The spread (interquartile range over median) of every kernel timed for the rows.
@@ -374,9 +332,18 @@ fn ms_cell(ms: Option<f64>) -> String {
 
 /// The specialisation table, in markdown.
 pub fn table(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "| scene | specialisation: with / without | with (ms) | without (ms) | speed-up | `render` runs | note |\n\
-         |---|---|---:|---:|---:|---|---|\n",
+    use Align::{Left, Right};
+    let mut table = Table::new(
+        &[
+            "scene",
+            "specialisation: with / without",
+            "with (ms)",
+            "without (ms)",
+            "speed-up",
+            "`render` runs",
+            "note",
+        ],
+        &[Left, Left, Right, Right, Right, Left, Left],
     );
     for r in rows {
         let (name, with, without) = r.specialisation.describe();
@@ -392,31 +359,35 @@ pub fn table(rows: &[Row]) -> String {
             None if r.with_ms.is_some() => "as requested",
             None => "-",
         };
-        s += &format!(
-            "| {} | {name}: {with} / {without} | {} | {without_ms} | {} | {default} | {} |\n",
-            r.scene,
+        table.row([
+            cell(&r.scene),
+            format!("{name}: {with} / {without}"),
             ms_cell(r.with_ms),
-            r.speed_up().map_or("-".into(), |x| format!("{x:.2}x")),
-            r.note.as_deref().unwrap_or(""),
-        );
+            without_ms,
+            r.speed_up().map_or("-".into(), times),
+            default.to_owned(),
+            r.note.as_deref().map_or(String::new(), cell),
+        ]);
     }
-    s
+    table.markdown()
 }
 
 /// The scenes' sizes, in markdown.
 fn scenes_table(scenes: &[NamedScene]) -> String {
-    let mut s = String::from(
-        "| scene | resolution | spheres | planes | triangles |\n|---|---|---:|---:|---:|\n",
+    let mut table = Table::text_then_numbers(
+        &["scene", "resolution", "spheres", "planes", "triangles"],
+        2,
     );
     for n in scenes {
         let [w, h] = n.scene.camera.resolution;
-        let [spheres, planes, triangles] = n.scene.primitive_counts();
-        s += &format!(
-            "| {} | {w}x{h} | {spheres} | {planes} | {triangles} |\n",
-            n.name
+        let counts = n.scene.primitive_counts().map(|c| c.to_string());
+        table.row(
+            [cell(&n.name), format!("{w}x{h}")]
+                .into_iter()
+                .chain(counts),
         );
     }
-    s
+    table.markdown()
 }
 
 /// The geometric mean, least and greatest speed-up of the measured rows of `spec`.
@@ -437,19 +408,34 @@ fn summary(rows: &[Row], spec: Specialisation) -> Option<(f64, f64, f64, usize)>
 
 /// Per specialisation, the speed-ups over the scenes where it was measured, in markdown.
 fn summary_table(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "| specialisation | scenes measured | speed-up, geometric mean | least | greatest |\n\
-         |---|---:|---:|---:|---:|\n",
+    let mut table = Table::text_then_numbers(
+        &[
+            "specialisation",
+            "scenes measured",
+            "speed-up, geometric mean",
+            "least",
+            "greatest",
+        ],
+        1,
     );
     for spec in Specialisation::ALL {
         let (name, with, without) = spec.describe();
         let cells = match summary(rows, spec) {
-            Some((geo, lo, hi, n)) => format!("{n} | {geo:.2}x | {lo:.2}x | {hi:.2}x"),
-            None => "0 | - | - | -".into(),
+            Some((geo, lo, hi, n)) => [n.to_string(), times(geo), times(lo), times(hi)],
+            None => ["0", "-", "-", "-"].map(String::from),
         };
-        s += &format!("| {name}: {with} / {without} | {cells} |\n");
+        table.row(
+            [format!("{name}: {with} / {without}")]
+                .into_iter()
+                .chain(cells),
+        );
     }
-    s
+    table.markdown()
+}
+
+/// A speed-up, `1.23x`.
+fn times(x: f64) -> String {
+    format!("{x:.2}x")
 }
 
 /// The paragraph on uniform memory: what was measured and what `scene_variant` does with it.
@@ -473,7 +459,7 @@ fn uniform_finding(rows: &[Row]) -> String {
 /// The whole document.
 pub fn document(report: &Report) -> String {
     let p = &report.provenance;
-    let timing = if p.kernel_times {
+    let timing = if report.kernel_times {
         "GPU kernel time of the compute passes (timestamp queries)"
     } else {
         "wall time of dispatch and readback (the device has no timestamp queries)"
@@ -484,12 +470,16 @@ pub fn document(report: &Report) -> String {
           distance and normal), and by the same kernel with one specialisation turned off. \
           Generated by\n\n";
     s += &format!("    {}\n\n", p.command);
+    let adapter = match &p.adapter {
+        Some((name, driver)) => format!("on {name}, driver {driver}"),
+        None => "without a GPU".to_owned(),
+    };
     s += &format!(
-        "on {}, driver {}, {}. Each time is the median of {} rounds after one warm-up round; the \
+        "{adapter}, {}. Each time is the median of {} rounds after one warm-up round; the \
          kernels of a scene run in turn within each round. Times are the {timing}. Speed-up is \
          time without over time with. *`render` runs* names which of the two `raycast render` \
          picks for the scene.\n\n",
-        p.adapter.0, p.adapter.1, p.date, p.runs
+        p.date, report.runs
     );
     if !report.spreads.is_empty() {
         let mut spreads = report.spreads.clone();
@@ -498,7 +488,7 @@ pub fn document(report: &Report) -> String {
             "Run-to-run noise: the interquartile range of a kernel's rounds is {:.0}% of its \
              median for the median kernel timed, {:.0}% for the noisiest; speed-ups closer to \
              1 than that are no measured difference.\n\n",
-            100.0 * median(spreads.clone()),
+            100.0 * median(&spreads),
             100.0 * spreads[spreads.len() - 1]
         );
     }
@@ -517,6 +507,68 @@ pub fn document(report: &Report) -> String {
         s += &crossover_section(rows);
     }
     s
+}
+
+/// `raycast specializations`: measures every specialisation on the scenes of `scenes` (files,
+/// or folders of them, [`scene_files`]) and the torus (`torus`, else [`DEFAULT_TORUS`] where
+/// it exists, else a note that it was not), `runs` rounds each, and with `with_crossover` where a
+/// BVH starts to pay; progress on stderr. Writes the [`document`] to `out` (whole or not at
+/// all) and prints it on stdout. Scenes are validated and `out`'s folder checked before the
+/// GPU is opened.
+pub fn command(
+    scenes: &[PathBuf],
+    torus: Option<&Path>,
+    runs: usize,
+    with_crossover: bool,
+    out: &Path,
+    mut say: impl FnMut(Stream, &str),
+) -> Result<()> {
+    let mut files = scene_files(scenes)?;
+    let mut notes = Vec::new();
+    match torus {
+        Some(path) => files.push(path.to_owned()),
+        None if Path::new(DEFAULT_TORUS).is_file() => files.push(DEFAULT_TORUS.into()),
+        None => notes.push(format!(
+            "The 518,400-triangle torus was not measured: `{DEFAULT_TORUS}` is absent \
+             (benches/peers.sh makes it; or give `--torus FILE`)."
+        )),
+    }
+    let named = load_scenes(&files, None)?;
+    let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+    output::check_writable(dir.unwrap_or(Path::new(".")))?;
+    let gpu = Gpu::new()?;
+    let (mut rows, mut spreads) = (Vec::new(), Vec::new());
+    for (k, scene) in named.iter().enumerate() {
+        say(
+            Stream::Stderr,
+            &format!("[{}/{}] {}", k + 1, named.len(), scene.name),
+        );
+        let (r, s) = scene_rows(&gpu, scene, runs)?;
+        rows.extend(r);
+        spreads.extend(s);
+    }
+    let crossover = if with_crossover {
+        Some(crossover(&gpu, runs, |kind, n| {
+            say(Stream::Stderr, &format!("crossover: {n} {kind}"));
+        })?)
+    } else {
+        None
+    };
+    let report = Report {
+        provenance: Provenance::now(Some(&gpu)),
+        runs,
+        kernel_times: has_kernel_times(&gpu),
+        scenes: named,
+        rows,
+        spreads,
+        notes,
+        crossover,
+    };
+    let text = document(&report);
+    output::write_file(out, text.as_bytes())?;
+    say(Stream::Stdout, text.trim_end());
+    say(Stream::Stderr, &format!("wrote {}", out.display()));
+    Ok(())
 }
 
 /// One size of the crossover measurement.
@@ -581,20 +633,26 @@ pub fn measured_crossover(rows: &[CrossoverRow], kind: &str) -> Option<usize> {
 
 /// The crossover table, in markdown.
 pub fn crossover_table(rows: &[CrossoverRow]) -> String {
-    let mut s = String::from(
-        "| primitives | n | brute force ms | BVH ms | BVH / brute force |\n|---|---:|---:|---:|---:|\n",
+    let mut table = Table::text_then_numbers(
+        &[
+            "primitives",
+            "n",
+            "brute force ms",
+            "BVH ms",
+            "BVH / brute force",
+        ],
+        1,
     );
     for r in rows {
-        s += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} |\n",
-            r.kind,
-            r.n,
-            r.brute_ms,
-            r.bvh_ms,
-            r.bvh_ms / r.brute_ms
-        );
+        table.row([
+            r.kind.to_owned(),
+            r.n.to_string(),
+            format!("{:.2}", r.brute_ms),
+            format!("{:.2}", r.bvh_ms),
+            format!("{:.2}", r.bvh_ms / r.brute_ms),
+        ]);
     }
-    s
+    table.markdown()
 }
 
 fn crossover_section(rows: &[CrossoverRow]) -> String {
@@ -687,12 +745,6 @@ fn random_triangles(n: usize, rng: &mut Rng) -> Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn medians_of_odd_and_even_counts() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 2.5);
-    }
 
     fn crossover_row(kind: &'static str, n: usize, brute_ms: f64, bvh_ms: f64) -> CrossoverRow {
         CrossoverRow {
