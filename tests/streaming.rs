@@ -105,22 +105,28 @@ fn bands_give_the_files_of_a_whole_render() {
     }
 }
 
+/// Bands are refused, before the output folder is made, where they cannot be rendered: on the
+/// CPU and with samples per pixel.
 #[test]
 fn bands_need_a_gpu_kernel() {
-    let dir = tempfile::tempdir().unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
-        .args(["render", "--device", "cpu", "--band-rows", "8", "-o"])
-        .arg(dir.path().join("out"))
-        .env("NODEVICE_SELECT", "1")
-        .output()
-        .unwrap();
-    assert_eq!(output.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&output.stderr);
-    assert!(
-        err.contains("--band-rows") && err.lines().count() == 1,
-        "{err}"
-    );
-    assert!(!dir.path().join("out").join("id.png").exists());
+    for args in [&["--device", "cpu"][..], &["--spp", "4"]] {
+        let dir = tempfile::tempdir().unwrap();
+        let output = Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args(["render", "--band-rows", "8"])
+            .args(args)
+            .arg("-o")
+            .arg(dir.path().join("out"))
+            .env("NODEVICE_SELECT", "1")
+            .output()
+            .unwrap();
+        assert_eq!(output.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            err.contains("--band-rows") && err.lines().count() == 1,
+            "{args:?}: {err}"
+        );
+        assert!(!dir.path().join("out").exists(), "{args:?}");
+    }
 }
 
 /// The course's sphere-and-plane scene at 16384 x 16384 (268 million pixels: 5 GiB as whole f32

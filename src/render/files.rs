@@ -65,7 +65,9 @@ pub struct Summary {
     pub peak_mib: Option<f64>,
     /// Adaptive precision: the fraction of pixels cast again in f64, and whether on the GPU.
     pub recast: Option<(f64, bool)>,
-    /// The files written, the emitted kernel first.
+    /// The kernel written with `emit_shader`.
+    pub emitted: Option<PathBuf>,
+    /// The image files written.
     pub written: Vec<PathBuf>,
 }
 
@@ -98,11 +100,11 @@ impl Summary {
             let on = if on_gpu { "the GPU" } else { "the CPU" };
             format!("re-cast {:.3}% of pixels in f64 on {on}", 100.0 * fraction)
         });
-        let written = (self.written.iter()).map(|p| format!("wrote {}", p.display()));
-        std::iter::once(first)
-            .chain(recast)
-            .chain(written)
-            .collect()
+        let wrote = |p: &PathBuf| format!("wrote {}", p.display());
+        let emitted = self.emitted.iter().map(wrote);
+        let written = self.written.iter().map(wrote);
+        let lines = std::iter::once(first).chain(emitted).chain(recast);
+        lines.chain(written).collect()
     }
 }
 
@@ -210,44 +212,56 @@ impl Spec {
             bands: None,
             peak_mib: None,
             recast: None,
+            emitted: None,
             written: Vec::new(),
         };
-        let files =
-            match gpu {
-                Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
-                    let rows = self.band_rows.unwrap_or(band_rows(nx));
-                    summary.bands = Some(rows);
-                    let mut writer =
-                        output::stream::BandWriter::new(&self.out_dir, [nx, ny], &self.encoding);
-                    let (done, elapsed) =
-                        timed(|| {
-                            render_streamed(&scene, self.mode, g, &request, rows, &mut |band| {
-                                match band {
-                                    AnyImages::F32(i) => writer.write_band(&i),
-                                    AnyImages::F64(i) => writer.write_band(&i),
-                                }
-                            })
-                        });
-                    done?;
-                    summary.elapsed = elapsed;
-                    summary.peak_mib = super::peak_rss_mib();
-                    writer.finish()?
-                }
-                _ => {
-                    let (images, elapsed) = timed(|| self.render_whole(&scene, gpu, &request));
-                    let (images, recast) = images?;
-                    summary.elapsed = elapsed;
-                    summary.recast = recast;
-                    images.write(&self.out_dir, &self.encoding)?
-                }
-            };
+        match gpu {
+            Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
+                let rows = self.band_rows.unwrap_or(band_rows(nx));
+                let (written, elapsed) = timed(|| self.render_bands(g, &scene, &request, rows));
+                summary.written = written?;
+                summary.elapsed = elapsed;
+                summary.bands = Some(rows);
+                summary.peak_mib = super::peak_rss_mib();
+            }
+            _ => {
+                let (images, elapsed) = timed(|| self.render_whole(&scene, gpu, &request));
+                let (images, recast) = images?;
+                summary.elapsed = elapsed;
+                summary.recast = recast;
+                summary.written = images.write(&self.out_dir, &self.encoding)?;
+            }
+        }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
             let source = shader::kernel_source(&self.first_kernel(g, &scene, &request)?)?;
             output::write_file(path, source.as_bytes())?;
-            summary.written.push(path.clone());
+            summary.emitted = Some(path.clone());
         }
-        summary.written.extend(files);
         Ok(summary)
+    }
+
+    /// Renders and writes the image in bands of at most `rows` rows; returns the files.
+    fn render_bands(
+        &self,
+        gpu: &Gpu,
+        scene: &Scene,
+        request: &Request,
+        rows: u32,
+    ) -> Result<Vec<PathBuf>> {
+        let size = scene.camera.resolution;
+        let mut writer = output::stream::BandWriter::new(&self.out_dir, size, &self.encoding);
+        render_streamed(
+            scene,
+            self.mode,
+            gpu,
+            request,
+            rows,
+            &mut |band| match band {
+                AnyImages::F32(i) => writer.write_band(&i),
+                AnyImages::F64(i) => writer.write_band(&i),
+            },
+        )?;
+        writer.finish()
     }
 
     /// The whole image, supersampled with `spp`, and for plain adaptive precision the
