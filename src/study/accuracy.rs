@@ -177,8 +177,9 @@ pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
 /// Measures every scene of `paths` in every mode of `options`, calling `progress(k, path)`
 /// before scene `k` (0-based). Scenes are loaded (and so validated) before anything renders.
 ///
-/// GPU kernels are compiled once per variant before the first timed render (by rendering a 1x1
-/// image of the first scene), so the time column compares renders, not compilations.
+/// GPU kernels are compiled before each scene's timed renders (by rendering a 1x1 image of the
+/// scene in each GPU mode: kernels are specialised per scene), so the time column compares
+/// renders, not compilations.
 pub fn run(
     paths: &[PathBuf],
     options: &Options,
@@ -196,12 +197,10 @@ pub fn run(
         infos.push(SceneInfo::from_json(path, &text));
         scenes.push(scene);
     }
-    if let Some(first) = scenes.first() {
-        warm_up(first, options, gpu)?;
-    }
     let mut rows = Vec::new();
     for (k, (scene, info)) in scenes.iter().zip(&infos).enumerate() {
         progress(k, &info.path);
+        warm_up(scene, options, gpu)?;
         rows.extend(measure(
             &info.name,
             scene,
