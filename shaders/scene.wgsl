@@ -19,6 +19,20 @@
 #import triangle
 #endif
 
+// Keeps primitive `index` of a kind (`base`: the kind's offset in `objects`) as the nearest hit
+// if its `t` is closer (brute force: ties by object id, then index). With CERTAINTY every
+// decision is recorded, misses too.
+fn keep(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
+    let object = objects[base + index];
+    let closer = is_closer(t, object, index, *best);
+#if CERTAINTY
+    record(t, object, closer, *best);
+#endif
+    if (closer) {
+        *best = Hit(t, i32(object), kind, index);
+    }
+}
+
 fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     var best = Hit(T_FAR, -1, 0u, 0u);
 #if CERTAINTY
@@ -27,45 +41,21 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
 #if SPHERES
 #if !BVH
     for (var k = 0u; k < params.sphere_count; k++) {
-        let t = intersect_sphere(ray, spheres[k], min_t);
-        let object = objects[k];
-        let closer = is_closer(t, object, k, best);
-#if CERTAINTY
-        record(t, object, closer, best);
-#endif
-        if (closer) {
-            best = Hit(t, i32(object), KIND_SPHERE, k);
-        }
+        keep(intersect_sphere(ray, spheres[k], min_t), KIND_SPHERE, k, 0u, &best);
     }
 #endif
 #endif
     let plane_base = params.sphere_count;
 #if PLANES
     for (var k = 0u; k < params.plane_count; k++) {
-        let t = intersect_plane(ray, planes[k], min_t);
-        let object = objects[plane_base + k];
-        let closer = is_closer(t, object, k, best);
-#if CERTAINTY
-        record(t, object, closer, best);
-#endif
-        if (closer) {
-            best = Hit(t, i32(object), KIND_PLANE, k);
-        }
+        keep(intersect_plane(ray, planes[k], min_t), KIND_PLANE, k, plane_base, &best);
     }
 #endif
     let triangle_base = plane_base + params.plane_count;
 #if TRIANGLES
 #if !BVH
     for (var k = 0u; k < params.triangle_count; k++) {
-        let t = intersect_triangle(ray, triangle_at(k), min_t);
-        let object = objects[triangle_base + k];
-        let closer = is_closer(t, object, k, best);
-#if CERTAINTY
-        record(t, object, closer, best);
-#endif
-        if (closer) {
-            best = Hit(t, i32(object), KIND_TRIANGLE, k);
-        }
+        keep(intersect_triangle(ray, triangle_at(k), min_t), KIND_TRIANGLE, k, triangle_base, &best);
     }
 #endif
 #endif

@@ -2,6 +2,10 @@
 //! `error: ` line naming the file and field (or line:column, or option) at fault, and leaves
 //! no files in the output folder. One valid render checks the harness itself.
 
+mod common;
+
+use common::file_names;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -94,15 +98,6 @@ fn assert_no_output(out: &Path) {
         let names = file_names(out);
         assert!(names.is_empty(), "{} holds {names:?}", out.display());
     }
-}
-
-fn file_names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    names.sort();
-    names
 }
 
 /// Runs `scene_json` with `extra_args`, checks the failure contract and that the message starts

@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::file_names;
+
 use std::process::Command;
 
 use raycast::Algorithm::{Robust, Textbook};
@@ -82,15 +84,6 @@ fn raycast_render(args: &[&str]) -> std::process::Output {
         .expect("the raycast binary runs")
 }
 
-fn names_in(dir: &std::path::Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    names.sort();
-    names
-}
-
 #[test]
 fn the_files_written_follow_outputs() {
     let dir = tempfile::tempdir().unwrap();
@@ -110,7 +103,7 @@ fn the_files_written_follow_outputs() {
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(
-            names_in(&out),
+            file_names(&out),
             files,
             "--outputs {outputs} --format {formats}"
         );
@@ -120,7 +113,7 @@ fn the_files_written_follow_outputs() {
     let o = raycast_render(&["-o", out.to_str().unwrap(), "--format", "png,npy"]);
     assert!(o.status.success());
     assert_eq!(
-        names_in(&out),
+        file_names(&out),
         [
             "color.png",
             "depth.png",
@@ -166,6 +159,6 @@ fn colour_without_png_and_unknown_outputs_are_one_line_errors() {
         assert_eq!(o.status.code(), Some(2), "{stderr}");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
         assert!(stderr.contains(expected), "{stderr}");
-        assert!(!out.exists() || names_in(&out).is_empty());
+        assert!(!out.exists() || file_names(&out).is_empty());
     }
 }

@@ -11,7 +11,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::gpu;
+use common::{file_names, gpu};
 use raycast::images::Coverage;
 use raycast::images::MISS;
 use raycast::output::{self, PALETTE, PixelCoverage};
@@ -310,15 +310,6 @@ fn run_render(scene_json: &str, args: &[&str]) -> (Output, tempfile::TempDir, Pa
         .output()
         .expect("the raycast binary runs");
     (output, dir, out)
-}
-
-fn file_names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    names.sort();
-    names
 }
 
 #[test]

@@ -10,6 +10,20 @@ use super::types::{Ray, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 
+/// Keeps primitive `index` of a kind (`objects`: the kind's object ids) as the nearest hit if
+/// its `t` is closer (brute force: ties by object id, then index).
+fn keep<T: Real>(t: T, kind: u32, index: usize, objects: &[u32], best: &mut Hit<T>) {
+    let object = objects[index];
+    if is_closer(t, object, index as u32, best) {
+        *best = Hit {
+            t,
+            object: object as i32,
+            kind,
+            index: index as u32,
+        };
+    }
+}
+
 pub fn nearest_hit<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
@@ -26,15 +40,7 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
     }
     for (k, plane) in prims.planes.iter().enumerate() {
         let t = intersect_plane::<T, ROBUST>(ray, plane, min_t);
-        let object = prims.plane_objects[k];
-        if is_closer(t, object, k as u32, &best) {
-            best = Hit {
-                t,
-                object: object as i32,
-                kind: KIND_PLANE,
-                index: k as u32,
-            };
-        }
+        keep(t, KIND_PLANE, k, &prims.plane_objects, &mut best);
     }
     match &prims.bvh {
         None => nearest_triangle::<T, ROBUST>(ray, min_t, prims, &mut best),
@@ -51,15 +57,7 @@ fn nearest_sphere<T: Real, const ROBUST: bool>(
 ) {
     for (k, sphere) in prims.spheres.iter().enumerate() {
         let t = intersect_sphere::<T, ROBUST>(ray, sphere, min_t);
-        let object = prims.sphere_objects[k];
-        if is_closer(t, object, k as u32, best) {
-            *best = Hit {
-                t,
-                object: object as i32,
-                kind: KIND_SPHERE,
-                index: k as u32,
-            };
-        }
+        keep(t, KIND_SPHERE, k, &prims.sphere_objects, best);
     }
 }
 
@@ -71,15 +69,7 @@ fn nearest_triangle<T: Real, const ROBUST: bool>(
 ) {
     for (k, tri) in prims.triangles.iter().enumerate() {
         let t = intersect_triangle::<T, ROBUST>(ray, tri, min_t);
-        let object = prims.triangle_objects[k];
-        if is_closer(t, object, k as u32, best) {
-            *best = Hit {
-                t,
-                object: object as i32,
-                kind: KIND_TRIANGLE,
-                index: k as u32,
-            };
-        }
+        keep(t, KIND_TRIANGLE, k, &prims.triangle_objects, best);
     }
 }
 
