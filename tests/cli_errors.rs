@@ -223,6 +223,12 @@ fn too_large_magnitude() {
 
     let message = run_err(&edit(r#""eye":[0,0,5]"#, r#""eye":[0,0,-1e30]"#), &[]);
     assert_has(&message, &["camera.eye[2]", "1e30"]);
+
+    // OBJ is read in f64, so 1e39 (infinite in f32) is a number, refused for its magnitude.
+    let case = Case::new(&soup("obj", "far.obj"));
+    case.file("far.obj", b"v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
+    let message = case.fail(&[], &[]);
+    assert_has(&message, &["objects[0] triangle 0", "1e39", "1e18"]);
 }
 
 // 6. Radius.

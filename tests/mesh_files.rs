@@ -3,6 +3,8 @@
 //! malformed OBJ, a truncated STL or a broken PLY exits with code 2, prints one `error: ` line
 //! naming the mesh file and the line or byte at fault, and writes no output.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -279,4 +281,120 @@ fn a_ply_soup_renders() {
             .any(|p| p.extension() == Some("png".as_ref())),
         "{written:?}"
     );
+}
+
+/// A tetrahedron-like fan of four triangles whose coordinates have decimal digits f32 cannot
+/// hold, `offset` added to every coordinate, written as OBJ text in f64 (`{}` prints the
+/// shortest digits that read back to the same f64).
+fn decimal_mesh(offset: f64) -> (String, Vec<[f64; 3]>) {
+    let points = [
+        [0.1, 0.2, -3.3],
+        [0.7, -0.3, -3.1],
+        [-0.45, 0.35, -2.9],
+        [0.05, -0.6, -3.7],
+        [0.3, 0.55, -2.7],
+    ]
+    .map(|p| p.map(|x: f64| x + offset));
+    let mut text = String::new();
+    for [x, y, z] in points {
+        text += &format!("v {x} {y} {z}\n");
+    }
+    text += "f 1 2 3\nf 1 3 4\nf 1 4 5\nf 2 4 3\n";
+    (text, points.to_vec())
+}
+
+/// A scene of `objects` seen by a perspective camera at `eye` looking down -z.
+fn camera_scene(eye: [f64; 3], objects: &str) -> String {
+    format!(
+        r#"{{"camera": {{"type": "perspective", "eye": {eye:?}, "look": [0, 0, -1],
+            "up": [0, 1, 0], "focal_length": 1, "width": 1.6, "height": 1.2,
+            "resolution": [64, 48]}}, "objects": [{objects}]}}"#
+    )
+}
+
+fn render(dir: &std::path::Path, json: &str, mode: &str) -> raycast::render::AnyImages {
+    let path = dir.join("scene.json");
+    std::fs::write(&path, json).unwrap();
+    let scene = raycast::Scene::load(&path).unwrap();
+    let mode: raycast::render::Mode = mode.parse().unwrap();
+    let gpu = (mode.device == raycast::render::Device::Gpu).then(common::gpu);
+    raycast::render::render(&scene, mode, gpu, false).unwrap()
+}
+
+/// Distances (f64) and whether each pixel hits.
+fn distances(images: &raycast::render::AnyImages) -> Vec<f64> {
+    use raycast::render::AnyImages;
+    match images {
+        AnyImages::F32(i) => i.distance.iter().map(|&d| f64::from(d)).collect(),
+        AnyImages::F64(i) => i.distance.clone(),
+    }
+}
+
+/// An OBJ is read at the precision of its digits: f64 renders of it (CPU and GPU) give exactly
+/// the distances of the same triangles written as scene `triangle` objects, which the scene
+/// reader parses in f64. (Read in f32, the vertices would move by up to 2e-8 relative.)
+#[test]
+fn f64_renders_of_an_obj_use_the_numbers_in_the_file() {
+    let dir = TempDir::new().unwrap();
+    let (text, points) = decimal_mesh(0.0);
+    std::fs::write(dir.path().join("mesh.obj"), text).unwrap();
+    let soup = camera_scene([0.0, 0.0, 0.0], r#"{"type": "soup", "obj": "mesh.obj"}"#);
+    let corner = |i: usize| format!("{:?}", points[i]);
+    let loose: Vec<String> = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [1, 3, 2]]
+        .iter()
+        .map(|t| {
+            format!(
+                r#"{{"type": "triangle", "corners": [{}, {}, {}]}}"#,
+                corner(t[0]),
+                corner(t[1]),
+                corner(t[2])
+            )
+        })
+        .collect();
+    let loose = camera_scene([0.0, 0.0, 0.0], &loose.join(", "));
+    for mode in ["cpu:f64:robust", "gpu:f64:robust", "cpu:f64:textbook"] {
+        let a = distances(&render(dir.path(), &soup, mode));
+        let b = distances(&render(dir.path(), &loose, mode));
+        assert!(a.iter().any(|d| d.is_finite()), "{mode}: the mesh is seen");
+        let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert_eq!(differ, 0, "{mode}: pixels whose distance differs");
+    }
+}
+
+/// A mesh 1e6 from the origin, written in f64 text, renders in robust f32 like the same mesh
+/// at the origin seen from the same relative eye: the host subtracts the eye in f64 before
+/// rounding to f32, so the ids are identical and the distances agree to f32 rounding of the
+/// local scale. (Read in f32, its vertices would move by up to 0.03.)
+#[test]
+fn a_mesh_far_from_the_origin_renders_like_one_at_the_origin() {
+    let offset = 1e6 + 0.3;
+    let dir = TempDir::new().unwrap();
+    let mut renders = Vec::new();
+    for (name, shift) in [("near", 0.0), ("far", offset)] {
+        let (text, _) = decimal_mesh(shift);
+        let file = format!("{name}.obj");
+        std::fs::write(dir.path().join(&file), text).unwrap();
+        let json = camera_scene(
+            [shift; 3],
+            &format!(r#"{{"type": "soup", "obj": "{file}"}}"#),
+        );
+        let images = render(dir.path(), &json, "gpu:f32:robust");
+        let raycast::render::AnyImages::F32(images) = images else {
+            panic!("an f32 render gives f32 images")
+        };
+        renders.push(images);
+    }
+    let (near, far) = (&renders[0], &renders[1]);
+    assert!(near.id.iter().any(|&id| id >= 0), "the mesh is seen");
+    assert_eq!(near.id, far.id, "ids");
+    for (k, (a, b)) in near.distance.iter().zip(&far.distance).enumerate() {
+        if a.is_finite() {
+            // Two f32 roundings of the vertices (about 4e-7 of their size, 3.7) and the
+            // distance's own.
+            assert!(
+                (a - b).abs() <= 4.0 * f32::EPSILON * a,
+                "pixel {k}: {a} vs {b}"
+            );
+        }
+    }
 }

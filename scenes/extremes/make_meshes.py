@@ -12,8 +12,9 @@ untransformed scene) and `translation` or `scale`.
 Exactness checks done here:
 - every number written to a scene JSON is parsed back the way serde_json (without its
   `float_roundtrip` feature, as raycast builds it) parses it, and must give the same f64;
-- every OBJ coordinate must be exactly representable in f32 (raycast reads OBJ coordinates
-  in f32), so the translated and scaled meshes are the base mesh moved exactly.
+- every OBJ coordinate of the translated and scaled meshes must be exactly representable in
+  f32 (raycast reads OBJ in f64, but a robust f32 render rounds the camera-relative
+  coordinates to f32), so they are the base mesh moved exactly in every precision.
 """
 
 import json

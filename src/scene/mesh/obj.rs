@@ -6,7 +6,7 @@
 
 use super::text::{self, found, show};
 use super::{Parsed, Triangle, at_line, fan};
-use crate::math::Vec3;
+use crate::math::{Precision, Vec3};
 
 /// Parses OBJ text. Faces may only refer to vertices defined above them (the OBJ rule that
 /// makes negative, relative indices meaningful).
@@ -32,7 +32,7 @@ pub(super) fn parse(bytes: &[u8]) -> Parsed<Vec<Triangle>> {
 /// `v x y z`, optionally followed by `w` or by a vertex colour `r g b` (a common extension);
 /// the extras must be numbers but are not used.
 fn vertex<'a>(n: usize, mut words: impl Iterator<Item = &'a [u8]>) -> Parsed<Vec3<f64>> {
-    let point = text::point(n, "v", &mut words)?;
+    let point = text::point(n, "v", &mut words, Precision::F64)?;
     let mut extras = 0;
     for word in words {
         if text::parse::<f64>(word).is_none() {
@@ -135,9 +135,9 @@ mod tests {
     }
 
     #[test]
-    fn coordinates_are_read_as_f32_like_before() {
-        let t = parse(b"v 0.1 0.2 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\n").unwrap();
-        assert_eq!(t[0][0], Vec3::from_array([0.1f32, 0.2, 0.3].map(f64::from)));
+    fn coordinates_are_read_in_f64() {
+        let t = parse(b"v 0.1 0.2 1000000.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\n").unwrap();
+        assert_eq!(t[0][0], Vec3::from_array([0.1, 0.2, 1000000.3]));
     }
 
     #[test]
@@ -204,11 +204,11 @@ mod tests {
     fn non_finite_coordinates_are_errors() {
         assert_eq!(
             err("v 0 0 0\nv inf 0 0\n"),
-            "line 2: coordinate 'inf' is not a finite 32-bit float"
+            "line 2: coordinate 'inf' is not a finite 64-bit float"
         );
         assert_eq!(
             err("v 0 NaN 0\n"),
-            "line 1: coordinate 'NaN' is not a finite 32-bit float"
+            "line 1: coordinate 'NaN' is not a finite 64-bit float"
         );
     }
 }

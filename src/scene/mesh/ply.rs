@@ -84,11 +84,11 @@ impl Scalar {
         }
     }
 
-    /// Parses an ASCII value in the type's precision (`float` rounds to f32, like binary).
+    /// Parses an ASCII value: a number in f64 whatever its declared type (text holds decimal
+    /// digits, not the type's bits; the mesh is rendered from the digits the file has).
     fn parse(self, word: &[u8]) -> Option<f64> {
         match self {
-            Scalar::F32 => text::parse::<f32>(word).map(f64::from),
-            Scalar::F64 => text::parse::<f64>(word),
+            Scalar::F32 | Scalar::F64 => text::parse::<f64>(word),
             _ => text::parse::<i64>(word).map(|i| i as f64),
         }
     }
@@ -587,8 +587,8 @@ mod tests {
             v(0.0, 0.0, 0.0),
             v(1.5, 0.0, -2.0),
             v(1.5, 1.0, 0.0),
-            v(0.0, 1.0, 0.1f32.into()),
-            v(-3.0, 1e-3f32.into(), 7.0),
+            v(0.0, 1.0, 0.1),
+            v(-3.0, 1e-3, 7.0),
         ];
         vec![[p[0], p[1], p[2]], [p[0], p[2], p[3]], [p[4], p[3], p[2]]]
     }
@@ -631,12 +631,12 @@ mod tests {
             }
             bytes.extend_from_slice(&raw);
         };
-        let points = [
+        let points: [[f64; 3]; 5] = [
             [0.0, 0.0, 0.0],
             [1.5, 0.0, -2.0],
             [1.5, 1.0, 0.0],
-            [0.0, 1.0, f64::from(0.1f32)],
-            [-3.0, f64::from(1e-3f32), 7.0],
+            [0.0, 1.0, 0.1],
+            [-3.0, 1e-3, 7.0],
         ];
         for p in points {
             for x in p {

@@ -5,7 +5,7 @@
 use std::str::FromStr;
 
 use super::{Parsed, at_line};
-use crate::math::Vec3;
+use crate::math::{Precision, Vec3};
 
 /// The lines of `bytes` with their 1-based numbers, counting from `first`, without the line
 /// break (`\n` or `\r\n`). A file ending in a line break yields a last, empty line: end-of-file
@@ -83,20 +83,24 @@ pub(super) fn found(word: Option<&[u8]>) -> String {
     word.map_or_else(|| "end of line".to_owned(), |w| format!("'{}'", show(w)))
 }
 
-/// Reads the three coordinates after `keyword` (`vertex` in STL, `v` in OBJ) on line `n` as
-/// f32, the precision both formats have always been read in here: STL stores f32, and OBJ was
-/// read through the `tobj` crate in f32, so the committed scenes (and the accuracy tables in
-/// docs/ measured on them) keep exactly the vertices they had. Reading OBJ in f64 would change
-/// `fan16.obj` and `rotated-grid.obj`, whose coordinates have 17 digits.
+/// Reads the three coordinates after `keyword` (`vertex` in STL, `v` in OBJ) on line `n`, in
+/// `precision`: f32 for STL, the precision its format stores; f64 for OBJ, so that a mesh is
+/// rendered from the numbers its file holds (an f32 read would move a vertex 1e6 from the
+/// origin by up to 0.03).
 pub(super) fn point<'a>(
     n: usize,
     keyword: &str,
     words: &mut impl Iterator<Item = &'a [u8]>,
+    precision: Precision,
 ) -> Parsed<Vec3<f64>> {
     let mut xyz = [0.0; 3];
     for x in &mut xyz {
         let word = words.next();
-        let value = word.and_then(parse::<f32>).ok_or_else(|| {
+        let value = word.and_then(|w| match precision {
+            Precision::F32 => parse::<f32>(w).map(f64::from),
+            Precision::F64 => parse::<f64>(w),
+        });
+        let value = value.ok_or_else(|| {
             at_line(
                 n,
                 format!(
@@ -107,12 +111,16 @@ pub(super) fn point<'a>(
         })?;
         if !value.is_finite() {
             let word = show(word.unwrap_or_default());
+            let bits = match precision {
+                Precision::F32 => 32,
+                Precision::F64 => 64,
+            };
             return Err(at_line(
                 n,
-                format!("coordinate '{word}' is not a finite 32-bit float"),
+                format!("coordinate '{word}' is not a finite {bits}-bit float"),
             ));
         }
-        *x = f64::from(value);
+        *x = value;
     }
     Ok(Vec3::from_array(xyz))
 }
@@ -180,13 +188,22 @@ mod tests {
 
     #[test]
     fn points_need_three_finite_numbers() {
-        let read = |line: &[u8]| point(3, "vertex", &mut words(line));
+        let read = |line: &[u8]| point(3, "vertex", &mut words(line), Precision::F32);
         assert_eq!(
             read(b"1 -2.5 3e2"),
             Ok(Vec3::from_array([1.0, -2.5, 300.0]))
         );
-        // Rounded to f32 like the STL format and the old OBJ reader.
+        // Rounded to f32 in f32 (STL), kept in f64 (OBJ).
         assert_eq!(read(b"0.1 0 0").unwrap().x, f64::from(0.1f32));
+        let read_f64 = |line: &[u8]| point(3, "v", &mut words(line), Precision::F64);
+        assert_eq!(
+            read_f64(b"0.1 1e6 -3e300").unwrap(),
+            Vec3::from_array([0.1, 1e6, -3e300])
+        );
+        assert_eq!(
+            read_f64(b"1e400 0 0").unwrap_err().to_string(),
+            "line 3: coordinate '1e400' is not a finite 64-bit float"
+        );
         let err = |line: &[u8]| read(line).unwrap_err().to_string();
         assert_eq!(
             err(b"1 abc 3"),
