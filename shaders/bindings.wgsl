@@ -15,7 +15,8 @@ struct Params {
     triangle_count: u32,  // offset 92 / 156
     origin: vec3<real>,   // offset 96 / 160: the kernel's origin in world coordinates (the eye
                           //   in the robust set, else 0); shade hooks add it back
-    _pad0: real,          // offset 108 / 184
+    unit: real,           // offset 108 / 184: world units per kernel unit, a power of two (the
+                          //   kernel sees the scene scaled by 1 / unit, src/prepare/mod.rs)
 }                         // size 112 / 192
 
 @group(0) @binding(0) var<uniform> params: Params;

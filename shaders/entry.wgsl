@@ -27,7 +27,8 @@ fn cast_pixel(i: u32, j: u32, index: u32) {
         surface = vec4<real>(hit_normal(ray, hit), 0.0);
 #endif
 #if DISTANCE
-        surface.w = hit.t * length(ray.direction);
+        // Back to world units: an exact power-of-two scaling.
+        surface.w = hit.t * length(ray.direction) * params.unit;
 #endif
     }
 #if SURFACE
@@ -46,11 +47,11 @@ fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHi
     var h: ShadeHit;
     h.id = select(hit.object, -1, hit.object < 0);
     h.direction = vec3<f32>(normalize(ray.direction));
-    h.origin = vec3<f32>(params.origin + ray.origin);
+    h.origin = vec3<f32>(params.origin + ray.origin * params.unit);
     h.pixel = vec2<u32>(j, i);
     h.resolution = vec2<u32>(params.nx, params.ny);
     if (hit.object >= 0) {
-        h.position = vec3<f32>(params.origin + (ray.origin + hit.t * ray.direction));
+        h.position = vec3<f32>(params.origin + (ray.origin + hit.t * ray.direction) * params.unit);
         h.normal = vec3<f32>(surface.xyz);
         h.distance = f32(surface.w);
     }

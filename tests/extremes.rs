@@ -23,6 +23,7 @@ use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu::margin::{Margins, margins};
 use raycast::images::{Images, MISS};
 use raycast::prepare::{Primitives, kernel_frame};
+use raycast::render::AnyImages;
 use raycast::scene::{Object, Scene};
 
 struct Extreme {
@@ -363,5 +364,94 @@ fn rays_in_a_triangle_plane_or_a_plane_miss_without_nan() {
             &format!("edge-on gpu f32 {a}"),
             &gpu_render::<f32>(&scene, a),
         );
+    }
+}
+
+/// The largest magnitude of any coordinate, radius or camera length of `scene`.
+fn largest_magnitude(scene: &Scene) -> f64 {
+    let c = &scene.camera;
+    let mut values = vec![c.focal_length, c.width, c.height];
+    values.extend(c.eye.to_array());
+    for object in &scene.objects {
+        match object {
+            Object::Sphere { center, radius } => {
+                values.extend(center.to_array());
+                values.push(*radius);
+            }
+            Object::Plane { point, .. } => values.extend(point.to_array()),
+            Object::Triangle { corners } => {
+                corners.iter().for_each(|p| values.extend(p.to_array()))
+            }
+            Object::Soup { triangles, .. } => triangles
+                .iter()
+                .flatten()
+                .for_each(|p| values.extend(p.to_array())),
+        }
+    }
+    values.into_iter().fold(0.0, |m, x: f64| m.max(x.abs()))
+}
+
+/// Every mode renders a scene scaled by 2^k, k from -60 to 60, exactly like the unscaled one:
+/// the same ids and normals bit for bit, distances exactly 2^k times (the host renders every
+/// scale at the camera's own scale, `prepare::unit_exponent`). The base is the dyadic scene
+/// scaled so that its largest number times 2^60 stays within the 1e18 a scene file may hold.
+#[test]
+fn every_mode_is_invariant_under_power_of_two_scaling() {
+    let dyadic = Scene::load(&repo_path("scenes/extremes/dyadic-base.json")).unwrap();
+    let shift = (1e18 / 2f64.powi(60) / largest_magnitude(&dyadic))
+        .log2()
+        .floor() as i32;
+    let base = dyadic.scaled_by_pow2(shift);
+    assert!(largest_magnitude(&base) * 2f64.powi(60) <= 1e18);
+    let modes = [
+        "gpu:f32:robust",
+        "gpu:f64:robust",
+        "gpu:adaptive:robust",
+        "gpu:f32:textbook",
+        "gpu:f64:textbook",
+        "cpu:f32:robust",
+        "cpu:f64:robust",
+        "cpu:f32:textbook",
+        "cpu:f64:textbook",
+    ];
+    for mode in modes {
+        let mode: raycast::render::Mode = mode.parse().unwrap();
+        let render =
+            |scene: &Scene| raycast::render::render(scene, mode, Some(gpu()), false).unwrap();
+        let reference = render(&base);
+        assert!(
+            reference.id().iter().any(|&id| id != MISS),
+            "{mode}: the scene is seen"
+        );
+        for k in [-60, -41, -20, -1, 1, 7, 33, 60] {
+            let scaled = render(&base.scaled_by_pow2(k));
+            let ids_differ = (scaled.id().iter().zip(reference.id()))
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(ids_differ, 0, "{mode}, 2^{k}: pixels whose id differs");
+            let factor = 2f64.powi(k);
+            match (&reference, &scaled) {
+                (AnyImages::F32(a), AnyImages::F32(b)) => assert_scaled(a, b, factor, mode, k),
+                (AnyImages::F64(a), AnyImages::F64(b)) => assert_scaled(a, b, factor, mode, k),
+                _ => panic!("{mode}: precision changed with the scale"),
+            }
+        }
+    }
+}
+
+fn assert_scaled<R: raycast::math::Real>(
+    a: &Images<R>,
+    b: &Images<R>,
+    factor: f64,
+    mode: raycast::render::Mode,
+    k: i32,
+) {
+    for p in (0..a.len()).filter(|&p| a.id[p] != MISS) {
+        assert_eq!(
+            b.distance[p].to_f64(),
+            a.distance[p].to_f64() * factor,
+            "{mode}, 2^{k}, pixel {p}: distance"
+        );
+        assert_eq!(b.normal[p], a.normal[p], "{mode}, 2^{k}, pixel {p}: normal");
     }
 }

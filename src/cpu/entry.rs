@@ -17,6 +17,7 @@ pub struct PixelOut<T> {
 pub fn main<T: Real, const ROBUST: bool>(
     frame: &Frame<T>,
     prims: &Primitives<T>,
+    unit: T,
     i: u32,
     j: u32,
 ) -> PixelOut<T> {
@@ -28,7 +29,8 @@ pub fn main<T: Real, const ROBUST: bool>(
             surface: None,
         };
     }
-    let distance = hit.t * length(ray.direction);
+    // Back to world units: an exact power-of-two scaling.
+    let distance = hit.t * length(ray.direction) * unit;
     PixelOut {
         id: hit.object,
         surface: Some((

@@ -44,6 +44,7 @@ pub fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -
     let frame = &prepared.frame;
     let prims = &prepared.primitives;
     let robust = prepared.algorithm == Algorithm::Robust;
+    let unit = T::from_f64(prepared.unit);
     let mut images = Images::new_miss(frame.nx, frame.ny, prepared.focal_length);
     let width = frame.nx as usize;
     let Images {
@@ -59,9 +60,9 @@ pub fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -
         .for_each(|(i, ((id, distance), normal))| {
             for j in 0..width {
                 let out = if robust {
-                    entry::main::<T, true>(frame, prims, i as u32, j as u32)
+                    entry::main::<T, true>(frame, prims, unit, i as u32, j as u32)
                 } else {
-                    entry::main::<T, false>(frame, prims, i as u32, j as u32)
+                    entry::main::<T, false>(frame, prims, unit, i as u32, j as u32)
                 };
                 id[j] = out.id;
                 if let Some((n, d)) = out.surface {
@@ -79,14 +80,15 @@ pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pix
     let frame = &prepared.frame;
     let prims = &prepared.primitives;
     let width = frame.nx;
+    let unit = T::from_f64(prepared.unit);
     pixels
         .par_iter()
         .map(|&k| {
             let (i, j) = (k / width, k % width);
             let out = if prepared.algorithm == Algorithm::Robust {
-                entry::main::<T, true>(frame, prims, i, j)
+                entry::main::<T, true>(frame, prims, unit, i, j)
             } else {
-                entry::main::<T, false>(frame, prims, i, j)
+                entry::main::<T, false>(frame, prims, unit, i, j)
             };
             match out.surface {
                 Some((normal, distance)) => Pixel {

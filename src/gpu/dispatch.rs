@@ -238,7 +238,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             plane_count: layout.planes.len() as u32,
             triangle_count: layout.triangles.len() as u32,
             origin,
-            _pad0: R::ZERO,
+            unit: R::from_f64(prepared.unit),
         };
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));

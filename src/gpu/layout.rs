@@ -46,7 +46,7 @@ pub struct GpuParams<R> {
     pub plane_count: u32,    // offset 88 / 152
     pub triangle_count: u32, // offset 92 / 156
     pub origin: [R; 3],      // offset 96 / 160
-    pub _pad0: R,            // offset 108 / 184
+    pub unit: R,             // offset 108 / 184
 } // size 112 / 192
 
 /// `struct Sphere` in shaders/types.wgsl.
@@ -195,7 +195,7 @@ mod tests {
             "Params",
             size_of::<GpuParams<R>>(),
             fields!(GpuParams<R>: frame, projection, nx, ny, row_offset, tile_rows,
-                sphere_count, plane_count, triangle_count, origin, _pad0),
+                sphere_count, plane_count, triangle_count, origin, unit),
         );
         check(
             &m,

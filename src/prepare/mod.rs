@@ -10,6 +10,7 @@
 
 pub mod bvh;
 
+use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -28,6 +29,9 @@ pub struct Prepared<T> {
     /// Where the kernel's coordinates are measured from, in world coordinates
     /// ([`kernel_origin`]).
     pub origin: Vec3<f64>,
+    /// World units per kernel unit, `2^e` ([`unit_exponent`]): the kernel sees the scene
+    /// scaled by `1 / unit` and multiplies distances back.
+    pub unit: f64,
     pub primitives: Primitives<T>,
     /// The camera's focal length in scene units: the distance `depth.png` maps to white.
     pub focal_length: f64,
@@ -39,16 +43,20 @@ impl<T: Real> Prepared<T> {
     /// `scene` prepared for `algorithm`, through a BVH built here where `accel` asks for one.
     pub fn new(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Prepared<T> {
         let clock = Instant::now();
+        let (kernel_scene, _) = in_kernel_units(scene);
         let bvh = accel
             .uses_bvh(scene)
-            .then(|| Arc::new(Bvh::build(scene, algorithm)));
+            .then(|| Arc::new(Bvh::build(&kernel_scene, algorithm)));
         Prepared::with_bvh(scene, algorithm, bvh).timed(clock)
     }
 
-    /// `scene` prepared for `algorithm` with a BVH already built for the same scene and
-    /// algorithm (shared between precisions), or none.
+    /// `scene` prepared for `algorithm` with a BVH already built by [`Prepared::new`] for the
+    /// same scene and algorithm (shared between precisions), or none.
     pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Prepared<T> {
         let clock = Instant::now();
+        let (origin, focal_length) = (kernel_origin(scene, algorithm), scene.camera.focal_length);
+        let (scene, unit) = in_kernel_units(scene);
+        let scene = scene.as_ref();
         let primitives = match bvh {
             Some(bvh) => Primitives::with_bvh(scene, algorithm, bvh),
             None => Primitives::new(scene, algorithm),
@@ -56,9 +64,10 @@ impl<T: Real> Prepared<T> {
         Prepared {
             algorithm,
             frame: kernel_frame(scene, algorithm).cast(),
-            origin: kernel_origin(scene, algorithm),
+            origin,
+            unit,
             primitives,
-            focal_length: scene.camera.focal_length,
+            focal_length,
             build_s: 0.0,
         }
         .timed(clock)
@@ -95,6 +104,27 @@ pub struct Primitives<T> {
     pub triangle_objects: Vec<u32>,
     /// The BVH the spheres and triangles are ordered by, if the render uses one.
     pub bvh: Option<Arc<Bvh>>,
+}
+
+/// The binary exponent `e` of the camera's size, `max(focal length, width, height)`, so that
+/// the scene scaled by `2^-e` has a camera of size in `[1, 2)`. Scaling a scene by `2^k` adds
+/// exactly `k`, so every render sees the same numbers at every power-of-two scale: products of
+/// coordinates can neither overflow nor flush to zero in f32 where the unscaled scene's do not.
+pub fn unit_exponent(scene: &Scene) -> i32 {
+    let c = &scene.camera;
+    let size = c.focal_length.max(c.width).max(c.height);
+    // Scene values are positive, finite and at most 1e18 (checked on load), so normal.
+    ((size.to_bits() >> 52) & 0x7ff) as i32 - 1023
+}
+
+/// `scene` in kernel units (scaled by `2^-e`, [`unit_exponent`]; borrowed when `e` is 0, the
+/// usual case) and the world units per kernel unit, `2^e`. Scaling a scene already in kernel
+/// units changes nothing.
+fn in_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
+    match unit_exponent(scene) {
+        0 => (Cow::Borrowed(scene), 1.0),
+        e => (Cow::Owned(scene.scaled_by_pow2(-e)), 2f64.powi(e)),
+    }
 }
 
 /// Where the kernel's coordinates are measured from: the world origin for

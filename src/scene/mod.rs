@@ -129,6 +129,29 @@ impl Scene {
         .expect("the built-in default scene is valid")
     }
 
+    /// The scene with every length (positions, radii, the camera's focal length and image
+    /// plane) multiplied by `2^k`, directions kept: exact in binary floating point, barring
+    /// overflow and subnormals.
+    pub fn scaled_by_pow2(&self, k: i32) -> Scene {
+        let f = 2f64.powi(k);
+        let v = |p: Vec3<f64>| p * f;
+        let mut scene = self.clone();
+        let c = &mut scene.camera;
+        c.eye = v(c.eye);
+        (c.focal_length, c.width, c.height) = (c.focal_length * f, c.width * f, c.height * f);
+        for object in &mut scene.objects {
+            match object {
+                Object::Sphere { center, radius } => (*center, *radius) = (v(*center), *radius * f),
+                Object::Plane { point, .. } => *point = v(*point),
+                Object::Triangle { corners } => *corners = corners.map(v),
+                Object::Soup { triangles, .. } => {
+                    triangles.iter_mut().for_each(|t| *t = t.map(v));
+                }
+            }
+        }
+        scene
+    }
+
     /// How many spheres, planes and triangles (loose ones plus soups) the scene has.
     pub fn primitive_counts(&self) -> [usize; 3] {
         let mut n = [0; 3];
