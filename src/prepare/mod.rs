@@ -43,34 +43,40 @@ impl<T: Real> Prepared<T> {
     /// `scene` prepared for `algorithm`, through a BVH built here where `accel` asks for one.
     pub fn new(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Prepared<T> {
         let clock = Instant::now();
-        let (kernel_scene, _) = in_kernel_units(scene);
+        let kernel = in_kernel_units(scene);
         let bvh = accel
             .uses_bvh(scene)
-            .then(|| Arc::new(Bvh::build(&kernel_scene, algorithm)));
-        Prepared::with_bvh(scene, algorithm, bvh).timed(clock)
+            .then(|| Arc::new(Bvh::build(&kernel.0, algorithm)));
+        Prepared::assemble(scene, kernel, algorithm, bvh).timed(clock)
     }
 
     /// `scene` prepared for `algorithm` with a BVH already built by [`Prepared::new`] for the
     /// same scene and algorithm (shared between precisions), or none.
     pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Prepared<T> {
         let clock = Instant::now();
-        let (origin, focal_length) = (kernel_origin(scene, algorithm), scene.camera.focal_length);
-        let (scene, unit) = in_kernel_units(scene);
-        let scene = scene.as_ref();
+        Prepared::assemble(scene, in_kernel_units(scene), algorithm, bvh).timed(clock)
+    }
+
+    /// The preparation of `scene`, given as it is in kernel units, `kernel`.
+    fn assemble(
+        scene: &Scene,
+        (kernel, unit): (Cow<'_, Scene>, f64),
+        algorithm: Algorithm,
+        bvh: Option<Arc<Bvh>>,
+    ) -> Prepared<T> {
         let primitives = match bvh {
-            Some(bvh) => Primitives::with_bvh(scene, algorithm, bvh),
-            None => Primitives::new(scene, algorithm),
+            Some(bvh) => Primitives::with_bvh(&kernel, algorithm, bvh),
+            None => Primitives::new(&kernel, algorithm),
         };
         Prepared {
             algorithm,
-            frame: kernel_frame(scene, algorithm).cast(),
-            origin,
+            frame: kernel_frame(&kernel, algorithm).cast(),
+            origin: kernel_origin(scene, algorithm),
             unit,
             primitives,
-            focal_length,
+            focal_length: scene.camera.focal_length,
             build_s: 0.0,
         }
-        .timed(clock)
     }
 
     fn timed(self, since: Instant) -> Self {
