@@ -49,16 +49,19 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let far_condition = select(1.0, c_condition, abs(t_far) <= abs(t_near));
     let near_condition = select(1.0, c_condition, abs(t_near) < abs(t_far));
     let far_certain = disc_certain && start_certain(t_far, min_t, far_condition);
+    // Which root is the hit, not only whether the sphere is hit, decides the distance and the
+    // normal: the near root's start test must be certain too.
+    let root_certain = far_certain && start_certain(t_near, min_t, near_condition);
 #endif
     if (is_beyond(t_near, min_t)) {
 #if CERTAINTY
-        decide(far_certain, t_near, near_condition);
+        decide(root_certain, t_near, near_condition);
 #endif
         return t_near;
     }
     if (is_beyond(t_far, min_t)) {
 #if CERTAINTY
-        decide(far_certain, t_far, far_condition);
+        decide(root_certain, t_far, far_condition);
 #endif
         return t_far;
     }

@@ -204,3 +204,30 @@ fn course_spot_pixels() {
     // The image plane lies inside the sphere: the back surface, outward normal (0, 0, -1).
     assert_eq!(at("inside-a-sphere", 180, 320).2, [127, 127, 0]);
 }
+
+/// Adaptive precision (robust f32, uncertain pixels cast again in f64) reproduces every course
+/// render: the id picture exactly, depth and normal within one level. This needs the
+/// certainty test to judge which root of a sphere is the hit, not only whether the sphere is
+/// hit: inside-a-sphere has a ring of pixels whose near root lies within the start test's
+/// error bound of the image plane, where f32 takes the far root of the same sphere.
+#[test]
+fn adaptive_precision_reproduces_every_course_render() {
+    let mode: raycast::render::Mode = "gpu:adaptive:robust".parse().unwrap();
+    for name in COURSE_SCENES {
+        let scene = course_scene(name);
+        let images = raycast::render::render(&scene, mode, Some(gpu()), false).unwrap();
+        let raycast::render::AnyImages::F32(images) = images else {
+            panic!("adaptive precision gives f32 images")
+        };
+        let ours = pictures(&images);
+        let id = diff(&ours.id, &course_render(name, "id"), 3, None);
+        let depth = diff(&ours.depth, &course_render(name, "depth"), 1, None);
+        let normal = diff(&ours.normal, &course_render(name, "normal"), 3, None);
+        println!(
+            "{name}: id {} px, depth {} px (max {}), normal {} px (max {})",
+            id.differing, depth.differing, depth.max_level, normal.differing, normal.max_level
+        );
+        let ok = id.differing == 0 && depth.max_level <= 1 && normal.max_level <= 1;
+        assert!(ok, "{name}: see {}", save_all(name, &ours).display());
+    }
+}
