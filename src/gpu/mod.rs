@@ -43,7 +43,7 @@ pub struct Gpu {
 
 impl Gpu {
     /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
-    /// pays ([`crate::bvh::worth_it`]), and the primitives in uniform buffers where they fit
+    /// pays ([`crate::prepare::bvh::worth_it`]), and the primitives in uniform buffers where they fit
     /// if [`shader::UNIFORM_BY_DEFAULT`].
     pub fn scene_variant(
         &self,

@@ -77,7 +77,7 @@ pub struct Variant {
     /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
     /// the rest is left out.
     pub outputs: Outputs,
-    /// The user's shade hook compiled in (its source is registered in [`hooks`] under this
+    /// The user's shade hook compiled in (its source is registered in [`crate::gpu::hooks`] under this
     /// key), called for every pixel to write `out_color`.
     pub shade: Option<SourceKey>,
     /// Spheres, planes and triangles in uniform buffers (`var<uniform>` fixed-size arrays of

@@ -114,7 +114,7 @@ pub fn color_rgba8(
     pixels.flat_map(|p| p.to_rgba8(background)).collect()
 }
 
-/// The coverage of each pixel of `images`, row-major: their [`Coverage`] when supersampled,
+/// The coverage of each pixel of `images`, row-major: their [`crate::images::Coverage`] when supersampled,
 /// else one sample per pixel (a hit covers the pixel with its palette colour, a miss not at all).
 pub fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
     match &images.coverage {

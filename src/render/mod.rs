@@ -300,7 +300,7 @@ pub fn render_streamed(
 
 /// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
 /// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
-/// over its certainty and re-cast passes; see [`gpu::render_timed`]); `None` for the CPU.
+/// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
 pub fn render_timed(
     scene: &Scene,
     mode: Mode,
