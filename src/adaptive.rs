@@ -54,6 +54,14 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     adaptive(gpu, scene, true)
 }
 
+/// The kernel of the first pass: robust f32, specialised for `scene`, with the certainty test.
+pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
+    Variant {
+        certainty: true,
+        ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
+    }
+}
+
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its
 /// hit/miss and id are certain; and the preparation it used.
 pub fn certainty_pass(
@@ -61,10 +69,7 @@ pub fn certainty_pass(
     scene: &Scene,
     timed: bool,
 ) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
-    let variant = Variant {
-        certainty: true,
-        ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
-    };
+    let variant = certainty_variant(gpu, scene);
     let prepared = gpu::prepare::<f32>(scene, &variant);
     let first = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
     Ok((first, prepared))

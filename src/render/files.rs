@@ -19,7 +19,6 @@ use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
-use crate::math::Precision;
 use crate::output::{self, Encoding};
 use crate::scene::{self, Object, Scene};
 use crate::supersample;
@@ -296,10 +295,7 @@ impl Spec {
     fn first_kernel(&self, gpu: &Gpu, scene: &Scene, request: &Request) -> Result<Variant> {
         let mode = self.mode;
         if mode.precision == Arithmetic::Adaptive {
-            return Ok(Variant {
-                certainty: true,
-                ..gpu.scene_variant(scene, Precision::F32, mode.algorithm)
-            });
+            return Ok(adaptive::certainty_variant(gpu, scene));
         }
         let spp = self.spp.unwrap_or(1);
         supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)

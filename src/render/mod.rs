@@ -157,6 +157,30 @@ pub fn render_request(
     progress: bool,
     request: &Request,
 ) -> Result<AnyImages> {
+    dispatch(scene, mode, gpu, progress, request, false).map(|(images, _)| images)
+}
+
+/// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
+/// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
+/// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
+pub fn render_timed(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+) -> Result<(AnyImages, Option<f64>)> {
+    dispatch(scene, mode, gpu, false, &Request::default(), true)
+}
+
+/// The mode dispatch of [`render_request`] and [`render_timed`]: the images, and with `timed`
+/// the GPU kernel time where the device can measure it.
+fn dispatch(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    progress: bool,
+    request: &Request,
+    timed: bool,
+) -> Result<(AnyImages, Option<f64>)> {
     check_request(mode, request)?;
     if mode.precision == Arithmetic::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
@@ -168,23 +192,33 @@ pub fn render_request(
                 });
             }
         };
-        return Ok(AnyImages::F32(
-            crate::adaptive::render_adaptive(gpu, scene)?.images,
-        ));
+        let a = if timed {
+            crate::adaptive::render_adaptive_timed(gpu, scene)?
+        } else {
+            crate::adaptive::render_adaptive(gpu, scene)?
+        };
+        return Ok((AnyImages::F32(a.images), a.kernel_s));
     }
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             Ok(match mode.precision {
-                Arithmetic::F32 => AnyImages::F32(on_gpu::<f32>(gpu, scene, variant, false)?.0),
-                _ => AnyImages::F64(on_gpu::<f64>(gpu, scene, variant, false)?.0),
+                Arithmetic::F32 => {
+                    let (images, stages) = on_gpu::<f32>(gpu, scene, variant, timed)?;
+                    (AnyImages::F32(images), stages.kernel_s)
+                }
+                _ => {
+                    let (images, stages) = on_gpu::<f64>(gpu, scene, variant, timed)?;
+                    (AnyImages::F64(images), stages.kernel_s)
+                }
             })
         }
         Device::Cpu => Ok(match mode.precision {
             Arithmetic::F32 => AnyImages::F32(cpu_with_progress(scene, mode.algorithm, progress)),
             _ => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
-        }),
+        })
+        .map(|images| (images, None)),
     }
 }
 
@@ -295,34 +329,6 @@ pub fn render_streamed(
         _ => bands::<f64>(gpu, scene, variant, max_rows, &mut |b| {
             sink(AnyImages::F64(b))
         }),
-    }
-}
-
-/// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
-/// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
-/// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
-pub fn render_timed(
-    scene: &Scene,
-    mode: Mode,
-    gpu: Option<&Gpu>,
-) -> Result<(AnyImages, Option<f64>)> {
-    match (mode.device, mode.precision, gpu) {
-        (Device::Gpu, Arithmetic::Adaptive, Some(g)) if mode.algorithm == Algorithm::Robust => {
-            let a = crate::adaptive::render_adaptive_timed(g, scene)?;
-            Ok((AnyImages::F32(a.images), a.kernel_s))
-        }
-        (Device::Gpu, Arithmetic::F32, Some(g)) => {
-            let variant = g.scene_variant(scene, Precision::F32, mode.algorithm);
-            let (images, s) = on_gpu::<f32>(g, scene, variant, true)?;
-            Ok((AnyImages::F32(images), s.kernel_s))
-        }
-        (Device::Gpu, Arithmetic::F64, Some(g)) => {
-            let variant = g.scene_variant(scene, Precision::F64, mode.algorithm);
-            let (images, s) = on_gpu::<f64>(g, scene, variant, true)?;
-            Ok((AnyImages::F64(images), s.kernel_s))
-        }
-        // The CPU, and the errors of [`render`].
-        _ => Ok((render(scene, mode, gpu, false)?, None)),
     }
 }
 

@@ -189,10 +189,7 @@ pub fn run(
     let mut scenes = Vec::with_capacity(paths.len());
     let mut infos = Vec::with_capacity(paths.len());
     for path in paths {
-        let mut scene = Scene::load(path)?;
-        if let Some(size) = options.size {
-            scene.camera.resolution = size;
-        }
+        let scene = crate::scene::load_sized(Some(path), options.size)?;
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         infos.push(SceneInfo::from_json(path, &text));
         scenes.push(scene);

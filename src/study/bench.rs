@@ -122,11 +122,8 @@ pub struct Loaded {
 /// Loads `path` (timed), with `size` overriding its resolution.
 pub fn load(path: &Path, size: Option<[u32; 2]>) -> Result<Loaded> {
     let start = Instant::now();
-    let mut scene = Scene::load(path)?;
+    let scene = crate::scene::load_sized(Some(path), size)?;
     let load_s = start.elapsed().as_secs_f64();
-    if let Some(size) = size {
-        scene.camera.resolution = size;
-    }
     Ok(Loaded {
         path: path.to_owned(),
         scene,

@@ -281,13 +281,9 @@ pub fn load_scenes(paths: &[PathBuf], size: Option<[u32; 2]>) -> Result<Vec<Name
     paths
         .iter()
         .map(|path| {
-            let mut scene = Scene::load(path)?;
-            if let Some(size) = size {
-                scene.camera.resolution = size;
-            }
             Ok(NamedScene {
                 name: scene_name(path),
-                scene,
+                scene: crate::scene::load_sized(Some(path), size)?,
             })
         })
         .collect()
