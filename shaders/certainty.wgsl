@@ -13,25 +13,52 @@ var<private> decision_t_condition: real;
 // Safety factor over the first-order error bounds.
 const MARGIN_K: real = 2.0;
 
-fn decide(certain: bool, t: real, t_condition: real) {
-    decision_certain = certain;
-    decision_t = t;
-    decision_t_condition = t_condition;
+// The first-order bounds below assume that no operation overflowed or underflowed. Overflow
+// leaves an infinity or a NaN in what is tested, so every test requires finite operands (a
+// NaN fails every comparison). Underflow (or a driver flushing subnormals to zero) loses at
+// most the smallest normal f32, 2^-126, per operation; the few dozen operations behind one
+// tested quantity lose less than UNDERFLOW_SLACK = 2^-120, added to every bound.
+const UNDERFLOW_SLACK: real = 7.52316384526264e-37;
+
+// 2^-120: a direction component at least this large has an inverse well within range.
+const SMALLEST_INVERTIBLE: real = 7.52316384526264e-37;
+
+// Finite and within the f32 range: neither an overflow nor a NaN (which fails both tests).
+fn is_finite_real(x: real) -> bool {
+    return abs(x) <= T_FAR;
 }
 
-// |q| exceeds MARGIN_K times its first-order error bound EPS * scale: its sign is certain.
+// Records the decision an intersect_* function made. A t or condition factor that overflowed
+// or is NaN says nothing of where the exact hit lies: the decision is then uncertain, and kept
+// at t = 0, nearer than any hit, so that it makes the pixel uncertain whatever else it meets.
+fn decide(certain: bool, t: real, t_condition: real) {
+    let known = is_finite_real(t) && is_finite_real(t_condition);
+    decision_certain = certain && known;
+    decision_t = select(0.0, t, known);
+    decision_t_condition = select(1.0, t_condition, known);
+}
+
+// |q| exceeds MARGIN_K times its first-order error bound EPS * scale (plus the underflow
+// slack): its sign is certain.
 fn is_certain(q: real, scale: real) -> bool {
-    return abs(q) >= MARGIN_K * EPS * scale;
+    return is_finite_real(scale) && abs(q) >= MARGIN_K * (EPS * scale + UNDERFLOW_SLACK);
+}
+
+// Bound on the error of a computed t with condition factor `c`, relative to |t|.
+fn t_error(c: real) -> real {
+    return EPS * (16.0 + 8.0 * MARGIN_K * c);
 }
 
 // The conservative start test decides as exact arithmetic would.
 fn start_certain(t: real, min_t: real, t_condition: real) -> bool {
-    return abs(t - min_t) >= EPS * (16.0 + 8.0 * MARGIN_K * t_condition) * abs(t);
+    return is_finite_real(t) && is_finite_real(t_condition)
+        && abs(t - min_t) >= t_error(t_condition) * abs(t) + UNDERFLOW_SLACK;
 }
 
 // Two hits are certainly in this order.
 fn gap_certain(t1: real, c1: real, t2: real, c2: real) -> bool {
-    return abs(t2 - t1) >= EPS * (16.0 + 8.0 * MARGIN_K * max(c1, c2)) * (abs(t1) + abs(t2));
+    return is_finite_real(t1) && is_finite_real(t2)
+        && abs(t2 - t1) >= t_error(max(c1, c2)) * (abs(t1) + abs(t2)) + UNDERFLOW_SLACK;
 }
 
 // A decision kept for the certainty test: where, for which object, how well conditioned.
@@ -55,14 +82,19 @@ struct Certainty {
     miss2: Decision,
     // The smallest distance beyond which the BVH traversal skipped boxes (cull_bound).
     cull_floor: real,
+    // The ray's direction has no component so small (and not zero) that its inverse, used by
+    // the box test, overflows.
+    ray_invertible: bool,
 }
 
 var<private> certainty: Certainty;
 
-// Resets the pixel's certainty state before its nearest-hit search.
-fn start_certainty() {
+// Resets the pixel's certainty state before the nearest-hit search of `ray`.
+fn start_certainty(ray: Ray) {
     let none = Decision(T_FAR, -1, 1.0);
-    certainty = Certainty(false, true, false, 1.0, none, none, none, T_FAR);
+    let d = abs(ray.direction);
+    let invertible = all((d == vec3<real>(0.0)) | (d >= vec3<real>(SMALLEST_INVERTIBLE)));
+    certainty = Certainty(false, true, false, 1.0, none, none, none, T_FAR, invertible);
 }
 
 // Keeps `d` if it is nearer than `first` or `second`, `first` and `second` being of
@@ -105,6 +137,9 @@ fn record(t: real, object: u32, closer: bool, best: Hit) {
 
 // Whether the pixel's hit/miss and nearest object are certain.
 fn is_pixel_certain(best: Hit) -> bool {
+    if (!certainty.ray_invertible) {
+        return false;
+    }
     if (best.object < 0) {
         return certainty.all_misses_certain;
     }
@@ -136,7 +171,7 @@ fn is_pixel_certain(best: Hit) -> bool {
 // An upper bound of the exact t of a hit computed as `t` with condition factor `c`: t plus its
 // error bound as in start_certain.
 fn t_upper(t: real, c: real) -> real {
-    return t + EPS * (16.0 + 8.0 * MARGIN_K * c) * abs(t);
+    return t + t_error(c) * abs(t);
 }
 
 // How far the BVH traversal must search beyond the nearest hit so far for the certainty test

@@ -14,9 +14,6 @@
 fn cast_pixel(i: u32, j: u32, index: u32) {
     let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
     let hit = nearest_hit(ray, params.frame.min_t);
-#if CERTAINTY
-    out_certain[index] = select(0u, 1u, is_pixel_certain(hit));
-#endif
 #if ID
     out_id[index] = select(hit.object, -1, hit.object < 0);
 #endif
@@ -31,6 +28,11 @@ fn cast_pixel(i: u32, j: u32, index: u32) {
         surface.w = hit.t * length(ray.direction) * params.unit;
 #endif
     }
+#if CERTAINTY
+    // A normal or distance that left f32's range (a NaN fails the test too) is no f32 answer.
+    let in_range = all(abs(surface) <= vec4<real>(T_FAR));
+    out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);
+#endif
 #if SURFACE
     out_surface[index] = surface;
 #endif

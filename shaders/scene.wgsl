@@ -36,7 +36,7 @@ fn keep(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
 fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     var best = Hit(T_FAR, -1, 0u, 0u);
 #if CERTAINTY
-    start_certainty();
+    start_certainty(ray);
 #endif
 #if SPHERES
 #if !BVH

@@ -92,7 +92,9 @@ fn intersect_triangle(ray: Ray, tri: Triangle, min_t: real) -> real {
             decide(true, T_FAR, 1.0);
         } else {
             // Where the ray meets the triangle's plane: the hit a flipped decision would give.
-            let t_guess = select(T_FAR, (u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z)) / det_guess, det_guess != 0.0);
+            // Seen edge-on (det_guess 0) it could be anywhere along the ray: 0, nearer than
+            // any hit.
+            let t_guess = select(0.0, (u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z)) / det_guess, det_guess != 0.0);
             decide(false, t_guess, 1.0);
         }
 #endif

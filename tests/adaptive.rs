@@ -7,6 +7,8 @@
 //!   the f32 pass marks certain disagrees with CPU f64 robust in hit/miss or id (the counter
 //!   must find zero), and the same counter does find disagreements when the certainty flags
 //!   are replaced by a test that trusts every pixel.
+//! - Where f32's arithmetic leaves its range (the `range-*` extreme scenes: overflow,
+//!   underflow, NaN), no pixel the f32 pass got wrong is marked certain.
 
 mod common;
 
@@ -103,6 +105,49 @@ fn the_certainty_test_is_sound_and_the_counter_can_tell() {
         all_wrong > 0,
         "no f32/f64 disagreement at all: the soundness check would be vacuous"
     );
+}
+
+/// The `range-*` extreme scenes leave f32's range even after the host's rescale (a triangle's t
+/// overflows, a tiny camera's ray directions underflow). There the f32 pass gets pixels wrong
+/// (ids, or outputs that are not finite), and none of them may be marked certain; on the
+/// pixels it does mark certain, its distances are f32-accurate.
+#[test]
+fn no_pixel_is_certain_where_f32_left_its_range() {
+    let scenes: Vec<(String, Scene)> = extreme_scenes()
+        .into_iter()
+        .filter(|(name, _)| name.starts_with("range-"))
+        .collect();
+    assert!(scenes.len() >= 3, "only {} range scenes", scenes.len());
+    for (name, scene) in &scenes {
+        let (pass, _) = raycast::adaptive::certainty_pass(gpu(), scene, false).unwrap();
+        let (first, certain) = (pass.images, pass.certainty.unwrap());
+        let truth = raycast::cpu::render::<f64>(scene, Robust);
+        let broken = |k: usize| {
+            let finite = first.distance[k].is_finite() || first.id[k] == raycast::images::MISS;
+            first.id[k] != truth.id[k] || !finite || first.normal[k].iter().any(|c| c.is_nan())
+        };
+        let wrong: Vec<usize> = (0..first.len()).filter(|&k| broken(k)).collect();
+        let certain_wrong = wrong.iter().filter(|&&k| certain[k]).count();
+        let certain_hits: Vec<usize> = (0..first.len())
+            .filter(|&k| certain[k] && truth.id[k] != raycast::images::MISS)
+            .collect();
+        let worst = certain_hits
+            .iter()
+            .map(|&k| {
+                let d = truth.distance[k];
+                (first.distance[k] as f64 - d).abs() / d
+            })
+            .fold(0.0, f64::max);
+        println!(
+            "{name}: f32 wrong on {} pixels, {certain_wrong} of them certain; {} certain hits, \
+             worst relative distance error {worst:.1e}",
+            wrong.len(),
+            certain_hits.len()
+        );
+        assert!(!wrong.is_empty(), "{name}: f32 never leaves its range");
+        assert_eq!(certain_wrong, 0, "{name}: certain pixels where f32 failed");
+        assert!(worst <= 1e-5, "{name}: certain distance off by {worst:e}");
+    }
 }
 
 #[test]

@@ -6,7 +6,8 @@
 //!
 //! Scenes: seeded random scenes (spheres, triangles, a closed mesh), dense random soups whose
 //! boxes overlap heavily, the course bunny, and every scene of `scenes/extremes/`, among them
-//! the shared-edge grids and fans where pixel rays pass exactly through edges and vertices.
+//! the shared-edge grids and fans where pixel rays pass exactly through edges and vertices
+//! (in f32 not the `range-*` scenes, built to leave f32's range).
 
 mod common;
 
@@ -71,6 +72,13 @@ fn sphere_cloud(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
     Scene::from_json(&json, Path::new("spheres.json"), &mut |_| unreachable!()).unwrap()
 }
 
+/// The extreme scenes built so that f32 overflows or underflows even in kernel units: there
+/// f32's box test and intersection tests are both meaningless (and adaptive precision re-casts
+/// every such pixel, tests/adaptive.rs), so the BVH has nothing exact to agree with.
+fn out_of_f32_range(name: &str) -> bool {
+    name.starts_with("range-")
+}
+
 fn scenes() -> Vec<(String, Scene)> {
     let mut s = Vec::new();
     for seed in 0..6 {
@@ -97,8 +105,13 @@ fn scenes() -> Vec<(String, Scene)> {
 /// The one exception allowed: the textbook formulas in f32, on the extreme scenes built to break
 /// them, report hits for rays that pass far from a primitive (a sphere 10^4 away, needles),
 /// farther than any box margin; the BVH then skips what brute force wrongly hits. Such pixels
-/// must be ones where textbook brute force disagrees with the f64 robust reference.
+/// must be ones where textbook brute force disagrees with the f64 robust reference. And f32
+/// renders of the `range-*` scenes, whose arithmetic leaves f32's range (`out_of_f32_range`),
+/// are not compared at all.
 fn cpu_bvh_differences<T: Real>(name: &str, scene: &Scene, algorithm: Algorithm) -> Vec<String> {
+    if T::PRECISION == Precision::F32 && out_of_f32_range(name) {
+        return Vec::new();
+    }
     let bvh = cpu::render_with::<T>(scene, algorithm, Accel::Bvh);
     let brute = cpu::render_with::<T>(scene, algorithm, Accel::BruteForce);
     if bvh == brute {
@@ -170,7 +183,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 brute32, cpu_brute32,
                 "{name} {algorithm}: GPU vs CPU brute force"
             );
-            if algorithm == Robust {
+            if algorithm == Robust && !out_of_f32_range(&name) {
                 assert_eq!(bvh32.id, brute32.id, "{name} {algorithm} f32");
             }
             let variant64 = |bvh| Variant {

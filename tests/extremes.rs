@@ -3,7 +3,8 @@
 //! - Every scene, GPU robust f32: hit/miss equals CPU f64 robust on every pixel whose f64
 //!   hit/miss margin is at least 1, and the id on every pixel whose id margin is too (margins
 //!   from `raycast::cpu::margin`: the decision quantity over `64 eps32` times its scale).
-//!   No output holds NaN, and no infinity but `distance` on a miss, in any GPU mode.
+//!   No output holds NaN, and no infinity but `distance` on a miss, in any GPU mode (textbook
+//!   f32 excepted on the `range` scenes, whose arithmetic leaves f32's range).
 //! - `shared-edges`: robust f32 loses no hit of the f64 reference (no ray through a shared
 //!   edge or vertex falls through); textbook f32 is measured, and on the full-view grid it does
 //!   crack, as the literature says Cramer's rule does.
@@ -22,7 +23,8 @@ use common::*;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu::margin::{Margins, margins};
 use raycast::images::{Images, MISS};
-use raycast::prepare::{Primitives, kernel_frame};
+use raycast::prepare::Prepared;
+use raycast::prepare::bvh::Accel;
 use raycast::render::AnyImages;
 use raycast::scene::{Object, Scene};
 
@@ -65,10 +67,10 @@ fn truth(scene: &Scene) -> Images<f64> {
     raycast::cpu::render::<f64>(scene, Robust)
 }
 
+/// The f32 kernel's margins, judged in its own (kernel) units.
 fn f32_margins(scene: &Scene) -> Vec<Margins> {
-    let frame = kernel_frame(scene, Robust);
-    let prims = Primitives::<f64>::new(scene, Robust);
-    margins(&frame, &prims, f32::EPSILON as f64)
+    let prepared = Prepared::<f64>::new(scene, Robust, Accel::BruteForce);
+    margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64)
 }
 
 /// (pixels where hit/miss differs on a certain pixel, id differs on a certain pixel,
@@ -133,14 +135,19 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
     }
 }
 
+/// Textbook f32 is exempt on the `range` scenes only: its world-coordinate quadratic there
+/// computes hits at t beyond f32's range (a distance of infinity), the failure it is kept to
+/// show.
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {
         for a in [Textbook, Robust] {
-            assert_clean(
-                &format!("{} gpu f32 {a}", e.name),
-                &gpu_render::<f32>(&e.scene, a),
-            );
+            if !(a == Textbook && kind(&e) == "range") {
+                assert_clean(
+                    &format!("{} gpu f32 {a}", e.name),
+                    &gpu_render::<f32>(&e.scene, a),
+                );
+            }
             assert_clean(
                 &format!("{} gpu f64 {a}", e.name),
                 &gpu_render::<f64>(&e.scene, a),
@@ -367,30 +374,6 @@ fn rays_in_a_triangle_plane_or_a_plane_miss_without_nan() {
     }
 }
 
-/// The largest magnitude of any coordinate, radius or camera length of `scene`.
-fn largest_magnitude(scene: &Scene) -> f64 {
-    let c = &scene.camera;
-    let mut values = vec![c.focal_length, c.width, c.height];
-    values.extend(c.eye.to_array());
-    for object in &scene.objects {
-        match object {
-            Object::Sphere { center, radius } => {
-                values.extend(center.to_array());
-                values.push(*radius);
-            }
-            Object::Plane { point, .. } => values.extend(point.to_array()),
-            Object::Triangle { corners } => {
-                corners.iter().for_each(|p| values.extend(p.to_array()))
-            }
-            Object::Soup { triangles, .. } => triangles
-                .iter()
-                .flatten()
-                .for_each(|p| values.extend(p.to_array())),
-        }
-    }
-    values.into_iter().fold(0.0, |m, x: f64| m.max(x.abs()))
-}
-
 /// Every mode renders a scene scaled by 2^k, k from -60 to 60, exactly like the unscaled one:
 /// the same ids and normals bit for bit, distances exactly 2^k times (the host renders every
 /// scale at the camera's own scale, `prepare::unit_exponent`). The base is the dyadic scene
@@ -398,11 +381,11 @@ fn largest_magnitude(scene: &Scene) -> f64 {
 #[test]
 fn every_mode_is_invariant_under_power_of_two_scaling() {
     let dyadic = Scene::load(&repo_path("scenes/extremes/dyadic-base.json")).unwrap();
-    let shift = (1e18 / 2f64.powi(60) / largest_magnitude(&dyadic))
+    let shift = (1e18 / 2f64.powi(60) / Scene::largest_magnitude(&dyadic))
         .log2()
         .floor() as i32;
     let base = dyadic.scaled_by_pow2(shift);
-    assert!(largest_magnitude(&base) * 2f64.powi(60) <= 1e18);
+    assert!(Scene::largest_magnitude(&base) * 2f64.powi(60) <= 1e18);
     let modes = [
         "gpu:f32:robust",
         "gpu:f64:robust",

@@ -26,6 +26,14 @@
 //!   allowance; a computed t is good to about 8 eps times a condition factor): `cond` is
 //!   `1 + |f|^2 / |c|` for sphere roots, whose `c = |f|^2 - r^2` cancels when the eye is near
 //!   the surface, `1 + |d| / |d.n|` for planes seen at a grazing angle, 1 for triangles.
+//!
+//! These first-order bounds hold only while the kernel's arithmetic stays in f32's normal
+//! range (`shaders/certainty.wgsl` makes the same assumptions and the same checks). Every
+//! bound adds `UNDERFLOW_SLACK`, what flushing the results below that range to zero can lose;
+//! a decision whose intermediates would overflow f32 (`fits_f32`), or a ray direction whose
+//! inverse would, has margin 0; and so does a sphere seen along a direction whose squared
+//! length underflows. Margins are judged in kernel units (`Prepared`): the host's rescale
+//! decides which magnitudes the kernel meets.
 
 use super::camera::camera_ray;
 use super::types::{Frame, Ray};
@@ -64,13 +72,39 @@ struct Candidate {
     object: u32,
 }
 
+/// 2^-120: what the kernel's operations behind one tested quantity can lose to results below
+/// f32's normal range being flushed to zero (`UNDERFLOW_SLACK` in shaders/certainty.wgsl).
+const UNDERFLOW_SLACK: f64 = 7.52316384526264e-37;
+
+/// The smallest non-zero direction component whose inverse the kernel's box test can form
+/// (`SMALLEST_INVERTIBLE` in shaders/certainty.wgsl).
+const SMALLEST_INVERTIBLE: f64 = 7.52316384526264e-37;
+
+/// Whether every magnitude in `values` stays within f32's range, with room for the sums and
+/// roundings that follow.
+fn fits_f32(values: &[f64]) -> bool {
+    values.iter().all(|x| x.abs() <= f32::MAX as f64 / 16.0)
+}
+
 fn bound(eps: f64, scale: f64) -> f64 {
-    K * eps * scale
+    K * (eps * scale + UNDERFLOW_SLACK)
 }
 
 /// Margin of `t >= min_t` for a t with relative error `eps * t_condition`.
 fn start_margin(t: f64, min_t: f64, eps: f64, t_condition: f64) -> f64 {
-    (t - min_t).abs() / (eps * (16.0 + 8.0 * K * t_condition) * t.abs())
+    (t - min_t).abs() / (eps * (16.0 + 8.0 * K * t_condition) * t.abs() + UNDERFLOW_SLACK)
+}
+
+/// The verdict on a primitive whose arithmetic leaves f32's range: uncertain, and placed at
+/// t = 0, nearer than any hit, as the kernel does with a t it cannot trust.
+fn out_of_range(hits: bool) -> Candidate {
+    Candidate {
+        hits,
+        margin: 0.0,
+        t: if hits { f64::MIN_POSITIVE } else { 0.0 },
+        t_condition: 1.0,
+        object: 0,
+    }
 }
 
 /// The verdict on a surface the ray meets at `t`: a hit if `t` is beyond the start, certain when
@@ -101,8 +135,15 @@ fn sphere(ray: &Ray<f64>, center: Vec3<f64>, radius: f64, min_t: f64, eps: f64) 
     let l = f - d * (b / a);
     let r2 = radius * radius;
     let l2 = dot(l, l);
-    let margin_disc = (r2 - l2).abs() / bound(eps, r2 + 2.0 * l2 + 24.0 * l2.sqrt() * length(f));
+    let scale = r2 + 2.0 * l2 + 24.0 * l2.sqrt() * length(f);
+    let margin_disc = (r2 - l2).abs() / bound(eps, scale);
     let c = dot(f, f) - r2;
+    let half = ((r2 - l2).max(0.0) / a).sqrt();
+    let (near, far) = (-b / a - half, -b / a + half);
+    let in_range = a >= f32::MIN_POSITIVE as f64 && fits_f32(&[b, dot(f, f), r2, scale, near, far]);
+    if !in_range {
+        return out_of_range(r2 >= l2 && far >= min_t);
+    }
     // Of the roots q/a and c/q, the smaller in magnitude is c/q, whose c = |f|^2 - r^2
     // cancels when the eye is near the surface.
     let c_condition = 1.0 + dot(f, f) / c.abs().max(f64::MIN_POSITIVE);
@@ -116,8 +157,6 @@ fn sphere(ray: &Ray<f64>, center: Vec3<f64>, radius: f64, min_t: f64, eps: f64) 
             object: 0,
         };
     }
-    let half = ((r2 - l2) / a).sqrt();
-    let (near, far) = (-b / a - half, -b / a + half);
     let condition = |t: f64, other: f64| {
         if t.abs() <= other.abs() {
             c_condition
@@ -151,6 +190,9 @@ fn plane(ray: &Ray<f64>, point: Vec3<f64>, normal: Vec3<f64>, min_t: f64, eps: f
     let cutoff = 4.0 * eps * length(d);
     let margin_parallel = (denominator.abs() - cutoff).abs() / bound(eps, length(d));
     let t = dot(point - ray.origin, normal) / denominator;
+    if dot(d, d) < f32::MIN_POSITIVE as f64 || (denominator.abs() > cutoff && !fits_f32(&[t])) {
+        return out_of_range(denominator != 0.0 && t >= min_t);
+    }
     let t_condition = 1.0 + length(d) / denominator.abs().max(f64::MIN_POSITIVE);
     if denominator.abs() <= cutoff || !t.is_finite() {
         return Candidate {
@@ -200,21 +242,34 @@ fn triangle(ray: &Ray<f64>, corners: [Vec3<f64>; 3], min_t: f64, eps: f64) -> Ca
     let x = p.map(|q| q.get(kx) - sx * q.get(kz));
     let y = p.map(|q| q.get(ky) - sy * q.get(kz));
     let z = p.map(|q| q.get(kz));
-    // Edge opposite corner k runs from corner k+1 to corner k+2.
+    // Edge opposite corner k runs from corner k+1 to corner k+2: (value, margin). An edge
+    // whose error scale overflows f32 is uncertain.
     let edge = |k: usize| {
         let (i, j) = ((k + 2) % 3, (k + 1) % 3);
         let e = x[i] * y[j] - y[i] * x[j];
         let scale = 2.0
             * ((x[i].abs() + z[i].abs()) * (y[j].abs() + z[j].abs())
                 + (y[i].abs() + z[i].abs()) * (x[j].abs() + z[j].abs()));
-        (e, e.abs() / bound(eps, scale))
+        let margin = if fits_f32(&[scale]) {
+            e.abs() / bound(eps, scale)
+        } else {
+            0.0
+        };
+        (e, margin)
     };
     let edges = [edge(0), edge(1), edge(2)];
     let determinant: f64 = edges.iter().map(|(e, _)| e).sum();
-    let t = (edges[0].0 * z[0] + edges[1].0 * z[1] + edges[2].0 * z[2]) * sz / determinant;
+    // The kernel's t: each edge times its corner's sz * z, summed, over the determinant. Where
+    // that overflows f32, the kernel knows nothing of where the triangle is hit.
+    let terms = [0, 1, 2].map(|k| edges[k].0 * (sz * z[k]));
+    let t = terms.iter().sum::<f64>() / determinant;
+    let t_known = determinant != 0.0 && fits_f32(&terms) && fits_f32(&[t]);
     let inside = edges.iter().all(|(e, _)| *e >= 0.0) || edges.iter().all(|(e, _)| *e <= 0.0);
+    if inside && determinant != 0.0 && !t_known {
+        return out_of_range(t >= min_t);
+    }
     let t_condition = 1.0;
-    if !inside || determinant == 0.0 || !t.is_finite() {
+    if !inside || determinant == 0.0 {
         // Certain miss when some edge is certainly on the wrong side.
         let positive = determinant >= 0.0;
         let margin = edges
@@ -222,7 +277,8 @@ fn triangle(ray: &Ray<f64>, corners: [Vec3<f64>; 3], min_t: f64, eps: f64) -> Ca
             .filter(|(e, _)| (*e < 0.0) == positive && *e != 0.0)
             .map(|(_, m)| *m)
             .fold(0.0, f64::max);
-        let t = if t.is_finite() { t } else { f64::INFINITY };
+        // Seen edge-on, or beyond f32's range, a flipped decision could hit anywhere.
+        let t = if t_known { t } else { 0.0 };
         return Candidate {
             hits: false,
             margin,
@@ -247,6 +303,10 @@ pub fn pixel_margins(
 ) -> Margins {
     let ray = camera_ray(frame, i, j);
     let min_t = frame.min_t;
+    let d = ray.direction.to_array();
+    if d.iter().any(|&x| x != 0.0 && x.abs() < SMALLEST_INVERTIBLE) {
+        return Margins { hit: 0.0, id: 0.0 };
+    }
     let mut candidates = Vec::new();
     for (s, &object) in prims.spheres.iter().zip(&prims.sphere_objects) {
         candidates.push(Candidate {
@@ -354,6 +414,17 @@ mod tests {
         let on_edge = triangle(&ray([0.0; 3], [0.0, -0.2, -1.0]), corners, 1.0, eps);
         assert!(inside.hits && inside.margin > 1.0);
         assert!(on_edge.margin < 1.0);
+    }
+
+    #[test]
+    fn a_triangle_whose_t_overflows_f32_is_uncertain() {
+        let eps = f32::EPSILON as f64;
+        let corners = |s: f64| [vec3(-s, -s, -s), vec3(s, -s, -s), vec3(0.0, s, -s)];
+        let near = triangle(&ray([0.0; 3], [0.0, 0.0, -1.0]), corners(1e6), 1.0, eps);
+        // Edges near 1e36 times z near 1e18: the kernel's t overflows.
+        let far = triangle(&ray([0.0; 3], [0.0, 0.0, -1.0]), corners(1e18), 1.0, eps);
+        assert!(near.hits && near.margin > 1.0);
+        assert!(far.hits && far.margin == 0.0);
     }
 
     #[test]

@@ -116,11 +116,24 @@ pub struct Primitives<T> {
 /// the scene scaled by `2^-e` has a camera of size in `[1, 2)`. Scaling a scene by `2^k` adds
 /// exactly `k`, so every render sees the same numbers at every power-of-two scale: products of
 /// coordinates can neither overflow nor flush to zero in f32 where the unscaled scene's do not.
+///
+/// A camera more than 2^60 times smaller than the scene's largest number (more than a scene
+/// file's 1e18 can span) would carry that number beyond 2^60 in kernel units, and even beyond
+/// f64's range for a camera near 1e-300: `e` is then raised to keep every kernel coordinate
+/// within 2^61, which also adds exactly `k` under scaling.
 pub fn unit_exponent(scene: &Scene) -> i32 {
     let c = &scene.camera;
-    let size = c.focal_length.max(c.width).max(c.height);
-    // Scene values are positive, finite and at most 1e18 (checked on load), so normal.
-    ((size.to_bits() >> 52) & 0x7ff) as i32 - 1023
+    let camera = binary_exponent(c.focal_length.max(c.width).max(c.height));
+    camera.max(binary_exponent(scene.largest_magnitude()) - MAX_KERNEL_EXPONENT)
+}
+
+/// The largest binary exponent a kernel coordinate may have: 2^60 > 1e18, the largest number
+/// a scene file may hold.
+const MAX_KERNEL_EXPONENT: i32 = 60;
+
+/// `floor(log2(x))` of a positive finite `x`, or -1023 for a subnormal one.
+fn binary_exponent(x: f64) -> i32 {
+    ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023
 }
 
 /// `scene` in kernel units (scaled by `2^-e`, [`unit_exponent`]; borrowed when `e` is 0, the

@@ -166,6 +166,27 @@ impl Scene {
         n
     }
 
+    /// The largest magnitude of any coordinate, radius or camera length of the scene.
+    pub fn largest_magnitude(&self) -> f64 {
+        let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
+        let c = &self.camera;
+        let camera = largest(&c.eye)
+            .max(c.focal_length)
+            .max(c.width)
+            .max(c.height);
+        self.objects
+            .iter()
+            .map(|object| match object {
+                Object::Sphere { center, radius } => largest(center).max(*radius),
+                Object::Plane { point, .. } => largest(point),
+                Object::Triangle { corners } => corners.iter().map(largest).fold(0.0, f64::max),
+                Object::Soup { triangles, .. } => {
+                    triangles.iter().flatten().map(largest).fold(0.0, f64::max)
+                }
+            })
+            .fold(camera, f64::max)
+    }
+
     /// Total number of triangles (loose triangles plus soups).
     pub fn triangle_count(&self) -> usize {
         self.objects
