@@ -11,7 +11,7 @@ that binary, in turn with this one within each round, and the table gains the ra
 two: how a change moved each mode, measured side by side.
 
 Usage: benches/modes.py [--scene FILE] [--size WxH] [--rounds N] [--binary PATH]
-                        [--baseline PATH]
+                        [--baseline PATH] [--only LABEL,...]
 Default: scenes/course/bunny.json at 1920x1080, 5 rounds, target/release/raycast (built with
 `cargo build --release` first). Not part of CI: it measures, it asserts nothing.
 """
@@ -30,7 +30,8 @@ REPO = Path(__file__).resolve().parent.parent
 def modes(size, half):
     """(label, extra arguments, target ratio against f32 or None) per mode."""
     return [
-        ("f32", ["--size", size], None),
+        ("f32", ["--size", size, "--precision", "f32"], None),
+        ("default (adaptive)", ["--size", size], 1.25),
         ("adaptive", ["--size", size, "--precision", "adaptive"], 1.25),
         ("f64", ["--size", size, "--precision", "f64"], 1.5),
         ("f32 textbook", ["--size", size, "--algorithm", "textbook"], None),
@@ -61,10 +62,14 @@ def main():
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--binary", default=str(REPO / "target/release/raycast"))
     p.add_argument("--baseline", help="another raycast binary, run side by side")
+    p.add_argument("--only", help="comma-separated mode labels to run (f32 always runs)")
     a = p.parse_args()
     w, h = (int(x) for x in a.size.split("x"))
     half = f"{w // 2}x{h // 2}"
     table = modes(a.size, half)
+    if a.only:
+        keep = {"f32", *a.only.split(",")}
+        table = [m for m in table if m[0] in keep]
     binaries = [a.binary] + ([a.baseline] if a.baseline else [])
     times = {(b, label): [] for b in binaries for label, _, _ in table}
     with tempfile.TemporaryDirectory() as out:
@@ -74,7 +79,8 @@ def main():
                     times[b, label].append(run(b, a.scene, extra, out))
     median = {k: statistics.median(v[1:]) for k, v in times.items()}
     print(f"`benches/modes.py --scene {a.scene} --size {a.size} --rounds {a.rounds}"
-          f"{' --baseline ' + a.baseline if a.baseline else ''}`"
+          f"{' --baseline ' + a.baseline if a.baseline else ''}"
+          f"{' --only ' + a.only if a.only else ''}`"
           f" (wall time of `raycast render ... --format png,npy`, median of {a.rounds} rounds)\n")
     extra = " | baseline s | this / baseline" if a.baseline else ""
     print(f"| mode | median s | vs f32 | target{extra} |")

@@ -80,13 +80,7 @@ fn sphere_normal(ray: Ray, t: real, sphere: Sphere) -> vec3<real> {
     let a = dot(d, d);
     let b = dot(f, d);
     let l = f - (b / a) * d;
-    let chord2 = max(sphere.radius * sphere.radius - dot(l, l), 0.0);
-    var half_chord = sqrt(chord2 / a);
-    // A direction much shorter than the sphere is large (a camera far smaller than the scene)
-    // overflows the quotient: the square roots taken apart stay in range.
-    if (half_chord > T_FAR) {
-        half_chord = sqrt(chord2) / sqrt(a);
-    }
+    let half_chord = sqrt(max(sphere.radius * sphere.radius - dot(l, l), 0.0) / a);
     let along = select(half_chord, -half_chord, t < -b / a);
     return normalize(l + along * d);
 }

@@ -45,7 +45,10 @@ enum Command {
         #[arg(long, default_value = "gpu")]
         device: Device,
         /// Arithmetic: f32, f64 (on the GPU it needs SHADER_F64), or adaptive (GPU, robust:
-        /// f32 with uncertain pixels cast again in f64). Default: f32 on the GPU, f64 on the CPU.
+        /// f32 with uncertain pixels cast again in f64, on the GPU or else on the CPU).
+        /// Default: adaptive on the GPU (f32 with --shader, --kernel, --emit-shader,
+        /// --band-rows, the textbook set, or images of more than 16,777,216 pixels, which f32
+        /// renders in bands); f64 on the CPU.
         #[arg(long)]
         precision: Option<Arithmetic>,
         /// Intersection algorithms: robust (camera-relative, watertight) or textbook (the
@@ -282,6 +285,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 scene,
                 size,
                 mode,
+                default_precision: precision.is_none(),
                 spp,
                 band_rows,
                 shader,

@@ -205,21 +205,45 @@ fn course_spot_pixels() {
     assert_eq!(at("inside-a-sphere", 180, 320).2, [127, 127, 0]);
 }
 
-/// Adaptive precision (robust f32, uncertain pixels cast again in f64) reproduces every course
-/// render: the id picture exactly, depth and normal within one level. This needs the
-/// certainty test to judge which root of a sphere is the hit, not only whether the sphere is
-/// hit: inside-a-sphere has a ring of pixels whose near root lies within the start test's
-/// error bound of the image plane, where f32 takes the far root of the same sphere.
+/// `raycast render SCENE`, with no option, reproduces every course render: the id picture
+/// exactly, depth and normal within one level. The default is adaptive precision (robust f32,
+/// uncertain pixels cast again in f64), which needs the certainty test to judge which root of a
+/// sphere is the hit, not only whether the sphere is hit: inside-a-sphere has a ring of pixels
+/// whose near root lies within the start test's error bound of the image plane, where f32 takes
+/// the far root of the same sphere.
 #[test]
-fn adaptive_precision_reproduces_every_course_render() {
-    let mode: raycast::render::Mode = "gpu:adaptive:robust".parse().unwrap();
+fn the_default_render_reproduces_every_course_render() {
+    let dir = tempfile::tempdir().unwrap();
     for name in COURSE_SCENES {
-        let scene = course_scene(name);
-        let images = raycast::render::render(&scene, mode, Some(gpu()), false).unwrap();
-        let raycast::render::AnyImages::F32(images) = images else {
-            panic!("adaptive precision gives f32 images")
+        let out = dir.path().join(name);
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .arg("render")
+            .arg(repo_path(&format!("scenes/course/{name}.json")))
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        assert!(stdout.contains("gpu:adaptive:robust"), "{name}: {stdout}");
+        let read = |kind: &str| {
+            let img = image::open(out.join(format!("{kind}.png"))).unwrap();
+            match kind {
+                "depth" => img.into_luma8().into_raw(),
+                _ => img.into_rgb8().into_raw(),
+            }
         };
-        let ours = pictures(&images);
+        let ours = Pictures {
+            width: 640,
+            height: 360,
+            id: read("id"),
+            depth: read("depth"),
+            normal: read("normal"),
+        };
         let id = diff(&ours.id, &course_render(name, "id"), 3, None);
         let depth = diff(&ours.depth, &course_render(name, "depth"), 1, None);
         let normal = diff(&ours.normal, &course_render(name, "normal"), 3, None);

@@ -96,7 +96,13 @@ fn bands_give_the_files_of_a_whole_render() {
         let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
         let whole = dir.path().join(format!("whole{k}"));
         let banded = dir.path().join(format!("banded{k}"));
-        render(scene, &whole, &extra);
+        // Bands need a single kernel: without a precision they render in f32 (the whole image
+        // would take the default, adaptive precision), so the whole render names it.
+        let mut whole_args = extra.clone();
+        if !extra.contains(&"--precision") {
+            whole_args.extend(["--precision", "f32"]);
+        }
+        render(scene, &whole, &whole_args);
         let mut with_bands = extra.clone();
         with_bands.extend(["--band-rows", "7"]);
         let out = render(scene, &banded, &with_bands);

@@ -1,7 +1,7 @@
 //! Mirror of shaders/sphere.wgsl: ray/sphere intersection, `ROBUST` choosing the body as
 //! `#if ROBUST` does in WGSL.
 
-use super::types::{Ray, Sphere, is_beyond, no_hit, t_far};
+use super::types::{Ray, Sphere, is_beyond, no_hit};
 use crate::math::{Real, Vec3, dot, normalize};
 
 pub fn intersect_sphere<T: Real, const ROBUST: bool>(
@@ -69,11 +69,7 @@ pub fn sphere_normal_robust<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> 
     let a = dot(d, d);
     let b = dot(f, d);
     let l = f - d * (b / a);
-    let chord2 = (sphere.radius * sphere.radius - dot(l, l)).max(T::ZERO);
-    let mut half_chord = (chord2 / a).sqrt();
-    if half_chord > t_far::<T>() {
-        half_chord = chord2.sqrt() / a.sqrt();
-    }
+    let half_chord = ((sphere.radius * sphere.radius - dot(l, l)).max(T::ZERO) / a).sqrt();
     let along = if t < -b / a { -half_chord } else { half_chord };
     normalize(l + d * along)
 }

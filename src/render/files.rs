@@ -31,6 +31,9 @@ pub struct Spec {
     /// Overrides the scene's resolution.
     pub size: Option<[u32; 2]>,
     pub mode: Mode,
+    /// No precision was asked for: on the GPU the render takes the default,
+    /// [`Spec::resolved_mode`], and `mode.precision` is not read.
+    pub default_precision: bool,
     /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
     pub spp: Option<u32>,
     /// Render and write in bands of at most this many rows.
@@ -108,8 +111,50 @@ impl Summary {
 }
 
 impl Spec {
+    /// The mode the render runs in. With [`Spec::default_precision`] on the GPU: adaptive
+    /// precision, which reproduces f64's hits and ids (the course's pictures) at close to f32's
+    /// cost; but f32 where a render needs a single kernel (`--shader`, `--kernel`,
+    /// `--emit-shader`, whose kernel can then be fed back with `--kernel`, bands, or an image of
+    /// more than [`STREAM_PIXELS`] pixels, `huge`, which f32 streams in bands) or the textbook
+    /// set, which adaptive precision does not run.
+    pub fn resolved_mode(&self, huge: bool) -> Mode {
+        if !self.default_precision {
+            return self.mode;
+        }
+        let device = self.mode.device;
+        let single_kernel = self.shader.is_some()
+            || self.kernel.is_some()
+            || self.emit_shader.is_some()
+            || self.band_rows.is_some()
+            || (huge && self.spp.is_none());
+        let precision = match device {
+            Device::Cpu => device.default_precision(),
+            Device::Gpu if single_kernel || self.mode.algorithm != Algorithm::Robust => {
+                Arithmetic::F32
+            }
+            Device::Gpu => Arithmetic::Adaptive,
+        };
+        Mode {
+            precision,
+            ..self.mode
+        }
+    }
+
+    /// This spec with its mode resolved ([`Spec::resolved_mode`]).
+    fn resolved(&self, huge: bool) -> Spec {
+        Spec {
+            mode: self.resolved_mode(huge),
+            default_precision: false,
+            ..self.clone()
+        }
+    }
+
     /// Refuses the option combinations that cannot render, before anything is read.
     pub fn check(&self) -> Result<()> {
+        self.resolved(false).check_resolved()
+    }
+
+    fn check_resolved(&self) -> Result<()> {
         let refuse = |option: &str, message: &str| {
             Err(Error::Argument {
                 option: option.into(),
@@ -178,6 +223,12 @@ impl Spec {
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_sized(self.scene.as_deref(), self.size)?;
+        let [nx, ny] = scene.camera.resolution;
+        let huge = nx as u64 * ny as u64 > STREAM_PIXELS;
+        self.resolved(huge).run_resolved(gpu, &scene, huge)
+    }
+
+    fn run_resolved(&self, gpu: Option<&Gpu>, scene: &Scene, huge: bool) -> Result<Summary> {
         let request = Request {
             outputs: self.encoding.outputs,
             shade: self.shader.as_deref().map(gpu::hooks::load).transpose()?,
@@ -190,7 +241,7 @@ impl Spec {
         };
         if let (Some(_), Some(g)) = (&request.kernel, gpu) {
             // A kernel whose bindings do not fit is refused before the output folder is made.
-            self.first_kernel(g, &scene, &request)?;
+            self.first_kernel(g, scene, &request)?;
         }
         output::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
@@ -198,7 +249,6 @@ impl Spec {
             output::check_writable(dir.unwrap_or(Path::new(".")))?;
         }
         let [nx, ny] = scene.camera.resolution;
-        let huge = nx as u64 * ny as u64 > STREAM_PIXELS;
         let mut summary = Summary {
             scene: (self.scene.as_ref())
                 .map_or("the default scene".into(), |p| p.display().to_string()),
@@ -217,14 +267,14 @@ impl Spec {
         match gpu {
             Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
                 let rows = self.band_rows.unwrap_or(band_rows(nx));
-                let (written, elapsed) = timed(|| self.render_bands(g, &scene, &request, rows));
+                let (written, elapsed) = timed(|| self.render_bands(g, scene, &request, rows));
                 summary.written = written?;
                 summary.elapsed = elapsed;
                 summary.bands = Some(rows);
                 summary.peak_mib = super::peak_rss_mib();
             }
             _ => {
-                let (images, elapsed) = timed(|| self.render_whole(&scene, gpu, &request));
+                let (images, elapsed) = timed(|| self.render_whole(scene, gpu, &request));
                 let (images, recast) = images?;
                 summary.elapsed = elapsed;
                 summary.recast = recast;
@@ -232,7 +282,7 @@ impl Spec {
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
-            let source = shader::kernel_source(&self.first_kernel(g, &scene, &request)?)?;
+            let source = shader::kernel_source(&self.first_kernel(g, scene, &request)?)?;
             output::write_file(path, source.as_bytes())?;
             summary.emitted = Some(path.clone());
         }
@@ -299,5 +349,61 @@ impl Spec {
         }
         let spp = self.spp.unwrap_or(1);
         supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::Format;
+
+    fn spec(mode: &str, default_precision: bool) -> Spec {
+        Spec {
+            scene: None,
+            size: None,
+            mode: mode.parse().unwrap(),
+            default_precision,
+            spp: None,
+            band_rows: None,
+            shader: None,
+            kernel: None,
+            out_dir: PathBuf::from("out"),
+            encoding: Encoding::new(&[Format::Png], None).unwrap(),
+            emit_shader: None,
+        }
+    }
+
+    #[test]
+    fn the_default_precision_is_adaptive_where_one_render_path_allows_it() {
+        let resolved = |s: &Spec, huge| s.resolved_mode(huge).to_string();
+        let gpu = spec("gpu", true);
+        assert_eq!(resolved(&gpu, false), "gpu:adaptive:robust");
+        assert_eq!(
+            resolved(&spec("gpu:f32:textbook", true), false),
+            "gpu:f32:textbook"
+        );
+        assert_eq!(resolved(&spec("cpu", true), false), "cpu:f64:robust");
+        // One kernel, or bands: f32.
+        assert_eq!(resolved(&gpu, true), "gpu:f32:robust");
+        let with = |f: fn(&mut Spec)| {
+            let mut s = gpu.clone();
+            f(&mut s);
+            resolved(&s, false)
+        };
+        assert_eq!(with(|s| s.shader = Some("a.wgsl".into())), "gpu:f32:robust");
+        assert_eq!(with(|s| s.kernel = Some("k.wgsl".into())), "gpu:f32:robust");
+        assert_eq!(
+            with(|s| s.emit_shader = Some("k.wgsl".into())),
+            "gpu:f32:robust"
+        );
+        assert_eq!(with(|s| s.band_rows = Some(7)), "gpu:f32:robust");
+        // Supersampled renders are never banded: a huge one stays adaptive.
+        let mut spp = gpu.clone();
+        spp.spp = Some(4);
+        assert_eq!(resolved(&spp, true), "gpu:adaptive:robust");
+        // A precision asked for is kept.
+        let mut shaded = spec("gpu:f64", false);
+        shaded.shader = Some("a.wgsl".into());
+        assert_eq!(resolved(&shaded, true), "gpu:f64:robust");
     }
 }
