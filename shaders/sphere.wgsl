@@ -19,7 +19,11 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     let l2 = dot(l, l);
     let discriminant = a * (r2 - l2);
 #if CERTAINTY
-    let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * length(f));
+    // l is off by about 11 EPS |f| (absolute), so l2 by 22 EPS |l| |f| and, where l is smaller
+    // than that error (a sphere thinner than an ulp of its distance), by its square,
+    // 121 EPS^2 |f|^2: the last term.
+    let ff_bound = dot(f, f);
+    let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * sqrt(ff_bound) + 128.0 * EPS * ff_bound);
 #endif
     if (discriminant < 0.0) {
 #if CERTAINTY

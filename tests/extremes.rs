@@ -8,9 +8,14 @@
 //! - `shared-edges`: robust f32 loses no hit of the f64 reference (no ray through a shared
 //!   edge or vertex falls through); textbook f32 is measured, and on the full-view grid it does
 //!   crack, as the literature says Cramer's rule does.
-//! - `translated`: the same hit/miss and ids as the base scene, distances within 1e-6
+//! - `translated` (meshes in OBJ, ASCII PLY and binary double PLY): in robust f32, f64 and
+//!   adaptive precision, the same hit/miss and ids as the base scene, distances within 1e-6
 //!   (relative).
-//! - `scaled` by 2^k: the same hit/miss and ids, distances exactly 2^k times the base's.
+//! - `scaled` by 2^k (k = -20, 20, 40, 56 in files; -60 to 60 in memory): in robust f32, f64,
+//!   adaptive and textbook f32, the same hit/miss and ids, distances exactly 2^k times the
+//!   base's, normals identical.
+//! - `far-camera`: a centimetre sphere 1e6 away, placed as an independent f64 computation says.
+//! - `range`: f32 leaves its range; checked in tests/adaptive.rs.
 //! - `degenerate`: zero-area triangles are never hit.
 //! - `far-sphere` at 1e5: textbook f32 gets hit/miss wrong on certain pixels (the far-sphere
 //!   ring of pbrt-v3 #265), robust f32 does not.
@@ -203,28 +208,59 @@ fn base_of(e: &Extreme) -> Scene {
     Scene::load(&e.path.parent().unwrap().join(base)).unwrap()
 }
 
+/// The modes each translated and scaled scene is checked in.
+const FILE_MODES: [&str; 4] = [
+    "gpu:f32:robust",
+    "gpu:f64:robust",
+    "gpu:adaptive:robust",
+    "gpu:f32:textbook",
+];
+
+/// (ids, distances, normals) of `scene` rendered in `mode`, widened to f64.
+fn rendered(scene: &Scene, mode: &str) -> (Vec<i32>, Vec<f64>, Vec<[f64; 3]>) {
+    let mode: raycast::render::Mode = mode.parse().unwrap();
+    let widen = |i: AnyImages| match i {
+        AnyImages::F32(i) => (
+            i.id,
+            i.distance.iter().map(|&d| d as f64).collect(),
+            i.normal.iter().map(|n| n.map(|c| c as f64)).collect(),
+        ),
+        AnyImages::F64(i) => (i.id, i.distance, i.normal),
+    };
+    widen(raycast::render::render(scene, mode, Some(gpu()), false).unwrap())
+}
+
+/// Translated scenes, in robust f32, f64 and adaptive precision: the base's ids on every
+/// pixel, distances within 1e-6 (relative). (Textbook, in world coordinates, is meant to fail.)
 #[test]
 fn translation_changes_nothing() {
     let mut seen = 0;
     for e in extremes().into_iter().filter(|e| kind(e) == "translated") {
         seen += 1;
-        let base = gpu_render::<f32>(&base_of(&e), Robust);
-        let moved = gpu_render::<f32>(&e.scene, Robust);
-        assert_eq!(
-            base.id, moved.id,
-            "{}: ids differ from the base scene",
-            e.name
-        );
-        let worst = (0..base.len())
-            .filter(|&k| base.id[k] != MISS)
-            .map(|k| ((moved.distance[k] - base.distance[k]) / base.distance[k]).abs())
-            .fold(0.0f32, f32::max);
-        println!("{}: max relative distance change {worst:e}", e.name);
-        assert!(worst < 1e-6, "{}: {worst}", e.name);
+        for mode in &FILE_MODES[..3] {
+            let (base_id, base_distance, _) = rendered(&base_of(&e), mode);
+            let (id, distance, _) = rendered(&e.scene, mode);
+            assert_eq!(
+                base_id, id,
+                "{} {mode}: ids differ from the base scene",
+                e.name
+            );
+            let worst = (0..id.len())
+                .filter(|&k| id[k] != MISS)
+                .map(|k| ((distance[k] - base_distance[k]) / base_distance[k]).abs())
+                .fold(0.0, f64::max);
+            println!("{} {mode}: max relative distance change {worst:e}", e.name);
+            assert!(worst < 1e-6, "{} {mode}: {worst}", e.name);
+        }
     }
-    assert!(seen >= 2, "expected scenes translated by 1e3 and 1e6");
+    assert!(
+        seen >= 4,
+        "expected scenes translated by 1e3 and 1e6, OBJ and PLY"
+    );
 }
 
+/// Scaled scenes, in every mode of `FILE_MODES` (textbook included: the host's rescale gives it
+/// the base's numbers too): the base's ids, distances exactly 2^k times, normals identical.
 #[test]
 fn scaling_by_a_power_of_two_only_scales_distances() {
     let mut seen = 0;
@@ -239,26 +275,21 @@ fn scaling_by_a_power_of_two_only_scales_distances() {
             "{}: scale {s} is not a power of two",
             e.name
         );
-        for a in [Textbook, Robust] {
-            let base = gpu_render::<f32>(&base_of(&e), a);
-            let scaled = gpu_render::<f32>(&e.scene, a);
-            assert_eq!(base.id, scaled.id, "{} ({a}): ids differ", e.name);
-            for k in (0..base.len()).filter(|&k| base.id[k] != MISS) {
-                assert_eq!(
-                    scaled.distance[k] as f64,
-                    base.distance[k] as f64 * s,
-                    "{} ({a}) pixel {k}",
-                    e.name
-                );
-                assert_eq!(
-                    scaled.normal[k], base.normal[k],
-                    "{} ({a}) pixel {k}",
-                    e.name
-                );
+        for mode in FILE_MODES {
+            let (base_id, base_distance, base_normal) = rendered(&base_of(&e), mode);
+            let (id, distance, normal) = rendered(&e.scene, mode);
+            assert_eq!(base_id, id, "{} ({mode}): ids differ", e.name);
+            for k in (0..id.len()).filter(|&k| id[k] != MISS) {
+                let what = format!("{} ({mode}) pixel {k}", e.name);
+                assert_eq!(distance[k], base_distance[k] * s, "{what}");
+                assert_eq!(normal[k], base_normal[k], "{what}");
             }
         }
     }
-    assert!(seen >= 2, "expected scenes scaled by 2^-k and 2^k");
+    assert!(
+        seen >= 4,
+        "expected scenes scaled by 2^-20, 2^20, 2^40 and 2^56"
+    );
 }
 
 fn is_zero_area(t: &[raycast::math::Vec3<f64>; 3]) -> bool {
@@ -439,4 +470,71 @@ fn assert_scaled<R: raycast::math::Real>(
         );
         assert_eq!(b.normal[p], a.normal[p], "{mode}, 2^{k}, pixel {p}: normal");
     }
+}
+
+/// `far-camera`: a sphere 1 cm across seen from 1e6 away. In f64, on the GPU and the CPU, a
+/// pixel hits the sphere only where its ray passes within the radius of the centre, every
+/// ray that passes clearly within it hits the sphere or the cube beside it, and the distance
+/// is where the ray enters the sphere: all computed here independently (perpendicular distance
+/// by a cross product, entry from the chord), pixels within 1e-6 (relative) of the silhouette
+/// skipped. Adaptive precision and robust f32 are held to f64 by the tests over every scene.
+#[test]
+fn a_centimetre_sphere_a_million_away_is_placed_exactly_in_f64() {
+    let mut seen = 0;
+    for e in extremes().into_iter().filter(|e| kind(e) == "far-camera") {
+        seen += 1;
+        let Object::Sphere { center, radius } = e.scene.objects[0] else {
+            panic!("{}: object 0 is the sphere", e.name)
+        };
+        let frame = raycast::camera::Frame::new(&e.scene.camera, e.scene.camera.resolution);
+        let renders = [
+            ("gpu f64", gpu_render::<f64>(&e.scene, Robust)),
+            ("cpu f64", truth(&e.scene)),
+        ];
+        for (label, images) in renders {
+            let mut sphere_pixels = 0;
+            for k in 0..images.len() {
+                let (i, j) = (k as u32 / frame.nx, k as u32 % frame.nx);
+                let ray = raycast::cpu::camera::camera_ray(&frame, i, j);
+                let d = raycast::math::normalize(ray.direction);
+                let v = center - ray.origin;
+                let l = raycast::math::length(raycast::math::cross(v, d));
+                let near_silhouette = (l - radius).abs() <= 1e-6 * radius;
+                let id = images.id[k];
+                if near_silhouette {
+                    continue;
+                }
+                if l < radius {
+                    assert!(
+                        id == 0 || id == 1,
+                        "{} {label} pixel {k}: ray passes within the radius, id {id}",
+                        e.name
+                    );
+                } else {
+                    assert_ne!(
+                        id, 0,
+                        "{} {label} pixel {k}: sphere hit {l} from the centre",
+                        e.name
+                    );
+                }
+                if id == 0 {
+                    sphere_pixels += 1;
+                    let entry = raycast::math::dot(v, d) - (radius * radius - l * l).sqrt();
+                    let error = (images.distance[k] - entry).abs() / entry;
+                    assert!(
+                        error <= 1e-9,
+                        "{} {label} pixel {k}: distance off by {error:e}",
+                        e.name
+                    );
+                }
+            }
+            println!("{} {label}: {sphere_pixels} sphere pixels checked", e.name);
+            assert!(
+                sphere_pixels > 100,
+                "{} {label}: only {sphere_pixels}",
+                e.name
+            );
+        }
+    }
+    assert!(seen >= 1, "expected the far-camera scene");
 }

@@ -133,6 +133,41 @@ def write_obj(name, triangles, header):
     MESHES.append(name)
 
 
+def write_ply(name, triangles, header, binary):
+    """Triangles as an indexed PLY with double coordinates: ASCII (f64 text) or binary little
+    endian (the reader keeps the declared type)."""
+    index = {}
+    vertices = []
+    faces = []
+    for tri in triangles:
+        face = []
+        for p in tri:
+            p = tuple(float(c) for c in p)
+            if p not in index:
+                index[p] = len(vertices)
+                vertices.append(p)
+            face.append(index[p])
+        faces.append(face)
+    fmt = "binary_little_endian" if binary else "ascii"
+    head = (f"ply\nformat {fmt} 1.0\ncomment {header}\ncomment Written by make_meshes.py; "
+            f"{len(triangles)} triangles.\nelement vertex {len(vertices)}\nproperty double x\n"
+            f"property double y\nproperty double z\nelement face {len(faces)}\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    with open(os.path.join(HERE, name), "wb") as f:
+        f.write(head.encode())
+        if binary:
+            for v in vertices:
+                f.write(struct.pack("<3d", *v))
+            for face in faces:
+                f.write(struct.pack("<B3i", 3, *face))
+        else:
+            for v in vertices:
+                f.write((" ".join(repr(c) for c in v) + "\n").encode())
+            for face in faces:
+                f.write(("3 " + " ".join(str(k) for k in face) + "\n").encode())
+    MESHES.append(name)
+
+
 SCENES = []
 MESHES = []
 
@@ -471,19 +506,33 @@ def base_scene(t=(0, 0, 0), s=1.0):
 
 def transformed():
     base_tris = box_triangles((-0.5, -0.9375, 0), (0.5, 0.0625, 1), 4)
+    # (name, translation, scale, mesh format): the cube in OBJ, ASCII PLY or binary PLY with
+    # double coordinates. Scales below 2^-20 are left to tests/extremes.rs, which scales in
+    # memory: their shortest decimal forms do not all parse back exactly in serde_json without
+    # its float_roundtrip feature, and above 2^56 the scene's numbers exceed 1e18.
     variants = [
-        ("dyadic-base", (0, 0, 0), 1.0),
-        ("translated-1e3", (1000, 1000, 1000), 1.0),
-        ("translated-1e6", (1e6, 1e6, 1e6), 1.0),
-        ("scaled-2e-20", (0, 0, 0), 2.0**-20),
-        ("scaled-2e20", (0, 0, 0), 2.0**20),
+        ("dyadic-base", (0, 0, 0), 1.0, "obj"),
+        ("translated-1e3", (1000, 1000, 1000), 1.0, "obj"),
+        ("translated-1e6", (1e6, 1e6, 1e6), 1.0, "obj"),
+        ("translated-1e6-ascii-ply", (1e6, 1e6, 1e6), 1.0, "ply"),
+        ("translated-1e6-binary-ply", (1e6, -1e6, 1e6), 1.0, "binary ply"),
+        ("scaled-2e-20", (0, 0, 0), 2.0**-20, "obj"),
+        ("scaled-2e20", (0, 0, 0), 2.0**20, "obj"),
+        ("scaled-2e40", (0, 0, 0), 2.0**40, "obj"),
+        ("scaled-2e56", (0, 0, 0), 2.0**56, "ply"),
     ]
-    for name, t, s in variants:
+    for name, t, s, fmt in variants:
         cam, objects = base_scene(t, s)
         tris = [tuple(tuple(s * c + d for c, d in zip(p, t)) for p in tri) for tri in base_tris]
-        mesh = f"{name}.cube.obj"
-        write_obj(mesh, tris, f"The base cube of dyadic-base.json, scale {s!r}, translation {list(t)!r}.")
-        objects.append({"type": "soup", "obj": mesh})
+        header = f"The base cube of dyadic-base.json, scale {s!r}, translation {list(t)!r}."
+        if fmt == "obj":
+            mesh = f"{name}.cube.obj"
+            write_obj(mesh, tris, header)
+            objects.append({"type": "soup", "obj": mesh})
+        else:
+            mesh = f"{name}.cube.ply"
+            write_ply(mesh, tris, header, binary=fmt == "binary ply")
+            objects.append({"type": "soup", "ply": mesh})
         if name == "dyadic-base":
             comment = {
                 "probes": "the untransformed reference of the translated-* and scaled-* scenes: "
@@ -498,8 +547,9 @@ def transformed():
         elif s == 1.0:
             comment = {
                 "probes": f"dyadic-base.json with every point (eye, plane point, centres, mesh "
-                f"corners) moved by 1e{round(math.log10(t[0]))} on each axis, exactly (f64 scene values, f32-exact "
-                "mesh corners); world-coordinate arithmetic loses log2 of the offset in bits",
+                f"corners) moved by {list(t)}, exactly (f64 scene values, f32-exact "
+                f"mesh corners, the mesh in {fmt.upper()}); world-coordinate arithmetic loses "
+                "log2 of the offset in bits",
                 "invariant": "the same picture as dyadic-base.json: the same hit/miss and ids on "
                 "every pixel, distances equal to about 1e-6 relative (camera-relative rendering "
                 "removes the offset exactly)",
@@ -511,8 +561,10 @@ def transformed():
             k = int(math.log2(s))
             comment = {
                 "probes": f"dyadic-base.json scaled by 2^{k} about the origin (eye, focal length, "
-                "image-plane size, every point and radius), exactly; intermediate products reach "
-                f"about 2^{4 * k} times the base's (no overflow or subnormals in f32)",
+                f"image-plane size, every point and radius, the mesh in {fmt.upper()}), exactly; "
+                f"the kernel's products of three coordinates would reach about 2^{3 * k} times "
+                "the base's, so they stay in f32's range only through the host's power-of-two "
+                "rescale to the camera's size",
                 "invariant": f"the same hit/miss and ids as dyadic-base.json on every pixel in "
                 f"every mode, distances exactly 2^{k} times the base's, normals identical",
                 "kind": "scaled",
@@ -614,6 +666,84 @@ def on_surface():
     )
 
 
+def far_camera():
+    """A centimetre-sized sphere and cube seen from 1e6 away: in f32 the camera-relative centre
+    rounds to 1/16, more than the objects' size."""
+    d = 1e6
+    cube = box_triangles((2**-7, -(2**-8), -(2**-8)), (2**-6, 2**-8, 2**-8), 2)
+    write_obj("far-camera-centimetre.cube.obj", cube, "A 7.8 mm cube beside the sphere of far-camera-centimetre.json.")
+    write_scene(
+        "far-camera-centimetre.json",
+        {
+            "probes": "a sphere 1 cm across at the origin and a 7.8 mm cube beside it, seen from 1e6 "
+            "away along (2,1,2)/3 with a 4e-8 wide image plane at focal length 1 (a 4 cm view): "
+            "in f32 the camera-relative centre and corners round to 1/16, six times the objects' "
+            "size, so robust f32 cannot place them; f64 places them to about 1e-10",
+            "invariant": "f64 (GPU and CPU): a pixel hits the sphere exactly when its ray passes "
+            "within 0.005 of the centre (computed independently, pixels within 1e-6 relative of "
+            "the silhouette skipped), at distance |c - e| - about 0.005; adaptive precision "
+            "equals f64 on every pixel; robust f32 equals f64 wherever the margins allow",
+            "kind": "far-camera",
+        },
+        camera([2 * d / 3, d / 3, 2 * d / 3], 1, 4e-8, 3e-8, look=[-2, -1, -2]),
+        [sphere([0, 0, 0], 0.005), {"type": "soup", "obj": "far-camera-centimetre.cube.obj"}],
+    )
+
+
+def range_scenes():
+    """Scenes whose arithmetic leaves f32's range even in kernel units (the host keeps kernel
+    coordinates within 2^61): where the certainty test must refuse to trust f32."""
+    cam = camera([0, 0, 0], 0.001, 0.002, 0.0015)
+    write_scene(
+        "range-far-triangle.json",
+        {
+            "probes": "a triangle 1e18 away, 1e18 across, seen by a camera 2e-3 across: the "
+            "largest number is 2^60 times the camera, so the host's rescale stops there (kernel "
+            "coordinates at most 2^61) and the triangle's t, a product of three coordinates "
+            "(about 1e54), overflows f32; a sphere 0.1 away in front of it is an ordinary hit",
+            "invariant": "robust f32 loses the triangle's hits (its t is NaN); the certainty test "
+            "marks every pixel whose ray meets the overflowing triangle uncertain, so adaptive "
+            "precision equals f64 on every pixel; f64 hits the triangle at about 1e18 (distance)",
+            "kind": "range",
+        },
+        cam,
+        [triangle([-1e18, -7e17, -1e18], [9e17, -8e17, -1e18], [1e17, 9e17, -1e18]),
+         sphere([0.05, 0, -0.1], 0.03)],
+    )
+    write_scene(
+        "range-far-mixed.json",
+        {
+            "probes": "a sphere, a plane and a triangle, all about 1e18 away, seen by a camera "
+            "2e-3 across: kernel coordinates near 2^60, where the sphere's and plane's "
+            "arithmetic stays in f32's range and the triangle's t (a product of three "
+            "coordinates) overflows; robust f32 sphere normals overflow too (the half-chord "
+            "over a tiny direction)",
+            "invariant": "adaptive precision equals f64 on every pixel: pixels whose rays meet "
+            "the triangle, or whose f32 normal is NaN, are uncertain, the others certain where "
+            "the margins allow",
+            "kind": "range",
+        },
+        cam,
+        [sphere([0, 0, -1e18], 5e17), plane([0, -1e18, 0], [0, 1, 0]),
+         triangle([-1e18, -1e18, -9e17], [1e18, -1e18, -9e17], [0, 1e18, -9e17])],
+    )
+    write_scene(
+        "range-tiny-camera.json",
+        {
+            "probes": "a camera 2e-21 across in a scene 1e18 large: the rescale keeps kernel "
+            "coordinates within 2^61, so the camera stays near 1e-21 in kernel units and the "
+            "squared length of every ray direction (about 1e-42) underflows f32's normal range "
+            "(or flushes to zero)",
+            "invariant": "robust f32 gets most pixels wrong (its ray arithmetic underflows); the "
+            "certainty test marks them uncertain, so adaptive precision equals f64 on every "
+            "pixel: the big sphere fills the view, the small one covers part of its right half",
+            "kind": "range",
+        },
+        camera([0, 0, 0], 1e-21, 2e-21, 1.5e-21),
+        [sphere([0, 0, -1e18], 9e17), sphere([3e-21, 0, -1e-20], 3e-21)],
+    )
+
+
 def main():
     far_spheres()
     big_sphere()
@@ -626,6 +756,8 @@ def main():
     fov()
     up_near_look()
     on_surface()
+    far_camera()
+    range_scenes()
     print(f"wrote {len(SCENES)} scenes and {len(MESHES)} meshes in {HERE}")
 
 

@@ -10,11 +10,13 @@
 //! exact arithmetic does.
 //!
 //! Scales used (all in the robust set's camera-relative coordinates, ray `o + t d`):
-//! - sphere hit/miss: `r^2 - |l|^2`, `S = r^2 + 2 |l|^2 + 24 |l| |f|` (`f = o - c`, `l` the
+//! - sphere hit/miss: `r^2 - |l|^2`, `S = r^2 + 2 |l|^2 + 24 |l| |f| + 128 eps |f|^2` (`f = o - c`, `l` the
 //!   perpendicular from the centre to the ray line). `l = f - (b/a) d` cancels from `|f|`
 //!   down to `|l|`, so its error is absolute, about `7 eps |f|` (the dot products, the
 //!   division, the subtraction), plus `eps |f|` from rounding the centre and `2.6 eps |f|` from
-//!   the direction's rounding: `|l|^2` is off by about `2 |l| * 11 eps |f|`;
+//!   the direction's rounding: `|l|^2` is off by about `2 |l| * 11 eps |f|`, plus that error's
+//!   square `121 eps^2 |f|^2`, which dominates where `|l|` is smaller than the error (a sphere
+//!   smaller than an ulp of its distance);
 //! - plane hit/miss: `d.n` against the parallel cutoff `4 eps |d|`, `S = 4 |d|` (the dot
 //!   product's `3 eps |d|` and the rounding of `n` and `d`);
 //! - triangle edge `e = x1 y2 - y1 x2` in the sheared frame: `S = 2 ((|x1|+|z1|)(|y2|+|z2|) +
@@ -135,7 +137,8 @@ fn sphere(ray: &Ray<f64>, center: Vec3<f64>, radius: f64, min_t: f64, eps: f64) 
     let l = f - d * (b / a);
     let r2 = radius * radius;
     let l2 = dot(l, l);
-    let scale = r2 + 2.0 * l2 + 24.0 * l2.sqrt() * length(f);
+    let ff = dot(f, f);
+    let scale = r2 + 2.0 * l2 + 24.0 * l2.sqrt() * ff.sqrt() + 128.0 * eps * ff;
     let margin_disc = (r2 - l2).abs() / bound(eps, scale);
     let c = dot(f, f) - r2;
     let half = ((r2 - l2).max(0.0) / a).sqrt();
