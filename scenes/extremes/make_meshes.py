@@ -108,34 +108,8 @@ def write_scene(name, comment, camera, objects):
     SCENES.append(name)
 
 
-def write_obj(name, triangles, header):
-    """Triangles as an indexed OBJ (shared corners written once), every coordinate f32-exact."""
-    index = {}
-    vertices = []
-    faces = []
-    for tri in triangles:
-        face = []
-        for p in tri:
-            p = tuple(float(c) for c in p)
-            for c in p:
-                assert is_f32(c), f"{name}: {c!r} is not exact in f32"
-            if p not in index:
-                index[p] = len(vertices) + 1
-                vertices.append(p)
-            face.append(index[p])
-        faces.append(face)
-    with open(os.path.join(HERE, name), "w") as f:
-        f.write(f"# {header}\n# Written by make_meshes.py; {len(triangles)} triangles.\n")
-        for v in vertices:
-            f.write("v " + " ".join(repr(c) for c in v) + "\n")
-        for face in faces:
-            f.write("f " + " ".join(str(k) for k in face) + "\n")
-    MESHES.append(name)
-
-
-def write_ply(name, triangles, header, binary):
-    """Triangles as an indexed PLY with double coordinates: ASCII (f64 text) or binary little
-    endian (the reader keeps the declared type)."""
+def indexed(triangles):
+    """(vertices, faces) of `triangles`: each distinct corner once, faces as 0-based indices."""
     index = {}
     vertices = []
     faces = []
@@ -148,6 +122,27 @@ def write_ply(name, triangles, header, binary):
                 vertices.append(p)
             face.append(index[p])
         faces.append(face)
+    return vertices, faces
+
+
+def write_obj(name, triangles, header):
+    """Triangles as an indexed OBJ (shared corners written once), every coordinate f32-exact."""
+    vertices, faces = indexed(triangles)
+    for c in (c for v in vertices for c in v):
+        assert is_f32(c), f"{name}: {c!r} is not exact in f32"
+    with open(os.path.join(HERE, name), "w") as f:
+        f.write(f"# {header}\n# Written by make_meshes.py; {len(triangles)} triangles.\n")
+        for v in vertices:
+            f.write("v " + " ".join(repr(c) for c in v) + "\n")
+        for face in faces:
+            f.write("f " + " ".join(str(k + 1) for k in face) + "\n")
+    MESHES.append(name)
+
+
+def write_ply(name, triangles, header, binary):
+    """Triangles as an indexed PLY with double coordinates: ASCII (f64 text) or binary little
+    endian (the reader keeps the declared type)."""
+    vertices, faces = indexed(triangles)
     fmt = "binary_little_endian" if binary else "ascii"
     head = (f"ply\nformat {fmt} 1.0\ncomment {header}\ncomment Written by make_meshes.py; "
             f"{len(triangles)} triangles.\nelement vertex {len(vertices)}\nproperty double x\n"
