@@ -22,8 +22,8 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     // l is off by about 11 EPS |f| (absolute), so l2 by 22 EPS |l| |f| and, where l is smaller
     // than that error (a sphere thinner than an ulp of its distance), by its square,
     // 121 EPS^2 |f|^2: the last term.
-    let ff_bound = dot(f, f);
-    let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * sqrt(ff_bound) + 128.0 * EPS * ff_bound);
+    let ff = dot(f, f);
+    let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * sqrt(ff) + 128.0 * EPS * ff);
 #endif
     if (discriminant < 0.0) {
 #if CERTAINTY
@@ -48,7 +48,6 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
 #if CERTAINTY
     // c/q, the root of smaller magnitude, inherits the cancellation of c = |f|^2 - r^2 (eye
     // near the surface); capped so the factor stays finite.
-    let ff = dot(f, f);
     let c_condition = 1.0 + ff / max(abs(c), ff * 1e-20);
     let far_condition = select(1.0, c_condition, abs(t_far) <= abs(t_near));
     let near_condition = select(1.0, c_condition, abs(t_near) < abs(t_far));

@@ -140,16 +140,16 @@ fn sphere(ray: &Ray<f64>, center: Vec3<f64>, radius: f64, min_t: f64, eps: f64) 
     let ff = dot(f, f);
     let scale = r2 + 2.0 * l2 + 24.0 * l2.sqrt() * ff.sqrt() + 128.0 * eps * ff;
     let margin_disc = (r2 - l2).abs() / bound(eps, scale);
-    let c = dot(f, f) - r2;
+    let c = ff - r2;
     let half = ((r2 - l2).max(0.0) / a).sqrt();
     let (near, far) = (-b / a - half, -b / a + half);
-    let in_range = a >= f32::MIN_POSITIVE as f64 && fits_f32(&[b, dot(f, f), r2, scale, near, far]);
+    let in_range = a >= f32::MIN_POSITIVE as f64 && fits_f32(&[b, ff, r2, scale, near, far]);
     if !in_range {
         return out_of_range(r2 >= l2 && far >= min_t);
     }
     // Of the roots q/a and c/q, the smaller in magnitude is c/q, whose c = |f|^2 - r^2
     // cancels when the eye is near the surface.
-    let c_condition = 1.0 + dot(f, f) / c.abs().max(f64::MIN_POSITIVE);
+    let c_condition = 1.0 + ff / c.abs().max(f64::MIN_POSITIVE);
     if r2 < l2 {
         let t = -b / a;
         return Candidate {
