@@ -40,7 +40,7 @@ def modes(size, half):
         ("cpu f64", ["--size", size, "--device", "cpu"], None),
         ("--shader toon.wgsl", ["--size", size, "--shader", "shaders/examples/toon.wgsl"], 1.25),
         ("--band-rows 270", ["--size", size, "--band-rows", "270"], 1.25),
-        (f"--spp 4 at {half}", ["--size", half, "--spp", "4"], 1.3),
+        (f"--spp 4 at {half}", ["--size", half, "--spp", "4", "--precision", "f32"], 1.3),
     ]
 
 
