@@ -141,6 +141,35 @@ fn node_part(node: u32, q: u32) -> vec4<u32> {
     return bvh_nodes[4u * node + q];
 #endif
 }
+
+#if PACKETS
+// Word w (0 to 15) of node `node`, alone: node_part's component, without loading the others.
+fn node_word(node: u32, w: u32) -> u32 {
+#if CHUNKS_2
+    let i = 4u * (node & ((1u << CHUNK_BITS) - 1u)) + (w >> 2u);
+    switch (node >> CHUNK_BITS) {
+        case 1u: {
+            return bvh_nodes_2[i][w & 3u];
+        }
+#if CHUNKS_3
+        case 2u: {
+            return bvh_nodes_3[i][w & 3u];
+        }
+#endif
+#if CHUNKS_4
+        case 3u: {
+            return bvh_nodes_4[i][w & 3u];
+        }
+#endif
+        default: {
+            return bvh_nodes[i][w & 3u];
+        }
+    }
+#else
+    return bvh_nodes[4u * node + (w >> 2u)][w & 3u];
+#endif
+}
+#endif
 #endif
 #if USER_SHADE
 // Per pixel of the tile: the shade hook's colour, pack4x8unorm (red in the lowest byte).

@@ -9,11 +9,15 @@
 #import user
 #endif
 
-// Casts the ray of pixel (i, j) and writes its results to output slot `index`. Only the
-// outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID, SURFACE).
-fn cast_pixel(i: u32, j: u32, index: u32) {
+// Casts the ray of pixel (i, j) and, if `write`, writes its results to output slot `index`.
+// Only the outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID,
+// SURFACE).
+fn cast_pixel(i: u32, j: u32, index: u32, write: bool) {
     let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
     let hit = nearest_hit(ray, params.frame.min_t);
+    if (!write) {
+        return;
+    }
 #if ID
     out_id[index] = select(hit.object, -1, hit.object < 0);
 #endif
@@ -75,7 +79,26 @@ fn main(
         return;
     }
     let pixel = pixel_list[slot];
-    cast_pixel(pixel / params.nx, pixel % params.nx, slot);
+    cast_pixel(pixel / params.nx, pixel % params.nx, slot, true);
+}
+#else
+#if PACKETS
+// One workgroup per 8x8 pixels, as below, numbered in one dimension (subgroup builtins need
+// that). Every invocation runs to the end, since its subgroup fetches nodes together: one
+// beyond the image casts the nearest pixel inside it and writes nothing.
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+    @builtin(subgroup_invocation_id) subgroup_lane: u32,
+) {
+    lane = subgroup_lane;
+    let j = group.x * 8u + (local & 7u);
+    let row = group.y * 8u + (local >> 3u);
+    let inside = j < params.nx && row < params.tile_rows;
+    let jc = min(j, params.nx - 1u);
+    let rc = min(row, params.tile_rows - 1u);
+    cast_pixel(params.row_offset + rc, jc, rc * params.nx + jc, inside);
 }
 #else
 @compute @workgroup_size(8, 8)
@@ -85,6 +108,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (j >= params.nx || row >= params.tile_rows) {
         return;
     }
-    cast_pixel(params.row_offset + row, j, row * params.nx + j);
+    cast_pixel(params.row_offset + row, j, row * params.nx + j, true);
 }
+#endif
 #endif

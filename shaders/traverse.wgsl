@@ -135,23 +135,44 @@ struct Visit {
     count1: u32,
 }
 
-// Reads node `node` (four vec4<u32>: fewer, wider loads) and tests the ray against both boxes.
-fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
-    let q0 = node_part(node, 0u);
-    let q1 = node_part(node, 1u);
-    let q2 = node_part(node, 2u);
-    let q3 = node_part(node, 3u);
+// Tests the ray against both boxes of a node given as its four vec4<u32> parts.
+fn visit_parts(q0: vec4<u32>, q1: vec4<u32>, q2: vec4<u32>, q3: vec4<u32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
     let t0 = box_entry(bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz), ray, ri, min_t, t_max);
     let t1 = box_entry(bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz), ray, ri, min_t, t_max);
     return Visit(t0, t1, q0.w, q1.w, q2.w, q3.w);
 }
 
+// Reads node `node` (four vec4<u32>: fewer, wider loads) and tests the ray against both boxes.
+fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
+    return visit_parts(node_part(node, 0u), node_part(node, 1u), node_part(node, 2u), node_part(node, 3u), ray, ri, min_t, t_max);
+}
+
+#if PACKETS
+// This invocation's index in its subgroup (set by `main`).
+var<private> lane: u32;
+
+// visit() for a node the whole subgroup visits (same `node` in every lane): lanes 0 to 7 each
+// load two of its sixteen words, and broadcasts hand every lane all of them. On llvmpipe
+// (Mesa 25.0) a storage load whose offset is not a constant runs as one branchy scalar load
+// per lane and word, even where the offset is the same in every lane, so this is 2 words per
+// lane instead of 16. Needs subgroups of at least 8 invocations.
+fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
+    let w = lane & 7u;
+    let low = node_word(node, w);
+    let high = node_word(node, w + 8u);
+    let q0 = vec4<u32>(subgroupBroadcast(low, 0u), subgroupBroadcast(low, 1u), subgroupBroadcast(low, 2u), subgroupBroadcast(low, 3u));
+    let q1 = vec4<u32>(subgroupBroadcast(low, 4u), subgroupBroadcast(low, 5u), subgroupBroadcast(low, 6u), subgroupBroadcast(low, 7u));
+    let q2 = vec4<u32>(subgroupBroadcast(high, 0u), subgroupBroadcast(high, 1u), subgroupBroadcast(high, 2u), subgroupBroadcast(high, 3u));
+    let q3 = vec4<u32>(subgroupBroadcast(high, 4u), subgroupBroadcast(high, 5u), subgroupBroadcast(high, 6u), subgroupBroadcast(high, 7u));
+    return visit_parts(q0, q1, q2, q3, ray, ri, min_t, t_max);
+}
+#endif
+
 #if PACKETS
 // Packet traversal: the rays of a subgroup walk the tree together, visiting a node when any of
-// them needs it, so every node and primitive is fetched once for all of them from one
-// subgroup-uniform address (per-lane addresses are what cost most on a CPU driver). Each ray
-// keeps its own nearest hit and culls with it, so the answer is the per-ray traversal's.
-// Must be reached by all active invocations of the subgroup together (see cast_pixel).
+// them needs it, so every node is fetched once for all of them (visit_shared). Each ray keeps
+// its own nearest hit and culls with it, so the answer is the per-ray traversal's. Must be
+// reached by every invocation of the subgroup together (see main in entry.wgsl).
 fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     let ri = ray_inverse(ray);
     var stack_node: array<u32, BVH_STACK>;
@@ -159,7 +180,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let n = visit(node, ray, ri, min_t, cull_t(*best));
+        let n = visit_shared(node, ray, ri, min_t, cull_t(*best));
         let t0 = n.t0;
         let t1 = n.t1;
         let leaf0 = (n.reference0 & LEAF_BIT) != 0u;

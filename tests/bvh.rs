@@ -177,7 +177,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
         for algorithm in [Robust, Textbook] {
             let variant = |bvh| Variant {
                 bvh,
-                packets: gpu.has_subgroups(),
+                packets: gpu.has_packet_subgroups(),
                 ..gpu.scene_variant(&scene, Precision::F32, algorithm)
             };
             let bvh32 = common::gpu_variant::<f32>(gpu, &scene, variant(true));

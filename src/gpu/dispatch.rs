@@ -19,7 +19,8 @@ use crate::math::Precision;
 use crate::prepare::{Prepared, Primitives};
 use crate::scene::Scene;
 
-/// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl).
+/// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl; the packet kernel
+/// numbers the same 64 invocations in one dimension).
 const WORKGROUP: u32 = 8;
 /// Invocations per workgroup of a pixel-list kernel (`@workgroup_size(64)`).
 const LIST_WORKGROUP: u32 = 64;

@@ -301,6 +301,9 @@ fn kernel_variants() -> Vec<Variant> {
             });
             variants.push(Variant {
                 pixel_list: true,
+                ..base
+            });
+            variants.push(Variant {
                 packets: true,
                 ..base
             });

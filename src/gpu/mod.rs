@@ -33,6 +33,9 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::TIMESTAMP_QUERY)
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
 
+/// Invocations that share one node fetch in the packet traversal.
+pub const PACKET_LANES: u32 = 8;
+
 /// An adapter with an open device and queue, and the kernels compiled on it so far.
 pub struct Gpu {
     pub adapter: wgpu::Adapter,
@@ -85,9 +88,7 @@ impl Gpu {
             pixel_list: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
-            // Measured on lavapipe (docs/specializations.md): subgroup packets ran at 0.87x
-            // (bunny) and 0.89x (torus) of per-ray traversal, so they are off unless asked for.
-            packets: false,
+            packets: self.has_packet_subgroups(),
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             outputs: crate::images::Outputs::GEOMETRY,
@@ -100,6 +101,12 @@ impl Gpu {
     /// Whether this device can run the subgroup-packet traversal (`Variant::packets`).
     pub fn has_subgroups(&self) -> bool {
         self.device.features().contains(wgpu::Features::SUBGROUP)
+    }
+
+    /// Whether the packet traversal runs here: subgroups, of at least the 8 invocations it
+    /// shares a node fetch among (shaders/traverse.wgsl, `visit_shared`).
+    pub fn has_packet_subgroups(&self) -> bool {
+        self.has_subgroups() && self.info().subgroup_min_size >= PACKET_LANES
     }
 
     /// The largest storage binding this device allows, in bytes.

@@ -66,7 +66,8 @@ pub struct Variant {
     pub kinds: Kinds,
     /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
     pub bvh: bool,
-    /// The device has subgroup operations: the rays of a subgroup traverse the BVH together.
+    /// The device has subgroups of at least 8 invocations: the rays of a subgroup traverse the
+    /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
     /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
     /// [`MAX_CHUNKS`]): meshes larger than one binding.
@@ -216,7 +217,7 @@ impl Variant {
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
-    /// subgroups together), `CHUNKS_2..4` (triangles and nodes in several bindings),
+    /// subgroups together, [`Variant::uses_packets`]), `CHUNKS_2..4` (triangles and nodes in several bindings),
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
     /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
@@ -248,7 +249,7 @@ impl Variant {
         }
         if self.uses_bvh() {
             d.push("BVH");
-            if self.packets {
+            if self.uses_packets() {
                 d.push("PACKETS");
             }
         }
@@ -290,6 +291,12 @@ impl Variant {
             true => crate::prepare::bvh::Accel::Bvh,
             false => crate::prepare::bvh::Accel::BruteForce,
         }
+    }
+
+    /// Whether the BVH is traversed by packets: asked for, through a BVH, and over image tiles,
+    /// whose neighbouring pixels have coherent rays (listed pixels are scattered).
+    pub fn uses_packets(&self) -> bool {
+        self.packets && self.uses_bvh() && !self.pixel_list
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split

@@ -150,8 +150,11 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     });
     plans.push(if !base.uses_bvh() {
         Plan::not_applicable(Specialisation::Packets, "no BVH for this scene")
-    } else if !gpu.device.features().contains(wgpu::Features::SUBGROUP) {
-        Plan::not_applicable(Specialisation::Packets, "no subgroups on this device")
+    } else if !gpu.has_packet_subgroups() {
+        Plan::not_applicable(
+            Specialisation::Packets,
+            "no subgroups of 8 or more invocations on this device",
+        )
     } else {
         let on = Variant {
             packets: true,
