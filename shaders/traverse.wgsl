@@ -166,6 +166,42 @@ fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -
     let q3 = vec4<u32>(subgroupBroadcast(high, 4u), subgroupBroadcast(high, 5u), subgroupBroadcast(high, 6u), subgroupBroadcast(high, 7u));
     return visit_parts(q0, q1, q2, q3, ray, ri, min_t, t_max);
 }
+
+#if !F64
+// intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
+// lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
+// and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
+// (f32 only: subgroup operations have no f64.)
+fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
+    let n = count & ~SPHERE_LEAF;
+    if (n == 0u) {
+        return;
+    }
+    let mine = first + min(lane & 7u, n - 1u);
+    if ((count & SPHERE_LEAF) != 0u) {
+#if SPHERES
+        let s = spheres[mine];
+        for (var k = 0u; k < n; k++) {
+            let sphere = Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k));
+            if (wanted) {
+                keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, best);
+            }
+        }
+#endif
+    } else {
+#if TRIANGLES
+        let base = params.sphere_count + params.plane_count;
+        let t = triangle_at(mine);
+        for (var k = 0u; k < n; k++) {
+            let tri = Triangle(subgroupShuffle(t.a, k), 0.0, subgroupShuffle(t.b, k), 0.0, subgroupShuffle(t.c, k), 0.0);
+            if (wanted) {
+                keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, first + k, base, best);
+            }
+        }
+#endif
+    }
+}
+#endif
 #endif
 
 #if PACKETS
@@ -188,14 +224,22 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
         if (leaf0 && subgroupAny(t0 != NO_HIT)) {
+#if F64
             if (t0 != NO_HIT) {
                 intersect_leaf(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
             }
+#else
+            intersect_leaf_shared(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
+#endif
         }
         if (leaf1 && subgroupAny(t1 != NO_HIT)) {
+#if F64
             if (t1 != NO_HIT) {
                 intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
             }
+#else
+            intersect_leaf_shared(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
+#endif
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
