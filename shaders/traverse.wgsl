@@ -167,12 +167,16 @@ fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -
     return visit_parts(q0, q1, q2, q3, ray, ri, min_t, t_max);
 }
 
-#if !F64
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
 // lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
 // and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
-// (f32 only: subgroup operations have no f64.)
+// In f64 each lane loads what it tests: subgroup operations have no f64.
 fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
+#if F64
+    if (wanted) {
+        intersect_leaf(ray, min_t, first, count, best);
+    }
+#else
     let n = count & ~SPHERE_LEAF;
     if (n == 0u) {
         return;
@@ -200,11 +204,9 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
         }
 #endif
     }
+#endif
 }
-#endif
-#endif
 
-#if PACKETS
 // Packet traversal: the rays of a subgroup walk the tree together, visiting a node when any of
 // them needs it, so every node is fetched once for all of them (visit_shared). Each ray keeps
 // its own nearest hit and culls with it, so the answer is the per-ray traversal's. Must be
@@ -224,22 +226,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
         if (leaf0 && subgroupAny(t0 != NO_HIT)) {
-#if F64
-            if (t0 != NO_HIT) {
-                intersect_leaf(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
-            }
-#else
             intersect_leaf_shared(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
-#endif
         }
         if (leaf1 && subgroupAny(t1 != NO_HIT)) {
-#if F64
-            if (t1 != NO_HIT) {
-                intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
-            }
-#else
             intersect_leaf_shared(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
-#endif
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
@@ -264,8 +254,9 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             while (sp > 0u) {
                 sp--;
                 if (subgroupAny(stack_t[sp] <= cull_t(*best) && stack_t[sp] != T_FAR)) {
-                    // The same value in every lane; broadcast so the compiler knows the
-                    // node's address is uniform.
+                    // The same value in every lane (pushed by all together); broadcast so that
+                    // compilers that track uniformity know it (Mesa 25.0's llvmpipe does not:
+                    // visit_shared).
                     node = subgroupBroadcastFirst(stack_node[sp]);
                     next = true;
                     break;

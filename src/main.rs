@@ -376,7 +376,8 @@ fn run(command: Command) -> Result<ExitCode> {
 
 /// Renders once, or with `watch` again whenever a file it reads changes, for ever.
 fn render(spec: &render::Spec, watch: bool) -> Result<()> {
-    if watch && spec.watched_files().is_empty() {
+    // From the options alone: watched_files() would load the scene and its meshes.
+    if watch && spec.scene.is_none() && spec.shader.is_none() && spec.kernel.is_none() {
         return Err(raycast::Error::Argument {
             option: "--watch".into(),
             message: "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel".into(),

@@ -232,10 +232,11 @@ pub fn supersample_request(
     progress: bool,
     request: &Request,
 ) -> Result<AnyImages> {
-    let (fine_scene, s) = sample_scene(scene, spp)?;
-    if s == 1 {
+    if spp == 1 {
+        // Before sample_scene, which copies the scene (meshes included).
         return Ok(render::render_request(scene, mode, gpu, progress, request)?.reduce(1));
     }
+    let (fine_scene, s) = sample_scene(scene, spp)?;
     let fine_request = sample_request(request, spp);
     let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
     let fine = fine.map_err(|e| match e {

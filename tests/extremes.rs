@@ -418,6 +418,7 @@ fn every_mode_is_invariant_under_power_of_two_scaling() {
         .log2()
         .floor() as i32;
     let base = dyadic.scaled_by_pow2(shift);
+    // The test's own setup, not a property of raycast: the rounding of log2 kept the bound.
     assert!(Scene::largest_magnitude(&base) * 2f64.powi(60) <= 1e18);
     let modes = [
         "gpu:f32:robust",

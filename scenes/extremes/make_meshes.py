@@ -108,8 +108,9 @@ def write_scene(name, comment, camera, objects):
     SCENES.append(name)
 
 
-def indexed(triangles):
-    """(vertices, faces) of `triangles`: each distinct corner once, faces as 0-based indices."""
+def indexed(name, triangles):
+    """(vertices, faces) of `triangles`: each distinct corner once, faces as 0-based indices;
+    every coordinate f32-exact (exact 2^k scaling of the scenes relies on it)."""
     index = {}
     vertices = []
     faces = []
@@ -122,14 +123,14 @@ def indexed(triangles):
                 vertices.append(p)
             face.append(index[p])
         faces.append(face)
+    for c in (c for v in vertices for c in v):
+        assert is_f32(c), f"{name}: {c!r} is not exact in f32"
     return vertices, faces
 
 
 def write_obj(name, triangles, header):
-    """Triangles as an indexed OBJ (shared corners written once), every coordinate f32-exact."""
-    vertices, faces = indexed(triangles)
-    for c in (c for v in vertices for c in v):
-        assert is_f32(c), f"{name}: {c!r} is not exact in f32"
+    """Triangles as an indexed OBJ (shared corners written once)."""
+    vertices, faces = indexed(name, triangles)
     with open(os.path.join(HERE, name), "w") as f:
         f.write(f"# {header}\n# Written by make_meshes.py; {len(triangles)} triangles.\n")
         for v in vertices:
@@ -142,7 +143,7 @@ def write_obj(name, triangles, header):
 def write_ply(name, triangles, header, binary):
     """Triangles as an indexed PLY with double coordinates: ASCII (f64 text) or binary little
     endian (the reader keeps the declared type)."""
-    vertices, faces = indexed(triangles)
+    vertices, faces = indexed(name, triangles)
     fmt = "binary_little_endian" if binary else "ascii"
     head = (f"ply\nformat {fmt} 1.0\ncomment {header}\ncomment Written by make_meshes.py; "
             f"{len(triangles)} triangles.\nelement vertex {len(vertices)}\nproperty double x\n"

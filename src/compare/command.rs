@@ -42,8 +42,10 @@ impl Spec {
     /// side is a GPU mode.
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Outcome> {
         let scene_a = scene::load_sized(Some(&self.scene), self.size)?;
-        let b_path = self.b_scene.as_ref().unwrap_or(&self.scene);
-        let mut scene_b = scene::load_sized(Some(b_path), self.size)?;
+        let mut scene_b = match &self.b_scene {
+            Some(path) => scene::load_sized(Some(path), self.size)?,
+            None => scene_a.clone(),
+        };
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
         if let Some(dir) = &self.out_dir {

@@ -203,6 +203,12 @@ pub fn check_writable(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// [`check_writable`] for the folder `file` goes into (the working folder for a bare name).
+pub fn check_parent_writable(file: &Path) -> Result<()> {
+    let dir = file.parent().filter(|d| !d.as_os_str().is_empty());
+    check_writable(dir.unwrap_or(Path::new(".")))
+}
+
 /// Writes every file or none: all go to temporary names first, then are renamed into place.
 pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
     let pid = std::process::id();

@@ -130,6 +130,7 @@ pub fn unit_exponent(scene: &Scene) -> i32 {
 /// The largest binary exponent a kernel coordinate may have: 2^60 > 1e18, the largest number
 /// a scene file may hold.
 const MAX_KERNEL_EXPONENT: i32 = 60;
+const _: () = assert!((1u64 << MAX_KERNEL_EXPONENT) as f64 > crate::scene::MAX_MAGNITUDE);
 
 /// `floor(log2(x))` of a positive finite `x`, or -1023 for a subnormal one.
 fn binary_exponent(x: f64) -> i32 {

@@ -245,8 +245,7 @@ impl Spec {
         }
         output::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
-            let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
-            output::check_writable(dir.unwrap_or(Path::new(".")))?;
+            output::check_parent_writable(path)?;
         }
         let [nx, ny] = scene.camera.resolution;
         let mut summary = Summary {

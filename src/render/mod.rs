@@ -354,13 +354,11 @@ fn cpu_with_progress<T: crate::math::Real>(
         while !worker.is_finished() {
             std::thread::sleep(Duration::from_millis(50));
             if bar.is_none() && start.elapsed() > Duration::from_secs(1) {
-                let b = indicatif::ProgressBar::new(rows as u64).with_style(
-                    indicatif::ProgressStyle::with_template(
-                        "cpu render {bar:40} {pos}/{len} rows, {eta} left",
-                    )
-                    .expect("valid template"),
-                );
-                bar = Some(b);
+                bar = Some(progress_bar(
+                    true,
+                    rows as u64,
+                    "cpu render {bar:40} {pos}/{len} rows, {eta} left",
+                ));
             }
             if let Some(b) = &bar {
                 b.set_position(done.load(Ordering::Relaxed) as u64);

@@ -134,7 +134,7 @@ fn strip_position(message: &str) -> String {
 
 /// Largest coordinate magnitude accepted: beyond it f32 (the GPU's precision) overflows
 /// as soon as two values are multiplied.
-const MAX_MAGNITUDE: f64 = 1e18;
+pub(crate) const MAX_MAGNITUDE: f64 = 1e18;
 
 struct Checker<'a> {
     file: &'a Path,

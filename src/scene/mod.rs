@@ -5,6 +5,7 @@
 //! finite numbers, positive sizes and non-degenerate camera vectors.
 
 mod file;
+pub(crate) use file::MAX_MAGNITUDE;
 mod mesh;
 
 use std::path::{Path, PathBuf};

@@ -253,7 +253,7 @@ pub fn row(name: &str, mode: Mode, images: &AnyImages, reference: &AnyImages, ti
         pixels: c.report.pixels,
         hit_mismatch: c.report.hit_mismatch,
         id_mismatch: c.report.id_mismatch,
-        lost_hits: lost_hits(ids(images), ids(reference)),
+        lost_hits: lost_hits(images.id(), reference.id()),
         rel_distance_max: c.report.distance.rel_max,
         normal_angle_max_deg: c.report.normal_angle_deg.max,
         non_finite: match images {
@@ -261,13 +261,6 @@ pub fn row(name: &str, mode: Mode, images: &AnyImages, reference: &AnyImages, ti
             AnyImages::F64(i) => non_finite(i),
         },
         time_s,
-    }
-}
-
-fn ids(images: &AnyImages) -> &[i32] {
-    match images {
-        AnyImages::F32(i) => &i.id,
-        AnyImages::F64(i) => &i.id,
     }
 }
 
@@ -411,9 +404,8 @@ pub fn command(
     markdown: Option<&Path>,
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
-    let dir = markdown.map(|f| f.parent().unwrap_or(Path::new("")));
-    if let Some(dir) = dir.filter(|d| !d.as_os_str().is_empty()) {
-        output::check_writable(dir)?;
+    if let Some(file) = markdown {
+        output::check_parent_writable(file)?;
     }
     let needs_gpu = modes
         .as_ref()
@@ -431,7 +423,7 @@ pub fn command(
     })?;
     say(Stream::Stdout, to_markdown(&result.rows).trim_end());
     if let Some(file) = markdown {
-        let text = document(&Provenance::now(gpu.as_ref()), &result, dir);
+        let text = document(&Provenance::now(gpu.as_ref()), &result, file.parent());
         output::write_file(file, text.as_bytes())?;
         say(Stream::Stderr, &format!("wrote {}", file.display()));
     }

@@ -532,7 +532,7 @@ pub fn command(
 ) -> Result<()> {
     options.check()?;
     let loaded = load(scene, size)?;
-    let gpu = options.needs_gpu().then(Gpu::new).transpose()?;
+    let gpu = render::gpu_for(&options.modes)?;
     if !json {
         for line in header(&loaded, &options, gpu.as_ref()) {
             say(Stream::Stdout, &line);

@@ -537,8 +537,7 @@ pub fn command(
         )),
     }
     let named = load_scenes(&files, None)?;
-    let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
-    output::check_writable(dir.unwrap_or(Path::new(".")))?;
+    output::check_parent_writable(out)?;
     let gpu = Gpu::new()?;
     let (mut rows, mut spreads) = (Vec::new(), Vec::new());
     for (k, scene) in named.iter().enumerate() {
