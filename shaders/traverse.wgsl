@@ -167,10 +167,53 @@ fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -
     return visit_parts(q0, q1, q2, q3, ray, ri, min_t, t_max);
 }
 
+// Whether any ray of the packet (the subgroup) has `b`, and how many. With EIGHT_LANES
+// (subgroups of exactly 8 invocations, all running here: llvmpipe) as 8 broadcasts from
+// constant lanes, which compile to lane extracts; llvmpipe (Mesa 25.0) compiles subgroupAny
+// and subgroupAdd to a loop over the lanes with a branch per lane (1.12x on the torus).
+#if EIGHT_LANES
+fn packet_any(b: bool) -> bool {
+    return packet_count(b) != 0u;
+}
+
+fn packet_count(b: bool) -> u32 {
+    let u = select(0u, 1u, b);
+    let low = subgroupBroadcast(u, 0u) + subgroupBroadcast(u, 1u) + subgroupBroadcast(u, 2u) + subgroupBroadcast(u, 3u);
+    return low + subgroupBroadcast(u, 4u) + subgroupBroadcast(u, 5u) + subgroupBroadcast(u, 6u) + subgroupBroadcast(u, 7u);
+}
+#else
+fn packet_any(b: bool) -> bool {
+    return subgroupAny(b);
+}
+
+fn packet_count(b: bool) -> u32 {
+    return subgroupAdd(select(0u, 1u, b));
+}
+#endif
+
+#if SPHERES
+fn test_shared_sphere(ray: Ray, min_t: real, sphere: Sphere, index: u32, wanted: bool, best: ptr<function, Hit>) {
+    if (wanted) {
+        keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, index, 0u, best);
+    }
+}
+#endif
+
+#if TRIANGLES
+fn test_shared_triangle(ray: Ray, min_t: real, tri: Triangle, index: u32, wanted: bool, best: ptr<function, Hit>) {
+    if (wanted) {
+        let base = params.sphere_count + params.plane_count;
+        keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, index, base, best);
+    }
+}
+#endif
+
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
 // lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
-// and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
-// In f64 each lane loads what it tests: subgroup operations have no f64.
+// and broadcasts hand each primitive to every lane, so each is loaded once for the subgroup.
+// Unrolled because a broadcast's lane must be a constant: a shuffle from a loop's lane
+// compiles to a loop over the lanes on llvmpipe. In f64 each lane loads what it tests:
+// subgroup operations have no f64.
 fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
@@ -185,23 +228,26 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         let s = spheres[mine];
-        for (var k = 0u; k < n; k++) {
-            let sphere = Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k));
-            if (wanted) {
-                keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, best);
-            }
-        }
+        if (n > 0u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 0u), subgroupBroadcast(s.radius, 0u)), first + 0u, wanted, best); }
+        if (n > 1u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 1u), subgroupBroadcast(s.radius, 1u)), first + 1u, wanted, best); }
+        if (n > 2u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 2u), subgroupBroadcast(s.radius, 2u)), first + 2u, wanted, best); }
+        if (n > 3u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 3u), subgroupBroadcast(s.radius, 3u)), first + 3u, wanted, best); }
+        if (n > 4u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 4u), subgroupBroadcast(s.radius, 4u)), first + 4u, wanted, best); }
+        if (n > 5u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 5u), subgroupBroadcast(s.radius, 5u)), first + 5u, wanted, best); }
+        if (n > 6u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 6u), subgroupBroadcast(s.radius, 6u)), first + 6u, wanted, best); }
+        if (n > 7u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 7u), subgroupBroadcast(s.radius, 7u)), first + 7u, wanted, best); }
 #endif
     } else {
 #if TRIANGLES
-        let base = params.sphere_count + params.plane_count;
         let t = triangle_at(mine);
-        for (var k = 0u; k < n; k++) {
-            let tri = Triangle(subgroupShuffle(t.a, k), 0.0, subgroupShuffle(t.b, k), 0.0, subgroupShuffle(t.c, k), 0.0);
-            if (wanted) {
-                keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, first + k, base, best);
-            }
-        }
+        if (n > 0u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 0u), 0.0, subgroupBroadcast(t.b, 0u), 0.0, subgroupBroadcast(t.c, 0u), 0.0), first + 0u, wanted, best); }
+        if (n > 1u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 1u), 0.0, subgroupBroadcast(t.b, 1u), 0.0, subgroupBroadcast(t.c, 1u), 0.0), first + 1u, wanted, best); }
+        if (n > 2u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 2u), 0.0, subgroupBroadcast(t.b, 2u), 0.0, subgroupBroadcast(t.c, 2u), 0.0), first + 2u, wanted, best); }
+        if (n > 3u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 3u), 0.0, subgroupBroadcast(t.b, 3u), 0.0, subgroupBroadcast(t.c, 3u), 0.0), first + 3u, wanted, best); }
+        if (n > 4u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 4u), 0.0, subgroupBroadcast(t.b, 4u), 0.0, subgroupBroadcast(t.c, 4u), 0.0), first + 4u, wanted, best); }
+        if (n > 5u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 5u), 0.0, subgroupBroadcast(t.b, 5u), 0.0, subgroupBroadcast(t.c, 5u), 0.0), first + 5u, wanted, best); }
+        if (n > 6u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 6u), 0.0, subgroupBroadcast(t.b, 6u), 0.0, subgroupBroadcast(t.c, 6u), 0.0), first + 6u, wanted, best); }
+        if (n > 7u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 7u), 0.0, subgroupBroadcast(t.b, 7u), 0.0, subgroupBroadcast(t.c, 7u), 0.0), first + 7u, wanted, best); }
 #endif
     }
 #endif
@@ -225,21 +271,21 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
-        if (leaf0 && subgroupAny(t0 != NO_HIT)) {
+        if (leaf0 && packet_any(t0 != NO_HIT)) {
             intersect_leaf_shared(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
         }
-        if (leaf1 && subgroupAny(t1 != NO_HIT)) {
+        if (leaf1 && packet_any(t1 != NO_HIT)) {
             intersect_leaf_shared(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
-        let go0 = subgroupAny(want0);
-        let go1 = subgroupAny(want1);
+        let go0 = packet_any(want0);
+        let go1 = packet_any(want1);
         if (go0 && go1) {
             // The child more rays reach first goes first.
             let prefer0 = want0 && (!want1 || t0 <= t1);
             let prefer1 = want1 && (!want0 || t1 < t0);
-            let first0 = subgroupAdd(select(0u, 1u, prefer0)) >= subgroupAdd(select(0u, 1u, prefer1));
+            let first0 = packet_count(prefer0) >= packet_count(prefer1);
             stack_node[sp] = select(n.reference0, n.reference1, first0);
             // A ray that does not need the waiting child never asks for it again.
             stack_t[sp] = select(select(T_FAR, t0, want0), select(T_FAR, t1, want1), first0);
@@ -253,11 +299,11 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             var next = false;
             while (sp > 0u) {
                 sp--;
-                if (subgroupAny(stack_t[sp] <= cull_t(*best) && stack_t[sp] != T_FAR)) {
+                if (packet_any(stack_t[sp] <= cull_t(*best) && stack_t[sp] != T_FAR)) {
                     // The same value in every lane (pushed by all together); broadcast so that
                     // compilers that track uniformity know it (Mesa 25.0's llvmpipe does not:
-                    // visit_shared).
-                    node = subgroupBroadcastFirst(stack_node[sp]);
+                    // visit_shared). Every lane is here, lane 0 too.
+                    node = subgroupBroadcast(stack_node[sp], 0u);
                     next = true;
                     break;
                 }

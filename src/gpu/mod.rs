@@ -89,6 +89,8 @@ impl Gpu {
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets: self.has_packet_subgroups(),
+            eight_lanes: self.has_packet_subgroups()
+                && self.info().subgroup_max_size == PACKET_LANES,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             outputs: crate::images::Outputs::GEOMETRY,

@@ -69,6 +69,10 @@ pub struct Variant {
     /// The device has subgroups of at least 8 invocations: the rays of a subgroup traverse the
     /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
+    /// Subgroups are exactly [`super::PACKET_LANES`] invocations: packets vote by broadcasts
+    /// from constant lanes (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
+    /// compiles to lane extracts instead of a loop over the lanes.
+    pub eight_lanes: bool,
     /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
     /// [`MAX_CHUNKS`]): meshes larger than one binding.
     pub chunks: u8,
@@ -175,6 +179,7 @@ impl Variant {
             kinds: Kinds::ALL,
             bvh: false,
             packets: false,
+            eight_lanes: false,
             chunks: 1,
             chunk_bits: chunk_bits_for(128 << 20, precision),
             outputs: Outputs::GEOMETRY,
@@ -217,7 +222,7 @@ impl Variant {
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
-    /// subgroups together, [`Variant::uses_packets`]), `CHUNKS_2..4` (triangles and nodes in several bindings),
+    /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
     /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
@@ -251,6 +256,9 @@ impl Variant {
             d.push("BVH");
             if self.uses_packets() {
                 d.push("PACKETS");
+                if self.eight_lanes {
+                    d.push("EIGHT_LANES");
+                }
             }
         }
         for (present, name) in [
@@ -517,6 +525,7 @@ pub fn all_variants() -> Vec<Variant> {
                         kinds: Kinds::ALL,
                         bvh: false,
                         packets: false,
+                        eight_lanes: false,
                         chunks: 1,
                         chunk_bits: 9,
                         outputs: Outputs::GEOMETRY,
@@ -524,11 +533,18 @@ pub fn all_variants() -> Vec<Variant> {
                         uniform_prims: false,
                         kernel: None,
                     };
-                    for (bvh, packets) in [(false, false), (true, false), (true, true)] {
+                    let traversals = [
+                        (false, false, false),
+                        (true, false, false),
+                        (true, true, false),
+                        (true, true, true),
+                    ];
+                    for (bvh, packets, eight_lanes) in traversals {
                         for chunks in [1, 2, MAX_CHUNKS] {
                             v.push(Variant {
                                 bvh,
                                 packets,
+                                eight_lanes,
                                 chunks,
                                 ..plain
                             });
@@ -536,6 +552,7 @@ pub fn all_variants() -> Vec<Variant> {
                         v.push(Variant {
                             bvh,
                             packets,
+                            eight_lanes,
                             uniform_prims: true,
                             ..plain
                         });
