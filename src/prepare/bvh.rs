@@ -240,25 +240,46 @@ fn round_up(x: f64) -> f32 {
     if (f as f64) < x { f.next_up() } else { f }
 }
 
-/// The box of `items` and the box of their centroids, in one pass.
-fn bounds(items: &[Item]) -> (Aabb, Aabb) {
-    if items.len() > PARALLEL_ITEMS {
-        return items.par_chunks(PARALLEL_ITEMS).map(bounds).reduce(
-            || (Aabb::EMPTY, Aabb::EMPTY),
-            |(a, b), (c, d)| (a.union(c), b.union(d)),
-        );
+/// The box of some items and the box of their centroids.
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    boxes: Aabb,
+    centroids: Aabb,
+}
+
+impl Extent {
+    const EMPTY: Extent = Extent {
+        boxes: Aabb::EMPTY,
+        centroids: Aabb::EMPTY,
+    };
+
+    fn add(&mut self, i: &Item) {
+        self.boxes.grow(i.lo, i.hi);
+        let c = [0, 1, 2].map(|k| i.centroid(k));
+        self.centroids.grow(c, c);
     }
-    let mut b = Aabb::EMPTY;
-    let mut cb = Aabb::EMPTY;
-    for i in items {
-        b.grow(i.lo, i.hi);
-        for k in 0..3 {
-            let c = i.centroid(k);
-            cb.lo[k] = cb.lo[k].min(c);
-            cb.hi[k] = cb.hi[k].max(c);
+
+    fn union(self, o: Extent) -> Extent {
+        Extent {
+            boxes: self.boxes.union(o.boxes),
+            centroids: self.centroids.union(o.centroids),
         }
     }
-    (b, cb)
+
+    /// The extent of `items`, in one pass.
+    fn of(items: &[Item]) -> Extent {
+        if items.len() > PARALLEL_ITEMS {
+            return items
+                .par_chunks(PARALLEL_ITEMS)
+                .map(Extent::of)
+                .reduce(|| Extent::EMPTY, Extent::union);
+        }
+        let mut e = Extent::EMPTY;
+        for i in items {
+            e.add(i);
+        }
+        e
+    }
 }
 
 /// A subtree before flattening; leaves are ranges of the item list, which the build leaves
@@ -281,8 +302,8 @@ impl Bins {
         counts: [0; BINS],
     };
 
-    fn merge(mut self, o: Bins) -> Bins {
-        for b in 0..BINS {
+    fn merge(mut self, o: Bins, used: usize) -> Bins {
+        for b in 0..used {
             self.boxes[b] = self.boxes[b].union(o.boxes[b]);
             self.counts[b] += o.counts[b];
         }
@@ -290,27 +311,34 @@ impl Bins {
     }
 }
 
-/// Where the bins of each axis lie: over the centroid bounds, `BINS` equal parts.
+/// Where the bins of each axis lie: over the centroid bounds, `used` equal parts: `BINS`, or
+/// as many as there are items below that (more bins than items only cost time).
 #[derive(Clone, Copy)]
 struct Binning {
+    used: usize,
     lo: [f32; 3],
     /// Bins per unit along each axis; 0 where the centroids do not spread (no split there).
     scale: [f32; 3],
 }
 
 impl Binning {
-    fn over(cb: &Aabb) -> Binning {
+    fn over(cb: &Aabb, items: usize) -> Binning {
+        let used = items.clamp(2, BINS);
         let scale = [0, 1, 2].map(|k| {
             let extent = cb.hi[k] - cb.lo[k];
             // A multiplication per item instead of a division; a scale that overflows only
             // piles items into the last bin, which the clamp in `bin` keeps.
             if extent > 0.0 {
-                BINS as f32 / extent
+                used as f32 / extent
             } else {
                 0.0
             }
         });
-        Binning { lo: cb.lo, scale }
+        Binning {
+            used,
+            lo: cb.lo,
+            scale,
+        }
     }
 
     fn spreads(&self, axis: usize) -> bool {
@@ -319,7 +347,7 @@ impl Binning {
 
     /// Which bin of `axis` an item's centroid falls in.
     fn bin(&self, item: &Item, axis: usize) -> usize {
-        (((item.centroid(axis) - self.lo[axis]) * self.scale[axis]) as usize).min(BINS - 1)
+        (((item.centroid(axis) - self.lo[axis]) * self.scale[axis]) as usize).min(self.used - 1)
     }
 }
 
@@ -331,7 +359,7 @@ fn fill_bins(items: &[Item], binning: &Binning) -> [Bins; 3] {
             .map(|c| fill_bins(c, binning))
             .reduce(
                 || [Bins::EMPTY; 3],
-                |a, b| [0, 1, 2].map(|k| a[k].merge(b[k])),
+                |a, b| [0, 1, 2].map(|k| a[k].merge(b[k], binning.used)),
             );
     }
     let mut bins = [Bins::EMPTY; 3];
@@ -350,11 +378,11 @@ fn fill_bins(items: &[Item], binning: &Binning) -> [Bins; 3] {
 
 /// The cheapest split of `axis`: (SAH cost relative to one primitive test, first bin of the
 /// right side).
-fn best_split_of_axis(bins: &Bins, parent_area: f64) -> Option<(f64, usize)> {
+fn best_split_of_axis(bins: &Bins, used: usize, parent_area: f64) -> Option<(f64, usize)> {
     let mut right_area = [0.0; BINS];
     let mut right_count = [0usize; BINS];
     let (mut b, mut n) = (Aabb::EMPTY, 0);
-    for k in (1..BINS).rev() {
+    for k in (1..used).rev() {
         b = b.union(bins.boxes[k]);
         n += bins.counts[k];
         right_area[k] = b.half_area();
@@ -362,7 +390,7 @@ fn best_split_of_axis(bins: &Bins, parent_area: f64) -> Option<(f64, usize)> {
     }
     let (mut left, mut left_count) = (Aabb::EMPTY, 0);
     let mut best: Option<(f64, usize)> = None;
-    for k in 1..BINS {
+    for k in 1..used {
         left = left.union(bins.boxes[k - 1]);
         left_count += bins.counts[k - 1];
         if left_count == 0 || right_count[k] == 0 {
@@ -378,9 +406,11 @@ fn best_split_of_axis(bins: &Bins, parent_area: f64) -> Option<(f64, usize)> {
     best
 }
 
-/// Builds the subtree over `items` (which start at `start` in the whole list) at `depth`.
-fn build_tree(items: &mut [Item], start: usize, depth: usize) -> (Aabb, Tree) {
-    let (bounds, cb) = bounds(items);
+/// Builds the subtree over `items` (which start at `start` in the whole list, and span
+/// `extent`) at `depth`. A split passes each side its extent, found while partitioning, so no
+/// node reads its items twice.
+fn build_tree(items: &mut [Item], start: usize, depth: usize, extent: Extent) -> (Aabb, Tree) {
+    let bounds = extent.boxes;
     let n = items.len();
     let leaf = Tree::Leaf { start, len: n };
     if n <= 1 || depth + 1 >= MAX_DEPTH {
@@ -388,51 +418,65 @@ fn build_tree(items: &mut [Item], start: usize, depth: usize) -> (Aabb, Tree) {
     }
     let area = bounds.half_area();
     let mut best: Option<(f64, usize, usize)> = None;
-    let binning = Binning::over(&cb);
+    let binning = Binning::over(&extent.centroids, n);
     let bins = fill_bins(items, &binning);
     for (axis, bins) in bins.iter().enumerate() {
         if !binning.spreads(axis) {
             continue;
         }
-        let split = best_split_of_axis(bins, area.max(f64::MIN_POSITIVE));
+        let split = best_split_of_axis(bins, binning.used, area.max(f64::MIN_POSITIVE));
         if let Some((cost, bin)) = split
             && best.is_none_or(|(c, _, _)| cost < c)
         {
             best = Some((cost, axis, bin));
         }
     }
-    let mid = match best {
+    let (mid, sides) = match best {
         Some((cost, _, _)) if n <= MAX_LEAF && cost >= n as f64 => return (bounds, leaf),
         Some((_, axis, bin)) => partition(items, |i| binning.bin(i, axis) < bin),
         // Every centroid in one point: no plane separates them, so halve the list.
         None if n <= MAX_LEAF => return (bounds, leaf),
-        None => n / 2,
+        None => {
+            let (left, right) = items.split_at(n / 2);
+            (n / 2, [Extent::of(left), Extent::of(right)])
+        }
     };
     let (left, right) = items.split_at_mut(mid);
     let (l, r) = if n >= PARALLEL_ITEMS {
         rayon::join(
-            || build_tree(left, start, depth + 1),
-            || build_tree(right, start + mid, depth + 1),
+            || build_tree(left, start, depth + 1, sides[0]),
+            || build_tree(right, start + mid, depth + 1, sides[1]),
         )
     } else {
         (
-            build_tree(left, start, depth + 1),
-            build_tree(right, start + mid, depth + 1),
+            build_tree(left, start, depth + 1, sides[0]),
+            build_tree(right, start + mid, depth + 1, sides[1]),
         )
     };
     (bounds, Tree::Inner(Box::new([l, r])))
 }
 
-/// Moves the items for which `left` holds to the front; returns how many there are.
-fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
+/// The tree over all `items` of one kind, if there are any.
+fn build_root(items: &mut [Item]) -> Option<(Aabb, Tree)> {
+    let extent = Extent::of(items);
+    (!items.is_empty()).then(|| build_tree(items, 0, 1, extent))
+}
+
+/// Moves the items for which `left` holds to the front; returns how many there are and the
+/// extents of both sides.
+fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Extent; 2]) {
+    let mut sides = [Extent::EMPTY; 2];
     let mut mid = 0;
     for k in 0..items.len() {
         if left(&items[k]) {
+            sides[0].add(&items[k]);
             items.swap(mid, k);
             mid += 1;
+        } else {
+            sides[1].add(&items[k]);
         }
     }
-    mid
+    (mid, sides)
 }
 
 /// Appends the interior nodes of `tree` to `nodes` (the tree's own node first) and returns the
@@ -465,8 +509,9 @@ fn flatten(bounds: Aabb, tree: &Tree, kind: u32, nodes: &mut Vec<BvhNode>) -> Ch
 
 /// The items of one kind, each box grown by `GROWTH` relative to its size, its distance from
 /// the kernel origin and the eye's, so every rounding of the tests stays inside.
-fn grown(boxes: impl Iterator<Item = (Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
+fn grown(boxes: Vec<(Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
     boxes
+        .into_par_iter()
         .enumerate()
         .map(|(index, (lo, hi))| {
             let size = (0..3)
@@ -499,23 +544,18 @@ impl Bvh {
                 }
                 Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
                 Object::Soup { triangles: t, .. } => {
-                    triangles.extend(t.iter().map(|c| triangle_box(c, origin)))
+                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)))
                 }
                 Object::Plane { .. } => {}
             }
         }
-        Bvh::from_boxes(
-            grown(spheres.into_iter(), eye),
-            grown(triangles.into_iter(), eye),
-        )
+        Bvh::from_boxes(grown(spheres, eye), grown(triangles, eye))
     }
 
     fn from_boxes(mut spheres: Vec<Item>, mut triangles: Vec<Item>) -> Bvh {
         let mut nodes = Vec::new();
-        let (sphere_tree, triangle_tree) = rayon::join(
-            || (!spheres.is_empty()).then(|| build_tree(&mut spheres, 0, 1)),
-            || (!triangles.is_empty()).then(|| build_tree(&mut triangles, 0, 1)),
-        );
+        let (sphere_tree, triangle_tree) =
+            rayon::join(|| build_root(&mut spheres), || build_root(&mut triangles));
         nodes.push(BvhNode::zeroed());
         let empty = Child {
             lo: [0.0; 3],

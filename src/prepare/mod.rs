@@ -11,6 +11,8 @@
 pub mod bvh;
 
 use std::borrow::Cow;
+
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -201,9 +203,11 @@ impl<T: Real> Primitives<T> {
                     p.plane_objects.push(id);
                 }
                 Object::Triangle { corners } => p.push_triangle(id, corners, origin),
-                Object::Soup { triangles, .. } => triangles
-                    .iter()
-                    .for_each(|t| p.push_triangle(id, t, origin)),
+                Object::Soup { triangles, .. } => {
+                    let corners = triangles.par_iter().map(|t| triangle_at(t, origin));
+                    p.triangles.par_extend(corners);
+                    p.triangle_objects.resize(p.triangles.len(), id);
+                }
             }
         }
         p
@@ -213,13 +217,15 @@ impl<T: Real> Primitives<T> {
     /// [`Bvh::build`] for the same scene and algorithm), which the traversal then uses.
     pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
         let p = Primitives::new(scene, algorithm);
-        let permute = |order: &[u32]| order.iter().map(|k| *k as usize).collect::<Vec<_>>();
-        let (s, t) = (permute(&bvh.sphere_order), permute(&bvh.triangle_order));
+        fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
+            order.par_iter().map(|&k| list[k as usize]).collect()
+        }
+        let (s, t) = (&bvh.sphere_order, &bvh.triangle_order);
         Primitives {
-            spheres: s.iter().map(|&k| p.spheres[k]).collect(),
-            sphere_objects: s.iter().map(|&k| p.sphere_objects[k]).collect(),
-            triangles: t.iter().map(|&k| p.triangles[k]).collect(),
-            triangle_objects: t.iter().map(|&k| p.triangle_objects[k]).collect(),
+            spheres: permute(&p.spheres, s),
+            sphere_objects: permute(&p.sphere_objects, s),
+            triangles: permute(&p.triangles, t),
+            triangle_objects: permute(&p.triangle_objects, t),
             planes: p.planes,
             plane_objects: p.plane_objects,
             bvh: Some(bvh),
@@ -240,11 +246,16 @@ impl<T: Real> Primitives<T> {
     }
 
     fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle, origin: Vec3<f64>) {
-        self.triangles.push(Triangle {
-            a: (t[0] - origin).cast(),
-            b: (t[1] - origin).cast(),
-            c: (t[2] - origin).cast(),
-        });
+        self.triangles.push(triangle_at(t, origin));
         self.triangle_objects.push(id);
+    }
+}
+
+/// Triangle `t` measured from `origin`, rounded to `T`.
+fn triangle_at<T: Real>(t: &crate::scene::Triangle, origin: Vec3<f64>) -> Triangle<T> {
+    Triangle {
+        a: (t[0] - origin).cast(),
+        b: (t[1] - origin).cast(),
+        c: (t[2] - origin).cast(),
     }
 }
