@@ -39,25 +39,45 @@ struct Params {
 #endif
 #endif
 #if TRIANGLES
-// Meshes larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles
-// (CHUNK_BITS from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
+// Triangles are stored packed, 9 reals each (StoredTriangle, 36 bytes in f32 instead of the
+// 48 of three padded vec3). Meshes larger than one storage binding are split in chunks of
+// 2^CHUNK_BITS triangles (CHUNK_BITS from the precision module), bound as triangles,
+// triangles_2, ... (CHUNKS_2..4).
 #if UNIFORM_PRIMS
-@group(0) @binding(3) var<uniform> triangles: array<Triangle, UNIFORM_TRIANGLES>;
+// The same packed reals in vec4s: arrays in uniform buffers have a stride of 16 bytes.
+@group(0) @binding(3) var<uniform> triangles: array<vec4<real>, UNIFORM_TRIANGLE_VEC4S>;
+
+fn triangle_at(k: u32) -> Triangle {
+    return Triangle(triangle_corner(k, 0u), triangle_corner(k, 1u), triangle_corner(k, 2u));
+}
+
+// Corner c (0 to 2) of triangle k: its reals 9k + 3c to 9k + 3c + 2.
+fn triangle_corner(k: u32, c: u32) -> vec3<real> {
+    let i = 9u * k + 3u * c;
+    return vec3<real>(triangles[i >> 2u][i & 3u], triangles[(i + 1u) >> 2u][(i + 1u) & 3u], triangles[(i + 2u) >> 2u][(i + 2u) & 3u]);
+}
 #else
-@group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
-#endif
+@group(0) @binding(3) var<storage, read> triangles: array<StoredTriangle>;
 #if CHUNKS_2
-@group(0) @binding(11) var<storage, read> triangles_2: array<Triangle>;
+@group(0) @binding(11) var<storage, read> triangles_2: array<StoredTriangle>;
 #endif
 #if CHUNKS_3
-@group(0) @binding(12) var<storage, read> triangles_3: array<Triangle>;
+@group(0) @binding(12) var<storage, read> triangles_3: array<StoredTriangle>;
 #endif
 #if CHUNKS_4
-@group(0) @binding(13) var<storage, read> triangles_4: array<Triangle>;
+@group(0) @binding(13) var<storage, read> triangles_4: array<StoredTriangle>;
 #endif
 
 // Triangle k, from the chunk it lies in.
 fn triangle_at(k: u32) -> Triangle {
+    return unpack_triangle(stored_triangle(k));
+}
+
+fn unpack_triangle(t: StoredTriangle) -> Triangle {
+    return Triangle(vec3<real>(t.a[0], t.a[1], t.a[2]), vec3<real>(t.b[0], t.b[1], t.b[2]), vec3<real>(t.c[0], t.c[1], t.c[2]));
+}
+
+fn stored_triangle(k: u32) -> StoredTriangle {
 #if CHUNKS_2
     let i = k & ((1u << CHUNK_BITS) - 1u);
     switch (k >> CHUNK_BITS) {
@@ -82,6 +102,7 @@ fn triangle_at(k: u32) -> Triangle {
     return triangles[k];
 #endif
 }
+#endif
 #endif
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).

@@ -240,14 +240,14 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
     } else {
 #if TRIANGLES
         let t = triangle_at(mine);
-        if (n > 0u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 0u), 0.0, subgroupBroadcast(t.b, 0u), 0.0, subgroupBroadcast(t.c, 0u), 0.0), first + 0u, wanted, best); }
-        if (n > 1u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 1u), 0.0, subgroupBroadcast(t.b, 1u), 0.0, subgroupBroadcast(t.c, 1u), 0.0), first + 1u, wanted, best); }
-        if (n > 2u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 2u), 0.0, subgroupBroadcast(t.b, 2u), 0.0, subgroupBroadcast(t.c, 2u), 0.0), first + 2u, wanted, best); }
-        if (n > 3u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 3u), 0.0, subgroupBroadcast(t.b, 3u), 0.0, subgroupBroadcast(t.c, 3u), 0.0), first + 3u, wanted, best); }
-        if (n > 4u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 4u), 0.0, subgroupBroadcast(t.b, 4u), 0.0, subgroupBroadcast(t.c, 4u), 0.0), first + 4u, wanted, best); }
-        if (n > 5u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 5u), 0.0, subgroupBroadcast(t.b, 5u), 0.0, subgroupBroadcast(t.c, 5u), 0.0), first + 5u, wanted, best); }
-        if (n > 6u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 6u), 0.0, subgroupBroadcast(t.b, 6u), 0.0, subgroupBroadcast(t.c, 6u), 0.0), first + 6u, wanted, best); }
-        if (n > 7u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 7u), 0.0, subgroupBroadcast(t.b, 7u), 0.0, subgroupBroadcast(t.c, 7u), 0.0), first + 7u, wanted, best); }
+        if (n > 0u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 0u), subgroupBroadcast(t.b, 0u), subgroupBroadcast(t.c, 0u)), first + 0u, wanted, best); }
+        if (n > 1u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 1u), subgroupBroadcast(t.b, 1u), subgroupBroadcast(t.c, 1u)), first + 1u, wanted, best); }
+        if (n > 2u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 2u), subgroupBroadcast(t.b, 2u), subgroupBroadcast(t.c, 2u)), first + 2u, wanted, best); }
+        if (n > 3u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 3u), subgroupBroadcast(t.b, 3u), subgroupBroadcast(t.c, 3u)), first + 3u, wanted, best); }
+        if (n > 4u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 4u), subgroupBroadcast(t.b, 4u), subgroupBroadcast(t.c, 4u)), first + 4u, wanted, best); }
+        if (n > 5u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 5u), subgroupBroadcast(t.b, 5u), subgroupBroadcast(t.c, 5u)), first + 5u, wanted, best); }
+        if (n > 6u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 6u), subgroupBroadcast(t.b, 6u), subgroupBroadcast(t.c, 6u)), first + 6u, wanted, best); }
+        if (n > 7u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 7u), subgroupBroadcast(t.b, 7u), subgroupBroadcast(t.c, 7u)), first + 7u, wanted, best); }
 #endif
     }
 #endif

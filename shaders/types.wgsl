@@ -49,10 +49,14 @@ struct Plane {
 }                         // size 32 / 64
 
 struct Triangle {
-    a: vec3<real>,        // offset 0
-    _pad0: real,          // offset 12 / 24
-    b: vec3<real>,        // offset 16 / 32
-    _pad1: real,          // offset 28 / 56
-    c: vec3<real>,        // offset 32 / 64
-    _pad2: real,          // offset 44 / 88
-}                         // size 48 / 96
+    a: vec3<real>,
+    b: vec3<real>,
+    c: vec3<real>,
+}
+
+// A triangle as the buffers hold it: packed, without the padding of vec3 (bindings.wgsl).
+struct StoredTriangle {
+    a: array<real, 3>,    // offset 0
+    b: array<real, 3>,    // offset 12 / 24
+    c: array<real, 3>,    // offset 24 / 48
+}                         // size 36 / 72

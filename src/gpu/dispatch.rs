@@ -353,21 +353,13 @@ impl<'a, R: GpuReal> Layout<'a, R> {
     /// and nodes in `variant.chunks` buffers each (`triangles`, `triangles_2`, ...).
     fn upload(&self, gpu: &Gpu, variant: &Variant) -> Vec<(String, wgpu::Buffer)> {
         // With UNIFORM_PRIMS, spheres, planes and triangles are uniform buffers (one chunk).
-        let uniform = variant
-            .uses_uniform_prims()
-            .then(|| shader::UniformCapacity::of(variant.precision));
-        let (spheres, planes, triangles) = match uniform {
-            Some(c) => (
-                uniform_buffer(gpu, "spheres", &self.spheres, c.spheres),
-                uniform_buffer(gpu, "planes", &self.planes, c.planes),
-                vec![uniform_buffer(
-                    gpu,
-                    "triangles",
-                    &self.triangles,
-                    c.triangles,
-                )],
+        let (spheres, planes, triangles) = match variant.uses_uniform_prims() {
+            true => (
+                uniform_buffer(gpu, "spheres", &self.spheres),
+                uniform_buffer(gpu, "planes", &self.planes),
+                vec![uniform_buffer(gpu, "triangles", &self.triangles)],
             ),
-            None => (
+            false => (
                 storage_buffer(gpu, "spheres", &self.spheres),
                 storage_buffer(gpu, "planes", &self.planes),
                 chunked_upload(gpu, "triangles", &self.triangles, variant),
@@ -604,10 +596,12 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
         })
 }
 
-/// A uniform buffer holding `items` zero-padded to `capacity` items: the size of the
-/// fixed-size array the kernel declares (UNIFORM_PRIMS), which wgpu requires it to have.
-fn uniform_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], capacity: u32) -> wgpu::Buffer {
-    let mut bytes = vec![0u8; capacity as usize * size_of::<T>()];
+/// A uniform buffer holding `items` zero-padded to [`shader::UNIFORM_BYTES`]: at least the
+/// size of the fixed-size array the kernel declares (UNIFORM_PRIMS), which wgpu requires.
+fn uniform_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
+    // Every uniform array is declared at most UNIFORM_BYTES long (triangles' packed reals
+    // round up to whole vec4s, so may be a little longer than their triangles).
+    let mut bytes = vec![0u8; shader::UNIFORM_BYTES as usize];
     let data: &[u8] = bytemuck::cast_slice(items);
     bytes[..data.len()].copy_from_slice(data);
     gpu.device

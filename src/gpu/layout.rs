@@ -67,17 +67,14 @@ pub struct GpuPlane<R> {
     pub _pad1: R,       // offset 28 / 56
 } // size 32 / 64
 
-/// `struct Triangle` in shaders/types.wgsl.
+/// `struct StoredTriangle` in shaders/types.wgsl: a triangle packed, 9 reals.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct GpuTriangle<R> {
     pub a: [R; 3], // offset 0
-    pub _pad0: R,  // offset 12 / 24
-    pub b: [R; 3], // offset 16 / 32
-    pub _pad1: R,  // offset 28 / 56
-    pub c: [R; 3], // offset 32 / 64
-    pub _pad2: R,  // offset 44 / 88
-} // size 48 / 96
+    pub b: [R; 3], // offset 12 / 24
+    pub c: [R; 3], // offset 24 / 48
+} // size 36 / 72
 
 // SAFETY: each struct is `repr(C)` and made only of `R` (4- or 8-byte floats) and `u32`s whose
 // offsets are multiples of their size, with a total size that is a multiple of the alignment:
@@ -132,11 +129,8 @@ impl<R: GpuReal> From<&Triangle<R>> for GpuTriangle<R> {
     fn from(t: &Triangle<R>) -> Self {
         GpuTriangle {
             a: t.a.to_array(),
-            _pad0: R::ZERO,
             b: t.b.to_array(),
-            _pad1: R::ZERO,
             c: t.c.to_array(),
-            _pad2: R::ZERO,
         }
     }
 }
@@ -211,9 +205,9 @@ mod tests {
         );
         check(
             &m,
-            "Triangle",
+            "StoredTriangle",
             size_of::<GpuTriangle<R>>(),
-            fields!(GpuTriangle<R>: a, _pad0, b, _pad1, c, _pad2),
+            fields!(GpuTriangle<R>: a, b, c),
         );
     }
 

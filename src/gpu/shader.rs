@@ -137,6 +137,12 @@ impl UniformCapacity {
         }
     }
 
+    /// The length of the uniform triangle array: vec4s holding the packed reals (9 per
+    /// triangle) of [`UniformCapacity::triangles`].
+    pub fn triangle_vec4s(&self) -> u32 {
+        (9 * self.triangles).div_ceil(4)
+    }
+
     /// Whether `scene`'s spheres, planes and triangles each fit.
     pub fn fits(&self, scene: &crate::scene::Scene) -> bool {
         let [spheres, planes, triangles] = scene.primitive_counts();
@@ -158,13 +164,15 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
 }
 
 /// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
-/// bytes: every chunk of BVH nodes (64 bytes) or triangles (48 bytes in f32, 96 in f64) fits
+/// bytes: every chunk of BVH nodes (64 bytes) or triangles (36 bytes in f32, 72 in f64) fits
 /// one binding.
 pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
+    use super::layout::GpuTriangle;
+    let node = size_of::<crate::prepare::bvh::BvhNode>();
     let largest = match precision {
-        Precision::F32 => 64,
-        Precision::F64 => 96,
-    };
+        Precision::F32 => node.max(size_of::<GpuTriangle<f32>>()),
+        Precision::F64 => node.max(size_of::<GpuTriangle<f64>>()),
+    } as u64;
     (max_binding / largest).max(1).ilog2().min(31) as u8
 }
 
@@ -367,8 +375,11 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
                 "// Array lengths of the primitives in uniform buffers: as many as fit {UNIFORM_BYTES} bytes.\n\
                  const UNIFORM_SPHERES: u32 = {}u;\n\
                  const UNIFORM_PLANES: u32 = {}u;\n\
-                 const UNIFORM_TRIANGLES: u32 = {}u;\n",
-                c.spheres, c.planes, c.triangles
+                 // Triangles in uniform buffers are packed reals in vec4s (bindings.wgsl).\n\
+                 const UNIFORM_TRIANGLE_VEC4S: u32 = {}u;\n",
+                c.spheres,
+                c.planes,
+                c.triangle_vec4s()
             );
         }
         return Some(text);
@@ -883,7 +894,7 @@ mod tests {
                 for (name, count) in [
                     ("spheres", capacity.spheres),
                     ("planes", capacity.planes),
-                    ("triangles", capacity.triangles),
+                    ("triangles", capacity.triangle_vec4s()),
                 ] {
                     let (_, g) = module
                         .global_variables
@@ -916,9 +927,9 @@ mod tests {
     #[test]
     fn uniform_capacity_is_what_fits_64_kib() {
         let c = UniformCapacity::of(Precision::F32);
-        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1365));
+        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1820));
         let c = UniformCapacity::of(Precision::F64);
-        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 682));
+        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 910));
     }
 
     #[test]
