@@ -77,7 +77,9 @@ fn main() {
             }
         }
         let bvh = raycast::prepare::bvh::Bvh::build(&scene, Robust);
-        let bytes = 52.0 + bvh.bytes() as f64 / triangles as f64;
+        let stored = size_of::<raycast::gpu::layout::GpuTriangle<f32>>();
+        let counts = raycast::study::bench::Counts::of(&scene);
+        let bytes = raycast::study::bench::bytes_per_triangle(counts, stored, Some(&bvh)).unwrap();
         let kernel = median(kernels);
         let base = *first.get_or_insert(kernel);
         println!(

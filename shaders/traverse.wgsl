@@ -210,10 +210,10 @@ fn test_shared_triangle(ray: Ray, min_t: real, tri: Triangle, index: u32, wanted
 
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
 // lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
-// and broadcasts hand each primitive to every lane, so each is loaded once for the subgroup.
-// Unrolled because a broadcast's lane must be a constant: a shuffle from a loop's lane
-// compiles to a loop over the lanes on llvmpipe. In f64 each lane loads what it tests:
-// subgroup operations have no f64.
+// and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
+// (Unrolled, with broadcasts from constant lanes instead of shuffles, the torus traced 1.05x as
+// fast on llvmpipe but the kernel took 1.3 s longer to compile: not kept.) In f64 each lane
+// loads what it tests: subgroup operations have no f64.
 fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
@@ -228,26 +228,16 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         let s = spheres[mine];
-        if (n > 0u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 0u), subgroupBroadcast(s.radius, 0u)), first + 0u, wanted, best); }
-        if (n > 1u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 1u), subgroupBroadcast(s.radius, 1u)), first + 1u, wanted, best); }
-        if (n > 2u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 2u), subgroupBroadcast(s.radius, 2u)), first + 2u, wanted, best); }
-        if (n > 3u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 3u), subgroupBroadcast(s.radius, 3u)), first + 3u, wanted, best); }
-        if (n > 4u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 4u), subgroupBroadcast(s.radius, 4u)), first + 4u, wanted, best); }
-        if (n > 5u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 5u), subgroupBroadcast(s.radius, 5u)), first + 5u, wanted, best); }
-        if (n > 6u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 6u), subgroupBroadcast(s.radius, 6u)), first + 6u, wanted, best); }
-        if (n > 7u) { test_shared_sphere(ray, min_t, Sphere(subgroupBroadcast(s.center, 7u), subgroupBroadcast(s.radius, 7u)), first + 7u, wanted, best); }
+        for (var k = 0u; k < n; k++) {
+            test_shared_sphere(ray, min_t, Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k)), first + k, wanted, best);
+        }
 #endif
     } else {
 #if TRIANGLES
         let t = triangle_at(mine);
-        if (n > 0u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 0u), subgroupBroadcast(t.b, 0u), subgroupBroadcast(t.c, 0u)), first + 0u, wanted, best); }
-        if (n > 1u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 1u), subgroupBroadcast(t.b, 1u), subgroupBroadcast(t.c, 1u)), first + 1u, wanted, best); }
-        if (n > 2u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 2u), subgroupBroadcast(t.b, 2u), subgroupBroadcast(t.c, 2u)), first + 2u, wanted, best); }
-        if (n > 3u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 3u), subgroupBroadcast(t.b, 3u), subgroupBroadcast(t.c, 3u)), first + 3u, wanted, best); }
-        if (n > 4u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 4u), subgroupBroadcast(t.b, 4u), subgroupBroadcast(t.c, 4u)), first + 4u, wanted, best); }
-        if (n > 5u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 5u), subgroupBroadcast(t.b, 5u), subgroupBroadcast(t.c, 5u)), first + 5u, wanted, best); }
-        if (n > 6u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 6u), subgroupBroadcast(t.b, 6u), subgroupBroadcast(t.c, 6u)), first + 6u, wanted, best); }
-        if (n > 7u) { test_shared_triangle(ray, min_t, Triangle(subgroupBroadcast(t.a, 7u), subgroupBroadcast(t.b, 7u), subgroupBroadcast(t.c, 7u)), first + 7u, wanted, best); }
+        for (var k = 0u; k < n; k++) {
+            test_shared_triangle(ray, min_t, Triangle(subgroupShuffle(t.a, k), subgroupShuffle(t.b, k), subgroupShuffle(t.c, k)), first + k, wanted, best);
+        }
 #endif
     }
 #endif
