@@ -83,8 +83,9 @@ fn main(
 }
 #else
 #if PACKETS
-// One workgroup per 8x8 pixels, as below, numbered in one dimension (subgroup builtins need
-// that). Every invocation runs to the end, since its subgroup fetches nodes together: one
+// One workgroup per 8x8 pixels, as below, numbered in one dimension: subgroups are then
+// consecutive invocations (a row of 8 pixels on llvmpipe), which Vulkan does not promise for
+// 2-D workgroups, so each packet's rays stay coherent. Every invocation runs to the end, since its subgroup fetches nodes together: one
 // beyond the image casts the nearest pixel inside it and writes nothing.
 @compute @workgroup_size(64)
 fn main(

@@ -191,29 +191,12 @@ fn packet_count(b: bool) -> u32 {
 }
 #endif
 
-#if SPHERES
-fn test_shared_sphere(ray: Ray, min_t: real, sphere: Sphere, index: u32, wanted: bool, best: ptr<function, Hit>) {
-    if (wanted) {
-        keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, index, 0u, best);
-    }
-}
-#endif
-
-#if TRIANGLES
-fn test_shared_triangle(ray: Ray, min_t: real, tri: Triangle, index: u32, wanted: bool, best: ptr<function, Hit>) {
-    if (wanted) {
-        let base = params.sphere_count + params.plane_count;
-        keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, index, base, best);
-    }
-}
-#endif
-
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
 // lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
 // and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
-// (Unrolled, with broadcasts from constant lanes instead of shuffles, the torus traced 1.05x as
-// fast on llvmpipe but the kernel took 1.3 s longer to compile: not kept.) In f64 each lane
-// loads what it tests: subgroup operations have no f64.
+// (Unrolled, with constant-lane broadcasts, it traced 1.05x as fast on llvmpipe but compiled
+// 1.3 s slower: docs/performance.md.) In f64 each lane loads what it tests: subgroup
+// operations have no f64.
 fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
@@ -229,14 +212,21 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
 #if SPHERES
         let s = spheres[mine];
         for (var k = 0u; k < n; k++) {
-            test_shared_sphere(ray, min_t, Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k)), first + k, wanted, best);
+            let sphere = Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k));
+            if (wanted) {
+                keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, best);
+            }
         }
 #endif
     } else {
 #if TRIANGLES
+        let base = params.sphere_count + params.plane_count;
         let t = triangle_at(mine);
         for (var k = 0u; k < n; k++) {
-            test_shared_triangle(ray, min_t, Triangle(subgroupShuffle(t.a, k), subgroupShuffle(t.b, k), subgroupShuffle(t.c, k)), first + k, wanted, best);
+            let tri = Triangle(subgroupShuffle(t.a, k), subgroupShuffle(t.b, k), subgroupShuffle(t.c, k));
+            if (wanted) {
+                keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, first + k, base, best);
+            }
         }
 #endif
     }

@@ -144,10 +144,12 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
 /// units: textbook f32 computes hits at t beyond it (a distance of infinity), robust f32 sphere
 /// normals whose half-chord overflows (NaN). Guarding the normal would cost every f32 render
 /// about 1% (measured on 100 spheres); adaptive precision re-casts such pixels in f64
-/// (tests/adaptive.rs), and f64 stays clean.
+/// (tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {
+        let adaptive = raycast::adaptive::render_adaptive(gpu(), &e.scene).unwrap();
+        assert_clean(&format!("{} gpu adaptive", e.name), &adaptive.images);
         for a in [Textbook, Robust] {
             if kind(&e) != "range" {
                 assert_clean(

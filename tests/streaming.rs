@@ -32,20 +32,11 @@ fn render_args(scene: &str, out: &Path, args: &[&str]) -> std::process::Output {
 }
 
 fn same_files(whole: &Path, banded: &Path) {
-    let mut names: Vec<_> = std::fs::read_dir(whole)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    names.sort();
-    let mut banded_names: Vec<_> = std::fs::read_dir(banded)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    banded_names.sort();
-    assert_eq!(names, banded_names);
+    let names = common::file_names(whole);
+    assert_eq!(names, common::file_names(banded));
     for name in names {
         let (a, b) = (whole.join(&name), banded.join(&name));
-        if name.to_string_lossy().ends_with(".png") {
+        if name.ends_with(".png") {
             let (a, b) = (image::open(&a).unwrap(), image::open(&b).unwrap());
             assert_eq!(a.color(), b.color(), "{name:?}");
             assert_eq!(a.as_bytes(), b.as_bytes(), "{name:?}");

@@ -87,7 +87,7 @@ fn small_meshes_render_the_same_from_uniform_buffers() {
     bunny.camera.resolution = [96, 54];
     assert!(
         !gpu.uniform_fits(&bunny, Precision::F64),
-        "1000 triangles of 96 bytes"
+        "1000 triangles of 72 bytes"
     );
     same_as_storage("bunny", &bunny);
 }

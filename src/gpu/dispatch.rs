@@ -310,8 +310,8 @@ fn list_groups(gpu: &Gpu, count: u32) -> [u32; 2] {
     [groups.min(max_groups), groups.div_ceil(max_groups)]
 }
 
-/// A scene's primitives in the GPU's layout (the values of [`Primitives`], padded as WGSL lays
-/// them out), and the object id of each: spheres first, then planes, then triangles. With a
+/// A scene's primitives in the GPU's layout (the values of [`Primitives`], as WGSL lays them
+/// out), and the object id of each: spheres first, then planes, then triangles. With a
 /// BVH, spheres and triangles are in its order, and `order` holds each one's index in the
 /// scene's.
 struct Layout<'a, R> {

@@ -3,8 +3,9 @@
 //! shaders/bindings.wgsl; the tests below compare every size and offset with naga's layout of
 //! the WGSL structs, in both precisions.
 //!
-//! Every struct is `vec3<real>` + `real` pairs (or all `u32` after a `Frame`), which packs
-//! without implicit padding in both precisions, so one generic Rust struct fits both.
+//! Every struct is `vec3<real>` + `real` pairs (or all `u32` after a `Frame`), or `real`s
+//! only (`StoredTriangle`), which packs without implicit padding in both precisions, so one
+//! generic Rust struct fits both.
 
 use bytemuck::{Pod, Zeroable};
 

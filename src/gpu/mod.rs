@@ -80,6 +80,7 @@ impl Gpu {
         precision: crate::math::Precision,
         algorithm: crate::Algorithm,
     ) -> Variant {
+        let packets = self.has_packet_subgroups();
         Variant {
             precision,
             algorithm,
@@ -88,9 +89,8 @@ impl Gpu {
             pixel_list: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
-            packets: self.has_packet_subgroups(),
-            eight_lanes: self.has_packet_subgroups()
-                && self.info().subgroup_max_size == PACKET_LANES,
+            packets,
+            eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             outputs: crate::images::Outputs::GEOMETRY,
@@ -100,15 +100,11 @@ impl Gpu {
         }
     }
 
-    /// Whether this device can run the subgroup-packet traversal (`Variant::packets`).
-    pub fn has_subgroups(&self) -> bool {
-        self.device.features().contains(wgpu::Features::SUBGROUP)
-    }
-
     /// Whether the packet traversal runs here: subgroups, of at least the 8 invocations it
     /// shares a node fetch among (shaders/traverse.wgsl, `visit_shared`).
     pub fn has_packet_subgroups(&self) -> bool {
-        self.has_subgroups() && self.info().subgroup_min_size >= PACKET_LANES
+        self.device.features().contains(wgpu::Features::SUBGROUP)
+            && self.info().subgroup_min_size >= PACKET_LANES
     }
 
     /// The largest storage binding this device allows, in bytes.

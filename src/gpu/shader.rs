@@ -103,9 +103,10 @@ pub const UNIFORM_BYTES: u64 = 64 << 10;
 
 /// Whether [`super::Gpu::scene_variant`] puts primitives that fit into uniform buffers. Off:
 /// on lavapipe (Mesa 25.0.7, 2 cores) uniform buffers were no faster than storage buffers on
-/// any course scene (0.78x to 1.04x over two runs of `raycast specializations`, geometric means
-/// 0.88x and 1.01x; docs/specializations.md, rows "uniform memory"), unlike the 1.6x reported
-/// on Mesa 22.3.
+/// any course scene in two runs of `raycast specializations` (0.78x to 1.04x, geometric means
+/// 0.88x and 1.01x), unlike the 1.6x reported on Mesa 22.3. A third run, with triangles packed
+/// (docs/specializations.md, rows "uniform memory"), gave 0.97x to 1.23x, geometric mean
+/// 1.06x: not enough, from one run, to switch it on; to measure again.
 pub const UNIFORM_BY_DEFAULT: bool = false;
 
 /// How many spheres, planes and triangles a uniform binding of [`UNIFORM_BYTES`] holds: the
@@ -515,8 +516,9 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 
 /// Every variant a device may build: both precisions, both algorithms, with and without f64,
 /// the robust ones with and without the certainty test, and the pixel-list ones, with and
-/// without a BVH (per ray and by packets) and in one or several chunks; the plain ones also
-/// with each output alone and with none.
+/// without a BVH (per ray, and except for pixel lists by packets, with subgroup votes or on
+/// 8-lane subgroups) and in one or several chunks; the plain ones also with each output alone
+/// and with none.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
@@ -550,7 +552,9 @@ pub fn all_variants() -> Vec<Variant> {
                         (true, true, false),
                         (true, true, true),
                     ];
-                    for (bvh, packets, eight_lanes) in traversals {
+                    // Pixel lists never traverse by packets (`uses_packets`).
+                    let traversals = &traversals[..if pixel_list { 2 } else { 4 }];
+                    for &(bvh, packets, eight_lanes) in traversals {
                         for chunks in [1, 2, MAX_CHUNKS] {
                             v.push(Variant {
                                 bvh,

@@ -11,10 +11,10 @@
 pub mod bvh;
 
 use std::borrow::Cow;
-
-use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
+
+use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
 use crate::cpu::types::{Frame, Plane, Sphere, Triangle};

@@ -134,9 +134,14 @@ impl Request {
     }
 }
 
+/// Whether some of `modes` runs on the GPU.
+pub fn needs_gpu(modes: &[Mode]) -> bool {
+    modes.iter().any(|m| m.device == Device::Gpu)
+}
+
 /// A GPU device when one of `modes` needs it.
 pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
-    if modes.iter().any(|m| m.device == Device::Gpu) {
+    if needs_gpu(modes) {
         Ok(Some(Gpu::new()?))
     } else {
         Ok(None)

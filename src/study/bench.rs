@@ -106,7 +106,7 @@ impl Options {
 
     /// Whether some configuration runs on the GPU.
     pub fn needs_gpu(&self) -> bool {
-        self.modes.iter().any(|m| m.device == Device::Gpu)
+        render::needs_gpu(&self.modes)
     }
 }
 
