@@ -168,9 +168,11 @@ fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -
 }
 
 // Whether any ray of the packet (the subgroup) has `b`, and how many. With EIGHT_LANES
-// (subgroups of exactly 8 invocations, all running here: llvmpipe) as 8 broadcasts from
-// constant lanes, which compile to lane extracts; llvmpipe (Mesa 25.0) compiles subgroupAny
-// and subgroupAdd to a loop over the lanes with a branch per lane (1.12x on the torus).
+// (subgroups of exactly 8 invocations, all running here: llvmpipe) by three butterfly steps of
+// shuffles by a constant xor, which llvmpipe compiles to a few permutes; it compiles
+// subgroupAny and subgroupAdd (Mesa 25.0) to a loop over the lanes with a branch per lane.
+// Sums of 8 constant-lane broadcasts made the torus 1.12x as fast as the built-ins, the
+// butterflies 1.01x (spheres 1.03x) faster again.
 #if EIGHT_LANES
 fn packet_any(b: bool) -> bool {
     return packet_count(b) != 0u;
@@ -178,8 +180,9 @@ fn packet_any(b: bool) -> bool {
 
 fn packet_count(b: bool) -> u32 {
     let u = select(0u, 1u, b);
-    let low = subgroupBroadcast(u, 0u) + subgroupBroadcast(u, 1u) + subgroupBroadcast(u, 2u) + subgroupBroadcast(u, 3u);
-    return low + subgroupBroadcast(u, 4u) + subgroupBroadcast(u, 5u) + subgroupBroadcast(u, 6u) + subgroupBroadcast(u, 7u);
+    let pairs = u + subgroupShuffleXor(u, 1u);
+    let quads = pairs + subgroupShuffleXor(pairs, 2u);
+    return quads + subgroupShuffleXor(quads, 4u);
 }
 #else
 fn packet_any(b: bool) -> bool {

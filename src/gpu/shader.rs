@@ -69,9 +69,9 @@ pub struct Variant {
     /// The device has subgroups of at least 8 invocations: the rays of a subgroup traverse the
     /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
-    /// Subgroups are exactly [`super::PACKET_LANES`] invocations: packets vote by broadcasts
-    /// from constant lanes (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
-    /// compiles to lane extracts instead of a loop over the lanes.
+    /// Subgroups are exactly [`super::PACKET_LANES`] invocations: packets vote by butterflies of
+    /// constant-xor shuffles (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
+    /// compiles to permutes instead of a loop over the lanes.
     pub eight_lanes: bool,
     /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
     /// [`MAX_CHUNKS`]): meshes larger than one binding.
