@@ -178,6 +178,96 @@ fn unknown_field_in_the_camera() {
     assert_has(&message, &["camera.fov", "unknown field `fov`"]);
 }
 
+#[test]
+fn a_misspelt_field_or_type_gets_the_nearest_name() {
+    let message = run_err(&edit(r#""objects""#, r#""objcts""#), &[]);
+    assert_has(
+        &message,
+        &["unknown field `objcts`, did you mean `objects`?"],
+    );
+    let message = run_err(&edit(r#""type":"sphere""#, r#""type":"sphre""#), &[]);
+    assert_has(
+        &message,
+        &["unknown variant `sphre`, did you mean `sphere`?"],
+    );
+    let message = run_err(&edit(r#""look""#, r#""lok""#), &[]);
+    assert_has(&message, &["camera.lok", "did you mean `look`?"]);
+}
+
+// 3b. Materials and lights (the course's ray-tracing scenes): checked, then ignored.
+
+/// `VALID` with `materials`, `lights` and the sphere's `material`.
+fn lit(materials: &str, lights: &str, material: &str) -> String {
+    let with_material = edit(
+        r#""radius":0.5"#,
+        &format!(r#""radius":0.5,"material":"{material}""#),
+    );
+    with_material.replacen(
+        r#""objects""#,
+        &format!(r#""materials":{materials},"lights":{lights},"objects""#),
+        1,
+    )
+}
+
+const MATTE: &str = r#"[{"name":"matte","ka":[0.1,0.1,0.1],"kd":[0.5,0.5,0.5],"ks":[0.2,0.2,0.2],"km":[0,0,0],"phong_exponent":20}]"#;
+const LAMP: &str = r#"[{"type":"point","position":[0,2,2],"color":[0.8,0.8,0.8]}]"#;
+
+#[test]
+fn an_object_naming_a_missing_material() {
+    let message = run_err(&lit(MATTE, LAMP, "glossy"), &[]);
+    assert_has(&message, &["objects[0].material", "`glossy`"]);
+}
+
+#[test]
+fn materials_and_lights_are_checked() {
+    let negative = MATTE.replace(r#""kd":[0.5,0.5,0.5]"#, r#""kd":[0.5,-0.5,0.5]"#);
+    let message = run_err(&lit(&negative, LAMP, "matte"), &[]);
+    assert_has(&message, &["materials[0].kd[1]", "must be >= 0"]);
+    let twice = format!("[{0},{0}]", &MATTE[1..MATTE.len() - 1]);
+    let message = run_err(&lit(&twice, LAMP, "matte"), &[]);
+    assert_has(&message, &["materials[1].name", "`matte`"]);
+    let message = run_err(
+        &lit(
+            MATTE,
+            r#"[{"type":"directional","direction":[0,0,0],"color":[1,1,1]}]"#,
+            "matte",
+        ),
+        &[],
+    );
+    assert_has(&message, &["lights[0].direction", "non-zero"]);
+    let message = run_err(&lit(MATTE, &LAMP.replace("point", "spot"), "matte"), &[]);
+    assert_has(
+        &message,
+        &["lights[0]", "unknown variant `spot`", "`point`"],
+    );
+    let message = run_err(&lit(MATTE, &LAMP.replace("color", "colour"), "matte"), &[]);
+    assert_has(&message, &["unknown field `colour`, did you mean `color`?"]);
+}
+
+#[test]
+fn a_lit_scene_renders_its_geometry_with_one_note() {
+    let case = Case::new(&lit(MATTE, LAMP, "matte"));
+    let output = case.run(&[], &[]);
+    assert!(output.status.success(), "{output:?}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let notes: Vec<&str> = stderr.lines().filter(|l| l.starts_with("note: ")).collect();
+    assert_eq!(notes.len(), 1, "{stderr}");
+    assert_has(
+        notes[0],
+        &[
+            "scene.json",
+            "ignored",
+            "1 light, 1 material, a material on 1 object",
+        ],
+    );
+    let plain = Case::new(VALID);
+    assert!(plain.run(&[], &[]).status.success());
+    for name in ["id.png", "depth.png", "normal.png"] {
+        let a = std::fs::read(case.out.join(name)).unwrap();
+        assert_eq!(a, std::fs::read(plain.out.join(name)).unwrap(), "{name}");
+    }
+}
+
 // 4. Missing fields.
 
 #[test]

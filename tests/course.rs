@@ -255,3 +255,58 @@ fn the_default_render_reproduces_every_course_render() {
         assert!(ok, "{name}: see {}", save_all(name, &ours).display());
     }
 }
+
+/// The course's ray-tracing scenes (scenes/ray-tracing/) load: their lights and materials as the
+/// file lists them, each object's material resolved by name, and the camera and objects exactly
+/// those of the same file without `lights`, `materials` and the objects' `material`.
+#[test]
+fn ray_tracing_scenes_load_with_their_materials_and_lights() {
+    let dir = repo_path("scenes/ray-tracing");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 10);
+    for path in names {
+        let scene = raycast::Scene::load(&path).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let listed = |key: &str| json[key].as_array().map_or(0, Vec::len);
+        let lighting = &scene.lighting;
+        assert_eq!(
+            lighting.lights.len(),
+            listed("lights"),
+            "{}",
+            path.display()
+        );
+        assert_eq!(lighting.materials.len(), listed("materials"));
+        assert_eq!(lighting.object_materials.len(), scene.objects.len());
+        for (object, material) in json["objects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(&lighting.object_materials)
+        {
+            let named = object["material"].as_str();
+            assert_eq!(named, material.map(|k| lighting.materials[k].name.as_str()));
+        }
+        let mut plain = json.clone();
+        let top = plain.as_object_mut().unwrap();
+        top.remove("lights");
+        top.remove("materials");
+        for object in top["objects"].as_array_mut().unwrap() {
+            object.as_object_mut().unwrap().remove("material");
+        }
+        let plain = raycast::Scene::from_json(&plain.to_string(), &path, &mut |mesh| {
+            raycast::scene::load_mesh(&dir.join(mesh))
+        })
+        .unwrap();
+        assert!(plain.lighting.is_empty());
+        assert_eq!(
+            (&scene.camera, &scene.objects),
+            (&plain.camera, &plain.objects)
+        );
+    }
+}

@@ -4,7 +4,9 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::{Camera, DEFAULT_RESOLUTION, Object, Projection, Scene, Triangle};
+use super::{
+    Camera, DEFAULT_RESOLUTION, Light, Lighting, Material, Object, Projection, Scene, Triangle,
+};
 use crate::error::{Error, Result};
 use crate::math::{Vec3, cross, length, normalize};
 
@@ -13,6 +15,11 @@ use crate::math::{Vec3, cross, length, normalize};
 struct SceneFile {
     camera: CameraFile,
     objects: Vec<ObjectFile>,
+    /// The course's ray-tracing scenes add these (validated, not rendered).
+    #[serde(default)]
+    materials: Vec<MaterialFile>,
+    #[serde(default)]
+    lights: Vec<LightFile>,
     /// Free text: what the scene is for. Ignored by the renderer.
     #[serde(default)]
     #[allow(dead_code)]
@@ -42,6 +49,31 @@ struct CameraFile {
 }
 
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    name: String,
+    ka: [f64; 3],
+    kd: [f64; 3],
+    ks: [f64; 3],
+    km: [f64; 3],
+    phong_exponent: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum LightFile {
+    Directional {
+        direction: [f64; 3],
+        color: [f64; 3],
+    },
+    Point {
+        position: [f64; 3],
+        color: [f64; 3],
+    },
+}
+
+/// An object: its shape and, in ray-tracing scenes, the name of its material.
+#[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 enum ObjectFile {
     Sphere {
@@ -50,6 +82,8 @@ enum ObjectFile {
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
+        #[serde(default)]
+        material: Option<String>,
     },
     Plane {
         point: [f64; 3],
@@ -57,12 +91,16 @@ enum ObjectFile {
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
+        #[serde(default)]
+        material: Option<String>,
     },
     Triangle {
         corners: [[f64; 3]; 3],
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
+        #[serde(default)]
+        material: Option<String>,
     },
     /// The key names the format for the reader of the scene; the loader goes by the file's
     /// extension (`.obj`, `.ply`, anything else STL), as it always has.
@@ -73,7 +111,20 @@ enum ObjectFile {
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
+        #[serde(default)]
+        material: Option<String>,
     },
+}
+
+impl ObjectFile {
+    fn material(&self) -> Option<&str> {
+        match self {
+            ObjectFile::Sphere { material, .. }
+            | ObjectFile::Plane { material, .. }
+            | ObjectFile::Triangle { material, .. }
+            | ObjectFile::Soup { material, .. } => material.as_deref(),
+        }
+    }
 }
 
 /// Parses and validates scene JSON. `file` names the source in error messages.
@@ -91,7 +142,12 @@ pub(super) fn parse(
         .enumerate()
         .map(|(i, o)| checker.object(i, o, load_mesh))
         .collect::<Result<Vec<_>>>()?;
-    Ok(Scene { camera, objects })
+    let lighting = checker.lighting(&raw)?;
+    Ok(Scene {
+        camera,
+        objects,
+        lighting,
+    })
 }
 
 fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
@@ -101,7 +157,7 @@ fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
         // `?` stands for a position between fields, which the line and column already give.
         let path = path.trim_end_matches('?').trim_end_matches('.');
         let inner = e.into_inner();
-        let message = strip_position(&inner.to_string());
+        let message = suggest_name(&strip_position(&inner.to_string()));
         let message = if path.is_empty() || path == "." {
             message
         } else {
@@ -122,6 +178,48 @@ fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
         message: strip_position(&e.to_string()),
     })?;
     Ok(raw)
+}
+
+/// serde's "unknown field `objcts`, expected one of `camera`, `objects`, ..." (or variant, for
+/// an object's `type`) becomes "unknown field `objcts`, did you mean `objects`?" where one
+/// expected name is within a third of the name's length in edits (at least one edit); other
+/// messages are kept.
+fn suggest_name(message: &str) -> String {
+    let quoted: Vec<&str> = message.split('`').skip(1).step_by(2).collect();
+    let is_unknown =
+        message.starts_with("unknown field `") || message.starts_with("unknown variant `");
+    let Some((given, expected)) = quoted.split_first().filter(|_| is_unknown) else {
+        return message.to_owned();
+    };
+    let limit = (given.chars().count() / 3).max(1);
+    let nearest = expected
+        .iter()
+        .map(|name| (edit_distance(given, name), *name))
+        .filter(|(d, _)| *d <= limit)
+        .min();
+    match nearest {
+        Some((_, name)) => {
+            let what = message.split('`').next().unwrap_or_default();
+            format!("{what}`{given}`, did you mean `{name}`?")
+        }
+        None => message.to_owned(),
+    }
+}
+
+/// Levenshtein distance: single-character insertions, deletions and substitutions.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let substitute = diagonal + usize::from(ca != *cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
+        }
+    }
+    row[b.len()]
 }
 
 /// serde_json appends " at line L column C"; we print the position up front instead.
@@ -268,6 +366,80 @@ impl Checker<'_> {
         })
     }
 
+    /// Finite components, each at least 0.
+    fn color(&self, field: &str, v: [f64; 3]) -> Result<Vec3<f64>> {
+        for (k, &x) in v.iter().enumerate() {
+            if self.number(&format!("{field}[{k}]"), x)? < 0.0 {
+                return Err(self.fail(format!("{field}[{k}]"), format!("must be >= 0 (got {x})")));
+            }
+        }
+        Ok(Vec3::from_array(v))
+    }
+
+    fn lighting(&self, raw: &SceneFile) -> Result<Lighting> {
+        let mut materials: Vec<Material> = Vec::with_capacity(raw.materials.len());
+        for (i, m) in raw.materials.iter().enumerate() {
+            let field = |name: &str| format!("materials[{i}].{name}");
+            if materials.iter().any(|other| other.name == m.name) {
+                let message = format!("`{}` is the name of an earlier material too", m.name);
+                return Err(self.fail(field("name"), message));
+            }
+            let phong_exponent = self.number(&field("phong_exponent"), m.phong_exponent)?;
+            if phong_exponent < 0.0 {
+                let message = format!("must be >= 0 (got {phong_exponent})");
+                return Err(self.fail(field("phong_exponent"), message));
+            }
+            materials.push(Material {
+                name: m.name.clone(),
+                ka: self.color(&field("ka"), m.ka)?,
+                kd: self.color(&field("kd"), m.kd)?,
+                ks: self.color(&field("ks"), m.ks)?,
+                km: self.color(&field("km"), m.km)?,
+                phong_exponent,
+            });
+        }
+        let lights = raw
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let field = |name: &str| format!("lights[{i}].{name}");
+                Ok(match l {
+                    LightFile::Directional { direction, color } => Light::Directional {
+                        direction: self.nonzero(&field("direction"), *direction)?,
+                        color: self.color(&field("color"), *color)?,
+                    },
+                    LightFile::Point { position, color } => Light::Point {
+                        position: self.vector(&field("position"), *position)?,
+                        color: self.color(&field("color"), *color)?,
+                    },
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let object_materials = raw
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let Some(name) = o.material() else {
+                    return Ok(None);
+                };
+                match materials.iter().position(|m| m.name == name) {
+                    Some(k) => Ok(Some(k)),
+                    None => Err(self.fail(
+                        format!("objects[{i}].material"),
+                        format!("no material is named `{name}` in `materials`"),
+                    )),
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Lighting {
+            materials,
+            lights,
+            object_materials,
+        })
+    }
+
     fn mesh_values(&self, i: usize, triangles: &[Triangle]) -> Result<()> {
         for (k, t) in triangles.iter().enumerate() {
             for c in t {
@@ -277,5 +449,37 @@ impl Checker<'_> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_counts_insertions_deletions_and_substitutions() {
+        assert_eq!(edit_distance("objcts", "objects"), 1);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("same", "same"), 0);
+    }
+
+    #[test]
+    fn unknown_names_get_the_nearest_expected_one() {
+        let m = "unknown field `objcts`, expected one of `camera`, `objects`, `materials`";
+        assert_eq!(
+            suggest_name(m),
+            "unknown field `objcts`, did you mean `objects`?"
+        );
+        let m = "unknown variant `sphre`, expected one of `sphere`, `plane`, `triangle`, `soup`";
+        assert_eq!(
+            suggest_name(m),
+            "unknown variant `sphre`, did you mean `sphere`?"
+        );
+        // Too far from every name: the list stays.
+        let m = "unknown field `zzzzzz`, expected `camera` or `objects`";
+        assert_eq!(suggest_name(m), m);
+        let m = "missing field `camera`";
+        assert_eq!(suggest_name(m), m);
     }
 }

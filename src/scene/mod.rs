@@ -76,6 +76,69 @@ pub enum Object {
 pub struct Scene {
     pub camera: Camera,
     pub objects: Vec<Object>,
+    /// Materials and lights, as the course's ray-tracing scenes give them: validated and kept,
+    /// but the ray caster renders geometry only (ids, distances, normals).
+    pub lighting: Lighting,
+}
+
+/// A material of the course's ray-tracing assignment (Blinn-Phong with a mirror term): RGB
+/// coefficients, each component finite and at least 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Ambient, diffuse, specular and mirror coefficients.
+    pub ka: Vec3<f64>,
+    pub kd: Vec3<f64>,
+    pub ks: Vec3<f64>,
+    pub km: Vec3<f64>,
+    pub phong_exponent: f64,
+}
+
+/// A light of the course's ray-tracing assignment; `color` components are finite and at least 0.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Light arriving along `direction` (non-zero) from infinitely far.
+    Directional {
+        direction: Vec3<f64>,
+        color: Vec3<f64>,
+    },
+    Point {
+        position: Vec3<f64>,
+        color: Vec3<f64>,
+    },
+}
+
+/// The materials and lights of a scene, and each object's material.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Lighting {
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    /// Per object of [`Scene::objects`], the index in `materials` of the material it names.
+    pub object_materials: Vec<Option<usize>>,
+}
+
+impl Lighting {
+    /// Whether the scene gives no material, light or object material at all.
+    pub fn is_empty(&self) -> bool {
+        self.materials.is_empty()
+            && self.lights.is_empty()
+            && self.object_materials.iter().all(Option::is_none)
+    }
+
+    /// What the scene gives, e.g. `2 lights, 5 materials, a material on 8 objects`.
+    pub fn summary(&self) -> String {
+        let plural = |n: usize, what: &str| match n {
+            1 => format!("1 {what}"),
+            n => format!("{n} {what}s"),
+        };
+        let with = self.object_materials.iter().flatten().count();
+        format!(
+            "{}, {}, a material on {}",
+            plural(self.lights.len(), "light"),
+            plural(self.materials.len(), "material"),
+            plural(with, "object")
+        )
+    }
 }
 
 /// An image size written `WIDTHxHEIGHT` (`--size 640x360`), each at least 1.
@@ -91,12 +154,22 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 }
 
 /// The scene of `path` ([`Scene::load`]), or without one the built-in default scene, with its
-/// resolution replaced by `size` where given (`--size`).
+/// resolution replaced by `size` where given (`--size`): the command line's loader, which notes
+/// on stderr that a scene's materials and lights are ignored.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
     let mut scene = match path {
         Some(path) => Scene::load(path)?,
         None => Scene::default_scene(),
     };
+    if let Some(path) = path
+        && !scene.lighting.is_empty()
+    {
+        eprintln!(
+            "note: {}: materials and lights are ignored ({}): raycast renders ids, distances and normals",
+            path.display(),
+            scene.lighting.summary()
+        );
+    }
     if let Some(size) = size {
         scene.camera.resolution = size;
     }
@@ -148,6 +221,11 @@ impl Scene {
                 Object::Soup { triangles, .. } => {
                     triangles.iter_mut().for_each(|t| *t = t.map(v));
                 }
+            }
+        }
+        for light in &mut scene.lighting.lights {
+            if let Light::Point { position, .. } = light {
+                *position = v(*position);
             }
         }
         scene
