@@ -206,8 +206,18 @@ enum Command {
     Info,
 }
 
+/// Exit code after SIGINT, SIGTERM or SIGHUP: 128 + SIGINT, as shells report an interrupt.
+const INTERRUPTED: i32 = 130;
+
 fn main() -> ExitCode {
     quiet_mesa();
+    // Stopped by a signal, remove the files being written first: output is all or nothing.
+    let stop =
+        || raycast::output::pending::abandon(INTERRUPTED, "error: interrupted; no output written");
+    if let Err(e) = ctrlc::set_handler(stop) {
+        eprintln!("error: cannot install the interrupt handler: {e}");
+        return ExitCode::from(1);
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // A bad option value is one line like every other error, without clap's

@@ -4,6 +4,7 @@
 
 mod color;
 mod npy;
+pub mod pending;
 mod pictures;
 pub mod stream;
 pub mod text;
@@ -210,51 +211,65 @@ pub fn check_parent_writable(file: &Path) -> Result<()> {
 }
 
 /// Writes every file or none: all go to temporary names first, then are renamed into place.
+/// The temporary files are registered for removal on an interruption ([`pending::abandon`]).
 pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
+    let named: Vec<(PathBuf, &[u8])> = files
+        .iter()
+        .map(|f| (dir.join(f.name), f.bytes.as_slice()))
+        .collect();
+    write_all_or_none(&named)
+}
+
+/// Writes one file whole or not at all: to a temporary name beside it, then renamed.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_all_or_none(&[(path.to_owned(), bytes)]).map(drop)
+}
+
+/// [`write_files`] for files given by path: each is written to `.NAME.tmp-PID` beside it.
+fn write_all_or_none(files: &[(PathBuf, &[u8])]) -> Result<Vec<PathBuf>> {
     let pid = std::process::id();
     let mut temps: Vec<(PathBuf, PathBuf)> = Vec::new();
     let cleanup = |temps: &[(PathBuf, PathBuf)]| {
         for (tmp, _) in temps {
             let _ = std::fs::remove_file(tmp);
         }
+        pending::pending().forget(temps.iter().map(|(tmp, _)| tmp.as_path()));
     };
-    for file in files {
-        let tmp = dir.join(format!(".{}.tmp-{pid}", file.name));
-        if let Err(e) = std::fs::write(&tmp, &file.bytes) {
-            let _ = std::fs::remove_file(&tmp);
+    for (path, bytes) in files {
+        let name = path
+            .file_name()
+            .ok_or_else(|| Error::io(path, "not a file name"))?
+            .to_string_lossy();
+        let tmp = path.with_file_name(format!(".{name}.tmp-{pid}"));
+        pending::pending().add(&tmp);
+        temps.push((tmp.clone(), path.clone()));
+        if let Err(e) = std::fs::write(&tmp, bytes) {
             cleanup(&temps);
             return Err(Error::io(&tmp, format!("cannot write: {e}")));
         }
-        temps.push((tmp, dir.join(file.name)));
     }
+    // An interruption waits until every file is in place, or none.
+    let mut held = pending::pending();
+    let placed = place(&temps);
+    held.forget(temps.iter().map(|(tmp, _)| tmp.as_path()));
+    placed.map(|()| temps.into_iter().map(|(_, path)| path).collect())
+}
+
+/// Renames each temporary file to its final path; if one fails, removes the files already in
+/// place and the remaining temporary ones: none or all.
+pub(crate) fn place(temps: &[(PathBuf, PathBuf)]) -> Result<()> {
     for (k, (tmp, path)) in temps.iter().enumerate() {
         if let Err(e) = std::fs::rename(tmp, path) {
-            // Take back the files of this request already in place: none or all.
             for (_, done) in &temps[..k] {
                 let _ = std::fs::remove_file(done);
             }
-            cleanup(&temps[k..]);
+            for (rest, _) in &temps[k..] {
+                let _ = std::fs::remove_file(rest);
+            }
             return Err(Error::io(path, format!("cannot write: {e}")));
         }
     }
-    Ok(temps.into_iter().map(|(_, path)| path).collect())
-}
-
-/// Writes one file whole or not at all: to a temporary name beside it, then renamed.
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::io(path, "not a file name"))?
-        .to_string_lossy();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    if let Err(e) = std::fs::write(&tmp, bytes) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(&tmp, format!("cannot write: {e}")));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, format!("cannot write: {e}"))
-    })
+    Ok(())
 }
 
 #[cfg(test)]
@@ -284,11 +299,16 @@ mod tests {
             },
         ];
         assert!(write_files(dir.path(), &files).is_err());
+        assert!(!pending::pending().holds_any_in(dir.path()));
         let names: Vec<_> = std::fs::read_dir(dir.path())
             .unwrap()
             .map(|e| e.unwrap().file_name().into_string().unwrap())
             .collect();
         // Neither a.bin nor any temporary file is left behind.
         assert_eq!(names, ["b.bin"]);
+        // Written and placed: forgotten too.
+        std::fs::remove_dir_all(dir.path().join("b.bin")).unwrap();
+        assert_eq!(write_files(dir.path(), &files).unwrap().len(), 2);
+        assert!(!pending::pending().holds_any_in(dir.path()));
     }
 }

@@ -93,10 +93,11 @@ impl BandWriter {
     pub fn write_band<T: Real>(&mut self, band: &Images<T>) -> Result<()> {
         let files = self.band_files(band);
         if self.streams.is_empty() {
-            self.streams = files
-                .iter()
-                .map(|f| self.open(f))
-                .collect::<Result<Vec<_>>>()?;
+            // One by one, so that those opened are removed (Drop) if a later one fails.
+            for f in &files {
+                let stream = self.open(f)?;
+                self.streams.push(stream);
+            }
         }
         for (stream, file) in self.streams.iter_mut().zip(&files) {
             let io = |e: std::io::Error| Error::io(&stream.tmp, format!("cannot write: {e}"));
@@ -120,6 +121,7 @@ impl BandWriter {
         }
         let streams = std::mem::take(&mut self.streams);
         let temps: Vec<PathBuf> = streams.iter().map(|s| s.tmp.clone()).collect();
+        let forget_temps = || super::pending::pending().forget(temps.iter().map(PathBuf::as_path));
         let mut done = Vec::new();
         for s in streams {
             let finished = match s.sink {
@@ -128,32 +130,45 @@ impl BandWriter {
             };
             if let Err(e) = finished {
                 temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
+                forget_temps();
                 return Err(Error::io(&s.tmp, format!("cannot write: {e}")));
             }
             done.push((s.tmp, s.path));
         }
-        for (k, (tmp, path)) in done.iter().enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
-                for (_, placed) in &done[..k] {
-                    let _ = std::fs::remove_file(placed);
-                }
-                for (rest, _) in &done[k..] {
-                    let _ = std::fs::remove_file(rest);
-                }
-                return Err(Error::io(path, format!("cannot write: {e}")));
-            }
-        }
-        Ok(done.into_iter().map(|(_, path)| path).collect())
+        // An interruption waits until every file is in place, or none.
+        let mut held = super::pending::pending();
+        let placed = super::place(&done);
+        held.forget(temps.iter().map(PathBuf::as_path));
+        placed.map(|()| done.into_iter().map(|(_, path)| path).collect())
     }
 
-    /// Opens `file`'s stream at the whole image's size, writing its header.
+    /// Opens `file`'s stream at the whole image's size, writing its header; on failure nothing
+    /// is left behind.
     fn open(&self, file: &BandFile) -> Result<Stream> {
         let name = file.name();
         let path = self.dir.join(name);
         let tmp = self.dir.join(format!(".{name}.tmp-{}", std::process::id()));
-        let io = |e: String| Error::io(&tmp, format!("cannot write: {e}"));
-        let mut out = BufWriter::new(File::create(&tmp).map_err(|e| io(e.to_string()))?);
-        let sink = match file {
+        super::pending::pending().add(&tmp);
+        let sink = File::create(&tmp)
+            .map_err(|e| e.to_string())
+            .and_then(|f| self.start(file, BufWriter::new(f)));
+        match sink {
+            Ok(sink) => Ok(Stream { path, tmp, sink }),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                super::pending::pending().forget([tmp.as_path()]);
+                Err(Error::io(&tmp, format!("cannot write: {e}")))
+            }
+        }
+    }
+
+    /// The encoder of `file` writing into `out`, its header written.
+    fn start(
+        &self,
+        file: &BandFile,
+        mut out: BufWriter<File>,
+    ) -> std::result::Result<Sink, String> {
+        Ok(match file {
             BandFile::Picture(p) => {
                 let mut encoder = png::Encoder::new(out, self.width, self.height);
                 encoder.set_color(match p.channels {
@@ -162,17 +177,15 @@ impl BandWriter {
                     _ => png::ColorType::Rgba,
                 });
                 encoder.set_depth(png::BitDepth::Eight);
-                let writer = encoder.write_header().map_err(|e| io(e.to_string()))?;
-                let stream = writer.into_stream_writer().map_err(|e| io(e.to_string()))?;
+                let writer = encoder.write_header().map_err(|e| e.to_string())?;
+                let stream = writer.into_stream_writer().map_err(|e| e.to_string())?;
                 Sink::Png(Box::new(stream))
             }
             BandFile::Encoded(f) => {
-                out.write_all(&self.header(f))
-                    .map_err(|e| io(e.to_string()))?;
+                out.write_all(&self.header(f)).map_err(|e| e.to_string())?;
                 Sink::Raw(out)
             }
-        };
-        Ok(Stream { path, tmp, sink })
+        })
     }
 
     /// The header of the whole image's file, `file` being a band's.
@@ -212,6 +225,7 @@ impl Drop for BandWriter {
         for s in &self.streams {
             let _ = std::fs::remove_file(&s.tmp);
         }
+        super::pending::pending().forget(self.streams.iter().map(|s| s.tmp.as_path()));
     }
 }
 
