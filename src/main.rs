@@ -218,6 +218,13 @@ fn main() -> ExitCode {
         eprintln!("error: cannot install the interrupt handler: {e}");
         return ExitCode::from(1);
     }
+    // A write beyond the file-size limit (`ulimit -f`) then fails with EFBIG, reported and
+    // cleaned up like a full disk, instead of killing the process with its files half written.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to SIG_IGN, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // A bad option value is one line like every other error, without clap's

@@ -118,6 +118,7 @@ pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Prepared<R> {
 
 /// Runs `job` on `prepared` (module docs).
 pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Result<Rendered<R>> {
+    gpu.check_alive()?;
     let Job {
         variant,
         rays,

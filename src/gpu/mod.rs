@@ -18,7 +18,7 @@ pub mod source;
 pub use dispatch::{Job, Rays, Rendered, Stages, TileSink, max_tile_rows, prepare, run};
 
 use std::collections::HashMap;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::error::{Error, Result};
 use shader::Variant;
@@ -42,6 +42,8 @@ pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pipelines: Mutex<HashMap<Variant, dispatch::Compiled>>,
+    /// Why the device was lost, once it has been (set by wgpu's device-lost callback).
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 impl Gpu {
@@ -145,11 +147,34 @@ impl Gpu {
 
     /// Wraps a device the caller opened itself.
     pub fn from_parts(adapter: wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+        let lost = Arc::new(Mutex::new(None));
+        let record = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            let why = match message.is_empty() {
+                true => format!("{reason:?}"),
+                false => format!("{reason:?}: {message}"),
+            };
+            *record.lock().unwrap_or_else(PoisonError::into_inner) = Some(why);
+        });
         Gpu {
             adapter,
             device,
             queue,
             pipelines: Mutex::default(),
+            lost,
+        }
+    }
+
+    /// An error if the device has been lost (a driver reset, a destroyed device): wgpu panics
+    /// on some calls to a lost device, so every render checks first.
+    pub fn check_alive(&self) -> Result<()> {
+        // Polling runs the callbacks due, the device-lost one among them.
+        if let Err(e) = self.device.poll(wgpu::PollType::Poll) {
+            return Err(Error::Device(format!("the GPU device failed: {e}")));
+        }
+        match &*self.lost.lock().unwrap_or_else(PoisonError::into_inner) {
+            Some(why) => Err(Error::Device(format!("the GPU device was lost ({why})"))),
+            None => Ok(()),
         }
     }
 

@@ -1,0 +1,223 @@
+//! Faults outside the input: a full disk (a file-size limit, whose writes fail as a full
+//! disk's do), an output path that is a file, a folder that cannot be created, the output
+//! folder removed mid-render. Each exits with code 2 and one `error: ` line naming the path,
+//! and leaves no file in the output folder.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{file_names, repo_path};
+
+fn raycast() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_raycast"));
+    command
+        .arg("render")
+        .arg(repo_path("scenes/course/bunny.json"));
+    command
+}
+
+/// Checks the failure contract and returns the one stderr line.
+fn one_error(output: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(
+        output.status.code(),
+        Some(2),
+        "{:?}: {stderr}",
+        output.status
+    );
+    assert!(output.stdout.is_empty());
+    assert_eq!(stderr.lines().count(), 1, "one line, got:\n{stderr}");
+    assert!(stderr.starts_with("error: "), "{stderr}");
+    stderr
+}
+
+fn assert_no_files(dir: &Path) {
+    if dir.exists() {
+        assert_eq!(file_names(dir), Vec::<String>::new(), "{}", dir.display());
+    }
+}
+
+/// Writing past `ulimit -f` fails with EFBIG, as a full disk fails with ENOSPC: at 200 KiB
+/// the first npy file breaks it, at 2 MiB a later one, after others were written. (The CPU
+/// reference renders: lavapipe's device memory is file-backed, and the limit breaks it.)
+#[test]
+#[cfg(unix)]
+fn a_full_disk_leaves_no_file() {
+    for kib in [200, 2000] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let command = format!(
+            "ulimit -f {kib} && exec \"$0\" render \"$1\" --device cpu --size 640x360 --format png,npy -o \"$2\""
+        );
+        let output = Command::new("sh")
+            .arg("-c")
+            .arg(command)
+            .arg(env!("CARGO_BIN_EXE_raycast"))
+            .arg(repo_path("scenes/course/bunny.json"))
+            .arg(&out)
+            .output()
+            .unwrap();
+        let message = one_error(&output);
+        assert!(message.contains(&out.display().to_string()), "{message}");
+        assert!(message.contains("cannot write"), "{message}");
+        assert_no_files(&out);
+    }
+}
+
+#[test]
+fn an_output_path_that_is_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("taken");
+    std::fs::write(&file, b"kept").unwrap();
+    let output = raycast().arg("-o").arg(&file).output().unwrap();
+    let message = one_error(&output);
+    assert!(
+        message.starts_with(&format!("error: {}: ", file.display())),
+        "{message}"
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"kept");
+    assert_eq!(file_names(dir.path()), ["taken"]);
+}
+
+/// /proc takes no new folders, not even from root (the tests may run as root, for whom
+/// permission bits do not stop writes).
+#[test]
+#[cfg(target_os = "linux")]
+fn a_folder_that_cannot_be_created() {
+    let out = Path::new("/proc/raycast-no-such-folder/out");
+    let output = raycast().arg("-o").arg(out).output().unwrap();
+    let message = one_error(&output);
+    assert!(
+        message.starts_with(&format!("error: {}: ", out.display())),
+        "{message}"
+    );
+    assert!(!out.exists());
+}
+
+/// The output folder removed while a banded render writes into it: the render fails when it
+/// puts its files in place, and nothing is left (the folder is gone, and not recreated).
+#[test]
+fn the_output_folder_removed_mid_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut child = raycast()
+        .args([
+            "--size",
+            "2048x2048",
+            "--band-rows",
+            "32",
+            "--precision",
+            "f32",
+            "-o",
+        ])
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !(out.exists() && file_names(&out).iter().any(|n| n.contains(".tmp-"))) {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the render ended first"
+        );
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+    let output = child.wait_with_output().unwrap();
+    let message = one_error(&output);
+    assert!(message.contains(&out.display().to_string()), "{message}");
+    assert_no_files(&out);
+}
+
+/// A device lost before a render (destroyed here, as a driver reset would) gives an error,
+/// not a panic.
+#[test]
+fn a_lost_device_is_an_error() {
+    let (adapter, device, queue) = pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions::default())
+            .await
+            .unwrap();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor::default())
+            .await
+            .unwrap();
+        (adapter, device, queue)
+    });
+    let gpu = raycast::gpu::Gpu::from_parts(adapter, device.clone(), queue);
+    let mut scene = common::course_scene("sphere-and-plane");
+    scene.camera.resolution = [64, 36];
+    let mode = "gpu:f32:robust".parse().unwrap();
+    assert!(raycast::render::render(&scene, mode, Some(&gpu), false).is_ok());
+    device.destroy();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        raycast::render::render(&scene, mode, Some(&gpu), false)
+    }));
+    match result {
+        Ok(Err(e)) => {
+            let message = e.to_string();
+            assert_eq!(message.lines().count(), 1, "{message}");
+        }
+        Ok(Ok(_)) => panic!("a render on a destroyed device succeeded"),
+        Err(_) => panic!("a render on a destroyed device panicked"),
+    }
+}
+
+/// A mesh beyond what the device's storage bindings hold is refused with the limit named, before
+/// anything is uploaded: a device opened with 1 MiB bindings holds 4 chunks of 2^14 triangles.
+#[test]
+fn a_mesh_larger_than_the_device_holds() {
+    let (adapter, device, queue) = pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions::default())
+            .await
+            .unwrap();
+        let required_limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 1 << 20,
+            ..adapter.limits()
+        };
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                required_limits,
+                ..Default::default()
+            })
+            .await
+            .unwrap();
+        (adapter, device, queue)
+    });
+    let gpu = raycast::gpu::Gpu::from_parts(adapter, device, queue);
+    let json = r#"{"camera": {"eye": [0, 0, 5], "look": [0, 0, -1], "up": [0, 1, 0],
+        "focal_length": 1, "width": 1, "height": 1, "resolution": [32, 32]},
+        "objects": [{"type": "soup", "stl": "grid.stl"}]}"#;
+    // 300 x 300 cells of two triangles: 180,000 triangles, beyond 4 x 2^14.
+    let mut triangles = Vec::new();
+    for i in 0..300 {
+        for j in 0..300 {
+            let p = |di: i32, dj: i32| {
+                raycast::math::vec3((i + di) as f64 / 300.0, (j + dj) as f64 / 300.0, 0.0)
+            };
+            triangles.push([p(0, 0), p(1, 0), p(1, 1)]);
+            triangles.push([p(0, 0), p(1, 1), p(0, 1)]);
+        }
+    }
+    let scene =
+        raycast::Scene::from_json(json, Path::new("grid.json"), &mut |_| Ok(triangles.clone()))
+            .unwrap();
+    let mode = "gpu:f32:robust".parse().unwrap();
+    let message = match raycast::render::render(&scene, mode, Some(&gpu), false) {
+        Ok(_) => panic!("180,000 triangles rendered on 1 MiB bindings"),
+        Err(e) => e.to_string(),
+    };
+    assert_eq!(message.lines().count(), 1, "{message}");
+    assert!(
+        message.contains("180000 triangles") && message.contains("at most 65536 triangles"),
+        "{message}"
+    );
+}
