@@ -211,19 +211,20 @@ const INTERRUPTED: i32 = 130;
 
 fn main() -> ExitCode {
     quiet_mesa();
-    // Stopped by a signal, remove the files being written first: output is all or nothing.
-    let stop =
-        || raycast::output::pending::abandon(INTERRUPTED, "error: interrupted; no output written");
-    if let Err(e) = ctrlc::set_handler(stop) {
-        eprintln!("error: cannot install the interrupt handler: {e}");
-        return ExitCode::from(1);
-    }
     // A write beyond the file-size limit (`ulimit -f`) then fails with EFBIG, reported and
     // cleaned up like a full disk, instead of killing the process with its files half written.
     #[cfg(unix)]
     // SAFETY: setting a signal's disposition to SIG_IGN, before any other thread exists.
     unsafe {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+    // Stopped by a signal, remove the files being written first: output is all or nothing.
+    let stop = || {
+        raycast::output::pending::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+    };
+    if let Err(e) = ctrlc::set_handler(stop) {
+        eprintln!("error: cannot install the interrupt handler: {e}");
+        return ExitCode::from(1);
     }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

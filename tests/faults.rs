@@ -7,9 +7,8 @@ mod common;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
-use common::{file_names, repo_path};
+use common::{file_names, open_device, repo_path, temporary_files, wait_until};
 
 fn raycast() -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_raycast"));
@@ -40,17 +39,18 @@ fn assert_no_files(dir: &Path) {
     }
 }
 
-/// Writing past `ulimit -f` fails with EFBIG, as a full disk fails with ENOSPC: at 200 KiB
-/// the first npy file breaks it, at 2 MiB a later one, after others were written. (The CPU
-/// reference renders: lavapipe's device memory is file-backed, and the limit breaks it.)
+/// Writing past `ulimit -f` fails with EFBIG, as a full disk fails with ENOSPC: at 200 blocks
+/// (100 or 200 KiB, by the shell's block size) the first npy file breaks it, at 2000 a later
+/// one, after others were written. (The CPU reference renders: lavapipe's device memory is
+/// file-backed, and the limit breaks it.)
 #[test]
 #[cfg(unix)]
 fn a_full_disk_leaves_no_file() {
-    for kib in [200, 2000] {
+    for blocks in [200, 2000] {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
         let command = format!(
-            "ulimit -f {kib} && exec \"$0\" render \"$1\" --device cpu --size 640x360 --format png,npy -o \"$2\""
+            "ulimit -f {blocks} && exec \"$0\" render \"$1\" --device cpu --size 640x360 --format png,npy -o \"$2\""
         );
         let output = Command::new("sh")
             .arg("-c")
@@ -118,15 +118,11 @@ fn the_output_folder_removed_mid_render() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let start = Instant::now();
-    while !(out.exists() && file_names(&out).iter().any(|n| n.contains(".tmp-"))) {
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the render ended first"
-        );
-        assert!(start.elapsed() < Duration::from_secs(60));
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    // All four png files (id, depth, normal, color) open, so none is being created as the
+    // folder goes.
+    wait_until(&mut child, "four temporary files", || {
+        temporary_files(&out) == 4
+    });
     std::fs::remove_dir_all(&out).unwrap();
     let output = child.wait_with_output().unwrap();
     let message = one_error(&output);
@@ -138,19 +134,8 @@ fn the_output_folder_removed_mid_render() {
 /// not a panic.
 #[test]
 fn a_lost_device_is_an_error() {
-    let (adapter, device, queue) = pollster::block_on(async {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapter = instance
-            .request_adapter(&wgpu::RequestAdapterOptions::default())
-            .await
-            .unwrap();
-        let (device, queue) = adapter
-            .request_device(&wgpu::DeviceDescriptor::default())
-            .await
-            .unwrap();
-        (adapter, device, queue)
-    });
-    let gpu = raycast::gpu::Gpu::from_parts(adapter, device.clone(), queue);
+    let gpu = open_device(|limits| limits);
+    let device = gpu.device.clone();
     let mut scene = common::course_scene("sphere-and-plane");
     scene.camera.resolution = [64, 36];
     let mode = "gpu:f32:robust".parse().unwrap();
@@ -173,26 +158,10 @@ fn a_lost_device_is_an_error() {
 /// anything is uploaded: a device opened with 1 MiB bindings holds 4 chunks of 2^14 triangles.
 #[test]
 fn a_mesh_larger_than_the_device_holds() {
-    let (adapter, device, queue) = pollster::block_on(async {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapter = instance
-            .request_adapter(&wgpu::RequestAdapterOptions::default())
-            .await
-            .unwrap();
-        let required_limits = wgpu::Limits {
-            max_storage_buffer_binding_size: 1 << 20,
-            ..adapter.limits()
-        };
-        let (device, queue) = adapter
-            .request_device(&wgpu::DeviceDescriptor {
-                required_limits,
-                ..Default::default()
-            })
-            .await
-            .unwrap();
-        (adapter, device, queue)
+    let gpu = open_device(|limits| wgpu::Limits {
+        max_storage_buffer_binding_size: 1 << 20,
+        ..limits
     });
-    let gpu = raycast::gpu::Gpu::from_parts(adapter, device, queue);
     let json = r#"{"camera": {"eye": [0, 0, 5], "look": [0, 0, -1], "up": [0, 1, 0],
         "focal_length": 1, "width": 1, "height": 1, "resolution": [32, 32]},
         "objects": [{"type": "soup", "stl": "grid.stl"}]}"#;

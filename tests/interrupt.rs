@@ -6,9 +6,8 @@ mod common;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
 
-use common::{file_names, repo_path};
+use common::{file_names, repo_path, temporary_files, wait_until};
 
 /// `raycast render` of the course bunny into `out` with `args`.
 fn start(out: &Path, args: &[&str]) -> Child {
@@ -24,22 +23,6 @@ fn start(out: &Path, args: &[&str]) -> Child {
         .expect("the raycast binary runs")
 }
 
-/// Waits until `out` holds a temporary file (`.NAME.tmp-PID`), at most a minute.
-fn wait_for_temporary_files(out: &Path, child: &mut Child) {
-    let start = Instant::now();
-    while start.elapsed() < Duration::from_secs(60) {
-        if out.exists() && file_names(out).iter().any(|n| n.contains(".tmp-")) {
-            return;
-        }
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the render ended first"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    panic!("no temporary file appeared in {}", out.display());
-}
-
 /// Sends `signal` to the child, then checks the exit code, the message and the empty folder.
 fn stop_and_check(mut child: Child, signal: &str, out: &Path) {
     let killed = Command::new("kill")
@@ -53,7 +36,7 @@ fn stop_and_check(mut child: Child, signal: &str, out: &Path) {
     assert_eq!(status.code(), Some(130), "{status:?}: {stderr}");
     assert_eq!(
         stderr.lines().last(),
-        Some("error: interrupted; no output written")
+        Some("error: interrupted; no partial file left")
     );
     let left = if out.exists() {
         file_names(out)
@@ -80,7 +63,7 @@ fn a_signal_while_bands_are_written_leaves_no_file() {
             "png,npy",
         ];
         let mut child = start(&out, &args);
-        wait_for_temporary_files(&out, &mut child);
+        wait_until(&mut child, "a temporary file", || temporary_files(&out) > 0);
         stop_and_check(child, signal, &out);
     }
 }
@@ -89,8 +72,9 @@ fn a_signal_while_bands_are_written_leaves_no_file() {
 fn a_signal_during_the_render_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let child = start(&out, &["--size", "2048x2048", "--device", "cpu"]);
-    // The CPU reference takes seconds at this size: the signal comes before any file.
-    std::thread::sleep(Duration::from_millis(300));
+    let mut child = start(&out, &["--size", "4096x4096", "--device", "cpu"]);
+    // The folder is made after the handler is installed and before rendering; the CPU
+    // reference then takes many seconds at this size, so the signal comes before any file.
+    wait_until(&mut child, "the output folder", || out.exists());
     stop_and_check(child, "-TERM", &out);
 }

@@ -150,9 +150,11 @@ impl Gpu {
         let lost = Arc::new(Mutex::new(None));
         let record = lost.clone();
         device.set_device_lost_callback(move |reason, message| {
-            let why = match message.is_empty() {
+            // One line: a driver's message may have several.
+            let first = message.lines().next().unwrap_or_default();
+            let why = match first.is_empty() {
                 true => format!("{reason:?}"),
-                false => format!("{reason:?}: {message}"),
+                false => format!("{reason:?}: {first}"),
             };
             *record.lock().unwrap_or_else(PoisonError::into_inner) = Some(why);
         });

@@ -198,10 +198,11 @@ pub fn check_writable(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::io(dir, format!("cannot create folder: {e}")))?;
     let probe = dir.join(format!(".raycast-write-test-{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .map_err(|e| Error::io(dir, format!("folder is not writable: {e}")))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
+    let created = pending::create(&probe);
+    pending::discard([probe.as_path()]);
+    created
+        .map(drop)
+        .map_err(|e| Error::io(dir, format!("folder is not writable: {e}")))
 }
 
 /// [`check_writable`] for the folder `file` goes into (the working folder for a bare name).
@@ -227,49 +228,21 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// [`write_files`] for files given by path: each is written to `.NAME.tmp-PID` beside it.
 fn write_all_or_none(files: &[(PathBuf, &[u8])]) -> Result<Vec<PathBuf>> {
-    let pid = std::process::id();
-    let mut temps: Vec<(PathBuf, PathBuf)> = Vec::new();
-    let cleanup = |temps: &[(PathBuf, PathBuf)]| {
-        for (tmp, _) in temps {
-            let _ = std::fs::remove_file(tmp);
-        }
-        pending::pending().forget(temps.iter().map(|(tmp, _)| tmp.as_path()));
-    };
-    for (path, bytes) in files {
-        let name = path
-            .file_name()
-            .ok_or_else(|| Error::io(path, "not a file name"))?
-            .to_string_lossy();
-        let tmp = path.with_file_name(format!(".{name}.tmp-{pid}"));
-        pending::pending().add(&tmp);
-        temps.push((tmp.clone(), path.clone()));
-        if let Err(e) = std::fs::write(&tmp, bytes) {
-            cleanup(&temps);
-            return Err(Error::io(&tmp, format!("cannot write: {e}")));
+    // Every name is checked before any file is created.
+    let pairs = files
+        .iter()
+        .map(|(path, _)| Ok((pending::temp_path(path)?, path.clone())))
+        .collect::<Result<Vec<_>>>()?;
+    for ((tmp, _), (_, bytes)) in pairs.iter().zip(files) {
+        let written =
+            pending::create(tmp).and_then(|mut f| std::io::Write::write_all(&mut f, bytes));
+        if let Err(e) = written {
+            pending::discard(pairs.iter().map(|(tmp, _)| tmp.as_path()));
+            return Err(Error::io(tmp, format!("cannot write: {e}")));
         }
     }
-    // An interruption waits until every file is in place, or none.
-    let mut held = pending::pending();
-    let placed = place(&temps);
-    held.forget(temps.iter().map(|(tmp, _)| tmp.as_path()));
-    placed.map(|()| temps.into_iter().map(|(_, path)| path).collect())
-}
-
-/// Renames each temporary file to its final path; if one fails, removes the files already in
-/// place and the remaining temporary ones: none or all.
-pub(crate) fn place(temps: &[(PathBuf, PathBuf)]) -> Result<()> {
-    for (k, (tmp, path)) in temps.iter().enumerate() {
-        if let Err(e) = std::fs::rename(tmp, path) {
-            for (_, done) in &temps[..k] {
-                let _ = std::fs::remove_file(done);
-            }
-            for (rest, _) in &temps[k..] {
-                let _ = std::fs::remove_file(rest);
-            }
-            return Err(Error::io(path, format!("cannot write: {e}")));
-        }
-    }
-    Ok(())
+    pending::place_all(&pairs)?;
+    Ok(pairs.into_iter().map(|(_, path)| path).collect())
 }
 
 #[cfg(test)]
@@ -299,7 +272,7 @@ mod tests {
             },
         ];
         assert!(write_files(dir.path(), &files).is_err());
-        assert!(!pending::pending().holds_any_in(dir.path()));
+        assert!(!pending::holds_any_in(dir.path()));
         let names: Vec<_> = std::fs::read_dir(dir.path())
             .unwrap()
             .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -309,6 +282,6 @@ mod tests {
         // Written and placed: forgotten too.
         std::fs::remove_dir_all(dir.path().join("b.bin")).unwrap();
         assert_eq!(write_files(dir.path(), &files).unwrap().len(), 2);
-        assert!(!pending::pending().holds_any_in(dir.path()));
+        assert!(!pending::holds_any_in(dir.path()));
     }
 }

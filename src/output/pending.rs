@@ -1,55 +1,105 @@
 //! The temporary files being written, so that an interrupted process can remove them: output
 //! is all or nothing even when the command line is stopped by a signal ([`abandon`]).
 //!
-//! A temporary file is registered before it is created and forgotten once renamed or removed.
-//! The renames that put a set of files in place run while holding the registry ([`Pending`]),
-//! so an interruption waits for the whole set to be placed, never leaving part of it.
+//! A temporary file is registered and created under the registry's lock ([`create`]), so an
+//! interruption either removes it or comes before it exists, and forgotten once renamed or
+//! removed. The renames that put a set of files in place run under the lock too
+//! ([`place_all`]), so an interruption waits for the whole set to be placed, never leaving part
+//! of it.
 
+use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
+use crate::error::{Error, Result};
+
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
-/// The registry, held.
-pub(crate) struct Pending(MutexGuard<'static, Vec<PathBuf>>);
-
-/// Holds the registry (blocking while another thread does).
-pub(crate) fn pending() -> Pending {
-    Pending(PENDING.lock().unwrap_or_else(PoisonError::into_inner))
+fn registry() -> MutexGuard<'static, Vec<PathBuf>> {
+    PENDING.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-impl Pending {
-    /// Registers `path`, about to be created.
-    pub(crate) fn add(&mut self, path: &Path) {
-        self.0.push(path.to_owned());
-    }
-
-    /// Forgets `paths` (renamed into place, or removed).
-    pub(crate) fn forget<'a>(&mut self, paths: impl IntoIterator<Item = &'a Path>) {
-        for path in paths {
-            if let Some(k) = self.0.iter().position(|p| p == path) {
-                self.0.swap_remove(k);
-            }
+fn forget<'a>(held: &mut Vec<PathBuf>, paths: impl IntoIterator<Item = &'a Path>) {
+    for path in paths {
+        if let Some(k) = held.iter().position(|p| p == path) {
+            held.swap_remove(k);
         }
     }
 }
 
-#[cfg(test)]
-impl Pending {
-    /// Whether a file in `dir` is registered.
-    pub(crate) fn holds_any_in(&self, dir: &Path) -> bool {
-        self.0.iter().any(|p| p.parent() == Some(dir))
+/// The temporary name beside `path` its contents are written under: `.NAME.tmp-PID`.
+pub(crate) fn temp_path(path: &Path) -> Result<PathBuf> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::io(path, "not a file name"))?
+        .to_string_lossy();
+    Ok(path.with_file_name(format!(".{name}.tmp-{}", std::process::id())))
+}
+
+/// Creates the temporary file `path`, registered for removal on an interruption.
+pub(crate) fn create(path: &Path) -> std::io::Result<File> {
+    let mut held = registry();
+    held.push(path.to_owned());
+    let created = File::create(path);
+    if created.is_err() {
+        held.pop();
     }
+    created
+}
+
+/// Removes the temporary files `paths` (those that exist) and forgets them.
+pub(crate) fn discard<'a>(paths: impl IntoIterator<Item = &'a Path>) {
+    let mut held = registry();
+    for path in paths {
+        let _ = std::fs::remove_file(path);
+        forget(&mut held, [path]);
+    }
+}
+
+/// Renames each temporary file to its final path, `(temporary, final)`, and forgets them; if one
+/// rename fails, removes the files already in place and the remaining temporary ones: none or
+/// all. An interruption waits until this is done.
+pub(crate) fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
+    let mut held = registry();
+    let mut placed = Ok(());
+    for (k, (tmp, path)) in pairs.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            for (_, done) in &pairs[..k] {
+                let _ = std::fs::remove_file(done);
+            }
+            for (rest, _) in &pairs[k..] {
+                let _ = std::fs::remove_file(rest);
+            }
+            placed = Err(Error::io(path, format!("cannot write: {e}")));
+            break;
+        }
+    }
+    forget(&mut held, pairs.iter().map(|(tmp, _)| tmp.as_path()));
+    placed
+}
+
+/// Whether a file in `dir` is registered.
+#[cfg(test)]
+pub(crate) fn holds_any_in(dir: &Path) -> bool {
+    registry().iter().any(|p| p.parent() == Some(dir))
 }
 
 /// Removes every registered temporary file, prints `message` as the one line on stderr and
 /// exits with `code`, still holding the registry so that no file is created or renamed after
-/// the removal. For a signal handler on the way out.
+/// the removal. For a signal handler on the way out: on unix it leaves by `_exit`, without the
+/// exit handlers (a GPU driver's among them) that could hang while another thread is inside
+/// the driver.
 pub fn abandon(code: i32, message: &str) -> ! {
-    let held = pending();
-    for path in held.0.iter() {
+    let held = registry();
+    for path in held.iter() {
         let _ = std::fs::remove_file(path);
     }
     eprintln!("{message}");
+    #[cfg(unix)]
+    // SAFETY: `_exit` ends the process at once; stderr is unbuffered, so the message is out.
+    unsafe {
+        libc::_exit(code)
+    }
+    #[cfg(not(unix))]
     std::process::exit(code)
 }

@@ -10,7 +10,9 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::{EncodedFile, Encoding, Format, Picture, encode_format, encode_npy, png_pictures};
+use super::{
+    EncodedFile, Encoding, Format, Picture, encode_format, encode_npy, pending, png_pictures,
+};
 use crate::error::{Error, Result};
 use crate::images::Images;
 use crate::math::Real;
@@ -121,7 +123,6 @@ impl BandWriter {
         }
         let streams = std::mem::take(&mut self.streams);
         let temps: Vec<PathBuf> = streams.iter().map(|s| s.tmp.clone()).collect();
-        let forget_temps = || super::pending::pending().forget(temps.iter().map(PathBuf::as_path));
         let mut done = Vec::new();
         for s in streams {
             let finished = match s.sink {
@@ -129,34 +130,27 @@ impl BandWriter {
                 Sink::Raw(mut w) => w.flush().map_err(|e| e.to_string()),
             };
             if let Err(e) = finished {
-                temps.iter().for_each(|t| drop(std::fs::remove_file(t)));
-                forget_temps();
+                pending::discard(temps.iter().map(PathBuf::as_path));
                 return Err(Error::io(&s.tmp, format!("cannot write: {e}")));
             }
             done.push((s.tmp, s.path));
         }
-        // An interruption waits until every file is in place, or none.
-        let mut held = super::pending::pending();
-        let placed = super::place(&done);
-        held.forget(temps.iter().map(PathBuf::as_path));
-        placed.map(|()| done.into_iter().map(|(_, path)| path).collect())
+        pending::place_all(&done)?;
+        Ok(done.into_iter().map(|(_, path)| path).collect())
     }
 
     /// Opens `file`'s stream at the whole image's size, writing its header; on failure nothing
     /// is left behind.
     fn open(&self, file: &BandFile) -> Result<Stream> {
-        let name = file.name();
-        let path = self.dir.join(name);
-        let tmp = self.dir.join(format!(".{name}.tmp-{}", std::process::id()));
-        super::pending::pending().add(&tmp);
-        let sink = File::create(&tmp)
+        let path = self.dir.join(file.name());
+        let tmp = pending::temp_path(&path)?;
+        let sink = pending::create(&tmp)
             .map_err(|e| e.to_string())
             .and_then(|f| self.start(file, BufWriter::new(f)));
         match sink {
             Ok(sink) => Ok(Stream { path, tmp, sink }),
             Err(e) => {
-                let _ = std::fs::remove_file(&tmp);
-                super::pending::pending().forget([tmp.as_path()]);
+                pending::discard([tmp.as_path()]);
                 Err(Error::io(&tmp, format!("cannot write: {e}")))
             }
         }
@@ -222,10 +216,7 @@ impl BandWriter {
 impl Drop for BandWriter {
     /// An unfinished render leaves no file behind.
     fn drop(&mut self) {
-        for s in &self.streams {
-            let _ = std::fs::remove_file(&s.tmp);
-        }
-        super::pending::pending().forget(self.streams.iter().map(|s| s.tmp.as_path()));
+        pending::discard(self.streams.iter().map(|s| s.tmp.as_path()));
     }
 }
 

@@ -1,5 +1,6 @@
 //! The scene file format (JSON, a superset of the course's) and its validation into [`Scene`].
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use serde::Deserialize;
@@ -378,10 +379,14 @@ impl Checker<'_> {
 
     fn lighting(&self, raw: &SceneFile) -> Result<Lighting> {
         let mut materials: Vec<Material> = Vec::with_capacity(raw.materials.len());
+        let mut by_name: HashMap<&str, usize> = HashMap::new();
         for (i, m) in raw.materials.iter().enumerate() {
             let field = |name: &str| format!("materials[{i}].{name}");
-            if materials.iter().any(|other| other.name == m.name) {
-                let message = format!("`{}` is the name of an earlier material too", m.name);
+            if by_name.insert(&m.name, i).is_some() {
+                let message = format!(
+                    "`{}` is the name of an earlier material too",
+                    m.name.escape_debug()
+                );
                 return Err(self.fail(field("name"), message));
             }
             let phong_exponent = self.number(&field("phong_exponent"), m.phong_exponent)?;
@@ -424,11 +429,14 @@ impl Checker<'_> {
                 let Some(name) = o.material() else {
                     return Ok(None);
                 };
-                match materials.iter().position(|m| m.name == name) {
-                    Some(k) => Ok(Some(k)),
+                match by_name.get(name) {
+                    Some(&k) => Ok(Some(k)),
                     None => Err(self.fail(
                         format!("objects[{i}].material"),
-                        format!("no material is named `{name}` in `materials`"),
+                        format!(
+                            "no material is named `{}` in `materials`",
+                            name.escape_debug()
+                        ),
                     )),
                 }
             })

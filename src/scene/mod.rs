@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
-pub use mesh::load_mesh;
+pub use mesh::{load_mesh, parse_mesh};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
 pub const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
@@ -155,7 +155,7 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 
 /// The scene of `path` ([`Scene::load`]), or without one the built-in default scene, with its
 /// resolution replaced by `size` where given (`--size`): the command line's loader, which notes
-/// on stderr that a scene's materials and lights are ignored.
+/// on stderr, each time it loads such a scene, that its materials and lights are ignored.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
     let mut scene = match path {
         Some(path) => Scene::load(path)?,

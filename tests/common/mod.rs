@@ -298,3 +298,51 @@ pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
 pub fn scene_name(path: &Path) -> String {
     path.file_stem().unwrap().to_string_lossy().into_owned()
 }
+
+/// Waits until `ready` holds while `child` runs (polling every 5 ms, at most a minute); fails
+/// if the child ends first.
+#[allow(dead_code)]
+pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() -> bool) {
+    let start = std::time::Instant::now();
+    while !ready() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the render ended before {what}"
+        );
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "no {what} in a minute"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// How many temporary files (`.NAME.tmp-PID`) `dir` holds (0 if it does not exist).
+#[allow(dead_code)]
+pub fn temporary_files(dir: &Path) -> usize {
+    match dir.exists() {
+        true => file_names(dir)
+            .iter()
+            .filter(|n| n.contains(".tmp-"))
+            .count(),
+        false => 0,
+    }
+}
+
+/// The default adapter's device, opened with the limits `limits` makes of the adapter's.
+#[allow(dead_code)]
+pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gpu::Gpu {
+    pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions::default())
+            .await
+            .unwrap();
+        let descriptor = wgpu::DeviceDescriptor {
+            required_limits: limits(adapter.limits()),
+            ..Default::default()
+        };
+        let (device, queue) = adapter.request_device(&descriptor).await.unwrap();
+        raycast::gpu::Gpu::from_parts(adapter, device, queue)
+    })
+}

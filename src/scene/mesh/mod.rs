@@ -23,10 +23,16 @@ pub fn load_mesh(path: &Path) -> Result<Vec<Triangle>> {
         file: path.to_owned(),
         message: format!("cannot read mesh file: {e}"),
     })?;
+    parse_mesh(&bytes, path)
+}
+
+/// Parses a mesh file's `bytes`, by the extension of `path` as [`load_mesh`] does; `path`
+/// names the file in errors.
+pub fn parse_mesh(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
     let parsed = match Format::of(path) {
-        Format::Stl => stl::parse(&bytes),
-        Format::Obj => obj::parse(&bytes),
-        Format::Ply => ply::parse(&bytes),
+        Format::Stl => stl::parse(bytes),
+        Format::Obj => obj::parse(bytes),
+        Format::Ply => ply::parse(bytes),
     };
     parsed.map_err(|e| e.in_file(path))
 }

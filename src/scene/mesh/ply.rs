@@ -330,12 +330,14 @@ fn read(header: &Header, body: &mut impl Body) -> Parsed<Vec<Triangle>> {
             vertices = read_vertices(body, element, header.vertex.1)?;
         } else if e == header.face.0 {
             triangles = read_faces(body, element, header.face.1, &vertices)?;
-        } else {
+        } else if !element.properties.is_empty() {
             for k in 0..element.count {
                 body.start(element, k)?;
                 read_record(body, element, &mut values, |_, _| Ok(()))?;
             }
         }
+        // An element without properties takes no bytes, whatever its count (an ASCII body
+        // skips blank lines): counting through 10^13 empty records would hang.
     }
     Ok(triangles)
 }
@@ -659,6 +661,23 @@ mod tests {
     fn binary_corners_exact_and_in_order() {
         assert_eq!(parse(&binary(false)).unwrap(), expected());
         assert_eq!(parse(&binary(true)).unwrap(), expected());
+    }
+
+    /// An element without properties takes no bytes, however many it declares (the fuzzer
+    /// found 2 * 10^13 of them hanging the reader: tests/data/fuzz/ply).
+    #[test]
+    fn elements_without_properties_take_no_bytes() {
+        let header = "end_header\n";
+        let empty = "element nothing 20000000000000\nend_header\n";
+        let bytes = binary(false);
+        let text = String::from_utf8_lossy(&bytes);
+        let at = text.find(header).unwrap();
+        let mut with_empty = bytes[..at].to_vec();
+        with_empty.extend_from_slice(empty.as_bytes());
+        with_empty.extend_from_slice(&bytes[at + header.len()..]);
+        assert_eq!(parse(&with_empty).unwrap(), expected());
+        let ascii = ASCII.replace("end_header\n", empty);
+        assert_eq!(parse(ascii.as_bytes()).unwrap(), expected());
     }
 
     /// Offsets into [`binary`]: the body, a vertex record (3 doubles and a short), and where

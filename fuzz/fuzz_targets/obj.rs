@@ -1,0 +1,7 @@
+//! The OBJ reader on any bytes: an error or triangles, never a panic.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = raycast::scene::parse_mesh(data, "fuzz.obj".as_ref());
+});
