@@ -262,12 +262,7 @@ fn the_default_render_reproduces_every_course_render() {
 #[test]
 fn ray_tracing_scenes_load_with_their_materials_and_lights() {
     let dir = repo_path("scenes/ray-tracing");
-    let mut names: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
-    names.sort();
+    let names = scene_files("scenes/ray-tracing");
     assert_eq!(names.len(), 10);
     for path in names {
         let scene = raycast::Scene::load(&path).unwrap();

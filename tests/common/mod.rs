@@ -276,16 +276,20 @@ pub fn sphere_mesh(
     t
 }
 
-/// Every scene of `scenes/extremes/`, sorted by file name: (path, scene).
-pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
-    let dir = repo_path("scenes/extremes");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+/// The scene files (`*.json`) of the repository folder `dir`, sorted by name.
+pub fn scene_files(dir: &str) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(repo_path(dir))
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect();
     paths.sort();
     paths
+}
+
+/// Every scene of `scenes/extremes/`, sorted by file name: (path, scene).
+pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
+    scene_files("scenes/extremes")
         .into_iter()
         .map(|p| {
             let scene = raycast::Scene::load(&p).unwrap();
@@ -301,7 +305,6 @@ pub fn scene_name(path: &Path) -> String {
 
 /// Waits until `ready` holds while `child` runs (polling every 5 ms, at most a minute); fails
 /// if the child ends first.
-#[allow(dead_code)]
 pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() -> bool) {
     let start = std::time::Instant::now();
     while !ready() {
@@ -318,7 +321,6 @@ pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() 
 }
 
 /// How many temporary files (`.NAME.tmp-PID`) `dir` holds (0 if it does not exist).
-#[allow(dead_code)]
 pub fn temporary_files(dir: &Path) -> usize {
     match dir.exists() {
         true => file_names(dir)
@@ -330,7 +332,6 @@ pub fn temporary_files(dir: &Path) -> usize {
 }
 
 /// The default adapter's device, opened with the limits `limits` makes of the adapter's.
-#[allow(dead_code)]
 pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gpu::Gpu {
     pollster::block_on(async {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
