@@ -70,7 +70,7 @@ pub fn certainty_pass(
     timed: bool,
 ) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
     let variant = certainty_variant(gpu, scene);
-    let prepared = gpu::prepare::<f32>(scene, &variant);
+    let prepared = gpu::prepare::<f32>(scene, &variant)?;
     let first = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
     Ok((first, prepared))
 }

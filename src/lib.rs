@@ -32,7 +32,7 @@
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?;
 //! let variant = gpu.scene_variant(&scene, Precision::F32, Algorithm::Robust);
-//! let prepared = gpu::prepare::<f32>(&scene, &variant);
+//! let prepared = gpu::prepare::<f32>(&scene, &variant)?;
 //! let rendered = gpu::run(&gpu, &prepared, Job::new(variant).timed(true))?;
 //! println!("{} hits, kernel {:?} s", rendered.images.id.iter().filter(|&&id| id >= 0).count(),
 //!     rendered.stages.kernel_s);

@@ -155,7 +155,7 @@ fn a_lost_device_is_an_error() {
 }
 
 /// A mesh beyond what the device's storage bindings hold is refused with the limit named, before
-/// anything is uploaded: a device opened with 1 MiB bindings holds 4 chunks of 2^14 triangles.
+/// its BVH is built: a device opened with 1 MiB bindings holds 4 chunks of 2^14 triangles.
 #[test]
 fn a_mesh_larger_than_the_device_holds() {
     let gpu = open_device(|limits| wgpu::Limits {
@@ -186,7 +186,8 @@ fn a_mesh_larger_than_the_device_holds() {
     };
     assert_eq!(message.lines().count(), 1, "{message}");
     assert!(
-        message.contains("180000 triangles") && message.contains("at most 65536 triangles"),
+        message.contains("180000 spheres and triangles")
+            && message.contains("at most 65536 triangles"),
         "{message}"
     );
 }

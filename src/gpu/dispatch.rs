@@ -111,9 +111,18 @@ pub struct Rendered<R> {
 }
 
 /// `scene` prepared for `variant`: in its precision and algorithm, through a BVH where the
-/// variant traverses one.
-pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Prepared<R> {
-    Prepared::new(scene, variant.algorithm, variant.accel())
+/// variant traverses one. A scene with more spheres and triangles than the variant's storage
+/// bindings hold is refused here, before its BVH is built ([`run`] checks the prepared
+/// buffers again).
+pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
+    let bounded = crate::prepare::bvh::bounded_count(scene) as u64;
+    let capacity = (shader::MAX_CHUNKS as u64) << variant.chunk_bits;
+    if bounded > capacity {
+        return Err(Error::Device(format!(
+            "{bounded} spheres and triangles are more than this device's storage bindings hold (at most {capacity} triangles on this device)"
+        )));
+    }
+    Ok(Prepared::new(scene, variant.algorithm, variant.accel()))
 }
 
 /// Runs `job` on `prepared` (module docs).

@@ -267,7 +267,7 @@ pub fn on_gpu<R: GpuReal>(
     variant: Variant,
     timed: bool,
 ) -> Result<(Images<R>, Stages)> {
-    let prepared = gpu::prepare::<R>(scene, &variant);
+    let prepared = gpu::prepare::<R>(scene, &variant)?;
     let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
     Ok((r.images, r.stages))
 }
@@ -322,7 +322,7 @@ pub fn render_streamed(
         max_rows: u32,
         sink: &mut dyn FnMut(Images<R>) -> Result<()>,
     ) -> Result<()> {
-        let prepared = gpu::prepare::<R>(scene, &variant);
+        let prepared = gpu::prepare::<R>(scene, &variant)?;
         let mut each = |_, band| sink(band);
         let job = Job::new(variant).rows(max_rows).timed(true).sink(&mut each);
         gpu::run(gpu, &prepared, job).map(|_| ())

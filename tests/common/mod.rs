@@ -71,7 +71,7 @@ pub fn gpu_tiles<R: GpuReal>(
     variant: Variant,
     max_rows: u32,
 ) -> raycast::Result<Images<R>> {
-    let prepared = raycast::gpu::prepare::<R>(scene, &variant);
+    let prepared = raycast::gpu::prepare::<R>(scene, &variant).unwrap();
     let job = raycast::gpu::Job::new(variant).rows(max_rows);
     raycast::gpu::run(gpu, &prepared, job).map(|r| r.images)
 }
