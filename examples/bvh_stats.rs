@@ -6,7 +6,7 @@ use raycast::Algorithm::Robust;
 use raycast::cpu::camera::camera_ray;
 use raycast::cpu::traverse::{box_entry, ray_inverse};
 use raycast::cpu::triangle::intersect_triangle;
-use raycast::cpu::types::no_hit;
+use raycast::cpu::types::{no_hit, shear_of};
 use raycast::prepare::bvh::{Bvh, LEAF_BIT, SPHERE_LEAF};
 use raycast::prepare::{Primitives, kernel_frame};
 
@@ -35,6 +35,7 @@ fn main() {
         for j in (0..frame.nx).step_by(4) {
             let ray = camera_ray(&frame, i, j);
             let ri = ray_inverse(&ray);
+            let shear = shear_of(ray.direction);
             let mut best = f32::MAX;
             let mut stack = vec![(0u32, 0f32)];
             rays += 1;
@@ -59,6 +60,7 @@ fn main() {
                             tests += 1;
                             let th = intersect_triangle::<f32, true>(
                                 &ray,
+                                &shear,
                                 &prims.triangles[k as usize],
                                 frame.min_t,
                             );

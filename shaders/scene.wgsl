@@ -54,8 +54,9 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     let triangle_base = plane_base + params.plane_count;
 #if TRIANGLES
 #if !BVH
+    let shear = shear_of(ray.direction);
     for (var k = 0u; k < params.triangle_count; k++) {
-        keep(intersect_triangle(ray, triangle_at(k), min_t), KIND_TRIANGLE, k, triangle_base, &best);
+        keep(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, triangle_base, &best);
     }
 #endif
 #endif

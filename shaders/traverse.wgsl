@@ -94,8 +94,8 @@ fn keep_ordered(t: real, kind: u32, index: u32, base: u32, best: ptr<function, H
 #endif
 }
 
-// Tests the `count` primitives of a leaf from `first`.
-fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
+// Tests the `count` primitives of a leaf from `first` (`shear`: shear_of(ray.direction)).
+fn intersect_leaf(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
     let n = count & ~SPHERE_LEAF;
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
@@ -107,7 +107,7 @@ fn intersect_leaf(ray: Ray, min_t: real, first: u32, count: u32, best: ptr<funct
 #if TRIANGLES
         let base = params.sphere_count + params.plane_count;
         for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_triangle(ray, triangle_at(k), min_t), KIND_TRIANGLE, k, base, best);
+            keep_ordered(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, base, best);
         }
 #endif
     }
@@ -200,10 +200,10 @@ fn packet_count(b: bool) -> u32 {
 // (Unrolled, with constant-lane broadcasts, it traced 1.05x as fast on llvmpipe but compiled
 // 1.3 s slower: docs/performance.md.) In f64 each lane loads what it tests: subgroup
 // operations have no f64.
-fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
+fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
-        intersect_leaf(ray, min_t, first, count, best);
+        intersect_leaf(ray, shear, min_t, first, count, best);
     }
 #else
     let n = count & ~SPHERE_LEAF;
@@ -228,7 +228,7 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
         for (var k = 0u; k < n; k++) {
             let tri = Triangle(subgroupShuffle(t.a, k), subgroupShuffle(t.b, k), subgroupShuffle(t.c, k));
             if (wanted) {
-                keep_ordered(intersect_triangle(ray, tri, min_t), KIND_TRIANGLE, first + k, base, best);
+                keep_ordered(intersect_triangle(ray, shear, tri, min_t), KIND_TRIANGLE, first + k, base, best);
             }
         }
 #endif
@@ -242,6 +242,7 @@ fn intersect_leaf_shared(ray: Ray, min_t: real, first: u32, count: u32, wanted: 
 // reached by every invocation of the subgroup together (see main in entry.wgsl).
 fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     let ri = ray_inverse(ray);
+    let shear = shear_of(ray.direction);
     var stack_node: array<u32, BVH_STACK>;
     var stack_t: array<real, BVH_STACK>;
     var sp = 0u;
@@ -255,10 +256,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
         if (leaf0 && packet_any(t0 != NO_HIT)) {
-            intersect_leaf_shared(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
+            intersect_leaf_shared(ray, shear, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
         }
         if (leaf1 && packet_any(t1 != NO_HIT)) {
-            intersect_leaf_shared(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
+            intersect_leaf_shared(ray, shear, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
@@ -303,6 +304,7 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
 // when popped if a hit nearer than that entry has been found.
 fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     let ri = ray_inverse(ray);
+    let shear = shear_of(ray.direction);
     var stack_node: array<u32, BVH_STACK>;
     var stack_t: array<real, BVH_STACK>;
     var sp = 0u;
@@ -314,10 +316,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
         let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         if (t0 != NO_HIT && leaf0) {
-            intersect_leaf(ray, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
+            intersect_leaf(ray, shear, min_t, n.reference0 & ~LEAF_BIT, n.count0, best);
         }
         if (t1 != NO_HIT && leaf1) {
-            intersect_leaf(ray, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
+            intersect_leaf(ray, shear, min_t, n.reference1 & ~LEAF_BIT, n.count1, best);
         }
         let go0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let go1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);

@@ -36,6 +36,37 @@ struct Ray {
     direction: vec3<real>,
 }
 
+// A ray's frame for the watertight triangle test (triangle.wgsl), the same for every triangle,
+// so computed once per ray: the axes permuted so that z is the direction's largest component,
+// and the shear that takes the direction to +z.
+struct Shear {
+    kx: u32,
+    ky: u32,
+    kz: u32,
+    sx: real,
+    sy: real,
+    sz: real,
+}
+
+fn shear_of(d: vec3<real>) -> Shear {
+    let ad = abs(d);
+    var kz = 2u;
+    if (ad.x >= ad.y && ad.x >= ad.z) {
+        kz = 0u;
+    } else if (ad.y >= ad.z) {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    // Keep the winding (and so the sign convention) when the ray points down its main axis.
+    if (d[kz] < 0.0) {
+        let swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    return Shear(kx, ky, kz, d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+}
+
 struct Sphere {
     center: vec3<real>,   // offset 0
     radius: real,         // offset 12 / 24

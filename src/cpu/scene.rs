@@ -6,7 +6,7 @@ use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
 use super::triangle::{intersect_triangle, triangle_normal};
-use super::types::{Ray, t_far};
+use super::types::{Ray, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 
@@ -67,8 +67,9 @@ fn nearest_triangle<T: Real, const ROBUST: bool>(
     prims: &Primitives<T>,
     best: &mut Hit<T>,
 ) {
+    let shear = shear_of(ray.direction);
     for (k, tri) in prims.triangles.iter().enumerate() {
-        let t = intersect_triangle::<T, ROBUST>(ray, tri, min_t);
+        let t = intersect_triangle::<T, ROBUST>(ray, &shear, tri, min_t);
         keep(t, KIND_TRIANGLE, k, &prims.triangle_objects, best);
     }
 }

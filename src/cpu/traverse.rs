@@ -4,7 +4,7 @@
 use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
-use super::types::{Ray, no_hit, t_far};
+use super::types::{Ray, Shear, no_hit, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
@@ -117,9 +117,10 @@ fn keep_ordered<T: Real>(
     }
 }
 
-/// Tests the `count` primitives of a leaf from `first`.
+/// Tests the `count` primitives of a leaf from `first` (`shear`: `shear_of(ray.direction)`).
 fn intersect_leaf<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
+    shear: &Shear<T>,
     min_t: T,
     prims: &Primitives<T>,
     first: u32,
@@ -135,7 +136,8 @@ fn intersect_leaf<T: Real, const ROBUST: bool>(
         }
     } else {
         for k in first..first + n {
-            let t = intersect_triangle::<T, ROBUST>(ray, &prims.triangles[k as usize], min_t);
+            let tri = &prims.triangles[k as usize];
+            let t = intersect_triangle::<T, ROBUST>(ray, shear, tri, min_t);
             let key = |i| prims.triangle_key(i);
             keep_ordered(t, KIND_TRIANGLE, k, &prims.triangle_objects, key, best);
         }
@@ -190,6 +192,7 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
     best: &mut Hit<T>,
 ) {
     let ri = ray_inverse(ray);
+    let shear = shear_of(ray.direction);
     let mut stack_node = [0u32; BVH_STACK];
     let mut stack_t = [T::ZERO; BVH_STACK];
     let mut sp = 0;
@@ -201,11 +204,11 @@ pub fn traverse_bvh<T: Real, const ROBUST: bool>(
         let leaf1 = n.reference1 & LEAF_BIT != 0;
         if t0 != no_hit() && leaf0 {
             let first = n.reference0 & !LEAF_BIT;
-            intersect_leaf::<T, ROBUST>(ray, min_t, prims, first, n.count0, best);
+            intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count0, best);
         }
         if t1 != no_hit() && leaf1 {
             let first = n.reference1 & !LEAF_BIT;
-            intersect_leaf::<T, ROBUST>(ray, min_t, prims, first, n.count1, best);
+            intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count1, best);
         }
         let go0 = t0 != no_hit() && !leaf0 && t0 <= cull_t(best);
         let go1 = t1 != no_hit() && !leaf1 && t1 <= cull_t(best);

@@ -1,15 +1,18 @@
 //! Mirror of shaders/triangle.wgsl: ray/triangle intersection.
 
-use super::types::{Ray, Triangle, is_beyond, no_hit};
+use super::types::{Ray, Shear, Triangle, is_beyond, no_hit};
 use crate::math::{Precision, Real, Vec3, cross, dot, normalize, vec3};
 
+/// `shear` is [`super::types::shear_of`] of the ray's direction (the robust test's; the textbook
+/// one does not use it).
 pub fn intersect_triangle<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
+    shear: &Shear<T>,
     tri: &Triangle<T>,
     min_t: T,
 ) -> T {
     if ROBUST {
-        intersect_triangle_robust(ray, tri, min_t)
+        intersect_triangle_robust(ray, shear, tri, min_t)
     } else {
         intersect_triangle_textbook(ray, tri, min_t)
     }
@@ -30,24 +33,20 @@ pub fn edge_exact<T: Real>(a: T, b: T, c: T, d: T, approx: T) -> T {
 
 /// The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the ray's
 /// frame and decide with 2D edge functions, exactly negated on an edge shared by two triangles.
-pub fn intersect_triangle_robust<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
-    let d = ray.direction;
-    let ad = d.abs();
-    let mut kz = 2;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0;
-    } else if ad.y >= ad.z {
-        kz = 1;
-    }
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    // Keep the winding (and so the sign convention) when the ray points down its main axis.
-    if d.get(kz) < T::ZERO {
-        std::mem::swap(&mut kx, &mut ky);
-    }
-    let sx = d.get(kx) / d.get(kz);
-    let sy = d.get(ky) / d.get(kz);
-    let sz = T::ONE / d.get(kz);
+pub fn intersect_triangle_robust<T: Real>(
+    ray: &Ray<T>,
+    shear: &Shear<T>,
+    tri: &Triangle<T>,
+    min_t: T,
+) -> T {
+    let Shear {
+        kx,
+        ky,
+        kz,
+        sx,
+        sy,
+        sz,
+    } = *shear;
     let pa = tri.a - ray.origin;
     let pb = tri.b - ray.origin;
     let pc = tri.c - ray.origin;

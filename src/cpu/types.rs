@@ -31,6 +31,43 @@ pub struct Ray<T> {
     pub direction: Vec3<T>,
 }
 
+/// A ray's frame for the watertight triangle test, computed once per ray (`Shear` in WGSL): the
+/// axes permuted so that z is the direction's largest component, and the shear that takes the
+/// direction to +z.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shear<T> {
+    pub kx: usize,
+    pub ky: usize,
+    pub kz: usize,
+    pub sx: T,
+    pub sy: T,
+    pub sz: T,
+}
+
+pub fn shear_of<T: Real>(d: Vec3<T>) -> Shear<T> {
+    let ad = d.abs();
+    let mut kz = 2;
+    if ad.x >= ad.y && ad.x >= ad.z {
+        kz = 0;
+    } else if ad.y >= ad.z {
+        kz = 1;
+    }
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    // Keep the winding (and so the sign convention) when the ray points down its main axis.
+    if d.get(kz) < T::ZERO {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    Shear {
+        kx,
+        ky,
+        kz,
+        sx: d.get(kx) / d.get(kz),
+        sy: d.get(ky) / d.get(kz),
+        sz: T::ONE / d.get(kz),
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere<T> {
     pub center: Vec3<T>,
