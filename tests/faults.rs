@@ -154,40 +154,68 @@ fn a_lost_device_is_an_error() {
     }
 }
 
-/// A mesh beyond what the device's storage bindings hold is refused with the limit named, before
-/// its BVH is built: a device opened with 1 MiB bindings holds 4 chunks of 2^14 triangles.
-#[test]
-fn a_mesh_larger_than_the_device_holds() {
-    let gpu = open_device(|limits| wgpu::Limits {
-        max_storage_buffer_binding_size: 1 << 20,
-        ..limits
-    });
-    let json = r#"{"camera": {"eye": [0, 0, 5], "look": [0, 0, -1], "up": [0, 1, 0],
-        "focal_length": 1, "width": 1, "height": 1, "resolution": [32, 32]},
-        "objects": [{"type": "soup", "stl": "grid.stl"}]}"#;
-    // 300 x 300 cells of two triangles: 180,000 triangles, beyond 4 x 2^14.
-    let mut triangles = Vec::new();
-    for i in 0..300 {
-        for j in 0..300 {
-            let p = |di: i32, dj: i32| {
-                raycast::math::vec3((i + di) as f64 / 300.0, (j + dj) as f64 / 300.0, 0.0)
-            };
-            triangles.push([p(0, 0), p(1, 0), p(1, 1)]);
-            triangles.push([p(0, 0), p(1, 1), p(0, 1)]);
+/// A binary STL of `side` x `side` cells of two triangles each, in the unit square at z = 0.
+fn grid_stl(side: u32) -> Vec<u8> {
+    let mut bytes = vec![0u8; 80];
+    bytes.extend_from_slice(&(2 * side * side).to_le_bytes());
+    let corner = |i: u32, j: u32| [i as f32 / side as f32, j as f32 / side as f32, 0.0];
+    for i in 0..side {
+        for j in 0..side {
+            let (a, b, c, d) = (
+                corner(i, j),
+                corner(i + 1, j),
+                corner(i + 1, j + 1),
+                corner(i, j + 1),
+            );
+            for triangle in [[a, b, c], [a, c, d]] {
+                bytes.extend_from_slice(&[0u8; 12]);
+                for p in triangle.iter().flatten() {
+                    bytes.extend_from_slice(&p.to_le_bytes());
+                }
+                bytes.extend_from_slice(&[0u8; 2]);
+            }
         }
     }
-    let scene =
-        raycast::Scene::from_json(json, Path::new("grid.json"), &mut |_| Ok(triangles.clone()))
-            .unwrap();
-    let mode = "gpu:f32:robust".parse().unwrap();
-    let message = match raycast::render::render(&scene, mode, Some(&gpu), false) {
-        Ok(_) => panic!("180,000 triangles rendered on 1 MiB bindings"),
-        Err(e) => e.to_string(),
+    bytes
+}
+
+/// A mesh beyond what the device's storage bindings hold is refused with the limit named,
+/// before its BVH is built: with `RAYCAST_MAX_BINDING` at 1 MiB the device holds 4 chunks of
+/// 2^14 triangles, and the grid has 180,000.
+#[test]
+fn a_mesh_larger_than_the_device_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("grid.stl"), grid_stl(300)).unwrap();
+    let scene = dir.path().join("grid.json");
+    let json = r#"{"camera": {"eye": [0.5, 0.5, 2], "look": [0, 0, -1], "up": [0, 1, 0],
+        "focal_length": 1, "width": 1, "height": 1, "resolution": [32, 32]},
+        "objects": [{"type": "soup", "stl": "grid.stl"}]}"#;
+    std::fs::write(&scene, json).unwrap();
+    let out = dir.path().join("out");
+    let run = |max_binding: &str| {
+        Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args(["render", "--precision", "f32"])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .env("RAYCAST_MAX_BINDING", max_binding)
+            .output()
+            .unwrap()
     };
-    assert_eq!(message.lines().count(), 1, "{message}");
+    let message = one_error(&run("1048576"));
     assert!(
         message.contains("180000 spheres and triangles")
             && message.contains("at most 65536 triangles"),
         "{message}"
     );
+    assert_no_files(&out);
+    // The same scene fits the device's own bindings.
+    assert!(run("134217728").status.success());
+    std::fs::remove_dir_all(&out).unwrap();
+    let message = one_error(&run("12"));
+    assert!(
+        message.contains("RAYCAST_MAX_BINDING") && message.contains("`12`"),
+        "{message}"
+    );
+    assert_no_files(&out);
 }

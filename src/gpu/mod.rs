@@ -120,6 +120,8 @@ impl Gpu {
     /// Opens the best adapter, honouring `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and
     /// `WGPU_ADAPTER_NAME` (a case-insensitive substring of the adapter name, e.g. `llvmpipe`).
     /// Without `WGPU_BACKEND` only the primary backends (Vulkan, Metal, DX12) are tried.
+    /// `RAYCAST_MAX_BINDING` (bytes) caps the size of one storage binding below the adapter's
+    /// own limit: less device memory per buffer, on a shared GPU for instance.
     pub fn new() -> Result<Gpu> {
         pollster::block_on(Self::new_async())
     }
@@ -131,13 +133,18 @@ impl Gpu {
         let instance = wgpu::Instance::new(desc);
         let adapters = instance.enumerate_adapters(backends).await;
         let adapter = choose_adapter(adapters, std::env::var("WGPU_ADAPTER_NAME").ok())?;
+        // The adapter's own limits: lavapipe allows larger storage bindings than the WebGPU
+        // defaults.
+        let mut limits = adapter.limits();
+        if let Some(cap) = max_binding_from_env()? {
+            limits.max_storage_buffer_binding_size =
+                limits.max_storage_buffer_binding_size.min(cap);
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("raycast"),
                 required_features: adapter.features() & OPTIONAL_FEATURES,
-                // The adapter's own limits: lavapipe allows larger storage bindings than the
-                // WebGPU defaults.
-                required_limits: adapter.limits(),
+                required_limits: limits,
                 ..Default::default()
             })
             .await
@@ -182,6 +189,20 @@ impl Gpu {
 
     pub fn info(&self) -> wgpu::AdapterInfo {
         self.adapter.get_info()
+    }
+}
+
+/// `RAYCAST_MAX_BINDING`, bytes of one storage binding at most (at least 1 MiB), if set.
+fn max_binding_from_env() -> Result<Option<u64>> {
+    let Ok(text) = std::env::var("RAYCAST_MAX_BINDING") else {
+        return Ok(None);
+    };
+    match text.trim().parse::<u64>() {
+        Ok(bytes) if bytes >= 1 << 20 => Ok(Some(bytes)),
+        _ => Err(Error::Device(format!(
+            "RAYCAST_MAX_BINDING must be a number of bytes of at least 1048576, got `{}`",
+            text.escape_debug()
+        ))),
     }
 }
 
