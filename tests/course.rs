@@ -261,8 +261,9 @@ fn the_default_render_reproduces_every_course_render() {
 /// those of the same file without `lights`, `materials` and the objects' `material`.
 #[test]
 fn ray_tracing_scenes_load_with_their_materials_and_lights() {
-    let dir = repo_path("scenes/ray-tracing");
-    let names = scene_files("scenes/ray-tracing");
+    const FOLDER: &str = "scenes/ray-tracing";
+    let dir = repo_path(FOLDER);
+    let names = scene_files(FOLDER);
     assert_eq!(names.len(), 10);
     for path in names {
         let scene = raycast::Scene::load(&path).unwrap();

@@ -8,15 +8,9 @@ mod common;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-use common::{file_names, open_device, repo_path, temporary_files, wait_until};
-
-fn raycast() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_raycast"));
-    command
-        .arg("render")
-        .arg(repo_path("scenes/course/bunny.json"));
-    command
-}
+use common::{
+    assert_no_files, file_names, open_device, render_bunny, repo_path, temporary_files, wait_until,
+};
 
 /// Checks the failure contract and returns the one stderr line.
 fn one_error(output: &Output) -> String {
@@ -33,16 +27,10 @@ fn one_error(output: &Output) -> String {
     stderr
 }
 
-fn assert_no_files(dir: &Path) {
-    if dir.exists() {
-        assert_eq!(file_names(dir), Vec::<String>::new(), "{}", dir.display());
-    }
-}
-
 /// Writing past `ulimit -f` fails with EFBIG, as a full disk fails with ENOSPC: at 200 blocks
-/// (100 or 200 KiB, by the shell's block size) the first npy file breaks it, at 2000 a later
-/// one, after others were written. (The CPU reference renders: lavapipe's device memory is
-/// file-backed, and the limit breaks it.)
+/// (100 or 200 KiB, by the shell's block size) an early file of the set breaks it, at 2000 a
+/// larger one further on, after smaller ones were written (which must go too). (The CPU
+/// reference renders: lavapipe's device memory is file-backed, and the limit breaks it.)
 #[test]
 #[cfg(unix)]
 fn a_full_disk_leaves_no_file() {
@@ -72,7 +60,7 @@ fn an_output_path_that_is_a_file() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("taken");
     std::fs::write(&file, b"kept").unwrap();
-    let output = raycast().arg("-o").arg(&file).output().unwrap();
+    let output = render_bunny().arg("-o").arg(&file).output().unwrap();
     let message = one_error(&output);
     assert!(
         message.starts_with(&format!("error: {}: ", file.display())),
@@ -88,7 +76,7 @@ fn an_output_path_that_is_a_file() {
 #[cfg(target_os = "linux")]
 fn a_folder_that_cannot_be_created() {
     let out = Path::new("/proc/raycast-no-such-folder/out");
-    let output = raycast().arg("-o").arg(out).output().unwrap();
+    let output = render_bunny().arg("-o").arg(out).output().unwrap();
     let message = one_error(&output);
     assert!(
         message.starts_with(&format!("error: {}: ", out.display())),
@@ -103,7 +91,7 @@ fn a_folder_that_cannot_be_created() {
 fn the_output_folder_removed_mid_render() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let mut child = raycast()
+    let mut child = render_bunny()
         .args([
             "--size",
             "2048x2048",
@@ -148,6 +136,7 @@ fn a_lost_device_is_an_error() {
         Ok(Err(e)) => {
             let message = e.to_string();
             assert_eq!(message.lines().count(), 1, "{message}");
+            assert!(message.contains("the GPU device was lost"), "{message}");
         }
         Ok(Ok(_)) => panic!("a render on a destroyed device succeeded"),
         Err(_) => panic!("a render on a destroyed device panicked"),
@@ -209,7 +198,7 @@ fn a_mesh_larger_than_the_device_holds() {
         "{message}"
     );
     assert_no_files(&out);
-    // The same scene fits the device's own bindings.
+    // The same scene fits bindings of 128 MiB (lavapipe's own size).
     assert!(run("134217728").status.success());
     std::fs::remove_dir_all(&out).unwrap();
     let message = one_error(&run("12"));

@@ -13,13 +13,13 @@ use std::time::Duration;
 fn each_input(target: &str, read: fn(&[u8], &Path)) -> usize {
     let dir = common::repo_path(&format!("tests/data/fuzz/{target}"));
     let mut count = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
+    for name in common::file_names(&dir) {
+        let path = dir.join(name);
         let bytes = std::fs::read(&path).unwrap();
         let (done, finished) = mpsc::channel();
-        let name = path.clone();
+        let input = path.clone();
         std::thread::spawn(move || {
-            read(&bytes, &name);
+            read(&bytes, &input);
             let _ = done.send(());
         });
         match finished.recv_timeout(Duration::from_secs(10)) {

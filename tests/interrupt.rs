@@ -7,13 +7,11 @@ mod common;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
-use common::{file_names, repo_path, temporary_files, wait_until};
+use common::{assert_no_files, render_bunny, temporary_files, wait_until};
 
 /// `raycast render` of the course bunny into `out` with `args`.
 fn start(out: &Path, args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_raycast"))
-        .arg("render")
-        .arg(repo_path("scenes/course/bunny.json"))
+    render_bunny()
         .arg("-o")
         .arg(out)
         .args(args)
@@ -24,26 +22,25 @@ fn start(out: &Path, args: &[&str]) -> Child {
 }
 
 /// Sends `signal` to the child, then checks the exit code, the message and the empty folder.
-fn stop_and_check(mut child: Child, signal: &str, out: &Path) {
+fn stop_and_check(child: Child, signal: &str, out: &Path) {
     let killed = Command::new("kill")
         .args([signal, &child.id().to_string()])
         .status()
         .unwrap();
     assert!(killed.success());
-    let status = child.wait().unwrap();
-    let mut stderr = String::new();
-    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-    assert_eq!(status.code(), Some(130), "{status:?}: {stderr}");
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        output.status.code(),
+        Some(130),
+        "{:?}: {stderr}",
+        output.status
+    );
     assert_eq!(
         stderr.lines().last(),
         Some("error: interrupted; no partial file left")
     );
-    let left = if out.exists() {
-        file_names(out)
-    } else {
-        Vec::new()
-    };
-    assert!(left.is_empty(), "{signal} left {left:?}");
+    assert_no_files(out);
 }
 
 #[test]

@@ -71,7 +71,7 @@ pub fn gpu_tiles<R: GpuReal>(
     variant: Variant,
     max_rows: u32,
 ) -> raycast::Result<Images<R>> {
-    let prepared = raycast::gpu::prepare::<R>(scene, &variant).unwrap();
+    let prepared = raycast::gpu::prepare::<R>(scene, &variant)?;
     let job = raycast::gpu::Job::new(variant).rows(max_rows);
     raycast::gpu::run(gpu, &prepared, job).map(|r| r.images)
 }
@@ -318,6 +318,22 @@ pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() 
         );
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
+}
+
+/// Asserts that `dir` holds no file (or does not exist): a failed render wrote nothing.
+pub fn assert_no_files(dir: &Path) {
+    if dir.exists() {
+        assert_eq!(file_names(dir), Vec::<String>::new(), "{}", dir.display());
+    }
+}
+
+/// `raycast render` of the course bunny, arguments to follow.
+pub fn render_bunny() -> std::process::Command {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"));
+    command
+        .arg("render")
+        .arg(repo_path("scenes/course/bunny.json"));
+    command
 }
 
 /// How many temporary files (`.NAME.tmp-PID`) `dir` holds (0 if it does not exist).
