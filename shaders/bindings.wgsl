@@ -9,7 +9,8 @@ struct Params {
     nx: u32,              // offset 68 / 132: image width in pixels
     ny: u32,              // offset 72 / 136: image height in pixels
     row_offset: u32,      // offset 76 / 140: first image row of this dispatch (tiles of rows)
-    tile_rows: u32,       // offset 80 / 144: rows of this dispatch (PIXEL_LIST: pixels listed)
+    tile_rows: u32,       // offset 80 / 144: rows of this dispatch (PIXEL_LIST, RAY_LIST: pixels
+                          //   or rays listed)
     sphere_count: u32,    // offset 84 / 148
     plane_count: u32,     // offset 88 / 152
     triangle_count: u32,  // offset 92 / 156
@@ -115,6 +116,18 @@ fn stored_triangle(k: u32) -> StoredTriangle {
 #if ID
 // Per pixel of the tile: object id, -1 on a miss.
 @group(0) @binding(6) var<storage, read_write> out_id: array<i32>;
+#endif
+#if RAY_LIST
+#if !COUNT
+// Per ray: the hit primitive's index among the primitives of its kind in the scene's order, and
+// its barycentric (u, v) (0 on a miss, and for spheres and planes).
+@group(0) @binding(19) var<storage, read_write> out_primitive: array<u32>;
+@group(0) @binding(20) var<storage, read_write> out_uv: array<vec2<real>>;
+#endif
+#if COUNT
+// Per ray: how many times it crosses a surface (COUNT).
+@group(0) @binding(21) var<storage, read_write> out_count: array<u32>;
+#endif
 #endif
 #if CERTAINTY
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.

@@ -1,9 +1,12 @@
-// Entry point: one invocation per pixel of a tile of image rows, or (PIXEL_LIST) per listed
-// pixel.
+// Entry point: one invocation per pixel of a tile of image rows, per listed pixel
+// (PIXEL_LIST), or per ray of a caller's list (RAY_LIST).
 #import types
 #import bindings
 #import camera
 #import scene
+#if COUNT
+#import count
+#endif
 #if USER_SHADE
 #import hooks
 #import user
@@ -65,6 +68,59 @@ fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHi
 }
 #endif
 
+// The entry of list `slot` (a listed pixel or ray), in workgroups of 64 invocations laid out in
+// rows of at most the device's limit of workgroups per dimension.
+fn list_slot(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
+#if RAY_LIST
+// The caller's rays, in kernel coordinates (measured from params.origin and scaled by
+// 1 / params.unit on the host: Prepared::kernel_ray); params.tile_rows holds how many there are,
+// and hits count from params.frame.min_t (in units of each ray's direction, which the scaling
+// keeps).
+@group(0) @binding(18) var<storage, read> ray_list: array<StoredRay>;
+
+// Casts `ray` and writes its results to slot `index`: the hit's object, normal, t, primitive
+// and barycentrics, or (COUNT) how many surfaces it crosses.
+fn cast_ray(ray: Ray, index: u32) {
+#if COUNT
+    out_count[index] = count_crossings(ray, params.frame.min_t);
+#else
+    let hit = nearest_hit(ray, params.frame.min_t);
+    out_id[index] = select(hit.object, -1, hit.object < 0);
+    // Normal in xyz, t in w; zero on a miss.
+    var surface = vec4<real>(0.0);
+    var primitive = 0u;
+    var uv = vec2<real>(0.0);
+    if (hit.object >= 0) {
+        surface = vec4<real>(hit_normal(ray, hit), hit.t);
+        primitive = primitive_key(hit);
+        uv = hit_uv(ray, hit);
+    }
+    out_surface[index] = surface;
+    out_primitive[index] = primitive;
+    out_uv[index] = uv;
+#if CERTAINTY
+    let in_range = all(abs(surface) <= vec4<real>(T_FAR));
+    out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);
+#endif
+#endif
+}
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let slot = list_slot(gid, groups);
+    if (slot >= params.tile_rows) {
+        return;
+    }
+    let stored = ray_list[slot];
+    cast_ray(Ray(stored.origin, stored.direction), slot);
+}
+#else
 #if PIXEL_LIST
 // The pixels to cast, as row-major indices; params.tile_rows holds how many there are.
 @group(0) @binding(17) var<storage, read> pixel_list: array<u32>;
@@ -74,7 +130,7 @@ fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let slot = gid.x + gid.y * groups.x * 64u;
+    let slot = list_slot(gid, groups);
     if (slot >= params.tile_rows) {
         return;
     }
@@ -114,5 +170,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     cast_pixel(params.row_offset + row, j, row * params.nx + j, true);
 }
+#endif
 #endif
 #endif

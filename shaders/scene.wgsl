@@ -89,3 +89,30 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
         }
     }
 }
+
+// The hit primitive's index among the primitives of its kind in the scene's order (the BVH
+// stores spheres and triangles in its own order).
+fn primitive_key(hit: Hit) -> u32 {
+#if BVH
+    var base = 0u;
+    if (hit.kind == KIND_PLANE) {
+        base = params.sphere_count;
+    } else if (hit.kind == KIND_TRIANGLE) {
+        base = params.sphere_count + params.plane_count;
+    }
+    return prim_order[base + hit.index];
+#else
+    return hit.index;
+#endif
+}
+
+// The hit's barycentric (u, v) on a triangle (the hit point is (1 - u - v) a + u b + v c), zero
+// on spheres and planes.
+fn hit_uv(ray: Ray, hit: Hit) -> vec2<real> {
+#if TRIANGLES
+    if (hit.kind == KIND_TRIANGLE) {
+        return triangle_uv(ray, shear_of(ray.direction), triangle_at(hit.index));
+    }
+#endif
+    return vec2<real>(0.0);
+}

@@ -116,3 +116,14 @@ fn sphere_normal(ray: Ray, t: real, sphere: Sphere) -> vec3<real> {
     return (p - sphere.center) / sphere.radius;
 }
 #endif
+
+// How many times the ray crosses the sphere's surface from min_t on: none where
+// intersect_sphere finds no hit, else once from inside (the start point of the ray) and twice
+// from outside (a tangent ray touches twice at one point).
+fn sphere_crossings(ray: Ray, sphere: Sphere, min_t: real) -> u32 {
+    if (intersect_sphere(ray, sphere, min_t) == NO_HIT) {
+        return 0u;
+    }
+    let f = ray.origin + min_t * ray.direction - sphere.center;
+    return select(2u, 1u, dot(f, f) < sphere.radius * sphere.radius);
+}

@@ -30,22 +30,24 @@ fn has_repeated_corner(tri: Triangle) -> bool {
 // ray's frame (ray along +z through the origin; `shear` is shear_of(ray.direction), computed
 // once per ray: 1.05x on the torus) and decide with 2D edge functions, which neighbouring
 // triangles evaluate with exactly opposite signs on a shared edge.
-fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> real {
-    let kx = shear.kx;
-    let ky = shear.ky;
-    let kz = shear.kz;
-    let sx = shear.sx;
-    let sy = shear.sy;
-    let sz = shear.sz;
+// The triangle's corners in the ray's sheared frame (ray along +z through the origin) and its
+// edge functions: u of edge b-c, v of edge c-a, w of edge a-b (the weights of a, b and c).
+struct Sheared {
+    xs: vec3<real>,
+    ys: vec3<real>,
+    zs: vec3<real>,
+    edges: vec3<real>,
+}
+
+fn shear_triangle(ray: Ray, shear: Shear, tri: Triangle) -> Sheared {
     let pa = tri.a - ray.origin;
     let pb = tri.b - ray.origin;
     let pc = tri.c - ray.origin;
     // One vector expression for all three corners, so a corner shared with a neighbouring
     // triangle is transformed by the same instructions there.
-    let zs = vec3<real>(pa[kz], pb[kz], pc[kz]);
-    let xs = vec3<real>(pa[kx], pb[kx], pc[kx]) - sx * zs;
-    let ys = vec3<real>(pa[ky], pb[ky], pc[ky]) - sy * zs;
-    // Edge functions: u of edge b-c, v of edge c-a, w of edge a-b.
+    let zs = vec3<real>(pa[shear.kz], pb[shear.kz], pc[shear.kz]);
+    let xs = vec3<real>(pa[shear.kx], pb[shear.kx], pc[shear.kx]) - shear.sx * zs;
+    let ys = vec3<real>(pa[shear.ky], pb[shear.ky], pc[shear.ky]) - shear.sy * zs;
     var u = xs.z * ys.y - ys.z * xs.y;
     var v = xs.x * ys.z - ys.x * xs.z;
     var w = xs.y * ys.x - ys.y * xs.x;
@@ -54,6 +56,18 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
     v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
     w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
 #endif
+    return Sheared(xs, ys, zs, vec3<real>(u, v, w));
+}
+
+fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> real {
+    let sz = shear.sz;
+    let s = shear_triangle(ray, shear, tri);
+    let xs = s.xs;
+    let ys = s.ys;
+    let zs = s.zs;
+    let u = s.edges.x;
+    let v = s.edges.y;
+    let w = s.edges.z;
 #if CERTAINTY
     // Edge e = x1 y2 - y1 x2 is off by at most about EPS * 2((|x1|+|z1|)(|y2|+|z2|) +
     // (|y1|+|z1|)(|x2|+|z2|)): vertex rounding, the shear, the products. Scales are computed
@@ -115,34 +129,57 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
 #endif
     return NO_HIT;
 }
+
+// Barycentric (u, v) of the ray's hit on the triangle, from the edge functions of the test:
+// the hit point is (1 - u - v) a + u b + v c.
+fn triangle_uv(ray: Ray, shear: Shear, tri: Triangle) -> vec2<real> {
+    let e = shear_triangle(ray, shear, tri).edges;
+    let determinant = e.x + e.y + e.z;
+    return vec2<real>(e.y / determinant, e.z / determinant);
+}
 #else
 // Cramer's rule, as in the lecture: solves origin + t*direction = a + beta*(b - a) +
 // gamma*(c - a), the 3x3 system with columns (a - b, a - c, direction) and right-hand side
 // a - origin. (`shear` is the robust test's; unused.)
 fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> real {
+    let c = cramer(ray, tri);
+    // Zero-area triangles and rays in the triangle's plane: no unique solution.
+    if (c.determinant == 0.0) {
+        return NO_HIT;
+    }
+    if (c.beta < 0.0 || c.gamma < 0.0 || c.beta + c.gamma > 1.0) {
+        return NO_HIT;
+    }
+    let t = -dot(tri.a - tri.c, c.q) / c.determinant;
+    if (t >= min_t) {
+        return t;
+    }
+    return NO_HIT;
+}
+
+// The lecture's system solved for the barycentrics beta (of b) and gamma (of c); `q` is what t
+// needs besides.
+struct Cramer {
+    determinant: real,
+    beta: real,
+    gamma: real,
+    q: vec3<real>,
+}
+
+fn cramer(ray: Ray, tri: Triangle) -> Cramer {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
     let rhs = tri.a - ray.origin;
     let m = cross(col1, ray.direction);
     let determinant = dot(col0, m);
-    // Zero-area triangles and rays in the triangle's plane: no unique solution.
-    if (determinant == 0.0) {
-        return NO_HIT;
-    }
-    let beta = dot(rhs, m) / determinant;
-    if (beta < 0.0) {
-        return NO_HIT;
-    }
     let q = cross(col0, rhs);
-    let gamma = dot(ray.direction, q) / determinant;
-    if (gamma < 0.0 || beta + gamma > 1.0) {
-        return NO_HIT;
-    }
-    let t = -dot(col1, q) / determinant;
-    if (t >= min_t) {
-        return t;
-    }
-    return NO_HIT;
+    return Cramer(determinant, dot(rhs, m) / determinant, dot(ray.direction, q) / determinant, q);
+}
+
+// Barycentric (u, v) of the ray's hit on the triangle: the hit point is (1 - u - v) a + u b + v c.
+fn triangle_uv(ray: Ray, shear: Shear, tri: Triangle) -> vec2<real> {
+    let c = cramer(ray, tri);
+    return vec2<real>(c.beta, c.gamma);
 }
 #endif
 

@@ -85,6 +85,14 @@ struct Triangle {
     c: vec3<real>,
 }
 
+// A caller's ray as the ray list holds it (RAY_LIST), in kernel coordinates.
+struct StoredRay {
+    origin: vec3<real>,   // offset 0
+    _pad0: real,          // offset 12 / 24
+    direction: vec3<real>,// offset 16 / 32
+    _pad1: real,          // offset 28 / 56
+}                         // size 32 / 64
+
 // A triangle as the buffers hold it: packed, without the padding of vec3 (bindings.wgsl).
 struct StoredTriangle {
     a: array<real, 3>,    // offset 0

@@ -50,6 +50,7 @@ pub mod images;
 pub mod math;
 pub mod output;
 pub mod prepare;
+pub mod rays;
 pub mod render;
 pub mod scene;
 pub mod study;

@@ -1,8 +1,8 @@
-//! Mirror of shaders/entry.wgsl: the work of one pixel.
+//! Mirror of shaders/entry.wgsl: the work of one pixel, or of one ray of a list.
 
 use super::camera::camera_ray;
-use super::scene::{hit_normal, nearest_hit};
-use super::types::Frame;
+use super::scene::{hit_normal, hit_uv, nearest_hit, primitive_key};
+use super::types::{Frame, Ray};
 use crate::math::{Real, length};
 use crate::prepare::Primitives;
 
@@ -37,5 +37,40 @@ pub fn main<T: Real, const ROBUST: bool>(
             hit_normal::<T, ROBUST>(&ray, &hit, prims).to_array(),
             distance,
         )),
+    }
+}
+
+/// What the kernel writes for one ray of a list (`cast_ray` in shaders/entry.wgsl): object id
+/// (-1 on a miss), and on a hit its normal, t, primitive key and barycentrics.
+pub struct RayOut<T> {
+    pub id: i32,
+    pub hit: Option<RayHit<T>>,
+}
+
+pub struct RayHit<T> {
+    pub normal: [T; 3],
+    pub t: T,
+    /// The primitive's index among its kind in the scene's order.
+    pub primitive: u32,
+    pub uv: [T; 2],
+}
+
+pub fn cast_ray<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+) -> RayOut<T> {
+    let hit = nearest_hit::<T, ROBUST>(ray, min_t, prims);
+    if hit.object < 0 {
+        return RayOut { id: -1, hit: None };
+    }
+    RayOut {
+        id: hit.object,
+        hit: Some(RayHit {
+            normal: hit_normal::<T, ROBUST>(ray, &hit, prims).to_array(),
+            t: hit.t,
+            primitive: primitive_key(&hit, prims),
+            uv: hit_uv::<T, ROBUST>(ray, &hit, prims),
+        }),
     }
 }

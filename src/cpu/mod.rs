@@ -6,6 +6,7 @@
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
 pub mod camera;
+pub mod count;
 pub mod entry;
 pub mod hit;
 pub mod margin;
@@ -104,4 +105,48 @@ pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pix
             }
         })
         .collect()
+}
+
+/// Casts a caller's rays (world coordinates) through a prepared scene, hits counted from `t_near`
+/// (in units of each ray's direction), or with `count` counts every surface crossed: the CPU
+/// mirror of a [`crate::gpu::Rays::List`] job, with its raw results (primitive keys).
+pub fn cast_rays<T: Real>(
+    prepared: &Prepared<T>,
+    rays: &[crate::rays::Ray],
+    t_near: f64,
+    count: bool,
+) -> crate::rays::Hits<T> {
+    let prims = &prepared.primitives;
+    let min_t = T::from_f64(t_near);
+    let robust = prepared.algorithm == Algorithm::Robust;
+    let mut hits = crate::rays::Hits::new(rays.len(), count);
+    if count {
+        hits.count = rays
+            .par_iter()
+            .map(|ray| {
+                let ray = prepared.kernel_ray(ray);
+                match robust {
+                    true => count::count_crossings::<T, true>(&ray, min_t, prims),
+                    false => count::count_crossings::<T, false>(&ray, min_t, prims),
+                }
+            })
+            .collect();
+        return hits;
+    }
+    let outs: Vec<entry::RayOut<T>> = rays
+        .par_iter()
+        .map(|ray| {
+            let ray = prepared.kernel_ray(ray);
+            match robust {
+                true => entry::cast_ray::<T, true>(&ray, min_t, prims),
+                false => entry::cast_ray::<T, false>(&ray, min_t, prims),
+            }
+        })
+        .collect();
+    for (k, out) in outs.into_iter().enumerate() {
+        if let Some(h) = out.hit {
+            hits.set(k, out.id, h.t, h.normal, h.primitive, h.uv);
+        }
+    }
+    hits
 }

@@ -5,7 +5,7 @@ pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
-use super::triangle::{intersect_triangle, triangle_normal};
+use super::triangle::{intersect_triangle, triangle_normal, triangle_uv};
 use super::types::{Ray, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
@@ -85,5 +85,30 @@ pub fn hit_normal<T: Real, const ROBUST: bool>(
         KIND_SPHERE => sphere_normal::<T, ROBUST>(ray, hit.t, &prims.spheres[k]),
         KIND_PLANE => plane_normal(&prims.planes[k]),
         _ => triangle_normal::<T, ROBUST>(&prims.triangles[k]),
+    }
+}
+
+/// The hit primitive's index among the primitives of its kind in the scene's order (the BVH
+/// stores spheres and triangles in its own order).
+pub fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
+    match hit.kind {
+        KIND_SPHERE => prims.sphere_key(hit.index),
+        KIND_PLANE => hit.index,
+        _ => prims.triangle_key(hit.index),
+    }
+}
+
+/// The hit's barycentric (u, v) on a triangle, zero on spheres and planes.
+pub fn hit_uv<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    hit: &Hit<T>,
+    prims: &Primitives<T>,
+) -> [T; 2] {
+    match hit.kind {
+        KIND_TRIANGLE => {
+            let tri = &prims.triangles[hit.index as usize];
+            triangle_uv::<T, ROBUST>(ray, &shear_of(ray.direction), tri)
+        }
+        _ => [T::ZERO; 2],
     }
 }

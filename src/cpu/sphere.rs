@@ -101,3 +101,22 @@ pub fn sphere_normal_textbook<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -
     let p = ray.origin + ray.direction * t;
     (p - sphere.center) / sphere.radius
 }
+
+/// How many times the ray crosses the sphere's surface from `min_t` on: none where
+/// [`intersect_sphere`] finds no hit, else once from inside (the ray's start point) and twice from
+/// outside (a tangent ray touches twice at one point).
+pub fn sphere_crossings<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    sphere: &Sphere<T>,
+    min_t: T,
+) -> u32 {
+    if intersect_sphere::<T, ROBUST>(ray, sphere, min_t) == super::types::no_hit() {
+        return 0;
+    }
+    let f = ray.origin + ray.direction * min_t - sphere.center;
+    if dot(f, f) < sphere.radius * sphere.radius {
+        1
+    } else {
+        2
+    }
+}

@@ -31,6 +31,39 @@ pub fn edge_exact<T: Real>(a: T, b: T, c: T, d: T, approx: T) -> T {
     T::from_f64(a.to_f64() * b.to_f64() - c.to_f64() * d.to_f64())
 }
 
+/// The triangle's corners in the ray's sheared frame and its edge functions (`Sheared` in WGSL):
+/// u of edge b-c, v of edge c-a, w of edge a-b (the weights of a, b and c).
+pub struct Sheared<T> {
+    pub xs: Vec3<T>,
+    pub ys: Vec3<T>,
+    pub zs: Vec3<T>,
+    pub edges: Vec3<T>,
+}
+
+pub fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>) -> Sheared<T> {
+    let Shear {
+        kx, ky, kz, sx, sy, ..
+    } = *shear;
+    let pa = tri.a - ray.origin;
+    let pb = tri.b - ray.origin;
+    let pc = tri.c - ray.origin;
+    let zs = vec3(pa.get(kz), pb.get(kz), pc.get(kz));
+    let xs = vec3(pa.get(kx), pb.get(kx), pc.get(kx)) - zs * sx;
+    let ys = vec3(pa.get(ky), pb.get(ky), pc.get(ky)) - zs * sy;
+    let u = xs.z * ys.y - ys.z * xs.y;
+    let v = xs.x * ys.z - ys.x * xs.z;
+    let w = xs.y * ys.x - ys.y * xs.x;
+    let u = edge_exact(xs.z, ys.y, ys.z, xs.y, u);
+    let v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
+    let w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
+    Sheared {
+        xs,
+        ys,
+        zs,
+        edges: vec3(u, v, w),
+    }
+}
+
 /// The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the ray's
 /// frame and decide with 2D edge functions, exactly negated on an edge shared by two triangles.
 pub fn intersect_triangle_robust<T: Real>(
@@ -39,27 +72,9 @@ pub fn intersect_triangle_robust<T: Real>(
     tri: &Triangle<T>,
     min_t: T,
 ) -> T {
-    let Shear {
-        kx,
-        ky,
-        kz,
-        sx,
-        sy,
-        sz,
-    } = *shear;
-    let pa = tri.a - ray.origin;
-    let pb = tri.b - ray.origin;
-    let pc = tri.c - ray.origin;
-    let zs = vec3(pa.get(kz), pb.get(kz), pc.get(kz));
-    let xs = vec3(pa.get(kx), pb.get(kx), pc.get(kx)) - zs * sx;
-    let ys = vec3(pa.get(ky), pb.get(ky), pc.get(ky)) - zs * sy;
-    // Edge functions: u of edge b-c, v of edge c-a, w of edge a-b.
-    let mut u = xs.z * ys.y - ys.z * xs.y;
-    let mut v = xs.x * ys.z - ys.x * xs.z;
-    let mut w = xs.y * ys.x - ys.y * xs.x;
-    u = edge_exact(xs.z, ys.y, ys.z, xs.y, u);
-    v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
-    w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
+    let sz = shear.sz;
+    let Sheared { zs, edges, .. } = shear_triangle(ray, shear, tri);
+    let (u, v, w) = (edges.x, edges.y, edges.z);
     let zero = T::ZERO;
     if (u < zero || v < zero || w < zero) && (u > zero || v > zero || w > zero) {
         return no_hit();
@@ -80,29 +95,60 @@ pub fn intersect_triangle_robust<T: Real>(
 /// gamma*(c - a), the system with columns (a - b, a - c, direction) and right-hand side
 /// a - origin.
 pub fn intersect_triangle_textbook<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
+    let c = cramer(ray, tri);
+    // Zero-area triangles and rays in the triangle's plane: no unique solution.
+    if c.determinant == T::ZERO {
+        return no_hit();
+    }
+    if c.beta < T::ZERO || c.gamma < T::ZERO || c.beta + c.gamma > T::ONE {
+        return no_hit();
+    }
+    let t = -dot(tri.a - tri.c, c.q) / c.determinant;
+    if t >= min_t {
+        return t;
+    }
+    no_hit()
+}
+
+/// The lecture's system solved for the barycentrics beta (of b) and gamma (of c); `q` is what t
+/// needs besides (`Cramer` in WGSL).
+pub struct Cramer<T> {
+    pub determinant: T,
+    pub beta: T,
+    pub gamma: T,
+    pub q: Vec3<T>,
+}
+
+pub fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
     let rhs = tri.a - ray.origin;
     let m = cross(col1, ray.direction);
     let determinant = dot(col0, m);
-    // Zero-area triangles and rays in the triangle's plane: no unique solution.
-    if determinant == T::ZERO {
-        return no_hit();
-    }
-    let beta = dot(rhs, m) / determinant;
-    if beta < T::ZERO {
-        return no_hit();
-    }
     let q = cross(col0, rhs);
-    let gamma = dot(ray.direction, q) / determinant;
-    if gamma < T::ZERO || beta + gamma > T::ONE {
-        return no_hit();
+    Cramer {
+        determinant,
+        beta: dot(rhs, m) / determinant,
+        gamma: dot(ray.direction, q) / determinant,
+        q,
     }
-    let t = -dot(col1, q) / determinant;
-    if t >= min_t {
-        return t;
+}
+
+/// Barycentric (u, v) of the ray's hit on the triangle: the hit point is (1 - u - v) a + u b +
+/// v c. From the edge functions of the watertight test, or the lecture's Cramer solution.
+pub fn triangle_uv<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    shear: &Shear<T>,
+    tri: &Triangle<T>,
+) -> [T; 2] {
+    if ROBUST {
+        let e = shear_triangle(ray, shear, tri).edges;
+        let determinant = e.x + e.y + e.z;
+        [e.y / determinant, e.z / determinant]
+    } else {
+        let c = cramer(ray, tri);
+        [c.beta, c.gamma]
     }
-    no_hit()
 }
 
 /// Unit normal by corner order: normalize((b - a) x (c - a)), never flipped. The robust set

@@ -10,13 +10,14 @@ use wgpu::util::DeviceExt;
 
 use super::Gpu;
 use super::layout::{
-    GpuFrame, GpuParams, GpuPlane, GpuReal, GpuSphere, GpuTriangle, projection_code,
+    GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
-use super::shader::{self, Variant};
+use super::shader::{self, Source, Variant};
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
 use crate::math::Precision;
 use crate::prepare::{Prepared, Primitives};
+use crate::rays::Hits;
 use crate::scene::Scene;
 
 /// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl; the packet kernel
@@ -30,7 +31,7 @@ const SURFACE_REALS: u64 = 4;
 const ID_BYTES: u64 = 4;
 
 /// Which rays a [`Job`] casts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Rays<'a> {
     /// The camera's ray through the centre of every pixel, in tiles of image rows.
     Camera,
@@ -38,6 +39,33 @@ pub enum Rays<'a> {
     /// invocation per listed pixel, so the cost follows the length of the list. The images
     /// come back as one row of `list.len()` pixels.
     Pixels(&'a [u32]),
+    /// A caller's rays, in world coordinates, hits counted from `t_near` (in units of each
+    /// ray's direction): one invocation per ray. The results come back as
+    /// [`Rendered::hits`], in list order.
+    List {
+        rays: &'a [crate::rays::Ray],
+        t_near: f64,
+    },
+}
+
+impl Rays<'_> {
+    /// Which rays the kernel casts for these.
+    fn source(&self) -> Source {
+        match self {
+            Rays::Camera => Source::Camera,
+            Rays::Pixels(_) => Source::Pixels,
+            Rays::List { .. } => Source::Rays,
+        }
+    }
+
+    /// How many list entries (pixels or rays) there are; 0 for the camera.
+    fn listed(&self) -> usize {
+        match self {
+            Rays::Camera => 0,
+            Rays::Pixels(list) => list.len(),
+            Rays::List { rays, .. } => rays.len(),
+        }
+    }
 }
 
 /// What receives the tiles of a streamed render: the first image row of the tile and its
@@ -47,7 +75,7 @@ pub type TileSink<'a, R> = &'a mut dyn FnMut(u32, Images<R>) -> Result<()>;
 /// One GPU render: what [`run`] does with a prepared scene.
 pub struct Job<'a, R> {
     /// The kernel: the scene's kinds, precision, algorithm, outputs, hook or user kernel,
-    /// certainty test. Its `pixel_list` is set by [`run`] from `rays`.
+    /// certainty test, count query. Its `source` is set by [`run`] from `rays`.
     pub variant: Variant,
     pub rays: Rays<'a>,
     /// At most this many image rows per dispatch (fewer where the device's limits require).
@@ -57,6 +85,9 @@ pub struct Job<'a, R> {
     /// Hand each tile to this sink as soon as it is read back, from the top, instead of
     /// holding the whole image ([`Rendered::images`] is then empty).
     pub sink: Option<TileSink<'a, R>>,
+    /// The scene's buffers, uploaded already by [`upload`] (for many jobs on one scene);
+    /// without, [`run`] uploads them.
+    pub resident: Option<&'a Resident>,
 }
 
 impl<'a, R> Job<'a, R> {
@@ -68,6 +99,7 @@ impl<'a, R> Job<'a, R> {
             max_rows: None,
             timed: false,
             sink: None,
+            resident: None,
         }
     }
 
@@ -75,6 +107,14 @@ impl<'a, R> Job<'a, R> {
     pub fn pixels(self, list: &'a [u32]) -> Self {
         Job {
             rays: Rays::Pixels(list),
+            ..self
+        }
+    }
+
+    /// Casts a caller's rays, hits counted from `t_near` ([`Rays::List`]).
+    pub fn rays(self, rays: &'a [crate::rays::Ray], t_near: f64) -> Self {
+        Job {
+            rays: Rays::List { rays, t_near },
             ..self
         }
     }
@@ -92,6 +132,14 @@ impl<'a, R> Job<'a, R> {
         Job { timed, ..self }
     }
 
+    /// Binds the scene's buffers uploaded by [`upload`] instead of uploading them.
+    pub fn resident(self, resident: &'a Resident) -> Self {
+        Job {
+            resident: Some(resident),
+            ..self
+        }
+    }
+
     /// Streams the tiles to `sink`.
     pub fn sink(self, sink: TileSink<'a, R>) -> Self {
         Job {
@@ -103,9 +151,14 @@ impl<'a, R> Job<'a, R> {
 
 /// What [`run`] returns.
 pub struct Rendered<R> {
-    /// The images (one row of the listed pixels for [`Rays::Pixels`]; empty when streamed).
+    /// The images (one row of the listed pixels for [`Rays::Pixels`]; empty when streamed or
+    /// for [`Rays::List`]).
     pub images: Images<R>,
-    /// Per-pixel certainty flags, in a certainty variant.
+    /// Per ray of a [`Rays::List`], what the kernel wrote: primitives as their index among
+    /// their kind in the scene's order ([`crate::rays`] turns them into indices within their
+    /// object).
+    pub hits: Option<Hits<R>>,
+    /// Per-pixel (or per-ray) certainty flags, in a certainty variant.
     pub certainty: Option<Vec<bool>>,
     pub stages: Stages,
 }
@@ -115,6 +168,12 @@ pub struct Rendered<R> {
 /// bindings hold is refused here, before its BVH is built ([`run`] checks the prepared
 /// buffers again).
 pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
+    check_capacity(scene, variant)?;
+    Ok(Prepared::new(scene, variant.algorithm, variant.accel()))
+}
+
+/// An error if `scene` has more spheres and triangles than `variant`'s storage bindings hold.
+pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
     let bounded = crate::prepare::bvh::bounded_count(scene) as u64;
     let capacity = (shader::MAX_CHUNKS as u64) << variant.chunk_bits;
     if bounded > capacity {
@@ -122,7 +181,7 @@ pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<
             "{bounded} spheres and triangles are more than this device's storage bindings hold (at most {capacity} triangles on this device)"
         )));
     }
-    Ok(Prepared::new(scene, variant.algorithm, variant.accel()))
+    Ok(())
 }
 
 /// Runs `job` on `prepared` (module docs).
@@ -134,14 +193,26 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         max_rows,
         timed,
         mut sink,
+        resident,
     } = job;
     let variant = Variant {
-        pixel_list: matches!(rays, Rays::Pixels(_)),
+        source: rays.source(),
         ..variant
     };
-    if variant.pixel_list && sink.is_some() {
+    let variant = match (variant.source, variant.count) {
+        // A ray list writes every per-ray output, or with COUNT the counts alone.
+        (Source::Rays, false) => variant.with_outputs(crate::images::Outputs::GEOMETRY),
+        (Source::Rays, true) => variant.with_outputs(crate::images::Outputs::NONE),
+        (_, false) => variant,
+        (_, true) => {
+            return Err(Error::Device(
+                "intersections are counted for a list of rays only".into(),
+            ));
+        }
+    };
+    if variant.source != Source::Camera && sink.is_some() {
         return Err(Error::Device(
-            "a pixel list comes back whole; only camera rays are streamed".into(),
+            "a list comes back whole; only camera rays are streamed".into(),
         ));
     }
     if variant.precision != R::PRECISION || variant.uses_bvh() != prepared.bvh().is_some() {
@@ -153,31 +224,39 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             prepared.bvh().is_some()
         )));
     }
-    let clock = std::time::Instant::now();
-    let layout = Layout::new(&prepared.primitives);
     let mut stages = Stages {
-        build_s: prepared.build_s + clock.elapsed().as_secs_f64(),
+        build_s: prepared.build_s,
         ..Stages::default()
     };
     let [nx, ny] = prepared.resolution();
     let tile_rows =
-        check_limits(gpu, [nx, ny], &variant, &layout)?.min(max_rows.unwrap_or(u32::MAX));
-    let list_capacity =
-        (gpu.max_binding() / surface_bytes(R::PRECISION)).min(u32::MAX as u64) as u32;
-    // The dispatches: (first row or list entry, rows or pixels).
+        check_limits(gpu, [nx, ny], &variant, prepared)?.min(max_rows.unwrap_or(u32::MAX));
+    // Entries of a list per dispatch: as many as the largest per-entry buffer allows.
+    let entry_bytes = surface_bytes(R::PRECISION).max(size_of::<GpuRay<R>>() as u64);
+    let list_capacity = (gpu.max_binding() / entry_bytes).min(u32::MAX as u64) as u32;
+    // The dispatches: (first row or list entry, rows or entries).
     let parts: Vec<(u32, u32)> = match rays {
         Rays::Camera => (0..ny)
             .step_by(tile_rows as usize)
             .map(|row| (row, tile_rows.min(ny - row)))
             .collect(),
-        Rays::Pixels(list) => (0..list.len() as u32)
-            .step_by(list_capacity as usize)
-            .map(|start| (start, list_capacity.min(list.len() as u32 - start)))
-            .collect(),
+        _ => {
+            let n = u32::try_from(rays.listed()).map_err(|_| {
+                Error::Device(format!(
+                    "{} rays are more than one job casts (at most {})",
+                    rays.listed(),
+                    u32::MAX
+                ))
+            })?;
+            (0..n)
+                .step_by(list_capacity as usize)
+                .map(|start| (start, list_capacity.min(n - start)))
+                .collect()
+        }
     };
     let capacity = match rays {
         Rays::Camera => tile_rows as u64 * nx as u64,
-        Rays::Pixels(list) => (list.len() as u64).min(list_capacity as u64),
+        _ => (rays.listed() as u64).min(list_capacity as u64),
     };
 
     let clock = std::time::Instant::now();
@@ -186,10 +265,17 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     let device = &gpu.device;
 
     let clock = std::time::Instant::now();
-    let uploaded = layout.upload(gpu, &variant);
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
+    let uploaded_here;
+    let resident = match resident {
+        Some(r) => {
+            r.check_fits(gpu, &variant)?;
+            r
+        }
+        None => {
+            uploaded_here = upload(gpu, prepared, &variant)?;
+            &uploaded_here
+        }
+    };
     stages.upload_s = clock.elapsed().as_secs_f64();
 
     let clock = std::time::Instant::now();
@@ -199,20 +285,29 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let list_buffer = match rays {
-        Rays::Pixels(_) => Some(device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pixel_list"),
-            size: capacity.max(1) * 4,
+    // The list's buffer, by the kernel's name for it.
+    let list = match rays {
+        Rays::Camera => None,
+        Rays::Pixels(_) => Some(("pixel_list", 4)),
+        Rays::List { .. } => Some(("ray_list", size_of::<GpuRay<R>>() as u64)),
+    };
+    let list_buffer = list.map(|(name, entry)| {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(name),
+            size: capacity.max(1) * entry,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        })),
-        Rays::Camera => None,
-    };
+        });
+        (name, buffer)
+    });
     let outputs = OutputBuffers::new(gpu, &variant, capacity);
-    let mut buffers: Vec<(String, &wgpu::Buffer)> =
-        uploaded.iter().map(|(name, b)| (name.clone(), b)).collect();
+    let mut buffers: Vec<(String, &wgpu::Buffer)> = resident
+        .buffers
+        .iter()
+        .map(|(name, b)| (name.clone(), b))
+        .collect();
     buffers.push(("params".into(), &params_buffer));
-    buffers.extend(list_buffer.iter().map(|b| ("pixel_list".to_owned(), b)));
+    buffers.extend(list_buffer.iter().map(|(name, b)| (name.to_string(), b)));
     buffers.extend(outputs.named());
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast"),
@@ -225,6 +320,11 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         Rays::Camera if sink.is_some() => [nx, 0],
         Rays::Camera => [nx, ny],
         Rays::Pixels(list) => [list.len() as u32, 1],
+        Rays::List { .. } => [0, 0],
+    };
+    let mut hits = match rays {
+        Rays::List { rays, .. } => Some(Hits::new(rays.len(), variant.count)),
+        _ => None,
     };
     let new_images = |[w, h]: [u32; 2]| {
         let mut images = Images::new_miss(w, h, prepared.focal_length);
@@ -232,10 +332,15 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         images
     };
     let mut images = new_images(whole);
-    let mut certainty = variant.certainty.then(|| vec![false; images.len()]);
+    let mut certainty = variant
+        .certainty
+        .then(|| vec![false; images.len().max(rays.listed())]);
     let timer = if timed { PassTimer::new(gpu) } else { None };
     let mut kernel_s = timer.as_ref().map(|_| 0.0);
-    let frame = GpuFrame::new(&prepared.frame);
+    let mut frame = GpuFrame::new(&prepared.frame);
+    if let Rays::List { t_near, .. } = rays {
+        frame.min_t = R::from_f64(t_near);
+    }
     let origin = prepared.origin.cast::<R>().to_array();
     for (first, count) in parts {
         let params = GpuParams::<R> {
@@ -243,11 +348,15 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             projection: projection_code(prepared.frame.projection),
             nx,
             ny,
-            row_offset: if variant.pixel_list { 0 } else { first },
+            row_offset: if variant.source == Source::Camera {
+                first
+            } else {
+                0
+            },
             tile_rows: count,
-            sphere_count: layout.spheres.len() as u32,
-            plane_count: layout.planes.len() as u32,
-            triangle_count: layout.triangles.len() as u32,
+            sphere_count: prepared.primitives.spheres.len() as u32,
+            plane_count: prepared.primitives.planes.len() as u32,
+            triangle_count: prepared.primitives.triangles.len() as u32,
             origin,
             unit: R::from_f64(prepared.unit),
         };
@@ -262,9 +371,20 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             ),
             Rays::Pixels(list) => {
                 let part = &list[first as usize..(first + count) as usize];
-                let buffer = list_buffer.as_ref().expect("a pixel list has its buffer");
+                let (_, buffer) = list_buffer.as_ref().expect("a pixel list has its buffer");
                 gpu.queue
                     .write_buffer(buffer, 0, bytemuck::cast_slice(part));
+                (list_groups(gpu, count), count as u64, first as usize)
+            }
+            Rays::List { rays: list, .. } => {
+                let part = &list[first as usize..(first + count) as usize];
+                let stored: Vec<GpuRay<R>> = part
+                    .iter()
+                    .map(|ray| GpuRay::from(&prepared.kernel_ray(ray)))
+                    .collect();
+                let (_, buffer) = list_buffer.as_ref().expect("a ray list has its buffer");
+                gpu.queue
+                    .write_buffer(buffer, 0, bytemuck::cast_slice(&stored));
                 (list_groups(gpu, count), count as u64, first as usize)
             }
         };
@@ -283,13 +403,21 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         }
         outputs.copy_to_readback(&mut encoder, pixels);
         gpu.queue.submit([encoder.finish()]);
-        match sink.as_mut() {
-            Some(sink) => {
+        match (sink.as_mut(), hits.as_mut()) {
+            (_, Some(hits)) => read_hits(
+                gpu,
+                &outputs,
+                pixels as usize,
+                start,
+                hits,
+                certainty.as_deref_mut(),
+            )?,
+            (Some(sink), None) => {
                 let mut tile = new_images([nx, count]);
                 read_tile(gpu, &outputs, &variant, pixels as usize, 0, &mut tile, None)?;
                 sink(first, tile)?;
             }
-            None => read_tile(
+            (None, None) => read_tile(
                 gpu,
                 &outputs,
                 &variant,
@@ -307,8 +435,68 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     stages.kernel_s = kernel_s;
     Ok(Rendered {
         images,
+        hits,
         certainty,
         stages,
+    })
+}
+
+/// A prepared scene's buffers on one device ([`upload`]), for jobs that cast many times at
+/// one scene ([`Job::resident`]): uploading the torus's 18 MB took longer than casting a
+/// few rays at it.
+pub struct Resident {
+    /// By the kernel's names (shaders/bindings.wgsl).
+    buffers: Vec<(String, wgpu::Buffer)>,
+    /// How they are laid out: `(chunks, chunk_bits, uniform)` of the variant.
+    laid_out: (u8, u8, bool),
+    /// The device's identity ([`Gpu`]).
+    device: std::sync::Arc<()>,
+}
+
+impl Resident {
+    /// Whether these buffers are on `gpu` and laid out as `variant` binds them.
+    pub fn fits(&self, gpu: &Gpu, variant: &Variant) -> bool {
+        self.check_fits(gpu, variant).is_ok()
+    }
+
+    /// An error unless these buffers are on `gpu` and laid out as `variant` binds them.
+    fn check_fits(&self, gpu: &Gpu, variant: &Variant) -> Result<()> {
+        if !std::sync::Arc::ptr_eq(&self.device, gpu.identity()) {
+            return Err(Error::Device(
+                "the scene's buffers were uploaded to another device".into(),
+            ));
+        }
+        if self.laid_out != layout_of(variant) {
+            return Err(Error::Device(
+                "the scene's buffers were uploaded for another kernel layout".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn layout_of(variant: &Variant) -> (u8, u8, bool) {
+    (
+        variant.chunks,
+        variant.chunk_bits,
+        variant.uses_uniform_prims(),
+    )
+}
+
+/// `prepared`'s primitives and BVH uploaded to `gpu`, laid out for `variant`.
+pub fn upload<R: GpuReal>(
+    gpu: &Gpu,
+    prepared: &Prepared<R>,
+    variant: &Variant,
+) -> Result<Resident> {
+    let buffers = Layout::new(&prepared.primitives).upload(gpu, variant);
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
+    Ok(Resident {
+        buffers,
+        laid_out: layout_of(variant),
+        device: gpu.identity().clone(),
     })
 }
 
@@ -485,8 +673,10 @@ fn check_limits<R: GpuReal>(
     gpu: &Gpu,
     [nx, ny]: [u32; 2],
     variant: &Variant,
-    layout: &Layout<'_, R>,
+    prepared: &Prepared<R>,
 ) -> Result<u32> {
+    let p = &prepared.primitives;
+    let nodes = prepared.bvh().map_or(0, |b| b.nodes.len());
     if R::PRECISION == Precision::F64 && !gpu.device.features().contains(wgpu::Features::SHADER_F64)
     {
         return Err(Error::Device(format!(
@@ -508,9 +698,9 @@ fn check_limits<R: GpuReal>(
     }
     let capacity = shader::UniformCapacity::of(R::PRECISION);
     let counts = [
-        (layout.spheres.len(), capacity.spheres),
-        (layout.planes.len(), capacity.planes),
-        (layout.triangles.len(), capacity.triangles),
+        (p.spheres.len(), capacity.spheres),
+        (p.planes.len(), capacity.planes),
+        (p.triangles.len(), capacity.triangles),
     ];
     if variant.uses_uniform_prims() && counts.iter().any(|&(n, cap)| n > cap as usize) {
         return Err(Error::Device(format!(
@@ -522,12 +712,12 @@ fn check_limits<R: GpuReal>(
         )));
     }
     let chunk = 1u64 << variant.chunk_bits;
-    let needed = (layout.triangles.len().max(layout.nodes.len()) as u64).div_ceil(chunk);
+    let needed = (p.triangles.len().max(nodes) as u64).div_ceil(chunk);
     if needed > variant.chunks as u64 {
         return Err(Error::Device(format!(
             "{} triangles ({} BVH nodes) need {needed} storage bindings of {chunk}; this kernel binds {} (at most {} triangles on this device)",
-            layout.triangles.len(),
-            layout.nodes.len(),
+            p.triangles.len(),
+            nodes,
             variant.chunks,
             chunk * shader::MAX_CHUNKS as u64
         )));
@@ -724,11 +914,12 @@ fn map_for_reading(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<()> {
 /// Wall-clock seconds of the stages of one render, and the kernel's GPU time.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stages {
-    /// Primitives rounded and laid out for the GPU, the BVH built (when the kernel uses one).
+    /// Primitives rounded for the GPU, the BVH built (when the kernel uses one).
     pub build_s: f64,
     /// The kernel pipeline made (0 when it was cached).
     pub compile_s: f64,
-    /// The scene's buffers created and filled on the device.
+    /// The scene's buffers laid out, created and filled on the device (0 when they were
+    /// resident already, [`Job::resident`]).
     pub upload_s: f64,
     /// Every tile dispatched and read back.
     pub trace_s: f64,
@@ -747,6 +938,12 @@ enum Slot {
     Certain,
     /// `out_color`: the shade hook's colour, `pack4x8unorm`.
     Color,
+    /// `out_primitive`: `u32` (ray lists).
+    Primitive,
+    /// `out_uv`: `vec2<real>` (ray lists).
+    Uv,
+    /// `out_count`: `u32` (COUNT).
+    Count,
 }
 
 impl Slot {
@@ -757,13 +954,17 @@ impl Slot {
             Slot::Id => "out_id",
             Slot::Certain => "out_certain",
             Slot::Color => "out_color",
+            Slot::Primitive => "out_primitive",
+            Slot::Uv => "out_uv",
+            Slot::Count => "out_count",
         }
     }
 
     fn pixel_bytes(self, precision: Precision) -> u64 {
         match self {
             Slot::Surface => surface_bytes(precision),
-            Slot::Id | Slot::Certain | Slot::Color => ID_BYTES,
+            Slot::Uv => surface_bytes(precision) / 2,
+            Slot::Id | Slot::Certain | Slot::Color | Slot::Primitive | Slot::Count => ID_BYTES,
         }
     }
 }
@@ -780,14 +981,20 @@ struct OutputBuffers {
 impl OutputBuffers {
     /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
     /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
-    /// colours with a shade hook.
+    /// colours with a shade hook, a ray list's primitives and barycentrics or counts.
     fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
         let o = variant.outputs;
+        let hit_detail = variant.source == Source::Rays && !variant.count;
+        // Reals first, so that each slot starts aligned to its element in the readback
+        // buffer whatever the capacity.
         let wanted = [
             (o.distance || o.normal, Slot::Surface),
+            (hit_detail, Slot::Uv),
             (o.id, Slot::Id),
             (variant.certainty, Slot::Certain),
             (o.color, Slot::Color),
+            (hit_detail, Slot::Primitive),
+            (variant.count, Slot::Count),
         ];
         let mut slots = Vec::new();
         let mut offset = 0;
@@ -890,6 +1097,54 @@ fn read_tile<R: GpuReal>(
                 }
                 if o.distance {
                     images.distance[px] = s[3];
+                }
+            }
+        }
+    }
+    readback.unmap();
+    Ok(())
+}
+
+/// Copies one dispatch's results for a ray list out of the readback buffer into `hits` from ray
+/// `start` (and into `certainty` alike): t, id, normal, primitive and barycentrics, or counts.
+fn read_hits<R: GpuReal>(
+    gpu: &Gpu,
+    outputs: &OutputBuffers,
+    rays: usize,
+    start: usize,
+    hits: &mut Hits<R>,
+    certainty: Option<&mut [bool]>,
+) -> Result<()> {
+    let readback = &outputs.readback;
+    map_for_reading(gpu, readback)?;
+    {
+        let view = readback
+            .get_mapped_range(..)
+            .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
+        let slot = |slot| outputs.bytes(&view, slot, rays);
+        if let (Some(certainty), Some(flags)) = (certainty, slot(Slot::Certain)) {
+            let flags: &[u32] = bytemuck::cast_slice(flags);
+            for (k, flag) in flags.iter().enumerate() {
+                certainty[start + k] = *flag != 0;
+            }
+        }
+        if let Some(counts) = slot(Slot::Count) {
+            hits.count[start..start + rays].copy_from_slice(bytemuck::cast_slice(counts));
+        }
+        if let (Some(ids), Some(surface), Some(primitives), Some(uvs)) = (
+            slot(Slot::Id),
+            slot(Slot::Surface),
+            slot(Slot::Primitive),
+            slot(Slot::Uv),
+        ) {
+            let ids: &[i32] = bytemuck::cast_slice(ids);
+            let surface: &[[R; 4]] = bytemuck::cast_slice(surface);
+            let primitives: &[u32] = bytemuck::cast_slice(primitives);
+            let uvs: &[[R; 2]] = bytemuck::cast_slice(uvs);
+            for k in 0..rays {
+                if ids[k] != MISS {
+                    let [x, y, z, t] = surface[k];
+                    hits.set(start + k, ids[k], t, [x, y, z], primitives[k], uvs[k]);
                 }
             }
         }

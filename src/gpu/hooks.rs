@@ -281,7 +281,7 @@ fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)
 
 /// The variants whose global names a hook must avoid: a few that together hold every `#if`
 /// block that declares a name (every kind, output, chunk, the BVH by ray and by packet, the
-/// certainty test, a pixel list, f64 and its recheck, a placeholder hook). A test checks that
+/// certainty test, a pixel list, a ray list and its count, f64 and its recheck, a placeholder hook). A test checks that
 /// they declare the same names as every variant a device may build; assembling only these keeps
 /// a hook's check fast (every variant took half a second).
 fn kernel_variants() -> Vec<Variant> {
@@ -300,9 +300,16 @@ fn kernel_variants() -> Vec<Variant> {
                 ..base
             });
             variants.push(Variant {
-                pixel_list: true,
+                source: shader::Source::Pixels,
                 ..base
             });
+            for count in [false, true] {
+                variants.push(Variant {
+                    source: shader::Source::Rays,
+                    count,
+                    ..base
+                });
+            }
             variants.push(Variant {
                 packets: true,
                 ..base
@@ -470,7 +477,7 @@ mod tests {
     fn hooked_kernels_validate() {
         let hook = check(GOOD, Path::new("a.wgsl")).unwrap();
         for variant in shader::all_variants() {
-            if variant.certainty || variant.pixel_list {
+            if variant.certainty || variant.source != shader::Source::Camera {
                 continue;
             }
             let variant = variant.with_shade(hook.key);

@@ -77,6 +77,16 @@ pub struct GpuTriangle<R> {
     pub c: [R; 3], // offset 24 / 48
 } // size 36 / 72
 
+/// `struct StoredRay` in shaders/types.wgsl: a caller's ray in kernel coordinates.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct GpuRay<R> {
+    pub origin: [R; 3],    // offset 0
+    pub _pad0: R,          // offset 12 / 24
+    pub direction: [R; 3], // offset 16 / 32
+    pub _pad1: R,          // offset 28 / 56
+} // size 32 / 64
+
 // SAFETY: each struct is `repr(C)` and made only of `R` (4- or 8-byte floats) and `u32`s whose
 // offsets are multiples of their size, with a total size that is a multiple of the alignment:
 // no padding bytes in either precision (the layout test checks the sizes), and any bit
@@ -87,7 +97,14 @@ macro_rules! pod_for_gpu_real {
         unsafe impl<R: GpuReal> Pod for $t<R> {}
     )*};
 }
-pod_for_gpu_real!(GpuFrame, GpuParams, GpuSphere, GpuPlane, GpuTriangle);
+pod_for_gpu_real!(
+    GpuFrame,
+    GpuParams,
+    GpuSphere,
+    GpuPlane,
+    GpuTriangle,
+    GpuRay
+);
 
 impl<R: GpuReal> GpuFrame<R> {
     /// `frame` rounded to `R` (exact when it is in `R` already).
@@ -132,6 +149,17 @@ impl<R: GpuReal> From<&Triangle<R>> for GpuTriangle<R> {
             a: t.a.to_array(),
             b: t.b.to_array(),
             c: t.c.to_array(),
+        }
+    }
+}
+
+impl<R: GpuReal> From<&crate::cpu::types::Ray<R>> for GpuRay<R> {
+    fn from(r: &crate::cpu::types::Ray<R>) -> Self {
+        GpuRay {
+            origin: r.origin.to_array(),
+            _pad0: R::ZERO,
+            direction: r.direction.to_array(),
+            _pad1: R::ZERO,
         }
     }
 }
@@ -209,6 +237,12 @@ mod tests {
             "StoredTriangle",
             size_of::<GpuTriangle<R>>(),
             fields!(GpuTriangle<R>: a, b, c),
+        );
+        check(
+            &m,
+            "StoredRay",
+            size_of::<GpuRay<R>>(),
+            fields!(GpuRay<R>: origin, _pad0, direction, _pad1),
         );
     }
 

@@ -15,7 +15,9 @@ pub mod probe;
 pub mod shader;
 pub mod source;
 
-pub use dispatch::{Job, Rays, Rendered, Stages, TileSink, max_tile_rows, prepare, run};
+pub use dispatch::{
+    Job, Rays, Rendered, Resident, Stages, TileSink, max_tile_rows, prepare, run, upload,
+};
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -44,6 +46,9 @@ pub struct Gpu {
     pipelines: Mutex<HashMap<Variant, dispatch::Compiled>>,
     /// Why the device was lost, once it has been (set by wgpu's device-lost callback).
     lost: Arc<Mutex<Option<String>>>,
+    /// This device's identity: buffers uploaded for it ([`dispatch::Resident`]) hold a clone,
+    /// so no other device can be taken for it.
+    identity: Arc<()>,
 }
 
 impl Gpu {
@@ -88,7 +93,8 @@ impl Gpu {
             algorithm,
             f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
             certainty: false,
-            pixel_list: false,
+            source: shader::Source::Camera,
+            count: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets,
@@ -171,7 +177,13 @@ impl Gpu {
             queue,
             pipelines: Mutex::default(),
             lost,
+            identity: Arc::new(()),
         }
+    }
+
+    /// This device's identity ([`dispatch::Resident`]).
+    pub(crate) fn identity(&self) -> &Arc<()> {
+        &self.identity
     }
 
     /// An error if the device has been lost (a driver reset, a destroyed device): wgpu panics

@@ -49,6 +49,18 @@ impl Kinds {
     }
 }
 
+/// Which rays a kernel casts (`main` in shaders/entry.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Source {
+    /// The camera's ray through every pixel, in tiles of image rows.
+    Camera,
+    /// The camera's rays of listed pixels (`PIXEL_LIST`, binding `pixel_list`).
+    Pixels,
+    /// A caller's rays, origin and direction each (`RAY_LIST`, binding `ray_list`), with every
+    /// per-ray output: also the primitive index and barycentrics of the hit.
+    Rays,
+}
+
 /// What a kernel is specialised for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
@@ -60,8 +72,12 @@ pub struct Variant {
     /// Also decide, per pixel, whether hit/miss and id are certain (robust set only; the
     /// first pass of adaptive precision).
     pub certainty: bool,
-    /// Cast only the pixels of a list (the re-cast of adaptive precision).
-    pub pixel_list: bool,
+    /// Which rays the kernel casts: the camera's over tiles of rows, the camera's for a list of
+    /// pixels (the re-cast of adaptive precision), or a caller's list of rays.
+    pub source: Source,
+    /// Count every intersection along each ray instead of finding the nearest (`COUNT`; ray
+    /// lists only: `out_count`).
+    pub count: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
     /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
@@ -184,7 +200,8 @@ impl Variant {
             algorithm,
             f64_available: true,
             certainty: false,
-            pixel_list: false,
+            source: Source::Camera,
+            count: false,
             kinds: Kinds::ALL,
             bvh: false,
             packets: false,
@@ -229,7 +246,8 @@ impl Variant {
 
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
-    /// `PIXEL_LIST` (cast listed pixels only), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
+    /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
+    /// (count intersections), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
     /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
@@ -250,8 +268,13 @@ impl Variant {
                 d.push("CERTAINTY");
             }
         }
-        if self.pixel_list {
-            d.push("PIXEL_LIST");
+        match self.source {
+            Source::Camera => {}
+            Source::Pixels => d.push("PIXEL_LIST"),
+            Source::Rays => d.push("RAY_LIST"),
+        }
+        if self.count {
+            d.push("COUNT");
         }
         for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
             if self.chunks >= k {
@@ -313,7 +336,7 @@ impl Variant {
     /// Whether the BVH is traversed by packets: asked for, through a BVH, and over image tiles,
     /// whose neighbouring pixels have coherent rays (listed pixels are scattered).
     pub fn uses_packets(&self) -> bool {
-        self.packets && self.uses_bvh() && !self.pixel_list
+        self.packets && self.uses_bvh() && self.source == Source::Camera
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -334,6 +357,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ("traverse", include_str!("../../shaders/traverse.wgsl")),
     ("certainty", include_str!("../../shaders/certainty.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
+    ("count", include_str!("../../shaders/count.wgsl")),
     ("hooks", include_str!("../../shaders/hooks.wgsl")),
     ("entry", include_str!("../../shaders/entry.wgsl")),
 ];
@@ -524,7 +548,14 @@ pub fn all_variants() -> Vec<Variant> {
     for precision in [Precision::F32, Precision::F64] {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
-                for (certainty, pixel_list) in [(false, false), (true, false), (false, true)] {
+                for (certainty, source, count) in [
+                    (false, Source::Camera, false),
+                    (true, Source::Camera, false),
+                    (false, Source::Pixels, false),
+                    (false, Source::Rays, false),
+                    (true, Source::Rays, false),
+                    (false, Source::Rays, true),
+                ] {
                     let impossible = precision == Precision::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
@@ -534,7 +565,8 @@ pub fn all_variants() -> Vec<Variant> {
                         algorithm,
                         f64_available,
                         certainty,
-                        pixel_list,
+                        source,
+                        count,
                         kinds: Kinds::ALL,
                         bvh: false,
                         packets: false,
@@ -552,8 +584,9 @@ pub fn all_variants() -> Vec<Variant> {
                         (true, true, false),
                         (true, true, true),
                     ];
-                    // Pixel lists never traverse by packets (`uses_packets`).
-                    let traversals = &traversals[..if pixel_list { 2 } else { 4 }];
+                    // Lists never traverse by packets (`uses_packets`).
+                    let listed = source != Source::Camera;
+                    let traversals = &traversals[..if listed { 2 } else { 4 }];
                     for &(bvh, packets, eight_lanes) in traversals {
                         for chunks in [1, 2, MAX_CHUNKS] {
                             v.push(Variant {
@@ -572,7 +605,7 @@ pub fn all_variants() -> Vec<Variant> {
                             ..plain
                         });
                     }
-                    if !certainty && !pixel_list {
+                    if !certainty && !listed {
                         for outputs in OUTPUT_SUBSETS {
                             v.push(plain.with_outputs(outputs));
                             let bvh = Variant {
@@ -647,7 +680,7 @@ mod tests {
     fn no_two_resources_share_a_binding() {
         let both = Variant {
             certainty: true,
-            pixel_list: true,
+            source: Source::Rays,
             bvh: true,
             chunks: MAX_CHUNKS,
             ..Variant::new(Precision::F32, Algorithm::Robust)
@@ -705,6 +738,7 @@ mod tests {
                     "hooks" => with_hook,
                     "certainty" => variant.certainty,
                     "traverse" => variant.bvh,
+                    "count" => variant.count,
                     _ => true,
                 });
                 assert_eq!(source.matches(&banner).count(), expected, "{name}");

@@ -17,7 +17,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
-use crate::cpu::types::{Frame, Plane, Sphere, Triangle};
+use crate::cpu::types::{Frame, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Object, Scene};
 use bvh::{Accel, Bvh};
@@ -91,6 +91,18 @@ impl<T: Real> Prepared<T> {
     /// The image size `[nx, ny]` in pixels.
     pub fn resolution(&self) -> [u32; 2] {
         [self.frame.nx, self.frame.ny]
+    }
+
+    /// A caller's ray (world coordinates) in the kernel's: its origin measured from
+    /// [`Prepared::origin`], origin and direction scaled by `1 / unit` (exact: a power of two),
+    /// both rounded to `T`. A point at parameter t along it is the world ray's point at t.
+    pub fn kernel_ray(&self, ray: &crate::rays::Ray) -> Ray<T> {
+        let scale = 1.0 / self.unit;
+        let origin = Vec3::from_array(ray.origin) - self.origin;
+        Ray {
+            origin: (origin * scale).cast(),
+            direction: (Vec3::from_array(ray.direction) * scale).cast(),
+        }
     }
 
     /// The BVH the primitives are ordered by, if any.

@@ -1,0 +1,594 @@
+//! Casting a caller's rays: any number of rays (origin and direction each, world coordinates)
+//! through the same preparation and the same kernel job as camera renders
+//! ([`crate::gpu::Rays::List`]), on the GPU in f32, f64 or adaptive precision, or on the CPU
+//! reference ([`crate::cpu::cast_rays`]).
+//!
+//! [`RayScene`] holds the objects (from a scene file, or added from memory: meshes, spheres,
+//! planes) and their preparations, built once per precision and algorithm and reused by every
+//! cast. Per ray a nearest-hit cast gives `t` (in units of the ray's direction, as Open3D's
+//! `t_hit`), the object id, the primitive's index within its object, the barycentric `u, v`
+//! of a triangle hit and the geometric normal ([`Hits`]); [`RayScene::occluded`] answers
+//! shadow-ray queries between `t_near` and `t_far`, and [`RayScene::count`] counts the
+//! surfaces each ray crosses.
+//!
+//! ```no_run
+//! use raycast::rays::{Ray, RayScene};
+//! use raycast::render::Mode;
+//! let mut scene = RayScene::new();
+//! let id = scene.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+//! let gpu = raycast::gpu::Gpu::new()?;
+//! let ray = Ray { origin: [0.25, 0.25, 1.0], direction: [0.0, 0.0, -1.0] };
+//! let hits = scene.cast(Some(&gpu), "gpu:f32".parse().unwrap(), &[ray])?;
+//! assert_eq!(hits.id()[0], id as i32);
+//! # Ok::<(), raycast::Error>(())
+//! ```
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use crate::algorithm::Algorithm;
+use crate::error::{Error, Result};
+use crate::gpu::layout::GpuReal;
+use crate::gpu::{self, Gpu, Job};
+use crate::images::MISS;
+use crate::math::{Precision, Real, Vec3, vec3};
+use crate::prepare::Prepared;
+use crate::prepare::bvh::Accel;
+use crate::render::{Arithmetic, Device, Mode};
+use crate::scene::{Camera, Object, Projection, Scene};
+
+/// A ray in world coordinates. Points on it are `origin + t * direction`, `t >= 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: [f64; 3],
+    pub direction: [f64; 3],
+}
+
+/// The primitive index of a miss (Open3D's `INVALID_ID`).
+pub const INVALID_ID: u32 = u32::MAX;
+
+/// Per-ray results of a cast, in list order, in the precision `T` of the kernel that cast them.
+/// A nearest-hit cast fills every field but `count`; a counting cast only `count`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hits<T> {
+    /// Where the ray hits, in units of its direction's length: `+inf` on a miss.
+    pub t: Vec<T>,
+    /// Object id ([`MISS`] on a miss).
+    pub id: Vec<i32>,
+    /// The primitive's index within its object (a mesh's triangle; 0 for other objects),
+    /// [`INVALID_ID`] on a miss.
+    pub primitive: Vec<u32>,
+    /// Barycentric `(u, v)` of a triangle hit: the hit point is `(1 - u - v) a + u b + v c`.
+    /// Zero on a miss, a sphere or a plane.
+    pub uv: Vec<[T; 2]>,
+    /// Unit geometric normal (by corner order for triangles, outward for spheres, as given for
+    /// planes); zero on a miss.
+    pub normal: Vec<[T; 3]>,
+    /// Surfaces crossed (a counting cast).
+    pub count: Vec<u32>,
+}
+
+impl<T: Real> Hits<T> {
+    /// `n` misses, or with `counting` `n` zero counts.
+    pub fn new(n: usize, counting: bool) -> Hits<T> {
+        let per_ray = if counting { 0 } else { n };
+        Hits {
+            t: vec![T::INFINITY; per_ray],
+            id: vec![MISS; per_ray],
+            primitive: vec![INVALID_ID; per_ray],
+            uv: vec![[T::ZERO; 2]; per_ray],
+            normal: vec![[T::ZERO; 3]; per_ray],
+            count: vec![0; if counting { n } else { 0 }],
+        }
+    }
+
+    /// Records a hit of ray `k`.
+    pub(crate) fn set(
+        &mut self,
+        k: usize,
+        id: i32,
+        t: T,
+        normal: [T; 3],
+        primitive: u32,
+        uv: [T; 2],
+    ) {
+        self.id[k] = id;
+        self.t[k] = t;
+        self.normal[k] = normal;
+        self.primitive[k] = primitive;
+        self.uv[k] = uv;
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.id.len().max(self.count.len())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// The hits of a cast in the precision it ran in: f32 for f32 and adaptive casts, f64 for f64.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyHits {
+    F32(Hits<f32>),
+    F64(Hits<f64>),
+}
+
+impl AnyHits {
+    pub fn id(&self) -> &[i32] {
+        match self {
+            AnyHits::F32(h) => &h.id,
+            AnyHits::F64(h) => &h.id,
+        }
+    }
+
+    /// `t` of every ray, widened to f64.
+    pub fn t_f64(&self) -> Vec<f64> {
+        match self {
+            AnyHits::F32(h) => h.t.iter().map(|&t| t as f64).collect(),
+            AnyHits::F64(h) => h.t.clone(),
+        }
+    }
+}
+
+/// Objects to cast rays at, with their preparations (module docs).
+#[derive(Debug)]
+pub struct RayScene {
+    /// The objects, and the camera of a scene file (its eye is where the robust kernel measures
+    /// from) or one [`framing_camera`] places at their centre.
+    scene: Scene,
+    /// Whether the camera is [`framing_camera`]'s, placed again as objects are added.
+    framed: bool,
+    cache: Mutex<Cache>,
+}
+
+impl Default for RayScene {
+    fn default() -> Self {
+        RayScene::new()
+    }
+}
+
+/// Preparations by precision, algorithm and acceleration, and their buffers on a device.
+#[derive(Default)]
+pub(crate) struct Cache {
+    f32: HashMap<(Algorithm, bool), Arc<Prepared<f32>>>,
+    f64: HashMap<(Algorithm, bool), Arc<Prepared<f64>>>,
+    resident: HashMap<(Precision, Algorithm, bool), Arc<gpu::Resident>>,
+}
+
+impl std::fmt::Debug for Cache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Cache")
+            .field("f32", &self.f32.keys())
+            .field("f64", &self.f64.keys())
+            .field("resident", &self.resident.keys())
+            .finish()
+    }
+}
+
+/// A kernel precision with its place in the [`Cache`].
+pub(crate) trait CastReal: GpuReal {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<Self>>>;
+}
+
+impl CastReal for f32 {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f32>>> {
+        &mut cache.f32
+    }
+}
+
+impl CastReal for f64 {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f64>>> {
+        &mut cache.f64
+    }
+}
+
+impl RayScene {
+    /// A scene with no objects: every ray misses.
+    pub fn new() -> RayScene {
+        RayScene {
+            scene: Scene {
+                camera: framing_camera(&[]),
+                objects: Vec::new(),
+                lighting: Default::default(),
+            },
+            framed: true,
+            cache: Mutex::default(),
+        }
+    }
+
+    /// The objects of a loaded scene file, measured from its camera's eye.
+    pub fn from_scene(scene: Scene) -> RayScene {
+        RayScene {
+            scene,
+            framed: false,
+            cache: Mutex::default(),
+        }
+    }
+
+    /// The objects with the scene file's camera, or one framing them.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// Adds a triangle mesh, `triangles` indexing `vertices`, as one object; returns its id.
+    /// Every coordinate must be finite and at most 1e18 in magnitude, every index in range.
+    pub fn add_mesh(&mut self, vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Result<u32> {
+        for (k, v) in vertices.iter().enumerate() {
+            check_point(v, &format!("vertices[{k}]"))?;
+        }
+        let corners = triangles
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let corner = |c: usize| {
+                    let i = t[c] as usize;
+                    vertices
+                        .get(i)
+                        .map(|v| Vec3::from_array(*v))
+                        .ok_or_else(|| {
+                            argument(
+                                &format!("triangles[{k}][{c}]"),
+                                format!("index {i} is out of range ({} vertices)", vertices.len()),
+                            )
+                        })
+                };
+                Ok([corner(0)?, corner(1)?, corner(2)?])
+            })
+            .collect::<Result<Vec<_>>>()?;
+        self.push(Object::Soup {
+            path: "<memory>".into(),
+            triangles: corners,
+        })
+    }
+
+    /// Adds a sphere; returns its id. The radius must be positive.
+    pub fn add_sphere(&mut self, center: [f64; 3], radius: f64) -> Result<u32> {
+        check_point(&center, "center")?;
+        if !(radius > 0.0 && radius <= crate::scene::MAX_MAGNITUDE) {
+            return Err(argument(
+                "radius",
+                format!("must be positive and at most 1e18, got {radius}"),
+            ));
+        }
+        self.push(Object::Sphere {
+            center: Vec3::from_array(center),
+            radius,
+        })
+    }
+
+    /// Adds a plane through `point` facing `normal` (normalised here; it must not be zero);
+    /// returns its id.
+    pub fn add_plane(&mut self, point: [f64; 3], normal: [f64; 3]) -> Result<u32> {
+        check_point(&point, "point")?;
+        check_point(&normal, "normal")?;
+        let n = Vec3::from_array(normal);
+        let length = crate::math::length(n);
+        if length.is_nan() || length <= 0.0 {
+            return Err(argument("normal", "must not be zero".into()));
+        }
+        self.push(Object::Plane {
+            point: Vec3::from_array(point),
+            normal: n * (1.0 / length),
+        })
+    }
+
+    fn push(&mut self, object: Object) -> Result<u32> {
+        let id = u32::try_from(self.scene.objects.len())
+            .ok()
+            .filter(|&id| id < i32::MAX as u32)
+            .ok_or_else(|| argument("geometry", "too many objects".into()))?;
+        self.scene.objects.push(object);
+        if self.framed {
+            self.scene.camera = framing_camera(&self.scene.objects);
+        }
+        *self.cache.get_mut().expect("cache lock") = Cache::default();
+        Ok(id)
+    }
+
+    /// The nearest hit of every ray (`t >= 0`), in `mode`'s precision and algorithm, on `gpu`
+    /// (needed for `gpu:` modes) or on the CPU.
+    pub fn cast(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray]) -> Result<AnyHits> {
+        self.nearest(gpu, mode, rays, 0.0)
+    }
+
+    /// Whether each ray hits anything with `t_near <= t <= t_far` (shadow rays).
+    pub fn occluded(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: &[Ray],
+        t_near: f64,
+        t_far: f64,
+    ) -> Result<Vec<bool>> {
+        if !(t_near >= 0.0 && t_near.is_finite()) || t_far.is_nan() {
+            return Err(argument(
+                "tnear",
+                format!("expected 0 <= tnear < inf and a tfar, got {t_near} and {t_far}"),
+            ));
+        }
+        let hits = self.nearest(gpu, mode, rays, t_near)?;
+        Ok(hits.t_f64().iter().map(|&t| t <= t_far).collect())
+    }
+
+    /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere
+    /// twice from outside and once from inside. Adaptive precision counts in f64.
+    pub fn count(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray]) -> Result<Vec<u32>> {
+        check_rays(rays)?;
+        let hits = match mode.precision {
+            Arithmetic::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
+            Arithmetic::F64 | Arithmetic::Adaptive => {
+                let mode = match (mode.device, gpu) {
+                    (Device::Gpu, Some(g)) if !has_f64(g) => Mode {
+                        device: Device::Cpu,
+                        ..mode
+                    },
+                    _ => mode,
+                };
+                self.run::<f64>(gpu, mode, rays, 0.0, true)?.0.count
+            }
+        };
+        Ok(hits)
+    }
+
+    fn nearest(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray], t_near: f64) -> Result<AnyHits> {
+        check_rays(rays)?;
+        let hits = match mode.precision {
+            Arithmetic::F32 => AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, false)?.0),
+            Arithmetic::F64 => AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, false)?.0),
+            Arithmetic::Adaptive => AnyHits::F32(self.adaptive(gpu, mode, rays, t_near)?),
+        };
+        Ok(self.within_objects(hits))
+    }
+
+    /// Adaptive precision for rays (as for images, [`crate::adaptive`]): a robust f32 pass that
+    /// says which rays' hit/miss and id are certain, the others cast again in f64 (on the GPU
+    /// where it has f64, else on the CPU) and merged in.
+    fn adaptive(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: &[Ray],
+        t_near: f64,
+    ) -> Result<Hits<f32>> {
+        let mode = Mode {
+            algorithm: Algorithm::Robust,
+            ..mode
+        };
+        let (mut hits, certain) = match mode.device {
+            Device::Gpu => self.run::<f32>(gpu, mode, rays, t_near, false)?,
+            // The CPU reference has no certainty pass: f64 throughout.
+            Device::Cpu => (Hits::new(rays.len(), false), Some(vec![false; rays.len()])),
+        };
+        let certain = certain.unwrap_or_else(|| vec![true; rays.len()]);
+        let uncertain: Vec<usize> = (0..rays.len()).filter(|&k| !certain[k]).collect();
+        if uncertain.is_empty() {
+            return Ok(hits);
+        }
+        let again: Vec<Ray> = uncertain.iter().map(|&k| rays[k]).collect();
+        let exact_mode = match gpu {
+            Some(g) if mode.device == Device::Gpu && has_f64(g) => mode,
+            _ => Mode {
+                device: Device::Cpu,
+                ..mode
+            },
+        };
+        let (exact, _) = self.run::<f64>(gpu, exact_mode, &again, t_near, false)?;
+        for (j, &k) in uncertain.iter().enumerate() {
+            hits.id[k] = exact.id[j];
+            hits.t[k] = exact.t[j] as f32;
+            hits.primitive[k] = exact.primitive[j];
+            hits.uv[k] = exact.uv[j].map(|x| x as f32);
+            hits.normal[k] = exact.normal[j].map(|x| x as f32);
+        }
+        Ok(hits)
+    }
+
+    /// One pass in precision `R`: the raw hits (primitive keys) and, from an adaptive GPU
+    /// pass, the certainty flags.
+    fn run<R: CastReal>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: &[Ray],
+        t_near: f64,
+        count: bool,
+    ) -> Result<(Hits<R>, Option<Vec<bool>>)> {
+        match mode.device {
+            Device::Cpu => {
+                let prepared = self.prepared::<R>(mode.algorithm, None)?;
+                Ok((crate::cpu::cast_rays(&prepared, rays, t_near, count), None))
+            }
+            Device::Gpu => {
+                let gpu = gpu.ok_or_else(|| Error::Device("a gpu: cast needs a GPU".into()))?;
+                let variant = gpu::shader::Variant {
+                    certainty: mode.precision == Arithmetic::Adaptive
+                        && R::PRECISION == Precision::F32,
+                    count,
+                    ..gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm)
+                };
+                let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
+                let resident = self.resident(gpu, &prepared, &variant)?;
+                let job = Job::new(variant).rays(rays, t_near).resident(&resident);
+                let rendered = gpu::run(gpu, &prepared, job)?;
+                let hits = rendered.hits.expect("a ray list returns hits");
+                Ok((hits, rendered.certainty))
+            }
+        }
+    }
+
+    /// The preparation for `algorithm` in `R` (for `variant`'s acceleration, or the CPU's
+    /// default), built on first use and kept; the other precision's BVH is reused.
+    fn prepared<R: CastReal>(
+        &self,
+        algorithm: Algorithm,
+        variant: Option<&gpu::shader::Variant>,
+    ) -> Result<Arc<Prepared<R>>> {
+        let scene = &self.scene;
+        let bvh = match variant {
+            Some(v) => v.uses_bvh(),
+            None => Accel::Auto.uses_bvh(scene),
+        };
+        let mut cache = self.cache.lock().expect("cache lock");
+        if let Some(p) = R::cached(&mut cache).get(&(algorithm, bvh)) {
+            return Ok(p.clone());
+        }
+        if let Some(v) = variant {
+            gpu::dispatch::check_capacity(scene, v)?;
+        }
+        let shared = match R::PRECISION {
+            Precision::F32 => cache.f64.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
+            Precision::F64 => cache.f32.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
+        };
+        let prepared = Arc::new(match shared {
+            Some(shared) => Prepared::with_bvh(scene, algorithm, shared),
+            None => {
+                let accel = if bvh { Accel::Bvh } else { Accel::BruteForce };
+                Prepared::new(scene, algorithm, accel)
+            }
+        });
+        R::cached(&mut cache).insert((algorithm, bvh), prepared.clone());
+        Ok(prepared)
+    }
+
+    /// `prepared`'s buffers on `gpu` for `variant`, uploaded on first use and kept.
+    fn resident<R: CastReal>(
+        &self,
+        gpu: &Gpu,
+        prepared: &Prepared<R>,
+        variant: &gpu::shader::Variant,
+    ) -> Result<Arc<gpu::Resident>> {
+        let key = (R::PRECISION, variant.algorithm, variant.uses_bvh());
+        let mut cache = self.cache.lock().expect("cache lock");
+        if let Some(r) = cache.resident.get(&key).filter(|r| r.fits(gpu, variant)) {
+            return Ok(r.clone());
+        }
+        let resident = Arc::new(gpu::upload(gpu, prepared, variant)?);
+        cache.resident.insert(key, resident.clone());
+        Ok(resident)
+    }
+
+    /// `hits` with primitive keys (indices among their kind in the scene's order) turned into
+    /// indices within their object.
+    fn within_objects(&self, mut hits: AnyHits) -> AnyHits {
+        let first = first_primitives(&self.scene.objects);
+        let fix = |id: &[i32], primitive: &mut [u32]| {
+            for (p, &id) in primitive.iter_mut().zip(id) {
+                if id != MISS {
+                    *p -= first[id as usize];
+                }
+            }
+        };
+        match &mut hits {
+            AnyHits::F32(h) => fix(&h.id, &mut h.primitive),
+            AnyHits::F64(h) => fix(&h.id, &mut h.primitive),
+        }
+        hits
+    }
+}
+
+fn has_f64(gpu: &Gpu) -> bool {
+    gpu.device.features().contains(wgpu::Features::SHADER_F64)
+}
+
+/// Per object, the index of its first primitive among the primitives of its kind (spheres,
+/// planes, triangles), in the order [`crate::prepare::Primitives::new`] stores them.
+fn first_primitives(objects: &[Object]) -> Vec<u32> {
+    let mut next = [0u32; 3];
+    objects
+        .iter()
+        .map(|o| {
+            let (kind, n) = match o {
+                Object::Sphere { .. } => (0, 1),
+                Object::Plane { .. } => (1, 1),
+                Object::Triangle { .. } => (2, 1),
+                Object::Soup { triangles, .. } => (2, triangles.len() as u32),
+            };
+            let first = next[kind];
+            next[kind] += n;
+            first
+        })
+        .collect()
+}
+
+/// A camera for objects given without one: its eye (where the robust kernel measures
+/// coordinates from, so where f32 is most precise) at the centre of their bounds, its size
+/// their extent (which sets the kernel's power-of-two unit), 1x1 pixels; it casts no ray.
+pub fn framing_camera(objects: &[Object]) -> Camera {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut grow = |p: Vec3<f64>, r: f64| {
+        for (k, x) in p.to_array().into_iter().enumerate() {
+            lo[k] = lo[k].min(x - r);
+            hi[k] = hi[k].max(x + r);
+        }
+    };
+    for object in objects {
+        match object {
+            Object::Sphere { center, radius } => grow(*center, *radius),
+            Object::Plane { point, .. } => grow(*point, 0.0),
+            Object::Triangle { corners } => corners.iter().for_each(|c| grow(*c, 0.0)),
+            Object::Soup { triangles, .. } => {
+                triangles.iter().flatten().for_each(|c| grow(*c, 0.0))
+            }
+        }
+    }
+    let (eye, size) = if lo[0] <= hi[0] {
+        let centre = [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]);
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        (
+            Vec3::from_array(centre),
+            if extent > 0.0 { extent } else { 1.0 },
+        )
+    } else {
+        (vec3(0.0, 0.0, 0.0), 1.0)
+    };
+    Camera {
+        projection: Projection::Perspective,
+        eye,
+        look: vec3(0.0, 0.0, -1.0),
+        up: vec3(0.0, 1.0, 0.0),
+        focal_length: size,
+        width: size,
+        height: size,
+        resolution: [1, 1],
+    }
+}
+
+fn argument(option: &str, message: String) -> Error {
+    Error::Argument {
+        option: option.into(),
+        message,
+    }
+}
+
+/// A finite point (or vector) of at most 1e18 in magnitude, as a scene file requires.
+fn check_point(p: &[f64; 3], what: &str) -> Result<()> {
+    match p
+        .iter()
+        .find(|x| x.is_nan() || x.abs() > crate::scene::MAX_MAGNITUDE)
+    {
+        Some(x) => Err(argument(
+            what,
+            format!("{x} is not a finite number of at most 1e18 in magnitude"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Every ray finite and of a non-zero direction.
+fn check_rays(rays: &[Ray]) -> Result<()> {
+    for (k, ray) in rays.iter().enumerate() {
+        check_point(&ray.origin, &format!("rays[{k}] origin"))?;
+        check_point(&ray.direction, &format!("rays[{k}] direction"))?;
+        if ray.direction == [0.0; 3] {
+            return Err(argument(
+                &format!("rays[{k}] direction"),
+                "must not be zero".into(),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,315 @@
+//! Casting a caller's rays (`raycast::rays`): the GPU kernel's ray lists against the CPU
+//! reference bit for bit, exact answers on simple geometry, the counting and occlusion
+//! queries, adaptive precision, and bad input.
+
+mod common;
+
+use common::{Rng, gpu, random_scene, sphere_mesh};
+use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayScene};
+use raycast::render::Mode;
+
+fn mode(s: &str) -> Mode {
+    s.parse().unwrap()
+}
+
+/// Rays from random points of the scene's box in random directions, some from the centre of
+/// the closed mesh, and the camera's eye.
+fn random_rays(rng: &mut Rng, n: usize) -> Vec<Ray> {
+    (0..n)
+        .map(|k| {
+            let origin = match k % 4 {
+                0 => [0.0, 0.0, 7.0],
+                _ => rng.point(-3.0, 3.0),
+            };
+            let mut direction = rng.point(-1.0, 1.0);
+            if k % 4 == 0 {
+                direction[2] = -1.0;
+            }
+            Ray { origin, direction }
+        })
+        .collect()
+}
+
+fn f32_hits(h: AnyHits) -> Hits<f32> {
+    match h {
+        AnyHits::F32(h) => h,
+        AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
+    }
+}
+
+fn f64_hits(h: AnyHits) -> Hits<f64> {
+    match h {
+        AnyHits::F64(h) => h,
+        AnyHits::F32(_) => panic!("an f64 cast returned f32 hits"),
+    }
+}
+
+/// The GPU's f32 ray lists reproduce the CPU reference bit for bit (t, id, primitive,
+/// barycentrics, normal, counts), robust and textbook, through the BVH and by brute force. In
+/// f64 the decisions are the same and the numbers within 1e-14 relative: lavapipe's f64
+/// division is not correctly rounded (it differs from the CPU's in the last bits).
+#[test]
+fn gpu_rays_equal_cpu_rays_bit_for_bit() {
+    let gpu = gpu();
+    for seed in 0..4 {
+        let scene = RayScene::from_scene(random_scene(seed, [4, 4]));
+        let rays = random_rays(&mut Rng(100 + seed), 3000);
+        for algorithm in ["robust", "textbook"] {
+            for precision in ["f32", "f64"] {
+                let on = |device: &str| {
+                    let m = mode(&format!("{device}:{precision}:{algorithm}"));
+                    let hits = scene.cast(Some(gpu), m, &rays).unwrap();
+                    let count = scene.count(Some(gpu), m, &rays).unwrap();
+                    (hits, count)
+                };
+                let (gpu_hits, gpu_count) = on("gpu");
+                let (cpu_hits, cpu_count) = on("cpu");
+                let label = format!("seed {seed}, {precision}, {algorithm}");
+                assert_eq!(gpu_count, cpu_count, "counts, {label}");
+                let hit = gpu_hits.id().iter().filter(|&&id| id >= 0).count();
+                assert!(hit > 100 && hit < 2900, "{hit} of 3000 rays hit ({label})");
+                match (gpu_hits, cpu_hits) {
+                    (AnyHits::F32(g), AnyHits::F32(c)) => assert_same(&g, &c, &label),
+                    (AnyHits::F64(g), AnyHits::F64(c)) => assert_close(&g, &c, &label),
+                    _ => panic!("precisions differ ({label})"),
+                }
+            }
+        }
+    }
+}
+
+fn assert_same<T: raycast::math::Real>(g: &Hits<T>, c: &Hits<T>, label: &str) {
+    for k in 0..g.len() {
+        let get = |h: &Hits<T>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
+        assert_eq!(get(g), get(c), "ray {k}, {label}");
+    }
+}
+
+fn assert_close(g: &Hits<f64>, c: &Hits<f64>, label: &str) {
+    assert_eq!((&g.id, &g.primitive), (&c.id, &c.primitive), "{label}");
+    for k in 0..g.len() {
+        let numbers = |h: &Hits<f64>| {
+            let [u, v] = h.uv[k];
+            let [x, y, z] = h.normal[k];
+            [h.t[k], u, v, x, y, z]
+        };
+        for (a, b) in numbers(g).into_iter().zip(numbers(c)) {
+            let close = a == b || (a - b).abs() <= 1e-14 * a.abs().max(b.abs());
+            assert!(
+                close,
+                "ray {k}, {label}: {:?} and {:?}",
+                numbers(g),
+                numbers(c)
+            );
+        }
+    }
+}
+
+/// A unit sphere at the origin: t, normal, counts and occlusion have exact answers.
+#[test]
+fn sphere_answers_are_exact() {
+    let gpu = gpu();
+    let mut scene = RayScene::new();
+    let id = scene.add_sphere([0.0, 0.0, 0.0], 1.0).unwrap();
+    let outside = Ray {
+        origin: [0.0, 0.0, 5.0],
+        direction: [0.0, 0.0, -2.0],
+    };
+    let inside = Ray {
+        origin: [0.0, 0.0, 0.0],
+        direction: [0.0, 4.0, 0.0],
+    };
+    let away = Ray {
+        origin: [0.0, 0.0, 5.0],
+        direction: [0.0, 0.0, 1.0],
+    };
+    let rays = [outside, inside, away];
+    for m in ["gpu:f32", "gpu:f64", "gpu:adaptive", "cpu:f32", "cpu:f64"] {
+        let hits = scene.cast(Some(gpu), mode(m), &rays).unwrap();
+        assert_eq!(hits.id(), [id as i32, id as i32, -1], "{m}");
+        // t in units of the direction's length: 4 units away at 2 per t, 1 unit at 4 per t.
+        assert_eq!(hits.t_f64()[..2], [2.0, 0.25], "{m}");
+        assert_eq!(hits.t_f64()[2], f64::INFINITY, "{m}");
+        let counts = scene.count(Some(gpu), mode(m), &rays).unwrap();
+        assert_eq!(counts, [2, 1, 0], "{m}");
+        let shadow = |near, far| {
+            scene
+                .occluded(Some(gpu), mode(m), &rays, near, far)
+                .unwrap()
+        };
+        assert_eq!(shadow(0.0, 1.9), [false, true, false], "{m}");
+        assert_eq!(shadow(0.0, 2.0), [true, true, false], "{m}");
+        // From beyond the near side, the far side (t = 3) is what remains.
+        assert_eq!(shadow(2.5, 2.9), [false, false, false], "{m}");
+        assert_eq!(shadow(2.5, 3.0), [true, false, false], "{m}");
+    }
+    let AnyHits::F64(h) = scene.cast(Some(gpu), mode("gpu:f64"), &rays).unwrap() else {
+        panic!("f64 hits expected");
+    };
+    assert_eq!(h.normal[0], [0.0, 0.0, 1.0]);
+    assert_eq!(h.normal[1], [0.0, 1.0, 0.0]);
+    assert_eq!(h.primitive[..], [0, 0, INVALID_ID]);
+}
+
+/// Meshes from memory: the object id add_mesh returns, the triangle's index within its mesh,
+/// and barycentrics that are exact where the numbers are.
+#[test]
+fn mesh_hits_name_their_triangle_and_barycentrics() {
+    let gpu = gpu();
+    let mut scene = RayScene::new();
+    let sphere = scene.add_sphere([5.0, 5.0, 5.0], 0.5).unwrap();
+    let vertices = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
+    let mesh = scene.add_mesh(&vertices, &[[0, 1, 2], [1, 3, 2]]).unwrap();
+    assert_eq!((sphere, mesh), (0, 1));
+    let down = |x, y| Ray {
+        origin: [x, y, 1.0],
+        direction: [0.0, 0.0, -1.0],
+    };
+    let rays = [down(0.25, 0.5), down(0.75, 0.5), down(2.0, 2.0)];
+    for m in [
+        "gpu:f32",
+        "gpu:f64",
+        "cpu:f32",
+        "cpu:f64",
+        "gpu:f32:textbook",
+    ] {
+        let h = f64_of(scene.cast(Some(gpu), mode(m), &rays).unwrap());
+        assert_eq!(h.id, [1, 1, -1], "{m}");
+        assert_eq!(h.primitive, [0, 1, INVALID_ID], "{m}");
+        assert_eq!(h.t[..2], [1.0, 1.0], "{m}");
+        // (0.25, 0.5) = 0.25 a + 0.25 b + 0.5 c; (0.75, 0.5) of (b, d, c) = 0.5 b + 0.25 d +
+        // 0.25 c.
+        assert_eq!(h.uv[..2], [[0.25, 0.5], [0.25, 0.25]], "{m}");
+        assert_eq!(h.normal[..2], [[0.0, 0.0, 1.0]; 2], "{m}");
+    }
+}
+
+/// Any hits widened to f64.
+fn f64_of(h: AnyHits) -> Hits<f64> {
+    match h {
+        AnyHits::F64(h) => h,
+        AnyHits::F32(h) => Hits {
+            t: h.t.iter().map(|&x| x as f64).collect(),
+            id: h.id,
+            primitive: h.primitive,
+            uv: h.uv.iter().map(|u| u.map(f64::from)).collect(),
+            normal: h.normal.iter().map(|n| n.map(f64::from)).collect(),
+            count: h.count,
+        },
+    }
+}
+
+/// On a closed mesh (every edge shared) the barycentrics rebuild the hit point, and the count
+/// of surfaces crossed is odd from inside and even from outside.
+#[test]
+fn closed_mesh_barycentrics_and_parity() {
+    let gpu = gpu();
+    let triangles = sphere_mesh([0.5, -0.25, 0.0], 1.0, 24, 16);
+    let (vertices, indices) = indexed(&triangles);
+    let mut scene = RayScene::new();
+    scene.add_mesh(&vertices, &indices).unwrap();
+    let mut rng = Rng(7);
+    let from = |origin: [f64; 3], rng: &mut Rng| Ray {
+        origin,
+        direction: rng.point(-1.0, 1.0),
+    };
+    let inside: Vec<Ray> = (0..500)
+        .map(|_| from([0.5, -0.25, 0.1], &mut rng))
+        .collect();
+    let outside: Vec<Ray> = (0..500).map(|_| from([3.0, 2.0, -1.0], &mut rng)).collect();
+    for m in ["gpu:f32", "gpu:f64", "cpu:f64"] {
+        let counts = scene.count(Some(gpu), mode(m), &inside).unwrap();
+        assert!(counts.iter().all(|&c| c == 1), "{m}: {counts:?}");
+        let counts = scene.count(Some(gpu), mode(m), &outside).unwrap();
+        assert!(counts.iter().all(|&c| c % 2 == 0), "{m}: {counts:?}");
+        assert!(counts.contains(&2), "{m}: no outside ray hits");
+        let h = f64_of(scene.cast(Some(gpu), mode(m), &inside).unwrap());
+        for (k, ray) in inside.iter().enumerate() {
+            let [a, b, c] = triangles[h.primitive[k] as usize];
+            let [u, v] = h.uv[k];
+            let p = a * (1.0 - u - v) + b * u + c * v;
+            for axis in 0..3 {
+                let along = ray.origin[axis] + h.t[k] * ray.direction[axis];
+                let e = (along - p.to_array()[axis]).abs();
+                assert!(e < 1e-5, "{m}: ray {k}: hit point off by {e}");
+            }
+        }
+    }
+}
+
+/// A triangle soup as vertices and indices (each corner its own vertex).
+fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let vertices = triangles.iter().flatten().map(|v| v.to_array()).collect();
+    let indices = (0..triangles.len() as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
+    (vertices, indices)
+}
+
+/// Adaptive rays decide hit/miss and id as f64 does, on every ray.
+#[test]
+fn adaptive_rays_decide_as_f64() {
+    let gpu = gpu();
+    for seed in 0..3 {
+        let scene = RayScene::from_scene(random_scene(seed, [4, 4]));
+        let rays = random_rays(&mut Rng(200 + seed), 4000);
+        let adaptive = f32_hits(scene.cast(Some(gpu), mode("gpu:adaptive"), &rays).unwrap());
+        let exact = f64_hits(scene.cast(Some(gpu), mode("cpu:f64"), &rays).unwrap());
+        assert_eq!(adaptive.id, exact.id, "seed {seed}");
+        let cpu = f32_hits(scene.cast(None, mode("cpu:adaptive"), &rays).unwrap());
+        assert_eq!(cpu.id, exact.id, "seed {seed}, on the CPU");
+    }
+}
+
+/// Bad geometry and rays are errors naming what is wrong.
+#[test]
+fn bad_input_is_an_error_naming_it() {
+    let mut scene = RayScene::new();
+    let message = |e: raycast::Error| e.to_string();
+    let tri = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let e = scene.add_mesh(&tri, &[[0, 1, 3]]).unwrap_err();
+    assert_eq!(
+        message(e),
+        "triangles[0][2]: index 3 is out of range (3 vertices)"
+    );
+    let e = scene
+        .add_mesh(&[[0.0; 3], [f64::NAN, 0.0, 0.0]], &[])
+        .unwrap_err();
+    assert!(message(e).starts_with("vertices[1]: NaN is not a finite number"));
+    assert!(scene.add_sphere([0.0; 3], 0.0).is_err());
+    assert!(scene.add_plane([0.0; 3], [0.0; 3]).is_err());
+    assert!(
+        scene.scene().objects.is_empty(),
+        "a refused object was kept"
+    );
+    let zero = Ray {
+        origin: [0.0; 3],
+        direction: [0.0; 3],
+    };
+    let e = scene.cast(None, mode("cpu:f64"), &[zero]).unwrap_err();
+    assert_eq!(message(e), "rays[0] direction: must not be zero");
+    let e = scene
+        .occluded(None, mode("cpu:f64"), &[], -1.0, 1.0)
+        .unwrap_err();
+    assert!(message(e).starts_with("tnear: "));
+}
+
+/// An empty scene: every ray misses, on both devices.
+#[test]
+fn empty_scene_misses() {
+    let scene = RayScene::new();
+    let ray = Ray {
+        origin: [0.0; 3],
+        direction: [1.0, 0.0, 0.0],
+    };
+    for m in ["gpu:f32", "cpu:f64"] {
+        let hits = scene.cast(Some(gpu()), mode(m), &[ray; 3]).unwrap();
+        assert_eq!(hits.id(), [-1; 3]);
+        assert_eq!(scene.count(Some(gpu()), mode(m), &[ray]).unwrap(), [0]);
+    }
+}
