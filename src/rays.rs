@@ -310,7 +310,9 @@ impl RayScene {
             ));
         }
         let hits = self.nearest(gpu, mode, rays, t_near)?;
-        Ok(hits.t_f64().iter().map(|&t| t <= t_far).collect())
+        let t = hits.t_f64();
+        let hit = |k: usize| hits.id()[k] != MISS && t[k] <= t_far;
+        Ok((0..rays.len()).map(hit).collect())
     }
 
     /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere

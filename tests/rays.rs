@@ -299,7 +299,7 @@ fn bad_input_is_an_error_naming_it() {
     assert!(message(e).starts_with("tnear: "));
 }
 
-/// An empty scene: every ray misses, on both devices.
+/// An empty scene: every ray misses, on both devices; no rays, no hits.
 #[test]
 fn empty_scene_misses() {
     let scene = RayScene::new();
@@ -311,5 +311,12 @@ fn empty_scene_misses() {
         let hits = scene.cast(Some(gpu()), mode(m), &[ray; 3]).unwrap();
         assert_eq!(hits.id(), [-1; 3]);
         assert_eq!(scene.count(Some(gpu()), mode(m), &[ray]).unwrap(), [0]);
+        assert!(
+            scene
+                .cast(Some(gpu()), mode(m), &[])
+                .unwrap()
+                .id()
+                .is_empty()
+        );
     }
 }

@@ -256,7 +256,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     };
     let capacity = match rays {
         Rays::Camera => tile_rows as u64 * nx as u64,
-        _ => (rays.listed() as u64).min(list_capacity as u64),
+        // An empty list dispatches nothing, but its buffers may not be empty.
+        _ => (rays.listed() as u64).clamp(1, list_capacity as u64),
     };
 
     let clock = std::time::Instant::now();

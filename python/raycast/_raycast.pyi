@@ -1,0 +1,33 @@
+"""Type stubs of the native module (python/src/lib.rs); use the wrappers in raycast/__init__.py."""
+
+from typing import Any, Dict, List
+
+import numpy as np
+import numpy.typing as npt
+
+class Scene:
+    def __init__(self) -> None: ...
+    @staticmethod
+    def load(path: str) -> "Scene": ...
+    def add_triangles(
+        self, vertices: npt.NDArray[np.float64], triangles: npt.NDArray[np.uint32]
+    ) -> int: ...
+    def add_sphere(self, center: List[float], radius: float) -> int: ...
+    def add_plane(self, point: List[float], normal: List[float]) -> int: ...
+    def cast(
+        self, rays: npt.NDArray[np.float64], precision: str, device: str
+    ) -> Dict[str, np.ndarray]: ...
+    def occluded(
+        self,
+        rays: npt.NDArray[np.float64],
+        t_near: float,
+        t_far: float,
+        precision: str,
+        device: str,
+    ) -> npt.NDArray[np.bool_]: ...
+    def count(
+        self, rays: npt.NDArray[np.float64], precision: str, device: str
+    ) -> npt.NDArray[np.uint32]: ...
+    def render(self, precision: str, device: str) -> Dict[str, Any]: ...
+
+def info() -> Dict[str, Any]: ...

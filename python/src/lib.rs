@@ -1,0 +1,242 @@
+//! `raycast._raycast`: the native half of the Python package. The Python half
+//! (python/raycast/__init__.py) checks and converts arguments (NumPy arrays of any float dtype
+//! and layout become one contiguous float64 array) and shapes the results; this half casts,
+//! with the GIL released, and hands the result vectors to NumPy without copying them.
+
+use std::sync::OnceLock;
+
+use numpy::{PyArray1, PyReadonlyArray2};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use raycast::gpu::Gpu;
+use raycast::rays::{AnyHits, Hits, Ray, RayScene};
+use raycast::render::{Device, Mode};
+
+/// The process's GPU, opened on first use (lavapipe where there is no other).
+fn gpu() -> PyResult<&'static Gpu> {
+    static GPU: OnceLock<Result<Gpu, String>> = OnceLock::new();
+    GPU.get_or_init(|| Gpu::new().map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(|e| PyRuntimeError::new_err(format!("no GPU: {e}")))
+}
+
+/// `raycast::Error` as the Python exception for it: bad arguments raise ValueError, the rest
+/// RuntimeError.
+fn to_py(e: raycast::Error) -> PyErr {
+    match e {
+        raycast::Error::Argument { .. }
+        | raycast::Error::SceneSyntax { .. }
+        | raycast::Error::SceneValue { .. }
+        | raycast::Error::Mesh { .. } => PyValueError::new_err(e.to_string()),
+        raycast::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+        _ => PyRuntimeError::new_err(e.to_string()),
+    }
+}
+
+/// The mode of `device` and `precision` (robust algorithm), and the GPU it needs.
+fn mode(device: &str, precision: &str) -> PyResult<(Mode, Option<&'static Gpu>)> {
+    let mode: Mode = format!("{device}:{precision}")
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(e))?;
+    let gpu = match mode.device {
+        Device::Gpu => Some(gpu()?),
+        Device::Cpu => None,
+    };
+    Ok((mode, gpu))
+}
+
+/// Rows of `origin, direction` as rays.
+fn rays_of(rays: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Ray>> {
+    let flat = rays
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("rays: expected a contiguous array"))?;
+    Ok(flat
+        .chunks_exact(6)
+        .map(|r| Ray {
+            origin: [r[0], r[1], r[2]],
+            direction: [r[3], r[4], r[5]],
+        })
+        .collect())
+}
+
+/// A vector of fixed-size arrays as the flat vector of their elements, without copying.
+fn flat<T: bytemuck::Pod, const N: usize>(v: Vec<[T; N]>) -> Vec<T>
+where
+    [T; N]: bytemuck::Pod,
+{
+    bytemuck::allocation::try_cast_vec(v).unwrap_or_else(|(_, v)| v.concat())
+}
+
+/// The hits as a dict of flat arrays (the Python half reshapes them).
+fn hits_dict<'py, T: numpy::Element + bytemuck::Pod>(
+    py: Python<'py>,
+    h: Hits<T>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("t_hit", PyArray1::from_vec(py, h.t))?;
+    // A miss's id -1 is 4294967295 as uint32: Open3D's INVALID_ID.
+    let ids: Vec<u32> = bytemuck::allocation::cast_vec(h.id);
+    d.set_item("geometry_ids", PyArray1::from_vec(py, ids))?;
+    d.set_item("primitive_ids", PyArray1::from_vec(py, h.primitive))?;
+    d.set_item("primitive_uvs", PyArray1::from_vec(py, flat(h.uv)))?;
+    d.set_item("primitive_normals", PyArray1::from_vec(py, flat(h.normal)))?;
+    Ok(d)
+}
+
+/// The objects rays are cast at (wrapped by `raycast.RaycastingScene`).
+#[pyclass(name = "Scene", module = "raycast._raycast")]
+struct Scene {
+    inner: RayScene,
+}
+
+#[pymethods]
+impl Scene {
+    #[new]
+    fn new() -> Self {
+        Scene {
+            inner: RayScene::new(),
+        }
+    }
+
+    /// A scene file's objects (and its camera, for `render`).
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        let scene = raycast::Scene::load(&path).map_err(to_py)?;
+        Ok(Scene {
+            inner: RayScene::from_scene(scene),
+        })
+    }
+
+    fn add_triangles(
+        &mut self,
+        vertices: PyReadonlyArray2<'_, f64>,
+        triangles: PyReadonlyArray2<'_, u32>,
+    ) -> PyResult<u32> {
+        let v = vertices
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("vertices: expected a contiguous array"))?;
+        let t = triangles
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("triangles: expected a contiguous array"))?;
+        let v: Vec<[f64; 3]> = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let t: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        self.inner.add_mesh(&v, &t).map_err(to_py)
+    }
+
+    fn add_sphere(&mut self, center: [f64; 3], radius: f64) -> PyResult<u32> {
+        self.inner.add_sphere(center, radius).map_err(to_py)
+    }
+
+    fn add_plane(&mut self, point: [f64; 3], normal: [f64; 3]) -> PyResult<u32> {
+        self.inner.add_plane(point, normal).map_err(to_py)
+    }
+
+    fn cast<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'_, f64>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (mode, gpu) = mode(device, precision)?;
+        let rays = rays_of(&rays)?;
+        let hits = py
+            .detach(|| self.inner.cast(gpu, mode, &rays))
+            .map_err(to_py)?;
+        match hits {
+            AnyHits::F32(h) => hits_dict(py, h),
+            AnyHits::F64(h) => hits_dict(py, h),
+        }
+    }
+
+    fn occluded<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'_, f64>,
+        t_near: f64,
+        t_far: f64,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let (mode, gpu) = mode(device, precision)?;
+        let rays = rays_of(&rays)?;
+        let hit = py
+            .detach(|| self.inner.occluded(gpu, mode, &rays, t_near, t_far))
+            .map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, hit))
+    }
+
+    fn count<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'_, f64>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let (mode, gpu) = mode(device, precision)?;
+        let rays = rays_of(&rays)?;
+        let counts = py
+            .detach(|| self.inner.count(gpu, mode, &rays))
+            .map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, counts))
+    }
+
+    /// Renders the scene's camera: id, distance and normal images as flat arrays and the
+    /// image size.
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (mode, gpu) = mode(device, precision)?;
+        let scene = self.inner.scene();
+        let images = py
+            .detach(|| raycast::render::render(scene, mode, gpu, false))
+            .map_err(to_py)?;
+        let d = PyDict::new(py);
+        let (w, h) = (scene.camera.resolution[0], scene.camera.resolution[1]);
+        d.set_item("width", w)?;
+        d.set_item("height", h)?;
+        match images {
+            raycast::render::AnyImages::F32(i) => images_into(py, &d, i)?,
+            raycast::render::AnyImages::F64(i) => images_into(py, &d, i)?,
+        }
+        Ok(d)
+    }
+}
+
+fn images_into<T: numpy::Element + bytemuck::Pod>(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    i: raycast::Images<T>,
+) -> PyResult<()> {
+    d.set_item("id", PyArray1::from_vec(py, i.id))?;
+    d.set_item("distance", PyArray1::from_vec(py, i.distance))?;
+    d.set_item("normal", PyArray1::from_vec(py, flat(i.normal)))?;
+    Ok(())
+}
+
+/// The GPU adapter raycast runs on: name, backend, driver, device type and features.
+#[pyfunction]
+fn info(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let gpu = gpu()?;
+    let a = gpu.info();
+    let d = PyDict::new(py);
+    d.set_item("name", a.name.clone())?;
+    d.set_item("backend", format!("{:?}", a.backend))?;
+    d.set_item("driver", format!("{} {}", a.driver, a.driver_info))?;
+    d.set_item("device_type", format!("{:?}", a.device_type))?;
+    let f = gpu.device.features();
+    d.set_item("f64", f.contains(wgpu::Features::SHADER_F64))?;
+    d.set_item("subgroups", f.contains(wgpu::Features::SUBGROUP))?;
+    Ok(d)
+}
+
+#[pymodule]
+fn _raycast(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scene>()?;
+    m.add_function(wrap_pyfunction!(info, m)?)?;
+    Ok(())
+}
