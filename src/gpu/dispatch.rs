@@ -1029,6 +1029,38 @@ impl OutputBuffers {
         }
     }
 
+    /// Runs `f` on the readback buffer, mapped once the GPU has finished.
+    fn read(&self, gpu: &Gpu, f: impl FnOnce(&[u8])) -> Result<()> {
+        map_for_reading(gpu, &self.readback)?;
+        {
+            let view = self
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
+            f(&view);
+        }
+        self.readback.unmap();
+        Ok(())
+    }
+
+    /// Copies the certainty flags of `pixels` pixels (or rays) in `view` into `certainty` from
+    /// `start`, where the variant writes them.
+    fn copy_certainty(
+        &self,
+        view: &[u8],
+        pixels: usize,
+        start: usize,
+        certainty: Option<&mut [bool]>,
+    ) {
+        if let (Some(certainty), Some(flags)) = (certainty, self.bytes(view, Slot::Certain, pixels))
+        {
+            let flags: &[u32] = bytemuck::cast_slice(flags);
+            for (k, flag) in flags.iter().enumerate() {
+                certainty[start + k] = *flag != 0;
+            }
+        }
+    }
+
     /// The bytes of `slot` for `pixels` pixels in the mapped readback `view`.
     fn bytes<'v>(&self, view: &'v [u8], slot: Slot, pixels: usize) -> Option<&'v [u8]> {
         let (_, _, offset) = self.slots.iter().find(|(s, _, _)| *s == slot)?;
@@ -1051,28 +1083,16 @@ fn read_tile<R: GpuReal>(
     images: &mut Images<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    let readback = &outputs.readback;
-    map_for_reading(gpu, readback)?;
-    {
-        let view = readback
-            .get_mapped_range(..)
-            .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
+    outputs.read(gpu, |view| {
         let surface: Option<&[[R; 4]]> = outputs
-            .bytes(&view, Slot::Surface, pixels)
+            .bytes(view, Slot::Surface, pixels)
             .map(bytemuck::cast_slice);
         let ids: Option<&[i32]> = outputs
-            .bytes(&view, Slot::Id, pixels)
+            .bytes(view, Slot::Id, pixels)
             .map(bytemuck::cast_slice);
-        if let (Some(certainty), Some(flags)) =
-            (certainty, outputs.bytes(&view, Slot::Certain, pixels))
-        {
-            let flags: &[u32] = bytemuck::cast_slice(flags);
-            for (k, flag) in flags.iter().enumerate() {
-                certainty[start + k] = *flag != 0;
-            }
-        }
+        outputs.copy_certainty(view, pixels, start, certainty);
         if let (Some(colors), Some(bytes)) =
-            (&mut images.color, outputs.bytes(&view, Slot::Color, pixels))
+            (&mut images.color, outputs.bytes(view, Slot::Color, pixels))
         {
             let packed: &[u32] = bytemuck::cast_slice(bytes);
             for (k, c) in packed.iter().enumerate() {
@@ -1101,9 +1121,7 @@ fn read_tile<R: GpuReal>(
                 }
             }
         }
-    }
-    readback.unmap();
-    Ok(())
+    })
 }
 
 /// Copies one dispatch's results for a ray list out of the readback buffer into `hits` from ray
@@ -1116,19 +1134,9 @@ fn read_hits<R: GpuReal>(
     hits: &mut Hits<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    let readback = &outputs.readback;
-    map_for_reading(gpu, readback)?;
-    {
-        let view = readback
-            .get_mapped_range(..)
-            .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
-        let slot = |slot| outputs.bytes(&view, slot, rays);
-        if let (Some(certainty), Some(flags)) = (certainty, slot(Slot::Certain)) {
-            let flags: &[u32] = bytemuck::cast_slice(flags);
-            for (k, flag) in flags.iter().enumerate() {
-                certainty[start + k] = *flag != 0;
-            }
-        }
+    outputs.read(gpu, |view| {
+        let slot = |slot| outputs.bytes(view, slot, rays);
+        outputs.copy_certainty(view, rays, start, certainty);
         if let Some(counts) = slot(Slot::Count) {
             hits.count[start..start + rays].copy_from_slice(bytemuck::cast_slice(counts));
         }
@@ -1149,7 +1157,5 @@ fn read_hits<R: GpuReal>(
                 }
             }
         }
-    }
-    readback.unmap();
-    Ok(())
+    })
 }
