@@ -364,7 +364,7 @@ impl RayScene {
             // The CPU reference has no certainty pass: f64 throughout.
             Device::Cpu => (Hits::new(rays.len(), false), Some(vec![false; rays.len()])),
         };
-        let certain = certain.unwrap_or_else(|| vec![true; rays.len()]);
+        let certain = certain.expect("a certainty pass reports certainty");
         let uncertain: Vec<usize> = (0..rays.len()).filter(|&k| !certain[k]).collect();
         if uncertain.is_empty() {
             return Ok(hits);

@@ -295,7 +295,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     let list_buffer = list.map(|(name, entry)| {
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(name),
-            size: capacity.max(1) * entry,
+            size: capacity * entry,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -364,29 +364,25 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         gpu.queue
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
         // Workgroups, pixels cast, and the index of the first in the images.
+        let range = first as usize..(first + count) as usize;
+        let write_list = |entries: &[u8]| {
+            let (_, buffer) = list_buffer.as_ref().expect("a list has its buffer");
+            gpu.queue.write_buffer(buffer, 0, entries);
+            (list_groups(gpu, count), count as u64, first as usize)
+        };
         let (groups, pixels, start) = match rays {
             Rays::Camera => (
                 [nx.div_ceil(WORKGROUP), count.div_ceil(WORKGROUP)],
                 count as u64 * nx as u64,
                 first as usize * nx as usize,
             ),
-            Rays::Pixels(list) => {
-                let part = &list[first as usize..(first + count) as usize];
-                let (_, buffer) = list_buffer.as_ref().expect("a pixel list has its buffer");
-                gpu.queue
-                    .write_buffer(buffer, 0, bytemuck::cast_slice(part));
-                (list_groups(gpu, count), count as u64, first as usize)
-            }
+            Rays::Pixels(list) => write_list(bytemuck::cast_slice(&list[range])),
             Rays::List { rays: list, .. } => {
-                let part = &list[first as usize..(first + count) as usize];
-                let stored: Vec<GpuRay<R>> = part
+                let stored: Vec<GpuRay<R>> = list[range]
                     .iter()
                     .map(|ray| GpuRay::from(&prepared.kernel_ray(ray)))
                     .collect();
-                let (_, buffer) = list_buffer.as_ref().expect("a ray list has its buffer");
-                gpu.queue
-                    .write_buffer(buffer, 0, bytemuck::cast_slice(&stored));
-                (list_groups(gpu, count), count as u64, first as usize)
+                write_list(bytemuck::cast_slice(&stored))
             }
         };
         let mut encoder = device.create_command_encoder(&Default::default());
