@@ -4,17 +4,22 @@ Open3D is large). Needs numpy, open3d and raycast (`pip install ./python`) in on
 e.g. the peers' venv of benches/peers.sh:
 
     target/peers-venv/bin/pip install ./python
-    target/peers-venv/bin/python benches/open3d_rays.py target/bench/torus.obj
+    target/peers-venv/bin/python benches/open3d_rays.py target/bench/torus.obj \
+        --raycast target/release/raycast --scene target/bench/torus.json
 
 Casts the peer camera's 1920x1080 rays (../shared/bench/peer_bench.py's convention, unit
 directions from (0, -3, 2.5) at the origin, vertical fov 40) with both, in one process, and
 prints one JSON line: hit/miss disagreements, the largest relative t_hit difference, the
 fraction of hits with equal primitive ids, the largest difference of create_rays_pinhole's
 rays, and the rates (Mrays/s, median of --repeats) of both and of raycast's single-ray call.
+With --raycast and --scene (the same mesh and camera as a scene file: benches/peers.sh writes
+target/bench/torus.json), `raycast bench` runs in the same process's turn and the rate through
+Python is also given as a ratio of bench's (kernel time, and wall time of its trace stage).
 """
 import argparse
 import json
 import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -45,11 +50,14 @@ def main():
     p.add_argument("--height", type=int, default=1080)
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--precision", default="f32")
+    p.add_argument("--raycast", help="the raycast binary, to run `raycast bench` beside")
+    p.add_argument("--scene", help="the scene file of the same mesh and camera, for bench")
     a = p.parse_args()
     V, F = peer_bench.load_obj(a.mesh)
     o, d = peer_bench.make_rays(a.width, a.height, (0, -3.0, 2.5), (0, 0, 0), (0, 0, 1), 40)
-    rays = np.concatenate([o, d], 1).astype(np.float32)
-    n = len(rays)
+    # As a camera's rays come (create_rays_pinhole): (height, width, 6).
+    rays = np.concatenate([o, d], 1).astype(np.float32).reshape(a.height, a.width, 6)
+    n = a.width * a.height
 
     ours = raycast.RaycastingScene()
     ours.add_triangles(V, F)
@@ -57,8 +65,9 @@ def main():
     theirs.add_triangles(o3d.core.Tensor(V), o3d.core.Tensor(F.astype(np.uint32)))
     rays_o3d = o3d.core.Tensor(rays)
 
-    a_ours = ours.cast_rays(rays, precision=a.precision)
-    a_theirs = {k: v.numpy() for k, v in theirs.cast_rays(rays_o3d).items()}
+    flat = lambda answer: {k: v.reshape(n, *v.shape[2:]) for k, v in answer.items()}
+    a_ours = flat(ours.cast_rays(rays, precision=a.precision))
+    a_theirs = flat({k: v.numpy() for k, v in theirs.cast_rays(rays_o3d).items()})
     hit_ours = a_ours["geometry_ids"] != raycast.RaycastingScene.INVALID_ID
     hit_theirs = a_theirs["geometry_ids"] != o3d.t.geometry.RaycastingScene.INVALID_ID
     both = hit_ours & hit_theirs
@@ -86,8 +95,19 @@ def main():
 
     s_ours = median_seconds(lambda: ours.cast_rays(rays, precision=a.precision), a.repeats)
     s_theirs = median_seconds(lambda: theirs.cast_rays(rays_o3d), a.repeats)
-    one = rays[n // 2: n // 2 + 1]
+    one = rays.reshape(n, 6)[n // 2: n // 2 + 1]
     s_one = median_seconds(lambda: ours.cast_rays(one, precision=a.precision), 50)
+    bench = {}
+    if a.raycast and a.scene:
+        out = subprocess.run(
+            [a.raycast, "bench", a.scene, "--json", "--runs", str(a.repeats),
+             "--mode", f"gpu:{a.precision}"],
+            check=True, capture_output=True, text=True).stdout
+        b = json.loads(out.splitlines()[-1])
+        mine = n / s_ours / 1e6
+        bench = dict(bench_mrays_per_s=b["mrays_per_s"], bench_mrays_per_s_wall=b["mrays_per_s_wall"],
+                     ratio_to_bench=mine / b["mrays_per_s"],
+                     ratio_to_bench_wall=mine / b["mrays_per_s_wall"])
     print(json.dumps(dict(
         mesh=a.mesh, rays=n, precision=a.precision, adapter=raycast.info()["name"],
         open3d=o3d.__version__,
@@ -98,7 +118,7 @@ def main():
         uvs_max_abs=float(uvs.max()) if both.any() else None,
         create_rays_pinhole_max_abs=pinhole,
         raycast_mrays_per_s=n / s_ours / 1e6, open3d_mrays_per_s=n / s_theirs / 1e6,
-        ratio=(n / s_ours) / (n / s_theirs), single_ray_ms=s_one * 1e3,
+        ratio=(n / s_ours) / (n / s_theirs), single_ray_ms=s_one * 1e3, **bench,
     )))
 
 

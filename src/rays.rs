@@ -37,11 +37,55 @@ use crate::prepare::bvh::Accel;
 use crate::render::{Arithmetic, Device, Mode};
 use crate::scene::{Camera, Object, Projection, Scene};
 
-/// A ray in world coordinates. Points on it are `origin + t * direction`, `t >= 0`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A ray in world coordinates. Points on it are `origin + t * direction`, `t >= 0`. Laid out
+/// as six f64s, so rows of `origin, direction` (a numpy array's) are rays without copying.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Ray {
     pub origin: [f64; 3],
     pub direction: [f64; 3],
+}
+
+/// A caller's rays, and whether they are an image's: row-major rows of `width` rays, as a
+/// camera makes them (Open3D's `create_rays_pinhole`). The GPU traces coherent rays in packets
+/// ([`RayScene::cast`]), an image's in tiles of two rows, as it does a camera's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayList<'a> {
+    pub rays: &'a [Ray],
+    pub width: Option<usize>,
+}
+
+impl<'a> RayList<'a> {
+    /// An image's rays, in rows of `width` (the last row may be short).
+    pub fn image(rays: &'a [Ray], width: usize) -> RayList<'a> {
+        RayList {
+            rays,
+            width: Some(width.max(1)),
+        }
+    }
+
+    /// The rays of `indices`, as a plain list.
+    fn subset(&self, indices: &[usize]) -> Vec<Ray> {
+        indices.iter().map(|&k| self.rays[k]).collect()
+    }
+}
+
+impl<'a> From<&'a [Ray]> for RayList<'a> {
+    fn from(rays: &'a [Ray]) -> Self {
+        RayList { rays, width: None }
+    }
+}
+
+impl<'a> From<&'a Vec<Ray>> for RayList<'a> {
+    fn from(rays: &'a Vec<Ray>) -> Self {
+        RayList::from(rays.as_slice())
+    }
+}
+
+impl<'a, const N: usize> From<&'a [Ray; N]> for RayList<'a> {
+    fn from(rays: &'a [Ray; N]) -> Self {
+        RayList::from(rays.as_slice())
+    }
 }
 
 /// The primitive index of a miss (Open3D's `INVALID_ID`).
@@ -79,6 +123,19 @@ impl<T: Real> Hits<T> {
             uv: vec![[T::ZERO; 2]; per_ray],
             normal: vec![[T::ZERO; 3]; per_ray],
             count: vec![0; if counting { n } else { 0 }],
+        }
+    }
+
+    /// No rays yet, room for `n` (read in order: [`crate::gpu::dispatch::run`]).
+    pub(crate) fn with_capacity(n: usize, counting: bool) -> Hits<T> {
+        let per_ray = if counting { 0 } else { n };
+        Hits {
+            t: Vec::with_capacity(per_ray),
+            id: Vec::with_capacity(per_ray),
+            primitive: Vec::with_capacity(per_ray),
+            uv: Vec::with_capacity(per_ray),
+            normal: Vec::with_capacity(per_ray),
+            count: Vec::with_capacity(if counting { n } else { 0 }),
         }
     }
 
@@ -141,6 +198,8 @@ pub struct RayScene {
     scene: Scene,
     /// Whether the camera is [`framing_camera`]'s, placed again as objects are added.
     framed: bool,
+    /// The largest side of the objects' bounds: what [`coherent`] measures ray origins by.
+    extent: f64,
     cache: Mutex<Cache>,
 }
 
@@ -190,11 +249,12 @@ impl RayScene {
     pub fn new() -> RayScene {
         RayScene {
             scene: Scene {
-                camera: framing_camera(&[]),
+                camera: framing_camera(None),
                 objects: Vec::new(),
                 lighting: Default::default(),
             },
             framed: true,
+            extent: 1.0,
             cache: Mutex::default(),
         }
     }
@@ -202,6 +262,7 @@ impl RayScene {
     /// The objects of a loaded scene file, measured from its camera's eye.
     pub fn from_scene(scene: Scene) -> RayScene {
         RayScene {
+            extent: extent(bounds(&scene.objects)),
             scene,
             framed: false,
             cache: Mutex::default(),
@@ -281,28 +342,38 @@ impl RayScene {
             .filter(|&id| id < i32::MAX as u32)
             .ok_or_else(|| argument("geometry", "too many objects".into()))?;
         self.scene.objects.push(object);
+        let bounds = bounds(&self.scene.objects);
+        self.extent = extent(bounds);
         if self.framed {
-            self.scene.camera = framing_camera(&self.scene.objects);
+            self.scene.camera = framing_camera(bounds);
         }
         *self.cache.get_mut().expect("cache lock") = Cache::default();
         Ok(id)
     }
 
     /// The nearest hit of every ray (`t >= 0`), in `mode`'s precision and algorithm, on `gpu`
-    /// (needed for `gpu:` modes) or on the CPU.
-    pub fn cast(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray]) -> Result<AnyHits> {
-        self.nearest(gpu, mode, rays, 0.0)
-    }
-
-    /// Whether each ray hits anything with `t_near <= t <= t_far` (shadow rays).
-    pub fn occluded(
+    /// (needed for `gpu:` modes) or on the CPU. On the GPU, coherent rays (neighbours in the
+    /// list start close together and point nearly the same way: [`coherent`]) are traced in
+    /// packets sharing node fetches, others one by one.
+    pub fn cast<'a>(
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
-        rays: &[Ray],
+        rays: impl Into<RayList<'a>>,
+    ) -> Result<AnyHits> {
+        self.nearest(gpu, mode, rays.into(), 0.0)
+    }
+
+    /// Whether each ray hits anything with `t_near <= t <= t_far` (shadow rays).
+    pub fn occluded<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: impl Into<RayList<'a>>,
         t_near: f64,
         t_far: f64,
     ) -> Result<Vec<bool>> {
+        let rays = rays.into();
         if !(t_near >= 0.0 && t_near.is_finite()) || t_far.is_nan() {
             return Err(argument(
                 "tnear",
@@ -312,13 +383,19 @@ impl RayScene {
         let hits = self.nearest(gpu, mode, rays, t_near)?;
         let t = hits.t_f64();
         let hit = |k: usize| hits.id()[k] != MISS && t[k] <= t_far;
-        Ok((0..rays.len()).map(hit).collect())
+        Ok((0..rays.rays.len()).map(hit).collect())
     }
 
     /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere
     /// twice from outside and once from inside. Adaptive precision counts in f64.
-    pub fn count(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray]) -> Result<Vec<u32>> {
-        check_rays(rays)?;
+    pub fn count<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: impl Into<RayList<'a>>,
+    ) -> Result<Vec<u32>> {
+        let rays = rays.into();
+        check_rays(rays.rays)?;
         let hits = match mode.precision {
             Arithmetic::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
             Arithmetic::F64 | Arithmetic::Adaptive => {
@@ -335,8 +412,14 @@ impl RayScene {
         Ok(hits)
     }
 
-    fn nearest(&self, gpu: Option<&Gpu>, mode: Mode, rays: &[Ray], t_near: f64) -> Result<AnyHits> {
-        check_rays(rays)?;
+    fn nearest(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: RayList<'_>,
+        t_near: f64,
+    ) -> Result<AnyHits> {
+        check_rays(rays.rays)?;
         let hits = match mode.precision {
             Arithmetic::F32 => AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, false)?.0),
             Arithmetic::F64 => AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, false)?.0),
@@ -352,9 +435,10 @@ impl RayScene {
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
-        rays: &[Ray],
+        rays: RayList<'_>,
         t_near: f64,
     ) -> Result<Hits<f32>> {
+        let n = rays.rays.len();
         let mode = Mode {
             algorithm: Algorithm::Robust,
             ..mode
@@ -362,14 +446,14 @@ impl RayScene {
         let (mut hits, certain) = match mode.device {
             Device::Gpu => self.run::<f32>(gpu, mode, rays, t_near, false)?,
             // The CPU reference has no certainty pass: f64 throughout.
-            Device::Cpu => (Hits::new(rays.len(), false), Some(vec![false; rays.len()])),
+            Device::Cpu => (Hits::new(n, false), Some(vec![false; n])),
         };
         let certain = certain.expect("a certainty pass reports certainty");
-        let uncertain: Vec<usize> = (0..rays.len()).filter(|&k| !certain[k]).collect();
+        let uncertain: Vec<usize> = (0..n).filter(|&k| !certain[k]).collect();
         if uncertain.is_empty() {
             return Ok(hits);
         }
-        let again: Vec<Ray> = uncertain.iter().map(|&k| rays[k]).collect();
+        let again = rays.subset(&uncertain);
         let exact_mode = match gpu {
             Some(g) if mode.device == Device::Gpu && has_f64(g) => mode,
             _ => Mode {
@@ -377,7 +461,8 @@ impl RayScene {
                 ..mode
             },
         };
-        let (exact, _) = self.run::<f64>(gpu, exact_mode, &again, t_near, false)?;
+        let (exact, _) =
+            self.run::<f64>(gpu, exact_mode, again.as_slice().into(), t_near, false)?;
         for (j, &k) in uncertain.iter().enumerate() {
             hits.id[k] = exact.id[j];
             hits.t[k] = exact.t[j] as f32;
@@ -394,22 +479,27 @@ impl RayScene {
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
-        rays: &[Ray],
+        rays: RayList<'_>,
         t_near: f64,
         count: bool,
     ) -> Result<(Hits<R>, Option<Vec<bool>>)> {
         match mode.device {
             Device::Cpu => {
                 let prepared = self.prepared::<R>(mode.algorithm, None)?;
-                Ok((crate::cpu::cast_rays(&prepared, rays, t_near, count), None))
+                Ok((
+                    crate::cpu::cast_rays(&prepared, rays.rays, t_near, count),
+                    None,
+                ))
             }
             Device::Gpu => {
                 let gpu = gpu.ok_or_else(|| Error::Device("a gpu: cast needs a GPU".into()))?;
+                let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
                 let variant = gpu::shader::Variant {
                     certainty: mode.precision == Arithmetic::Adaptive
                         && R::PRECISION == Precision::F32,
                     count,
-                    ..gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm)
+                    packets: general.packets && coherent(rays, self.extent),
+                    ..general
                 };
                 let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
                 let resident = self.resident(gpu, &prepared, &variant)?;
@@ -515,10 +605,8 @@ fn first_primitives(objects: &[Object]) -> Vec<u32> {
         .collect()
 }
 
-/// A camera for objects given without one: its eye (where the robust kernel measures
-/// coordinates from, so where f32 is most precise) at the centre of their bounds, its size
-/// their extent (which sets the kernel's power-of-two unit), 1x1 pixels; it casts no ray.
-pub fn framing_camera(objects: &[Object]) -> Camera {
+/// The corners of the box bounding `objects` (planes by their point), if there are any.
+fn bounds(objects: &[Object]) -> Option<([f64; 3], [f64; 3])> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut grow = |p: Vec3<f64>, r: f64| {
@@ -537,19 +625,28 @@ pub fn framing_camera(objects: &[Object]) -> Camera {
             }
         }
     }
-    let (eye, size) = if lo[0] <= hi[0] {
-        let centre = [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]);
-        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-        (
-            Vec3::from_array(centre),
-            if extent > 0.0 { extent } else { 1.0 },
-        )
-    } else {
-        (vec3(0.0, 0.0, 0.0), 1.0)
-    };
+    (lo[0] <= hi[0]).then_some((lo, hi))
+}
+
+/// The largest side of `bounds`, or 1 where there is none.
+fn extent(bounds: Option<([f64; 3], [f64; 3])>) -> f64 {
+    let side = bounds.map_or(0.0, |(lo, hi)| {
+        (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)
+    });
+    if side > 0.0 { side } else { 1.0 }
+}
+
+/// A camera for objects within `bounds` given without one: its eye (where the robust kernel
+/// measures coordinates from, so where f32 is most precise) at their centre, its size their
+/// extent (which sets the kernel's power-of-two unit), 1x1 pixels; it casts no ray.
+fn framing_camera(bounds: Option<([f64; 3], [f64; 3])>) -> Camera {
+    let eye = bounds.map_or([0.0; 3], |(lo, hi)| {
+        [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k])
+    });
+    let size = extent(bounds);
     Camera {
         projection: Projection::Perspective,
-        eye,
+        eye: Vec3::from_array(eye),
         look: vec3(0.0, 0.0, -1.0),
         up: vec3(0.0, 1.0, 0.0),
         focal_length: size,
@@ -557,6 +654,65 @@ pub fn framing_camera(objects: &[Object]) -> Camera {
         height: size,
         resolution: [1, 1],
     }
+}
+
+/// Rays a packet traverses together: 8 consecutive ones, or a 4x2 tile of an image's.
+const PACKET: usize = 8;
+
+/// How far apart the rays of sampled packets may be (see [`packet_spread`]) for the list to be
+/// traced in packets: on the torus, directions jittered by 0.01 still traced 1.1x as fast in
+/// packets, by 0.03 1.2x as fast one by one; camera rays of 1080p spread 0.001.
+const COHERENT_SPREAD: f64 = 0.02;
+
+/// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list,
+/// as the GPU would form them, the rays lie within [`COHERENT_SPREAD`] of each other
+/// ([`packet_spread`], origins measured against `extent`, the scene's size).
+pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
+    let n = list.rays.len();
+    let packets = n.div_ceil(PACKET);
+    if packets == 0 {
+        return true;
+    }
+    let samples = packets.min(64);
+    let mut spreads: Vec<f64> = (0..samples)
+        .map(|s| {
+            let first = s * packets / samples * PACKET;
+            let members: Vec<Ray> = match list.width {
+                // The 4x2 tile whose top-left ray is nearest `first`.
+                Some(w) if w >= 4 => {
+                    let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
+                    (0..2)
+                        .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
+                        .filter(|&k| k < n)
+                        .map(|k| list.rays[k])
+                        .collect()
+                }
+                _ => list.rays[first..(first + PACKET).min(n)].to_vec(),
+            };
+            packet_spread(&members, extent)
+        })
+        .collect();
+    spreads.sort_by(f64::total_cmp);
+    spreads[samples / 2] <= COHERENT_SPREAD
+}
+
+/// How far the rays of a packet are from its first: the largest distance between unit
+/// directions (about the angle, in radians) plus that between origins in units of `extent`.
+fn packet_spread(rays: &[Ray], extent: f64) -> f64 {
+    let unit = |d: [f64; 3]| {
+        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d.map(|x| x / l)
+    };
+    let distance = |a: [f64; 3], b: [f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let first = rays[0];
+    rays.iter()
+        .map(|r| {
+            distance(unit(r.direction), unit(first.direction))
+                + distance(r.origin, first.origin) / extent
+        })
+        .fold(0.0, f64::max)
 }
 
 fn argument(option: &str, message: String) -> Error {
@@ -568,23 +724,33 @@ fn argument(option: &str, message: String) -> Error {
 
 /// A finite point (or vector) of at most 1e18 in magnitude, as a scene file requires.
 fn check_point(p: &[f64; 3], what: &str) -> Result<()> {
-    match p
-        .iter()
-        .find(|x| x.is_nan() || x.abs() > crate::scene::MAX_MAGNITUDE)
-    {
-        Some(x) => Err(argument(
-            what,
-            format!("{x} is not a finite number of at most 1e18 in magnitude"),
-        )),
+    match bad_coordinate(p) {
+        Some(x) => Err(argument(what, out_of_range(x))),
         None => Ok(()),
     }
 }
 
-/// Every ray finite and of a non-zero direction.
+/// A coordinate of `p` that is NaN or beyond 1e18 in magnitude.
+fn bad_coordinate(p: &[f64; 3]) -> Option<f64> {
+    p.iter()
+        .copied()
+        .find(|x| x.is_nan() || x.abs() > crate::scene::MAX_MAGNITUDE)
+}
+
+fn out_of_range(x: f64) -> String {
+    format!("{x} is not a finite number of at most 1e18 in magnitude")
+}
+
+/// Every ray finite and of a non-zero direction (the argument named only on an error: this
+/// runs over millions of rays).
 fn check_rays(rays: &[Ray]) -> Result<()> {
     for (k, ray) in rays.iter().enumerate() {
-        check_point(&ray.origin, &format!("rays[{k}] origin"))?;
-        check_point(&ray.direction, &format!("rays[{k}] direction"))?;
+        if let Some(x) = bad_coordinate(&ray.origin) {
+            return Err(argument(&format!("rays[{k}] origin"), out_of_range(x)));
+        }
+        if let Some(x) = bad_coordinate(&ray.direction) {
+            return Err(argument(&format!("rays[{k}] direction"), out_of_range(x)));
+        }
         if ray.direction == [0.0; 3] {
             return Err(argument(
                 &format!("rays[{k}] direction"),

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{Rng, gpu, random_scene, sphere_mesh};
-use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayScene};
+use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayScene, coherent};
 use raycast::render::Mode;
 
 fn mode(s: &str) -> Mode {
@@ -103,6 +103,119 @@ fn assert_close(g: &Hits<f64>, c: &Hits<f64>, label: &str) {
             );
         }
     }
+}
+
+/// A pinhole camera's rays from `eye` looking down -z, `w` by `h` pixels, row-major, its image
+/// `span` wide at distance 1 (and 3/4 of that high).
+fn pinhole_rays(eye: [f64; 3], w: usize, h: usize, span: f64) -> Vec<Ray> {
+    let mut rays = Vec::new();
+    for i in 0..h {
+        for j in 0..w {
+            let x = (j as f64 + 0.5) / w as f64 - 0.5;
+            let y = 0.5 - (i as f64 + 0.5) / h as f64;
+            rays.push(Ray {
+                origin: eye,
+                direction: [span * x, 0.75 * span * y, -1.0],
+            });
+        }
+    }
+    rays
+}
+
+/// The device of `gpu` opened again without host-mapped buffers (lists and outputs go through
+/// staging buffers, as on a discrete GPU) and with storage bindings of 64 KiB, so that a few
+/// thousand rays take several dispatches.
+fn staging_gpu(gpu: &raycast::gpu::Gpu) -> raycast::gpu::Gpu {
+    let adapter = gpu.adapter.clone();
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: 1 << 16,
+        ..adapter.limits()
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_features: adapter.features() & raycast::gpu::OPTIONAL_FEATURES,
+        required_limits: limits,
+        ..Default::default()
+    }))
+    .expect("the adapter opens a second device");
+    let staging = raycast::gpu::Gpu::from_parts(adapter, device, queue);
+    assert!(!staging.host_memory());
+    staging
+}
+
+/// Coherent rays are traced in packets: an image's in 4x2 tiles (a width that is no multiple of
+/// 8, a short last row), a plain list's 8 at a time; on a device that maps its buffers and on one
+/// that copies them through staging buffers in several dispatches. Every way gives the CPU
+/// reference's hits, bit for bit in f32.
+#[test]
+fn coherent_rays_in_packets_equal_cpu_rays() {
+    let gpu = gpu();
+    let staging = staging_gpu(gpu);
+    // With a plane behind everything, and without (misses).
+    for seed in [2, 3] {
+        let scene = random_scene(seed, [4, 4]);
+        let eye = scene.camera.eye.to_array();
+        let scene = RayScene::from_scene(scene);
+        let w = 90;
+        // 0.002 between neighbours: coherent.
+        let mut rays = pinhole_rays(eye, w, 50, 0.2);
+        rays.truncate(rays.len() - 7);
+        let image = RayList::image(&rays, w);
+        assert!(coherent(image, 4.0) && coherent(RayList::from(&rays), 4.0));
+        for precision in ["f32", "f64"] {
+            let cpu = scene
+                .cast(None, mode(&format!("cpu:{precision}")), &rays)
+                .unwrap();
+            let m = mode(&format!("gpu:{precision}"));
+            let ways = [
+                ("image", scene.cast(Some(gpu), m, image).unwrap()),
+                ("list", scene.cast(Some(gpu), m, &rays).unwrap()),
+                (
+                    "staged image",
+                    scene.cast(Some(&staging), m, image).unwrap(),
+                ),
+                ("staged list", scene.cast(Some(&staging), m, &rays).unwrap()),
+            ];
+            for (way, hits) in ways {
+                let label = format!("seed {seed}, {precision}, {way}");
+                let hit = hits.id().iter().filter(|&&id| id >= 0).count();
+                assert!(hit > 100, "{hit} rays hit ({label})");
+                match (hits, &cpu) {
+                    (AnyHits::F32(g), AnyHits::F32(c)) => assert_same(&g, c, &label),
+                    (AnyHits::F64(g), AnyHits::F64(c)) => assert_close(&g, c, &label),
+                    _ => panic!("precisions differ ({label})"),
+                }
+            }
+        }
+        let adaptive = f32_hits(scene.cast(Some(gpu), mode("gpu:adaptive"), image).unwrap());
+        let exact = f64_hits(scene.cast(None, mode("cpu:f64"), &rays).unwrap());
+        assert_eq!(adaptive.id, exact.id, "seed {seed}, adaptive");
+    }
+}
+
+/// Rays whose neighbours start far apart or point different ways are not coherent; a camera's
+/// are, whether listed flat or as an image.
+#[test]
+fn coherence_of_ray_lists() {
+    // A 640x480 camera's rays 0.001 apart, and a crop of them.
+    let camera = pinhole_rays([0.0, 0.0, 5.0], 64, 48, 0.064);
+    assert!(coherent(RayList::from(&camera), 2.0));
+    assert!(coherent(RayList::image(&camera, 64), 2.0));
+    // 64x48 over the same field of view: 0.01 apart, 0.07 over 8 in a row, 0.03 over a tile.
+    let wide = pinhole_rays([0.0, 0.0, 5.0], 64, 48, 0.64);
+    assert!(!coherent(RayList::from(&wide), 2.0));
+    assert!(!coherent(RayList::image(&wide, 64), 2.0));
+    let random = random_rays(&mut Rng(5), 3000);
+    assert!(!coherent(RayList::from(&random), 2.0));
+    assert!(!coherent(RayList::image(&random, 50), 2.0));
+    // Parallel rays from origins a tenth of the scene apart.
+    let spread: Vec<Ray> = (0..800)
+        .map(|k| Ray {
+            origin: [0.2 * k as f64, 0.0, 5.0],
+            direction: [0.0, 0.0, -1.0],
+        })
+        .collect();
+    assert!(!coherent(RayList::from(&spread), 2.0));
+    assert!(coherent(RayList::from(&Vec::new()), 2.0), "an empty list");
 }
 
 /// A unit sphere at the origin: t, normal, counts and occlusion have exact answers.

@@ -57,9 +57,13 @@ def _float_array(value: ArrayLike, name: str, last: Optional[int] = None) -> np.
 
 
 def _rays(rays: ArrayLike) -> tuple:
-    """The rays as an (n, 6) float64 array, and the leading shape to give the results."""
+    """The rays as an (n, 6) float64 array, the leading shape to give the results, and the
+    width of the image they are rows of, if they have two leading dimensions or more (the GPU
+    then traces tiles of neighbouring rows together, as it does a camera's)."""
     array = _float_array(rays, "rays", 6)
-    return array.reshape(-1, 6), array.shape[:-1]
+    shape = array.shape[:-1]
+    width = shape[-1] if len(shape) >= 2 and shape[-1] > 0 else None
+    return array.reshape(-1, 6), shape, width
 
 
 def _options(precision: str, device: str) -> None:
@@ -127,8 +131,8 @@ class RaycastingScene:
         ``primitive_uvs`` (..., 2) and ``primitive_normals`` (..., 3), with the rays'
         leading dimensions. float32 for f32 and adaptive, float64 for f64."""
         _options(precision, device)
-        flat, shape = _rays(rays)
-        out = self._scene.cast(flat, precision, device)
+        flat, shape, width = _rays(rays)
+        out = self._scene.cast(flat, width, precision, device)
         return {
             "t_hit": out["t_hit"].reshape(shape),
             "geometry_ids": out["geometry_ids"].reshape(shape),
@@ -149,8 +153,8 @@ class RaycastingScene:
         """Whether each ray hits anything with ``tnear <= t <= tfar`` (bool, the rays' leading
         shape). ``nthreads`` is accepted for Open3D compatibility and ignored."""
         _options(precision, device)
-        flat, shape = _rays(rays)
-        hit = self._scene.occluded(flat, float(tnear), float(tfar), precision, device)
+        flat, shape, width = _rays(rays)
+        hit = self._scene.occluded(flat, width, (float(tnear), float(tfar)), precision, device)
         return hit.reshape(shape)
 
     def count_intersections(
@@ -159,7 +163,7 @@ class RaycastingScene:
         """How many surfaces each ray crosses (``t >= 0``; int32, the rays' leading shape):
         a mesh's triangles once each, a sphere twice from outside and once from inside."""
         _options(precision, device)
-        flat, shape = _rays(rays)
+        flat, shape, _ = _rays(rays)
         counts = self._scene.count(flat, precision, device)
         return counts.view(np.int32).reshape(shape)
 

@@ -1,6 +1,6 @@
 """Type stubs of the native module (python/src/lib.rs); use the wrappers in raycast/__init__.py."""
 
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -15,13 +15,17 @@ class Scene:
     def add_sphere(self, center: List[float], radius: float) -> int: ...
     def add_plane(self, point: List[float], normal: List[float]) -> int: ...
     def cast(
-        self, rays: npt.NDArray[np.float64], precision: str, device: str
+        self,
+        rays: npt.NDArray[np.float64],
+        width: Optional[int],
+        precision: str,
+        device: str,
     ) -> Dict[str, np.ndarray]: ...
     def occluded(
         self,
         rays: npt.NDArray[np.float64],
-        t_near: float,
-        t_far: float,
+        width: Optional[int],
+        t_range: Tuple[float, float],
         precision: str,
         device: str,
     ) -> npt.NDArray[np.bool_]: ...

@@ -10,7 +10,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::gpu::Gpu;
-use raycast::rays::{AnyHits, Hits, Ray, RayScene};
+use raycast::rays::{AnyHits, Hits, Ray, RayList, RayScene};
 use raycast::render::{Device, Mode};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -46,18 +46,20 @@ fn mode(device: &str, precision: &str) -> PyResult<(Mode, Option<&'static Gpu>)>
     Ok((mode, gpu))
 }
 
-/// Rows of `origin, direction` as rays.
-fn rays_of(rays: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Ray>> {
+/// Rows of `origin, direction` as rays, without copying; an image's in rows of `width`.
+fn ray_list<'a>(
+    rays: &'a PyReadonlyArray2<'_, f64>,
+    width: Option<usize>,
+) -> PyResult<RayList<'a>> {
     let flat = rays
         .as_slice()
         .map_err(|_| PyValueError::new_err("rays: expected a contiguous array"))?;
-    Ok(flat
-        .chunks_exact(6)
-        .map(|r| Ray {
-            origin: [r[0], r[1], r[2]],
-            direction: [r[3], r[4], r[5]],
-        })
-        .collect())
+    let rays: &[Ray] = bytemuck::try_cast_slice(flat)
+        .map_err(|_| PyValueError::new_err("rays: expected rows of 6 numbers"))?;
+    Ok(match width {
+        Some(w) => RayList::image(rays, w),
+        None => RayList::from(rays),
+    })
 }
 
 /// A vector of fixed-size arrays as the flat vector of their elements, without copying.
@@ -136,13 +138,14 @@ impl Scene {
         &self,
         py: Python<'py>,
         rays: PyReadonlyArray2<'_, f64>,
+        width: Option<usize>,
         precision: &str,
         device: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
         let (mode, gpu) = mode(device, precision)?;
-        let rays = rays_of(&rays)?;
+        let rays = ray_list(&rays, width)?;
         let hits = py
-            .detach(|| self.inner.cast(gpu, mode, &rays))
+            .detach(|| self.inner.cast(gpu, mode, rays))
             .map_err(to_py)?;
         match hits {
             AnyHits::F32(h) => hits_dict(py, h),
@@ -154,15 +157,16 @@ impl Scene {
         &self,
         py: Python<'py>,
         rays: PyReadonlyArray2<'_, f64>,
-        t_near: f64,
-        t_far: f64,
+        width: Option<usize>,
+        t_range: (f64, f64),
         precision: &str,
         device: &str,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let (t_near, t_far) = t_range;
         let (mode, gpu) = mode(device, precision)?;
-        let rays = rays_of(&rays)?;
+        let rays = ray_list(&rays, width)?;
         let hit = py
-            .detach(|| self.inner.occluded(gpu, mode, &rays, t_near, t_far))
+            .detach(|| self.inner.occluded(gpu, mode, rays, t_near, t_far))
             .map_err(to_py)?;
         Ok(PyArray1::from_vec(py, hit))
     }
@@ -175,9 +179,9 @@ impl Scene {
         device: &str,
     ) -> PyResult<Bound<'py, PyArray1<u32>>> {
         let (mode, gpu) = mode(device, precision)?;
-        let rays = rays_of(&rays)?;
+        let rays = ray_list(&rays, None)?;
         let counts = py
-            .detach(|| self.inner.count(gpu, mode, &rays))
+            .detach(|| self.inner.count(gpu, mode, rays))
             .map_err(to_py)?;
         Ok(PyArray1::from_vec(py, counts))
     }

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
 use crate::math::Precision;
 use crate::prepare::{Prepared, Primitives};
-use crate::rays::Hits;
+use crate::rays::{Hits, INVALID_ID};
 use crate::scene::Scene;
 
 /// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl; the packet kernel
@@ -43,7 +43,7 @@ pub enum Rays<'a> {
     /// ray's direction): one invocation per ray. The results come back as
     /// [`Rendered::hits`], in list order.
     List {
-        rays: &'a [crate::rays::Ray],
+        list: crate::rays::RayList<'a>,
         t_near: f64,
     },
 }
@@ -63,7 +63,7 @@ impl Rays<'_> {
         match self {
             Rays::Camera => 0,
             Rays::Pixels(list) => list.len(),
-            Rays::List { rays, .. } => rays.len(),
+            Rays::List { list, .. } => list.rays.len(),
         }
     }
 }
@@ -112,9 +112,9 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// Casts a caller's rays, hits counted from `t_near` ([`Rays::List`]).
-    pub fn rays(self, rays: &'a [crate::rays::Ray], t_near: f64) -> Self {
+    pub fn rays(self, list: crate::rays::RayList<'a>, t_near: f64) -> Self {
         Job {
-            rays: Rays::List { rays, t_near },
+            rays: Rays::List { list, t_near },
             ..self
         }
     }
@@ -234,6 +234,16 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     // Entries of a list per dispatch: as many as the largest per-entry buffer allows.
     let entry_bytes = surface_bytes(R::PRECISION).max(size_of::<GpuRay<R>>() as u64);
     let list_capacity = (gpu.max_binding() / entry_bytes).min(u32::MAX as u64) as u32;
+    // An image's rays traced by packets go in 8x8 blocks of whole rows (`grid_slot` in
+    // shaders/entry.wgsl), so each dispatch holds whole bands of 8 rows.
+    let grid = match rays {
+        Rays::List { list, .. } if variant.uses_packets() => list
+            .width
+            .and_then(|w| u32::try_from(w).ok())
+            .filter(|&w| w <= list_capacity / 8),
+        _ => None,
+    };
+    let list_step = grid.map_or(list_capacity, |w| list_capacity / (8 * w) * (8 * w));
     // The dispatches: (first row or list entry, rows or entries).
     let parts: Vec<(u32, u32)> = match rays {
         Rays::Camera => (0..ny)
@@ -249,8 +259,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
                 ))
             })?;
             (0..n)
-                .step_by(list_capacity as usize)
-                .map(|start| (start, list_capacity.min(n - start)))
+                .step_by(list_step as usize)
+                .map(|start| (start, list_step.min(n - start)))
                 .collect()
         }
     };
@@ -293,10 +303,14 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         Rays::List { .. } => Some(("ray_list", size_of::<GpuRay<R>>() as u64)),
     };
     let list_buffer = list.map(|(name, entry)| {
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        let filled_by = match gpu.host_memory() {
+            true => wgpu::BufferUsages::MAP_WRITE,
+            false => wgpu::BufferUsages::COPY_DST,
+        };
+        let buffer = gpu.transient_buffer(&wgpu::BufferDescriptor {
             label: Some(name),
             size: capacity * entry,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | filled_by,
             mapped_at_creation: false,
         });
         (name, buffer)
@@ -324,7 +338,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         Rays::List { .. } => [0, 0],
     };
     let mut hits = match rays {
-        Rays::List { rays, .. } => Some(Hits::new(rays.len(), variant.count)),
+        Rays::List { list, .. } => Some(Hits::with_capacity(list.rays.len(), variant.count)),
         _ => None,
     };
     let new_images = |[w, h]: [u32; 2]| {
@@ -347,7 +361,11 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         let params = GpuParams::<R> {
             frame,
             projection: projection_code(prepared.frame.projection),
-            nx,
+            // A ray list's nx is its image width (0 when it is not an image's).
+            nx: match variant.source {
+                Source::Rays => grid.unwrap_or(0),
+                _ => nx,
+            },
             ny,
             row_offset: if variant.source == Source::Camera {
                 first
@@ -365,10 +383,16 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
         // Workgroups, pixels cast, and the index of the first in the images.
         let range = first as usize..(first + count) as usize;
-        let write_list = |entries: &[u8]| {
+        // Fills the list buffer with `count` entries of `entry` bytes: `fill(k, bytes)` writes
+        // entry `k` of the part.
+        let write_list = |entry: usize, fill: &EntryFill<'_>| -> Result<_> {
             let (_, buffer) = list_buffer.as_ref().expect("a list has its buffer");
-            gpu.queue.write_buffer(buffer, 0, entries);
-            (list_groups(gpu, count), count as u64, first as usize)
+            fill_buffer(gpu, buffer, count as usize, entry, fill)?;
+            let groups = match grid {
+                Some(w) => w.div_ceil(8) * count.div_ceil(w).div_ceil(8),
+                None => count.div_ceil(LIST_WORKGROUP),
+            };
+            Ok((list_groups(gpu, groups), count as u64, first as usize))
         };
         let (groups, pixels, start) = match rays {
             Rays::Camera => (
@@ -376,14 +400,13 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
                 count as u64 * nx as u64,
                 first as usize * nx as usize,
             ),
-            Rays::Pixels(list) => write_list(bytemuck::cast_slice(&list[range])),
-            Rays::List { rays: list, .. } => {
-                let stored: Vec<GpuRay<R>> = list[range]
-                    .iter()
-                    .map(|ray| GpuRay::from(&prepared.kernel_ray(ray)))
-                    .collect();
-                write_list(bytemuck::cast_slice(&stored))
-            }
+            Rays::Pixels(list) => write_list(4, &|k, bytes| {
+                bytes.copy_from_slice(&list[range.start + k].to_ne_bytes())
+            })?,
+            Rays::List { list, .. } => write_list(size_of::<GpuRay<R>>(), &|k, bytes| {
+                let stored = GpuRay::from(&prepared.kernel_ray(&list.rays[range.start + k]));
+                bytes.copy_from_slice(bytemuck::bytes_of(&stored));
+            })?,
         };
         let mut encoder = device.create_command_encoder(&Default::default());
         {
@@ -430,6 +453,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     }
     stages.trace_s = clock.elapsed().as_secs_f64();
     stages.kernel_s = kernel_s;
+    let list_buffer = list_buffer.map(|(_, b)| b);
+    gpu.keep_transient(outputs.into_buffers().chain(list_buffer).collect());
     Ok(Rendered {
         images,
         hits,
@@ -497,12 +522,68 @@ pub fn upload<R: GpuReal>(
     })
 }
 
-/// Workgroups for `count` listed pixels, `LIST_WORKGROUP` invocations each, laid out in rows of
-/// at most the device's limit per dimension.
-fn list_groups(gpu: &Gpu, count: u32) -> [u32; 2] {
-    let groups = count.div_ceil(LIST_WORKGROUP);
+/// `groups` workgroups for a list, laid out in rows of at most the device's limit per dimension.
+fn list_groups(gpu: &Gpu, groups: u32) -> [u32; 2] {
     let max_groups = gpu.device.limits().max_compute_workgroups_per_dimension;
     [groups.min(max_groups), groups.div_ceil(max_groups)]
+}
+
+/// Writes one entry of a list: its index and its bytes.
+type EntryFill<'f> = dyn Fn(usize, &mut [u8]) + Sync + 'f;
+
+/// Writes `count` entries of `entry` bytes at the start of `buffer`, in parallel (2M rays took
+/// 0.05 s on one core): into its own memory where the host maps the kernel's buffers
+/// ([`Gpu::host_memory`]; the GPU is idle between dispatches), else into the queue's staging
+/// memory, copied at the next submission.
+fn fill_buffer(
+    gpu: &Gpu,
+    buffer: &wgpu::Buffer,
+    count: usize,
+    entry: usize,
+    fill: &EntryFill<'_>,
+) -> Result<()> {
+    let size = (count * entry) as u64;
+    if size == 0 {
+        return Ok(());
+    }
+    if gpu.host_memory() {
+        let part = buffer.slice(..size);
+        map_buffers(gpu, &[part], wgpu::MapMode::Write)?;
+        {
+            let mut view = part
+                .get_mapped_range_mut()
+                .map_err(|e| Error::Device(format!("cannot write the list to the GPU: {e}")))?;
+            fill_entries(view.slice(..), entry, fill);
+        }
+        buffer.unmap();
+    } else {
+        let size = wgpu::BufferSize::new(size).expect("not empty");
+        let mut view = gpu
+            .queue
+            .write_buffer_with(buffer, 0, size)
+            .ok_or_else(|| Error::Device("cannot write the list to the GPU".into()))?;
+        fill_entries(view.slice(..), entry, fill);
+    }
+    Ok(())
+}
+
+/// Writes entries of `entry` bytes into `to` by `fill`: batches made in parallel in a local
+/// buffer, then copied (mapped memory is written, never read, and `WriteOnly` cannot be sent
+/// to other threads).
+fn fill_entries(mut to: wgpu::WriteOnly<'_, [u8]>, entry: usize, fill: &EntryFill<'_>) {
+    use rayon::prelude::*;
+    const BATCH: usize = 1 << 16;
+    let count = to.len() / entry;
+    let mut local = vec![0u8; BATCH.min(count) * entry];
+    for start in (0..count).step_by(BATCH) {
+        let bytes = BATCH.min(count - start) * entry;
+        local[..bytes]
+            .par_chunks_mut(entry)
+            .enumerate()
+            .for_each(|(k, e)| fill(start + k, e));
+        to.slice(start * entry..start * entry + bytes)
+            .copy_from_slice(&local[..bytes]);
+    }
 }
 
 /// A scene's primitives in the GPU's layout (the values of [`Primitives`], as WGSL lays them
@@ -756,19 +837,23 @@ pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Precision) ->
     by_memory.min(by_dispatch).min(u32::MAX as u64) as u32
 }
 
-/// A buffer the kernel writes and the host copies out of.
-fn output_buffer(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+/// A buffer the kernel writes and the host copies out of, or maps itself (`direct`).
+fn output_buffer(gpu: &Gpu, label: &str, size: u64, direct: bool) -> wgpu::Buffer {
+    let read_by = match direct {
+        true => wgpu::BufferUsages::MAP_READ,
+        false => wgpu::BufferUsages::COPY_SRC,
+    };
+    gpu.transient_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        usage: wgpu::BufferUsages::STORAGE | read_by,
         mapped_at_creation: false,
     })
 }
 
 /// A buffer the host maps to read results.
 fn readback_buffer(gpu: &Gpu, size: u64) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+    gpu.transient_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -880,7 +965,7 @@ impl PassTimer {
 
     /// Seconds between the two timestamps of the last submitted timed pass.
     fn read_seconds(&self, gpu: &Gpu) -> Result<f64> {
-        map_for_reading(gpu, &self.readback)?;
+        map_buffers(gpu, &[self.readback.slice(..)], wgpu::MapMode::Read)?;
         let ticks = {
             let view = self
                 .readback
@@ -894,18 +979,24 @@ impl PassTimer {
     }
 }
 
-/// Maps `buffer` for reading and waits until the GPU has finished what was submitted.
-fn map_for_reading(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<()> {
+/// Maps `parts` in `mode` and waits until the GPU has finished what was submitted.
+fn map_buffers(gpu: &Gpu, parts: &[wgpu::BufferSlice<'_>], mode: wgpu::MapMode) -> Result<()> {
     let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
+    for part in parts {
+        let tx = tx.clone();
+        part.map_async(mode, move |r| {
+            let _ = tx.send(r);
+        });
+    }
     gpu.device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Device(format!("GPU did not finish: {e}")))?;
-    rx.recv()
-        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?
-        .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))
+    for _ in parts {
+        rx.recv()
+            .map_err(|e| Error::Device(format!("GPU buffer mapping failed: {e}")))?
+            .map_err(|e| Error::Device(format!("GPU buffer mapping failed: {e}")))?;
+    }
+    Ok(())
 }
 
 /// Wall-clock seconds of the stages of one render, and the kernel's GPU time.
@@ -966,12 +1057,13 @@ impl Slot {
     }
 }
 
-/// The output buffers a variant writes, each for `capacity` pixels, and one readback buffer
-/// holding them one after another (at `capacity` pixels each).
+/// The output buffers a variant writes, each for `capacity` pixels, and, unless the host maps
+/// them directly ([`Gpu::host_memory`]), one readback buffer holding them one after another (at
+/// `capacity` pixels each).
 struct OutputBuffers {
     /// Slot, buffer, and its offset in the readback buffer.
     slots: Vec<(Slot, wgpu::Buffer, u64)>,
-    readback: wgpu::Buffer,
+    readback: Option<wgpu::Buffer>,
     precision: Precision,
 }
 
@@ -993,21 +1085,28 @@ impl OutputBuffers {
             (hit_detail, Slot::Primitive),
             (variant.count, Slot::Count),
         ];
+        let direct = gpu.host_memory();
         let mut slots = Vec::new();
         let mut offset = 0;
         for (present, slot) in wanted {
             if present {
                 let size = capacity * slot.pixel_bytes(variant.precision);
-                slots.push((slot, output_buffer(gpu, slot.name(), size), offset));
+                slots.push((slot, output_buffer(gpu, slot.name(), size, direct), offset));
                 offset += size;
             }
         }
         OutputBuffers {
             slots,
             // A mapped buffer may not be empty.
-            readback: readback_buffer(gpu, offset.max(4)),
+            readback: (!direct).then(|| readback_buffer(gpu, offset.max(4))),
             precision: variant.precision,
         }
+    }
+
+    /// Every buffer, for the next job ([`Gpu::keep_transient`]).
+    fn into_buffers(self) -> impl Iterator<Item = wgpu::Buffer> {
+        let slots = self.slots.into_iter().map(|(_, b, _)| b);
+        slots.chain(self.readback)
     }
 
     /// The buffers by the kernel's names.
@@ -1017,51 +1116,80 @@ impl OutputBuffers {
             .map(|(slot, b, _)| (slot.name().to_owned(), b))
     }
 
-    /// Records the copies of the first `pixels` pixels of each output to the readback buffer.
+    /// Records the copies of the first `pixels` pixels of each output to the readback buffer
+    /// (none where the host maps the outputs).
     fn copy_to_readback(&self, encoder: &mut wgpu::CommandEncoder, pixels: u64) {
-        for (slot, buffer, offset) in &self.slots {
-            let size = pixels * slot.pixel_bytes(self.precision);
-            encoder.copy_buffer_to_buffer(buffer, 0, &self.readback, *offset, size);
+        if let Some(readback) = &self.readback {
+            for (slot, buffer, offset) in &self.slots {
+                let size = pixels * slot.pixel_bytes(self.precision);
+                encoder.copy_buffer_to_buffer(buffer, 0, readback, *offset, size);
+            }
         }
     }
 
-    /// Runs `f` on the readback buffer, mapped once the GPU has finished.
-    fn read(&self, gpu: &Gpu, f: impl FnOnce(&[u8])) -> Result<()> {
-        map_for_reading(gpu, &self.readback)?;
+    /// Runs `f` on the first `pixels` pixels of each output, mapped once the GPU has finished.
+    fn read(&self, gpu: &Gpu, pixels: u64, f: impl FnOnce(&Mapped)) -> Result<()> {
+        let size = |slot: Slot| pixels * slot.pixel_bytes(self.precision);
+        // What is mapped: the readback buffer whole (its slots need not start at the mapping
+        // alignment), or each output's first `pixels` pixels.
+        let buffers: Vec<&wgpu::Buffer> = match &self.readback {
+            Some(readback) => vec![readback],
+            None => self.slots.iter().map(|(_, buffer, _)| buffer).collect(),
+        };
+        let parts: Vec<wgpu::BufferSlice<'_>> = match &self.readback {
+            Some(readback) => vec![readback.slice(..)],
+            None => self
+                .slots
+                .iter()
+                .map(|(slot, buffer, _)| buffer.slice(..size(*slot).max(4)))
+                .collect(),
+        };
+        map_buffers(gpu, &parts, wgpu::MapMode::Read)?;
         {
-            let view = self
-                .readback
-                .get_mapped_range(..)
+            let views = parts
+                .iter()
+                .map(|part| part.get_mapped_range())
+                .collect::<std::result::Result<Vec<_>, _>>()
                 .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
-            f(&view);
+            // Each slot's bytes: in which view, where.
+            let at = self
+                .slots
+                .iter()
+                .enumerate()
+                .map(|(k, (slot, _, offset))| match &self.readback {
+                    Some(_) => (*slot, 0, *offset as usize..(offset + size(*slot)) as usize),
+                    None => (*slot, k, 0..size(*slot) as usize),
+                })
+                .collect();
+            f(&Mapped { views, at });
         }
-        self.readback.unmap();
+        buffers.iter().for_each(|buffer| buffer.unmap());
         Ok(())
     }
+}
 
-    /// Copies the certainty flags of `pixels` pixels (or rays) in `view` into `certainty` from
-    /// `start`, where the variant writes them.
-    fn copy_certainty(
-        &self,
-        view: &[u8],
-        pixels: usize,
-        start: usize,
-        certainty: Option<&mut [bool]>,
-    ) {
-        if let (Some(certainty), Some(flags)) = (certainty, self.bytes(view, Slot::Certain, pixels))
-        {
+/// The outputs of one dispatch as the host reads them ([`OutputBuffers::read`]).
+struct Mapped {
+    views: Vec<wgpu::BufferView>,
+    /// Per slot the variant writes: the view holding it and its bytes there.
+    at: Vec<(Slot, usize, std::ops::Range<usize>)>,
+}
+
+impl Mapped {
+    /// The bytes of `slot`, if the variant writes it.
+    fn bytes(&self, slot: Slot) -> Option<&[u8]> {
+        let (_, view, range) = self.at.iter().find(|(s, _, _)| *s == slot)?;
+        Some(&self.views[*view][range.clone()])
+    }
+
+    /// Copies the certainty flags into `certainty` from `start`, where the variant writes them.
+    fn copy_certainty(&self, start: usize, certainty: Option<&mut [bool]>) {
+        if let (Some(certainty), Some(flags)) = (certainty, self.bytes(Slot::Certain)) {
             let flags: &[u32] = bytemuck::cast_slice(flags);
             for (k, flag) in flags.iter().enumerate() {
                 certainty[start + k] = *flag != 0;
             }
         }
-    }
-
-    /// The bytes of `slot` for `pixels` pixels in the mapped readback `view`.
-    fn bytes<'v>(&self, view: &'v [u8], slot: Slot, pixels: usize) -> Option<&'v [u8]> {
-        let (_, _, offset) = self.slots.iter().find(|(s, _, _)| *s == slot)?;
-        let at = *offset as usize;
-        Some(&view[at..at + pixels * slot.pixel_bytes(self.precision) as usize])
     }
 }
 
@@ -1079,17 +1207,11 @@ fn read_tile<R: GpuReal>(
     images: &mut Images<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    outputs.read(gpu, |view| {
-        let surface: Option<&[[R; 4]]> = outputs
-            .bytes(view, Slot::Surface, pixels)
-            .map(bytemuck::cast_slice);
-        let ids: Option<&[i32]> = outputs
-            .bytes(view, Slot::Id, pixels)
-            .map(bytemuck::cast_slice);
-        outputs.copy_certainty(view, pixels, start, certainty);
-        if let (Some(colors), Some(bytes)) =
-            (&mut images.color, outputs.bytes(view, Slot::Color, pixels))
-        {
+    outputs.read(gpu, pixels as u64, |view| {
+        let surface: Option<&[[R; 4]]> = view.bytes(Slot::Surface).map(bytemuck::cast_slice);
+        let ids: Option<&[i32]> = view.bytes(Slot::Id).map(bytemuck::cast_slice);
+        view.copy_certainty(start, certainty);
+        if let (Some(colors), Some(bytes)) = (&mut images.color, view.bytes(Slot::Color)) {
             let packed: &[u32] = bytemuck::cast_slice(bytes);
             for (k, c) in packed.iter().enumerate() {
                 // pack4x8unorm puts red in the lowest byte.
@@ -1120,8 +1242,9 @@ fn read_tile<R: GpuReal>(
     })
 }
 
-/// Copies one dispatch's results for a ray list out of the readback buffer into `hits` from ray
-/// `start` (and into `certainty` alike): t, id, normal, primitive and barycentrics, or counts.
+/// Appends one dispatch's results for a ray list (rays `start..start + rays`, after those read
+/// before) to `hits` (and copies them into `certainty`): t, id, normal, primitive and
+/// barycentrics, or counts. In parallel: 2M rays took 0.018 s on one core.
 fn read_hits<R: GpuReal>(
     gpu: &Gpu,
     outputs: &OutputBuffers,
@@ -1130,11 +1253,13 @@ fn read_hits<R: GpuReal>(
     hits: &mut Hits<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    outputs.read(gpu, |view| {
-        let slot = |slot| outputs.bytes(view, slot, rays);
-        outputs.copy_certainty(view, rays, start, certainty);
+    use rayon::prelude::*;
+    outputs.read(gpu, rays as u64, |view| {
+        let slot = |slot| view.bytes(slot);
+        view.copy_certainty(start, certainty);
         if let Some(counts) = slot(Slot::Count) {
-            hits.count[start..start + rays].copy_from_slice(bytemuck::cast_slice(counts));
+            let counts: &[u32] = bytemuck::cast_slice(counts);
+            hits.count.par_extend(counts.par_iter().copied());
         }
         if let (Some(ids), Some(surface), Some(primitives), Some(uvs)) = (
             slot(Slot::Id),
@@ -1146,12 +1271,18 @@ fn read_hits<R: GpuReal>(
             let surface: &[[R; 4]] = bytemuck::cast_slice(surface);
             let primitives: &[u32] = bytemuck::cast_slice(primitives);
             let uvs: &[[R; 2]] = bytemuck::cast_slice(uvs);
-            for k in 0..rays {
-                if ids[k] != MISS {
-                    let [x, y, z, t] = surface[k];
-                    hits.set(start + k, ids[k], t, [x, y, z], primitives[k], uvs[k]);
-                }
-            }
+            let hit = |k: usize| ids[k] != MISS;
+            // The kernel writes zero normals and barycentrics on a miss; t and the primitive
+            // have miss values of their own.
+            let t = |k: usize| if hit(k) { surface[k][3] } else { R::INFINITY };
+            let primitive = |k: usize| if hit(k) { primitives[k] } else { INVALID_ID };
+            hits.id.par_extend(ids.par_iter().copied());
+            hits.t.par_extend((0..rays).into_par_iter().map(t));
+            hits.normal
+                .par_extend(surface.par_iter().map(|&[x, y, z, _]| [x, y, z]));
+            hits.primitive
+                .par_extend((0..rays).into_par_iter().map(primitive));
+            hits.uv.par_extend(uvs.par_iter().copied());
         }
     })
 }

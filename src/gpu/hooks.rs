@@ -303,10 +303,11 @@ fn kernel_variants() -> Vec<Variant> {
                 source: shader::Source::Pixels,
                 ..base
             });
-            for count in [false, true] {
+            for (count, packets) in [(false, false), (true, false), (false, true)] {
                 variants.push(Variant {
                     source: shader::Source::Rays,
                     count,
+                    packets,
                     ..base
                 });
             }

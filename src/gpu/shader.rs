@@ -334,9 +334,15 @@ impl Variant {
     }
 
     /// Whether the BVH is traversed by packets: asked for, through a BVH, and over image tiles,
-    /// whose neighbouring pixels have coherent rays (listed pixels are scattered).
+    /// whose neighbouring pixels have coherent rays, or over a caller's rays (whose owner says
+    /// whether they are coherent), for the nearest hit. Listed pixels are scattered.
     pub fn uses_packets(&self) -> bool {
-        self.packets && self.uses_bvh() && self.source == Source::Camera
+        let coherent = match self.source {
+            Source::Camera => true,
+            Source::Rays => !self.count,
+            Source::Pixels => false,
+        };
+        self.packets && self.uses_bvh() && coherent
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -539,9 +545,9 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 }
 
 /// Every variant a device may build: both precisions, both algorithms, with and without f64,
-/// the robust ones with and without the certainty test, and the pixel-list ones, with and
-/// without a BVH (per ray, and except for pixel lists by packets, with subgroup votes or on
-/// 8-lane subgroups) and in one or several chunks; the plain ones also with each output alone
+/// the robust ones with and without the certainty test, and the list ones, with and
+/// without a BVH (per ray, and where they may, [`Variant::uses_packets`], by packets, with
+/// subgroup votes or on 8-lane subgroups) and in one or several chunks; the plain ones also with each output alone
 /// and with none.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
@@ -584,9 +590,13 @@ pub fn all_variants() -> Vec<Variant> {
                         (true, true, false),
                         (true, true, true),
                     ];
-                    // Lists never traverse by packets (`uses_packets`).
                     let listed = source != Source::Camera;
-                    let traversals = &traversals[..if listed { 2 } else { 4 }];
+                    let probe = Variant {
+                        bvh: true,
+                        packets: true,
+                        ..plain
+                    };
+                    let traversals = &traversals[..if probe.uses_packets() { 4 } else { 2 }];
                     for &(bvh, packets, eight_lanes) in traversals {
                         for chunks in [1, 2, MAX_CHUNKS] {
                             v.push(Variant {

@@ -1,0 +1,125 @@
+//! Casting a list of rays: the peer camera's rays (benches/peers.sh: 1920x1080 unit directions
+//! from (0, -3, 2.5) at the origin, vertical fov 40) cast at a mesh through
+//! `raycast::rays::RayScene`, as the Python package does, in each mode given. Prints the median
+//! seconds of --runs casts and Mrays/s; compare with `raycast bench` on the same scene.
+//!
+//!     cargo run --release --example ray_cost -- target/bench/torus.obj [--runs 5] [gpu:f32 ...]
+
+use raycast::rays::{Ray, RayList, RayScene};
+use std::time::Instant;
+
+fn peer_rays(width: usize, height: usize) -> Vec<Ray> {
+    let eye = [0.0, -3.0, 2.5];
+    let norm = |v: [f64; 3]| {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / l)
+    };
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let forward = norm(eye.map(|x: f64| -x));
+    let right = norm(cross(forward, [0.0, 0.0, 1.0]));
+    let up = cross(right, forward);
+    let th = (40f64.to_radians() / 2.0).tan();
+    let aspect = width as f64 / height as f64;
+    let mut rays = Vec::with_capacity(width * height);
+    for i in 0..height {
+        let y = (1.0 - 2.0 * (i as f64 + 0.5) / height as f64) * th;
+        for j in 0..width {
+            let x = (2.0 * (j as f64 + 0.5) / width as f64 - 1.0) * th * aspect;
+            let d = [0, 1, 2].map(|k| forward[k] + x * right[k] + y * up[k]);
+            rays.push(Ray {
+                origin: eye,
+                direction: norm(d),
+            });
+        }
+    }
+    rays
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut runs = 5;
+    if let Some(i) = args.iter().position(|a| a == "--runs") {
+        runs = args.get(i + 1).ok_or("--runs N")?.parse()?;
+        args.drain(i..i + 2);
+    }
+    let mesh = args
+        .first()
+        .ok_or("usage: ray_cost MESH [MODE...]")?
+        .clone();
+    let modes: Vec<String> = match args.len() {
+        1 => vec!["gpu:f32".into()],
+        _ => args[1..].to_vec(),
+    };
+    let triangles = raycast::scene::load_mesh(mesh.as_ref())?;
+    let vertices: Vec<[f64; 3]> = triangles
+        .iter()
+        .flat_map(|t| t.map(|v| [v.x, v.y, v.z]))
+        .collect();
+    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
+    let mut scene = RayScene::new();
+    scene.add_mesh(&vertices, &indices)?;
+    if let Ok(path) = std::env::var("SCENE") {
+        scene = RayScene::from_scene(raycast::Scene::load(path.as_ref())?);
+    }
+    let gpu = raycast::gpu::Gpu::new()?;
+    let mut rays = peer_rays(1920, 1080);
+    if std::env::var("RANDOM").is_ok() {
+        // Incoherent: from random points near the torus in random directions (a small LCG).
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for ray in rays.iter_mut() {
+            ray.origin = [next() * 1.5, next() * 1.5, next() * 0.5];
+            ray.direction = [next(), next(), next()];
+        }
+    }
+    if let Ok(sigma) = std::env::var("JITTER") {
+        let sigma: f64 = sigma.parse()?;
+        let mut state = 777u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for ray in rays.iter_mut() {
+            ray.direction = ray.direction.map(|d| d + sigma * next());
+        }
+    }
+    let list = match std::env::var("FLAT") {
+        Ok(_) => RayList::from(&rays),
+        Err(_) => RayList::image(&rays, 1920),
+    };
+    for mode in modes {
+        let parsed: raycast::render::Mode = mode.parse()?;
+        scene.cast(Some(&gpu), parsed, list)?;
+        let mut seconds: Vec<f64> = (0..runs.max(1))
+            .map(|_| {
+                let start = Instant::now();
+                scene
+                    .cast(Some(&gpu), parsed, list)
+                    .map(|_| start.elapsed().as_secs_f64())
+            })
+            .collect::<raycast::Result<_>>()?;
+        seconds.sort_by(f64::total_cmp);
+        let median = seconds[seconds.len() / 2];
+        println!(
+            "{mode}: {} rays, median {median:.4} s, {:.2} Mrays/s",
+            rays.len(),
+            rays.len() as f64 / median / 1e6
+        );
+    }
+    Ok(())
+}
