@@ -1,14 +1,22 @@
-//! Casting a list of rays: the peer camera's rays (benches/peers.sh: 1920x1080 unit directions
-//! from (0, -3, 2.5) at the origin, vertical fov 40) cast at a mesh through
-//! `raycast::rays::RayScene`, as the Python package does, in each mode given. Prints the median
-//! seconds of --runs casts and Mrays/s; compare with `raycast bench` on the same scene.
+//! Casting a list of rays through `raycast::rays::RayScene`, as the Python package does: the
+//! peer camera's rays (benches/peers.sh: 1920x1080 unit directions from (0, -3, 2.5) at the
+//! origin, vertical fov 40) at a mesh, in each mode given. Prints the median seconds of --runs
+//! casts and Mrays/s; compare with `raycast bench` on the same scene (target/bench/torus.json).
 //!
-//!     cargo run --release --example ray_cost -- target/bench/torus.obj [--runs 5] [gpu:f32 ...]
+//!     cargo run --release --example ray_cost -- target/bench/torus.obj [--runs 5] [MODE...]
+//!
+//! How the rays are given: `--flat` as a plain list rather than an image's rows (packets of 8
+//! consecutive rays instead of 4x2 tiles), `--jitter S` with each direction component moved by
+//! up to S (less coherent), `--random` from random points near the torus in random directions
+//! (incoherent: traced one by one).
 
 use raycast::rays::{Ray, RayList, RayScene};
 use std::time::Instant;
 
-fn peer_rays(width: usize, height: usize) -> Vec<Ray> {
+const WIDTH: usize = 1920;
+const HEIGHT: usize = 1080;
+
+fn peer_rays() -> Vec<Ray> {
     let eye = [0.0, -3.0, 2.5];
     let norm = |v: [f64; 3]| {
         let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -25,12 +33,12 @@ fn peer_rays(width: usize, height: usize) -> Vec<Ray> {
     let right = norm(cross(forward, [0.0, 0.0, 1.0]));
     let up = cross(right, forward);
     let th = (40f64.to_radians() / 2.0).tan();
-    let aspect = width as f64 / height as f64;
-    let mut rays = Vec::with_capacity(width * height);
-    for i in 0..height {
-        let y = (1.0 - 2.0 * (i as f64 + 0.5) / height as f64) * th;
-        for j in 0..width {
-            let x = (2.0 * (j as f64 + 0.5) / width as f64 - 1.0) * th * aspect;
+    let aspect = WIDTH as f64 / HEIGHT as f64;
+    let mut rays = Vec::with_capacity(WIDTH * HEIGHT);
+    for i in 0..HEIGHT {
+        let y = (1.0 - 2.0 * (i as f64 + 0.5) / HEIGHT as f64) * th;
+        for j in 0..WIDTH {
+            let x = (2.0 * (j as f64 + 0.5) / WIDTH as f64 - 1.0) * th * aspect;
             let d = [0, 1, 2].map(|k| forward[k] + x * right[k] + y * up[k]);
             rays.push(Ray {
                 origin: eye,
@@ -41,13 +49,37 @@ fn peer_rays(width: usize, height: usize) -> Vec<Ray> {
     rays
 }
 
+/// Uniform numbers in [-1, 1) from a small LCG.
+fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
+/// Removes `--name` (and its value, which `value` says it has) from `args`.
+fn take(args: &mut Vec<String>, name: &str, value: bool) -> Option<String> {
+    let i = args.iter().position(|a| a == name)?;
+    let taken = if value {
+        args.get(i + 1).cloned()
+    } else {
+        Some(String::new())
+    };
+    args.drain(i..(i + 1 + value as usize).min(args.len()));
+    taken
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
-    let mut runs = 5;
-    if let Some(i) = args.iter().position(|a| a == "--runs") {
-        runs = args.get(i + 1).ok_or("--runs N")?.parse()?;
-        args.drain(i..i + 2);
-    }
+    let runs: usize = take(&mut args, "--runs", true).map_or(Ok(5), |r| r.parse())?;
+    let flat = take(&mut args, "--flat", false).is_some();
+    let random = take(&mut args, "--random", false).is_some();
+    let jitter: Option<f64> = take(&mut args, "--jitter", true)
+        .map(|s| s.parse())
+        .transpose()?;
     let mesh = args
         .first()
         .ok_or("usage: ray_cost MESH [MODE...]")?
@@ -66,41 +98,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let mut scene = RayScene::new();
     scene.add_mesh(&vertices, &indices)?;
-    if let Ok(path) = std::env::var("SCENE") {
-        scene = RayScene::from_scene(raycast::Scene::load(path.as_ref())?);
-    }
     let gpu = raycast::gpu::Gpu::new()?;
-    let mut rays = peer_rays(1920, 1080);
-    if std::env::var("RANDOM").is_ok() {
-        // Incoherent: from random points near the torus in random directions (a small LCG).
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+    let mut rays = peer_rays();
+    if random {
+        let mut next = uniform(12345);
         for ray in rays.iter_mut() {
             ray.origin = [next() * 1.5, next() * 1.5, next() * 0.5];
             ray.direction = [next(), next(), next()];
         }
     }
-    if let Ok(sigma) = std::env::var("JITTER") {
-        let sigma: f64 = sigma.parse()?;
-        let mut state = 777u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+    if let Some(s) = jitter {
+        let mut next = uniform(777);
         for ray in rays.iter_mut() {
-            ray.direction = ray.direction.map(|d| d + sigma * next());
+            ray.direction = ray.direction.map(|d| d + s * next());
         }
     }
-    let list = match std::env::var("FLAT") {
-        Ok(_) => RayList::from(&rays),
-        Err(_) => RayList::image(&rays, 1920),
+    let list = match flat {
+        true => RayList::from(&rays),
+        false => RayList::image(&rays, WIDTH),
     };
     for mode in modes {
         let parsed: raycast::render::Mode = mode.parse()?;
