@@ -1244,7 +1244,8 @@ fn read_tile<R: GpuReal>(
 
 /// Appends one dispatch's results for a ray list (rays `start..start + rays`, after those read
 /// before) to `hits` (and copies them into `certainty`): t, id, normal, primitive and
-/// barycentrics, or counts. In parallel: 2M rays took 0.018 s on one core.
+/// barycentrics, or counts. In parallel, into vectors allocated here (2M rays: 0.021 s, mostly
+/// first touches of their memory; 0.024 s on one core with the old in-place writes).
 fn read_hits<R: GpuReal>(
     gpu: &Gpu,
     outputs: &OutputBuffers,
