@@ -110,7 +110,7 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
     var primitive = 0u;
     var uv = vec2<real>(0.0);
     if (hit.object >= 0) {
-        surface = vec4<real>(hit_normal(ray, hit), hit.t);
+        surface = vec4<real>(hit_normal(ray, hit), hit_t(ray, hit));
         primitive = primitive_key(hit);
         uv = hit_uv(ray, hit);
     }

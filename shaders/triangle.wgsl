@@ -130,6 +130,25 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
     return NO_HIT;
 }
 
+#if RECHECK_F64
+// The t of a hit the test found, recomputed where the ray meets the triangle's plane, in f64
+// from the f32 corners and ray: their differences and products are exact there, so the
+// normal's components and the two dot products round once each in f64. The test's own
+// t = T / det weighs the corners' depths by edge functions that each carry f32 rounding, which
+// a grazing ray magnifies by up to 1 / cos: at cos 0.002 on the torus 2.9e-5 relative off the
+// exact t, here 1.6e-7 (the three f32 roundings at the end: f64 division is not correctly
+// rounded on lavapipe, f32 division is). A degenerate triangle (zero normal in f64: NaN) or a
+// ray in its plane keeps `t`.
+fn plane_t(ray: Ray, tri: Triangle, t: real) -> real {
+    let a = vec3<f64>(tri.a);
+    let normal = cross(vec3<f64>(tri.b) - a, vec3<f64>(tri.c) - a);
+    let numerator = dot(normal, a - vec3<f64>(ray.origin));
+    let denominator = dot(normal, vec3<f64>(ray.direction));
+    let refined = real(numerator) / real(denominator);
+    return select(t, refined, abs(refined - t) <= 0.5 * abs(t));
+}
+#endif
+
 // Barycentric (u, v) of the ray's hit on the triangle, from the edge functions of the test:
 // the hit point is (1 - u - v) a + u b + v c.
 fn triangle_uv(ray: Ray, shear: Shear, tri: Triangle) -> vec2<real> {

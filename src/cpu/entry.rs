@@ -1,7 +1,7 @@
 //! Mirror of shaders/entry.wgsl: the work of one pixel, or of one ray of a list.
 
 use super::camera::camera_ray;
-use super::scene::{hit_normal, hit_uv, nearest_hit, primitive_key};
+use super::scene::{hit_normal, hit_t, hit_uv, nearest_hit, primitive_key};
 use super::types::{Frame, Ray};
 use crate::math::{Real, length};
 use crate::prepare::Primitives;
@@ -68,7 +68,7 @@ pub fn cast_ray<T: Real, const ROBUST: bool>(
         id: hit.object,
         hit: Some(RayHit {
             normal: hit_normal::<T, ROBUST>(ray, &hit, prims).to_array(),
-            t: hit.t,
+            t: hit_t::<T, ROBUST>(ray, &hit, prims),
             primitive: primitive_key(&hit, prims),
             uv: hit_uv::<T, ROBUST>(ray, &hit, prims),
         }),

@@ -5,7 +5,7 @@ pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
-use super::triangle::{intersect_triangle, triangle_normal, triangle_uv};
+use super::triangle::{intersect_triangle, plane_t, triangle_normal, triangle_uv};
 use super::types::{Ray, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
@@ -86,6 +86,16 @@ pub fn hit_normal<T: Real, const ROBUST: bool>(
         KIND_PLANE => plane_normal(&prims.planes[k]),
         _ => triangle_normal::<T, ROBUST>(&prims.triangles[k]),
     }
+}
+
+/// The t a ray list's hit reports: a robust triangle hit's recomputed from its plane
+/// ([`plane_t`]), the test's t kept for every decision (why camera renders keep the test's:
+/// `hit_t` in shaders/scene.wgsl).
+pub fn hit_t<T: Real, const ROBUST: bool>(ray: &Ray<T>, hit: &Hit<T>, prims: &Primitives<T>) -> T {
+    if ROBUST && hit.kind == KIND_TRIANGLE && hit.object >= 0 {
+        return plane_t(ray, &prims.triangles[hit.index as usize], hit.t);
+    }
+    hit.t
 }
 
 /// The hit primitive's index among the primitives of its kind in the scene's order (the BVH

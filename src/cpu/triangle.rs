@@ -134,6 +134,28 @@ pub fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
     }
 }
 
+/// The t of a hit the robust test found, recomputed where the ray meets the triangle's plane in
+/// f64 from the f32 corners and ray (`#if RECHECK_F64`, which the CPU always has for f32): the
+/// differences and products are exact there, so a grazing ray keeps f32 accuracy, which the
+/// test's t = T / det loses by up to 1 / cos. A degenerate triangle or a ray in its plane keeps
+/// `t`. f64 kernels keep the test's t.
+pub fn plane_t<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, t: T) -> T {
+    if T::PRECISION == Precision::F64 {
+        return t;
+    }
+    let a = tri.a.cast::<f64>();
+    let normal = cross(tri.b.cast::<f64>() - a, tri.c.cast::<f64>() - a);
+    let numerator = dot(normal, a - ray.origin.cast::<f64>());
+    let denominator = dot(normal, ray.direction.cast::<f64>());
+    let refined = T::from_f64(numerator) / T::from_f64(denominator);
+    // As WGSL's select on the comparison: NaN keeps t.
+    if (refined - t).abs() <= T::HALF * t.abs() {
+        refined
+    } else {
+        t
+    }
+}
+
 /// Barycentric (u, v) of the ray's hit on the triangle: the hit point is (1 - u - v) a + u b +
 /// v c. From the edge functions of the watertight test, or the lecture's Cramer solution.
 pub fn triangle_uv<T: Real, const ROBUST: bool>(
