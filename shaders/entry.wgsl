@@ -105,18 +105,17 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
         return;
     }
     out_id[index] = select(hit.object, -1, hit.object < 0);
-    // Normal in xyz, t in w; zero on a miss.
+    // Normal in xyz, t in w. A miss writes its id only (the host knows what a miss reads as):
+    // each store to a lane's own address is a loop of scalar stores on llvmpipe, and leaving
+    // out the miss's seven took the torus's list kernel from 0.288 to 0.284 s.
     var surface = vec4<real>(0.0);
-    var primitive = 0u;
-    var uv = vec2<real>(0.0);
     if (hit.object >= 0) {
-        surface = vec4<real>(hit_normal(ray, hit), hit_t(ray, hit));
-        primitive = primitive_key(hit);
-        uv = hit_uv(ray, hit);
+        let details = hit_details(ray, hit);
+        surface = vec4<real>(details.normal, details.t);
+        out_surface[index] = surface;
+        out_primitive[index] = primitive_key(hit);
+        out_uv[index] = details.uv;
     }
-    out_surface[index] = surface;
-    out_primitive[index] = primitive;
-    out_uv[index] = uv;
 #if CERTAINTY
     let in_range = all(abs(surface) <= vec4<real>(T_FAR));
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);

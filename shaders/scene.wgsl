@@ -90,23 +90,6 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
     }
 }
 
-// The t a ray list's hit reports: with RECHECK_F64 a triangle's is recomputed from its plane
-// (plane_t), the test's t kept for every decision. A caller's rays and corners given in f32
-// reach the kernel unrounded (RayScene's kernel eye), so this t is the f32 answer within about
-// an ulp. Camera renders keep the test's t: there the corners are rounded to camera-relative
-// f32, which at grazing angles dominates (torus: 5.9e-6 relative at most against f64 either
-// way), and recomputing cost 2.7% of the torus kernel's time.
-fn hit_t(ray: Ray, hit: Hit) -> real {
-#if TRIANGLES
-#if RECHECK_F64
-    if (hit.kind == KIND_TRIANGLE && hit.object >= 0) {
-        return plane_t(ray, triangle_at(hit.index), hit.t);
-    }
-#endif
-#endif
-    return hit.t;
-}
-
 // The hit primitive's index among the primitives of its kind in the scene's order (the BVH
 // stores spheres and triangles in its own order).
 fn primitive_key(hit: Hit) -> u32 {
@@ -123,13 +106,31 @@ fn primitive_key(hit: Hit) -> u32 {
 #endif
 }
 
-// The hit's barycentric (u, v) on a triangle (the hit point is (1 - u - v) a + u b + v c), zero
-// on spheres and planes.
-fn hit_uv(ray: Ray, hit: Hit) -> vec2<real> {
+// A ray list's view of its nearest hit: the normal, the t it reports and the barycentrics (u, v)
+// of a triangle (the hit point is (1 - u - v) a + u b + v c; zero on spheres and planes). A
+// triangle's corners are loaded once for all three: with three loads the torus's list kernel
+// took 1.04x as long.
+struct HitDetails {
+    normal: vec3<real>,
+    t: real,
+    uv: vec2<real>,
+}
+
+fn hit_details(ray: Ray, hit: Hit) -> HitDetails {
 #if TRIANGLES
     if (hit.kind == KIND_TRIANGLE) {
-        return triangle_uv(ray, shear_of(ray.direction), triangle_at(hit.index));
+        let tri = triangle_at(hit.index);
+        var t = hit.t;
+#if RECHECK_F64
+        // A caller's rays and corners given in f32 reach the kernel unrounded (RayScene's
+        // kernel eye), so the plane's t is the f32 answer within about an ulp; decisions keep
+        // the test's t. Camera renders keep it too: there the corners are rounded to
+        // camera-relative f32, which dominates at grazing angles (torus: 5.9e-6 relative at
+        // most against f64 either way), and the plane's t cost 2.7% of the torus kernel.
+        t = plane_t(ray, tri, t);
+#endif
+        return HitDetails(triangle_normal(tri), t, triangle_uv(ray, shear_of(ray.direction), tri));
     }
 #endif
-    return vec2<real>(0.0);
+    return HitDetails(hit_normal(ray, hit), hit.t, vec2<real>(0.0));
 }

@@ -1,7 +1,7 @@
 //! Mirror of shaders/entry.wgsl: the work of one pixel, or of one ray of a list.
 
 use super::camera::camera_ray;
-use super::scene::{hit_normal, hit_t, hit_uv, nearest_hit, primitive_key};
+use super::scene::{hit_details, hit_normal, nearest_hit, primitive_key};
 use super::types::{Frame, Ray};
 use crate::math::{Real, length};
 use crate::prepare::Primitives;
@@ -66,11 +66,14 @@ pub fn cast_ray<T: Real, const ROBUST: bool>(
     }
     RayOut {
         id: hit.object,
-        hit: Some(RayHit {
-            normal: hit_normal::<T, ROBUST>(ray, &hit, prims).to_array(),
-            t: hit_t::<T, ROBUST>(ray, &hit, prims),
-            primitive: primitive_key(&hit, prims),
-            uv: hit_uv::<T, ROBUST>(ray, &hit, prims),
+        hit: Some({
+            let details = hit_details::<T, ROBUST>(ray, &hit, prims);
+            RayHit {
+                normal: details.normal.to_array(),
+                t: details.t,
+                primitive: primitive_key(&hit, prims),
+                uv: details.uv,
+            }
         }),
     }
 }

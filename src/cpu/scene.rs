@@ -88,16 +88,6 @@ pub fn hit_normal<T: Real, const ROBUST: bool>(
     }
 }
 
-/// The t a ray list's hit reports: a robust triangle hit's recomputed from its plane
-/// ([`plane_t`]), the test's t kept for every decision (why camera renders keep the test's:
-/// `hit_t` in shaders/scene.wgsl).
-pub fn hit_t<T: Real, const ROBUST: bool>(ray: &Ray<T>, hit: &Hit<T>, prims: &Primitives<T>) -> T {
-    if ROBUST && hit.kind == KIND_TRIANGLE && hit.object >= 0 {
-        return plane_t(ray, &prims.triangles[hit.index as usize], hit.t);
-    }
-    hit.t
-}
-
 /// The hit primitive's index among the primitives of its kind in the scene's order (the BVH
 /// stores spheres and triangles in its own order).
 pub fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
@@ -108,17 +98,35 @@ pub fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
     }
 }
 
-/// The hit's barycentric (u, v) on a triangle, zero on spheres and planes.
-pub fn hit_uv<T: Real, const ROBUST: bool>(
+/// A ray list's view of its nearest hit (`HitDetails` in WGSL): the normal, the t it reports
+/// (a robust triangle hit's recomputed from its plane, [`plane_t`]; decisions keep the test's)
+/// and the barycentrics of a triangle (zero on spheres and planes).
+pub struct HitDetails<T> {
+    pub normal: Vec3<T>,
+    pub t: T,
+    pub uv: [T; 2],
+}
+
+pub fn hit_details<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     hit: &Hit<T>,
     prims: &Primitives<T>,
-) -> [T; 2] {
-    match hit.kind {
-        KIND_TRIANGLE => {
-            let tri = &prims.triangles[hit.index as usize];
-            triangle_uv::<T, ROBUST>(ray, &shear_of(ray.direction), tri)
-        }
-        _ => [T::ZERO; 2],
+) -> HitDetails<T> {
+    if hit.kind != KIND_TRIANGLE {
+        return HitDetails {
+            normal: hit_normal::<T, ROBUST>(ray, hit, prims),
+            t: hit.t,
+            uv: [T::ZERO; 2],
+        };
+    }
+    let tri = &prims.triangles[hit.index as usize];
+    HitDetails {
+        normal: triangle_normal::<T, ROBUST>(tri),
+        t: if ROBUST {
+            plane_t(ray, tri, hit.t)
+        } else {
+            hit.t
+        },
+        uv: triangle_uv::<T, ROBUST>(ray, &shear_of(ray.direction), tri),
     }
 }

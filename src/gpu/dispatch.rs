@@ -1272,18 +1272,21 @@ fn read_hits<R: GpuReal>(
             let surface: &[[R; 4]] = bytemuck::cast_slice(surface);
             let primitives: &[u32] = bytemuck::cast_slice(primitives);
             let uvs: &[[R; 2]] = bytemuck::cast_slice(uvs);
+            // The kernel writes a miss's id only: the rest is the miss's values here.
             let hit = |k: usize| ids[k] != MISS;
-            // The kernel writes zero normals and barycentrics on a miss; t and the primitive
-            // have miss values of their own.
-            let t = |k: usize| if hit(k) { surface[k][3] } else { R::INFINITY };
-            let primitive = |k: usize| if hit(k) { primitives[k] } else { INVALID_ID };
+            let each = || (0..rays).into_par_iter();
             hits.id.par_extend(ids.par_iter().copied());
-            hits.t.par_extend((0..rays).into_par_iter().map(t));
-            hits.normal
-                .par_extend(surface.par_iter().map(|&[x, y, z, _]| [x, y, z]));
-            hits.primitive
-                .par_extend((0..rays).into_par_iter().map(primitive));
-            hits.uv.par_extend(uvs.par_iter().copied());
+            let t = |k| if hit(k) { surface[k][3] } else { R::INFINITY };
+            hits.t.par_extend(each().map(t));
+            let normal = |k| {
+                let [x, y, z, _] = if hit(k) { surface[k] } else { [R::ZERO; 4] };
+                [x, y, z]
+            };
+            hits.normal.par_extend(each().map(normal));
+            let primitive = |k| if hit(k) { primitives[k] } else { INVALID_ID };
+            hits.primitive.par_extend(each().map(primitive));
+            let uv = |k| if hit(k) { uvs[k] } else { [R::ZERO; 2] };
+            hits.uv.par_extend(each().map(uv));
         }
     })
 }
