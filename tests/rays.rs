@@ -503,3 +503,40 @@ fn grazing_hits_keep_f32_accuracy() {
         }
     }
 }
+
+/// Rows of six f32s (numpy's float32, read without a copy) cast exactly as the same rays in
+/// f64, as a list and as an image, on the GPU and the CPU.
+#[test]
+fn f32_rows_equal_their_f64_rays() {
+    let gpu = gpu();
+    let scene = RayScene::from_scene(random_scene(3, [4, 4]));
+    let rows: Vec<[f32; 6]> = random_rays(&mut Rng(9), 2000)
+        .iter()
+        .map(|r| {
+            let [x, y, z] = r.origin.map(|v| v as f32);
+            let [dx, dy, dz] = r.direction.map(|v| v as f32);
+            [x, y, z, dx, dy, dz]
+        })
+        .collect();
+    let rays: Vec<Ray> = rows
+        .iter()
+        .map(|r| Ray {
+            origin: [r[0], r[1], r[2]].map(f64::from),
+            direction: [r[3], r[4], r[5]].map(f64::from),
+        })
+        .collect();
+    for m in ["gpu:f32", "cpu:f32"] {
+        let from_rows = f32_hits(scene.cast(Some(gpu), mode(m), &rows[..]).unwrap());
+        assert_same(
+            &from_rows,
+            &f32_hits(scene.cast(Some(gpu), mode(m), &rays).unwrap()),
+            m,
+        );
+        let image = f32_hits(
+            scene
+                .cast(Some(gpu), mode(m), RayList::image(&rows[..], 40))
+                .unwrap(),
+        );
+        assert_same(&image, &from_rows, m);
+    }
+}

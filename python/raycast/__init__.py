@@ -13,8 +13,9 @@ Beyond Open3D: spheres and planes (``add_sphere``, ``add_plane``), ``precision="
 "adaptive"`` and ``device="gpu" | "cpu"`` on every cast, scene files (``raycast.load``) and
 their camera renders (``render``), and ``raycast.info()`` for the adapter.
 
-Rays are rows of ``origin, direction`` (shape ``(..., 6)``, any float dtype and layout,
-converted once to float64); ``t_hit`` is in units of each ray's direction, as Open3D's.
+Rays are rows of ``origin, direction`` (shape ``(..., 6)``, any float dtype and layout:
+float32 and float64 are read as they are when C-contiguous, others converted once to float64);
+``t_hit`` is in units of each ray's direction, as Open3D's.
 Casts release the GIL.
 """
 
@@ -41,8 +42,11 @@ def info() -> Dict[str, Any]:
     return _raycast.info()
 
 
-def _float_array(value: ArrayLike, name: str, last: Optional[int] = None) -> np.ndarray:
-    """`value` as a C-contiguous float64 array, its last dimension `last` where given."""
+def _float_array(
+    value: ArrayLike, name: str, last: Optional[int] = None, keep_float32: bool = False
+) -> np.ndarray:
+    """`value` as a C-contiguous float64 array (float32 kept with `keep_float32`), its last
+    dimension `last` where given."""
     try:
         array = np.asarray(value)
     except Exception as e:  # ragged lists and the like
@@ -53,14 +57,16 @@ def _float_array(value: ArrayLike, name: str, last: Optional[int] = None) -> np.
         raise TypeError(f"{name}: expected an array of numbers, got dtype {array.dtype}")
     if last is not None and (array.ndim == 0 or array.shape[-1] != last):
         raise ValueError(f"{name}: expected shape (..., {last}), got {array.shape}")
-    return np.ascontiguousarray(array, dtype=np.float64)
+    keep = keep_float32 and array.dtype == np.float32
+    return np.ascontiguousarray(array, dtype=np.float32 if keep else np.float64)
 
 
 def _rays(rays: ArrayLike) -> tuple:
-    """The rays as an (n, 6) float64 array, the leading shape to give the results, and the
-    width of the image they are rows of, if they have two leading dimensions or more (the GPU
-    then traces tiles of neighbouring rows together, as it does a camera's)."""
-    array = _float_array(rays, "rays", 6)
+    """The rays as an (n, 6) float32 or float64 array (float32 is read as it is: widening a
+    copy of 2M rays took 0.02 s of a 0.35 s cast), the leading shape to give the results, and
+    the width of the image they are rows of, if they have two leading dimensions or more (the
+    GPU then traces tiles of neighbouring rows together, as it does a camera's)."""
+    array = _float_array(rays, "rays", 6, keep_float32=True)
     shape = array.shape[:-1]
     width = shape[-1] if len(shape) >= 2 and shape[-1] > 0 else None
     return array.reshape(-1, 6), shape, width

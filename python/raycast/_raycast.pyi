@@ -1,6 +1,6 @@
 """Type stubs of the native module (python/src/lib.rs); use the wrappers in raycast/__init__.py."""
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -16,21 +16,24 @@ class Scene:
     def add_plane(self, point: List[float], normal: List[float]) -> int: ...
     def cast(
         self,
-        rays: npt.NDArray[np.float64],
+        rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
         width: Optional[int],
         precision: str,
         device: str,
     ) -> Dict[str, np.ndarray]: ...
     def occluded(
         self,
-        rays: npt.NDArray[np.float64],
+        rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
         width: Optional[int],
         t_range: Tuple[float, float],
         precision: str,
         device: str,
     ) -> npt.NDArray[np.bool_]: ...
     def count(
-        self, rays: npt.NDArray[np.float64], precision: str, device: str
+        self,
+        rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
+        precision: str,
+        device: str,
     ) -> npt.NDArray[np.uint32]: ...
     def render(self, precision: str, device: str) -> Dict[str, Any]: ...
 

@@ -1,7 +1,8 @@
 //! `raycast._raycast`: the native half of the Python package. The Python half
 //! (python/raycast/__init__.py) checks and converts arguments (NumPy arrays of any float dtype
-//! and layout become one contiguous float64 array) and shapes the results; this half casts,
-//! with the GIL released, and hands the result vectors to NumPy without copying them.
+//! and layout become one contiguous float64 array; rays stay float32 where they are) and shapes
+//! the results; this half casts, with the GIL released, and hands the result vectors to NumPy
+//! without copying them.
 
 use std::sync::OnceLock;
 
@@ -10,7 +11,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::gpu::Gpu;
-use raycast::rays::{AnyHits, Hits, Ray, RayList, RayScene};
+use raycast::rays::{AnyHits, Hits, Ray, RayList, RayRows, RayScene};
 use raycast::render::{Device, Mode};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -46,19 +47,32 @@ fn mode(device: &str, precision: &str) -> PyResult<(Mode, Option<&'static Gpu>)>
     Ok((mode, gpu))
 }
 
+/// Rays as the Python half passes them: (n, 6) float32 (as Open3D's callers hold them) or
+/// float64, C-contiguous.
+#[derive(FromPyObject)]
+enum RayArray<'py> {
+    F32(PyReadonlyArray2<'py, f32>),
+    F64(PyReadonlyArray2<'py, f64>),
+}
+
 /// Rows of `origin, direction` as rays, without copying; an image's in rows of `width`.
-fn ray_list<'a>(
-    rays: &'a PyReadonlyArray2<'_, f64>,
-    width: Option<usize>,
-) -> PyResult<RayList<'a>> {
-    let flat = rays
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("rays: expected a contiguous array"))?;
-    let rays: &[Ray] = bytemuck::try_cast_slice(flat)
-        .map_err(|_| PyValueError::new_err("rays: expected rows of 6 numbers"))?;
+fn ray_list<'a>(rays: &'a RayArray<'_>, width: Option<usize>) -> PyResult<RayList<'a>> {
+    let contiguous = || PyValueError::new_err("rays: expected a contiguous array");
+    let rows = || PyValueError::new_err("rays: expected rows of 6 numbers");
+    let rows: RayRows<'a> = match rays {
+        RayArray::F32(a) => {
+            let flat = a.as_slice().map_err(|_| contiguous())?;
+            RayRows::F32(bytemuck::try_cast_slice(flat).map_err(|_| rows())?)
+        }
+        RayArray::F64(a) => {
+            let flat = a.as_slice().map_err(|_| contiguous())?;
+            let rays: &[Ray] = bytemuck::try_cast_slice(flat).map_err(|_| rows())?;
+            RayRows::F64(rays)
+        }
+    };
     Ok(match width {
-        Some(w) => RayList::image(rays, w),
-        None => RayList::from(rays),
+        Some(w) => RayList::image(rows, w),
+        None => RayList::from(rows),
     })
 }
 
@@ -137,7 +151,7 @@ impl Scene {
     fn cast<'py>(
         &self,
         py: Python<'py>,
-        rays: PyReadonlyArray2<'_, f64>,
+        rays: RayArray<'_>,
         width: Option<usize>,
         precision: &str,
         device: &str,
@@ -156,7 +170,7 @@ impl Scene {
     fn occluded<'py>(
         &self,
         py: Python<'py>,
-        rays: PyReadonlyArray2<'_, f64>,
+        rays: RayArray<'_>,
         width: Option<usize>,
         t_range: (f64, f64),
         precision: &str,
@@ -174,7 +188,7 @@ impl Scene {
     fn count<'py>(
         &self,
         py: Python<'py>,
-        rays: PyReadonlyArray2<'_, f64>,
+        rays: RayArray<'_>,
         precision: &str,
         device: &str,
     ) -> PyResult<Bound<'py, PyArray1<u32>>> {

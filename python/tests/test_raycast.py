@@ -79,6 +79,27 @@ def test_leading_dimensions_and_dtypes_are_kept_or_converted():
     assert scene.cast_rays(np.zeros((0, 6)))["t_hit"].shape == (0,)
 
 
+def test_float32_rays_are_read_as_they_are():
+    """float32 rays (read without a float64 copy) give exactly what their float64 values give,
+    as a flat list, an image and a strided view; a NaN among them is named."""
+    scene = raycast.RaycastingScene()
+    scene.add_triangles(*uv_sphere([0.3, -0.2, 0.1], 1.0))
+    rng = np.random.default_rng(5)
+    rays = np.concatenate([rng.uniform(-3, 3, (600, 3)), rng.uniform(-1, 1, (600, 3))], 1)
+    rays = rays.astype(np.float32)
+    for shaped in (rays, rays.reshape(20, 30, 6), np.repeat(rays, 2, axis=0)[::2]):
+        for precision in ("f32", "f64"):
+            a = scene.cast_rays(shaped, precision=precision)
+            b = scene.cast_rays(shaped.astype(np.float64), precision=precision)
+            assert a.keys() == b.keys()
+            for key in a:
+                assert np.array_equal(a[key], b[key]), (key, precision)
+    bad = rays.copy()
+    bad[17, 4] = np.nan
+    with pytest.raises(ValueError, match=r"rays\[17\] direction"):
+        scene.cast_rays(bad)
+
+
 def test_gpu_f32_equals_cpu_f32_bit_for_bit():
     scene = raycast.RaycastingScene()
     scene.add_triangles(*uv_sphere([0.3, -0.2, 0.1], 1.0))

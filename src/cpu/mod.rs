@@ -112,7 +112,7 @@ pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pix
 /// mirror of a [`crate::gpu::Rays::List`] job, with its raw results (primitive keys).
 pub fn cast_rays<T: Real>(
     prepared: &Prepared<T>,
-    rays: &[crate::rays::Ray],
+    rays: crate::rays::RayList<'_>,
     t_near: f64,
     count: bool,
 ) -> crate::rays::Hits<T> {
@@ -121,10 +121,10 @@ pub fn cast_rays<T: Real>(
     let robust = prepared.algorithm == Algorithm::Robust;
     let mut hits = crate::rays::Hits::new(rays.len(), count);
     if count {
-        hits.count = rays
-            .par_iter()
-            .map(|ray| {
-                let ray = prepared.kernel_ray(ray);
+        hits.count = (0..rays.len())
+            .into_par_iter()
+            .map(|k| {
+                let ray = prepared.kernel_ray(&rays.get(k));
                 match robust {
                     true => count::count_crossings::<T, true>(&ray, min_t, prims),
                     false => count::count_crossings::<T, false>(&ray, min_t, prims),
@@ -133,10 +133,10 @@ pub fn cast_rays<T: Real>(
             .collect();
         return hits;
     }
-    let outs: Vec<entry::RayOut<T>> = rays
-        .par_iter()
-        .map(|ray| {
-            let ray = prepared.kernel_ray(ray);
+    let outs: Vec<entry::RayOut<T>> = (0..rays.len())
+        .into_par_iter()
+        .map(|k| {
+            let ray = prepared.kernel_ray(&rays.get(k));
             match robust {
                 true => entry::cast_ray::<T, true>(&ray, min_t, prims),
                 false => entry::cast_ray::<T, false>(&ray, min_t, prims),

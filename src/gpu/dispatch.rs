@@ -63,7 +63,7 @@ impl Rays<'_> {
         match self {
             Rays::Camera => 0,
             Rays::Pixels(list) => list.len(),
-            Rays::List { list, .. } => list.rays.len(),
+            Rays::List { list, .. } => list.len(),
         }
     }
 }
@@ -338,7 +338,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         Rays::List { .. } => [0, 0],
     };
     let mut hits = match rays {
-        Rays::List { list, .. } => Some(Hits::with_capacity(list.rays.len(), variant.count)),
+        Rays::List { list, .. } => Some(Hits::with_capacity(list.len(), variant.count)),
         _ => None,
     };
     let new_images = |[w, h]: [u32; 2]| {
@@ -404,7 +404,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
                 bytes.copy_from_slice(&list[range.start + k].to_ne_bytes())
             })?,
             Rays::List { list, .. } => write_list(size_of::<GpuRay<R>>(), &|k, bytes| {
-                let stored = GpuRay::from(&prepared.kernel_ray(&list.rays[range.start + k]));
+                let stored = GpuRay::from(&prepared.kernel_ray(&list.get(range.start + k)));
                 bytes.copy_from_slice(bytemuck::bytes_of(&stored));
             })?,
         };
