@@ -46,6 +46,30 @@ pub struct Ray {
     pub direction: [f64; 3],
 }
 
+/// Asks Linux to back the unused capacity of `v` with transparent huge pages (where they are
+/// enabled "always" or "madvise", Debian's default): the hits of 2M rays are 66 MB of fresh
+/// memory each cast, and their first touches in 4 KiB pages took 0.022 s of reading them,
+/// 0.011 s in 2 MiB pages. Elsewhere, and for vectors under a few huge pages, nothing.
+fn huge_pages<T>(v: &Vec<T>) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let start = v.as_ptr() as usize;
+        let end = start + v.capacity() * size_of::<T>();
+        let first = start.next_multiple_of(HUGE);
+        if end >= first + 2 * HUGE {
+            let len = (end - first) / HUGE * HUGE;
+            // SAFETY: madvise only advises the kernel how to back these pages; they lie within
+            // the vector's allocation, which is neither moved nor freed by it.
+            unsafe {
+                libc::madvise(first as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
+}
+
 /// A caller's rays as held: [`Ray`]s, or rows of six f32s (origin, direction), numpy's float32
 /// arrays as Open3D takes them, read without converting the list first (2M rays: 0.02 s of a
 /// 0.35 s cast went to widening numpy's copy). Each is read as a [`Ray`] ([`RayList::get`]);
@@ -176,17 +200,25 @@ impl<T: Real> Hits<T> {
         }
     }
 
-    /// No rays yet, room for `n` (read in order: [`crate::gpu::dispatch::run`]).
+    /// No rays yet, room for `n` (read in order: [`crate::gpu::dispatch::run`]), in huge
+    /// pages where the system gives them ([`huge_pages`]).
     pub(crate) fn with_capacity(n: usize, counting: bool) -> Hits<T> {
         let per_ray = if counting { 0 } else { n };
-        Hits {
+        let hits = Hits {
             t: Vec::with_capacity(per_ray),
             id: Vec::with_capacity(per_ray),
             primitive: Vec::with_capacity(per_ray),
             uv: Vec::with_capacity(per_ray),
             normal: Vec::with_capacity(per_ray),
             count: Vec::with_capacity(if counting { n } else { 0 }),
-        }
+        };
+        huge_pages(&hits.t);
+        huge_pages(&hits.id);
+        huge_pages(&hits.primitive);
+        huge_pages(&hits.uv);
+        huge_pages(&hits.normal);
+        huge_pages(&hits.count);
+        hits
     }
 
     /// Records a hit of ray `k`.
