@@ -406,15 +406,27 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
                     to.copy_from_slice(&pixel.to_ne_bytes());
                 }
             })?,
-            Rays::List { list, .. } => write_list(size_of::<GpuRay<R>>(), &|k, bytes| {
-                let entries = bytes.chunks_exact_mut(size_of::<GpuRay<R>>());
-                for (j, to) in entries.enumerate() {
-                    let ray = list.get(range.start + k + j);
-                    to.copy_from_slice(bytemuck::bytes_of(&GpuRay::from(
-                        &prepared.kernel_ray(&ray),
-                    )));
+            Rays::List { list, .. } => {
+                // The rays are checked as they are written (rays::check_rays names a bad one).
+                let bad = std::sync::atomic::AtomicBool::new(false);
+                let written = write_list(size_of::<GpuRay<R>>(), &|k, bytes| {
+                    let entries = bytes.chunks_exact_mut(size_of::<GpuRay<R>>());
+                    let mut valid = true;
+                    for (j, to) in entries.enumerate() {
+                        let ray = list.get(range.start + k + j);
+                        valid &= crate::rays::is_valid(&ray);
+                        let stored = GpuRay::from(&prepared.kernel_ray(&ray));
+                        to.copy_from_slice(bytemuck::bytes_of(&stored));
+                    }
+                    if !valid {
+                        bad.store(true, std::sync::atomic::Ordering::Relaxed);
+                    }
+                })?;
+                if bad.into_inner() {
+                    crate::rays::check_rays(list)?;
                 }
-            })?,
+                written
+            }
         };
         let mut encoder = device.create_command_encoder(&Default::default());
         {
