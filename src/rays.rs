@@ -113,19 +113,22 @@ impl<'a> RayList<'a> {
     pub fn get(&self, k: usize) -> Ray {
         match self.rays {
             RayRows::F64(r) => r[k],
-            RayRows::F32(r) => {
-                let x = r[k].map(f64::from);
-                Ray {
-                    origin: [x[0], x[1], x[2]],
-                    direction: [x[3], x[4], x[5]],
-                }
-            }
+            RayRows::F32(r) => widen(&r[k]),
         }
     }
 
     /// The rays of `indices`, as a plain list.
     fn subset(&self, indices: &[usize]) -> Vec<Ray> {
         indices.iter().map(|&k| self.get(k)).collect()
+    }
+}
+
+/// A row of six f32s as the ray it holds (exactly).
+fn widen(row: &[f32; 6]) -> Ray {
+    let x = row.map(f64::from);
+    Ray {
+        origin: [x[0], x[1], x[2]],
+        direction: [x[3], x[4], x[5]],
     }
 }
 
