@@ -1269,10 +1269,59 @@ fn read_tile<R: GpuReal>(
     })
 }
 
+/// Appends the hits of one dispatch to `hits` in one parallel pass over the kernel's outputs
+/// (2M rays: a pass per result took 0.012-0.019 s, this one 0.007-0.011 s). The kernel writes
+/// a miss's id only: the rest is the miss's values here.
+fn read_hit_values<R: GpuReal>(
+    hits: &mut Hits<R>,
+    ids: &[i32],
+    surface: &[[R; 4]],
+    primitives: &[u32],
+    uvs: &[[R; 2]],
+) {
+    use rayon::prelude::*;
+    const RUN: usize = 4096;
+    let n = ids.len();
+    hits.t.reserve(n);
+    hits.id.reserve(n);
+    hits.normal.reserve(n);
+    hits.primitive.reserve(n);
+    hits.uv.reserve(n);
+    let runs = (
+        hits.t.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        hits.id.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        hits.normal.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        hits.primitive.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        hits.uv.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+    );
+    runs.into_par_iter()
+        .enumerate()
+        .for_each(|(r, (t, id, normal, primitive, uv))| {
+            for j in 0..t.len() {
+                let k = r * RUN + j;
+                let hit = ids[k] != MISS;
+                let [x, y, z, w] = surface[k];
+                id[j].write(ids[k]);
+                t[j].write(if hit { w } else { R::INFINITY });
+                normal[j].write(if hit { [x, y, z] } else { [R::ZERO; 3] });
+                primitive[j].write(if hit { primitives[k] } else { INVALID_ID });
+                uv[j].write(if hit { uvs[k] } else { [R::ZERO; 2] });
+            }
+        });
+    // SAFETY: the pass above wrote the first `n` spare elements of each vector (the runs of
+    // each cover `..n` alike), and `reserve` made room for them.
+    unsafe {
+        hits.t.set_len(hits.t.len() + n);
+        hits.id.set_len(hits.id.len() + n);
+        hits.normal.set_len(hits.normal.len() + n);
+        hits.primitive.set_len(hits.primitive.len() + n);
+        hits.uv.set_len(hits.uv.len() + n);
+    }
+}
+
 /// Appends one dispatch's results for a ray list (rays `start..start + rays`, after those read
 /// before) to `hits` (and copies them into `certainty`): t, id, normal, primitive and
-/// barycentrics, or counts. In parallel, into vectors allocated here (2M rays: 0.021 s, mostly
-/// first touches of their memory; 0.024 s on one core with the old in-place writes).
+/// barycentrics ([`read_hit_values`]), or counts.
 fn read_hits<R: GpuReal>(
     gpu: &Gpu,
     outputs: &OutputBuffers,
@@ -1299,21 +1348,7 @@ fn read_hits<R: GpuReal>(
             let surface: &[[R; 4]] = bytemuck::cast_slice(surface);
             let primitives: &[u32] = bytemuck::cast_slice(primitives);
             let uvs: &[[R; 2]] = bytemuck::cast_slice(uvs);
-            // The kernel writes a miss's id only: the rest is the miss's values here.
-            let hit = |k: usize| ids[k] != MISS;
-            let each = || (0..rays).into_par_iter();
-            hits.id.par_extend(ids.par_iter().copied());
-            let t = |k| if hit(k) { surface[k][3] } else { R::INFINITY };
-            hits.t.par_extend(each().map(t));
-            let normal = |k| {
-                let [x, y, z, _] = if hit(k) { surface[k] } else { [R::ZERO; 4] };
-                [x, y, z]
-            };
-            hits.normal.par_extend(each().map(normal));
-            let primitive = |k| if hit(k) { primitives[k] } else { INVALID_ID };
-            hits.primitive.par_extend(each().map(primitive));
-            let uv = |k| if hit(k) { uvs[k] } else { [R::ZERO; 2] };
-            hits.uv.par_extend(each().map(uv));
+            read_hit_values(hits, ids, surface, primitives, uvs);
         }
     })
 }
