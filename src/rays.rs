@@ -647,6 +647,10 @@ impl RayScene {
     /// indices within their object.
     fn within_objects(&self, mut hits: AnyHits) -> AnyHits {
         let first = first_primitives(&self.scene.objects);
+        if first.iter().all(|&f| f == 0) {
+            // One object of each kind (a mesh): keys are indices within it already.
+            return hits;
+        }
         let fix = |id: &[i32], primitive: &mut [u32]| {
             for (p, &id) in primitive.iter_mut().zip(id) {
                 if id != MISS {
