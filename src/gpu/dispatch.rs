@@ -595,7 +595,7 @@ fn fill_entries(to: wgpu::WriteOnly<'_, [u8]>, entry: usize, fill: &EntryFill<'_
     use rayon::prelude::*;
     const RUN_BYTES: usize = 1 << 16;
     assert!(RUN_BYTES.is_multiple_of(entry), "whole entries in a run");
-    let (runs, rest) = to.into_chunks::<RUN_BYTES>();
+    let (runs, mut rest) = to.into_chunks::<RUN_BYTES>();
     let runs: Vec<wgpu::WriteOnly<'_, [u8; RUN_BYTES]>> = runs.into_iter().collect();
     let count = runs.len();
     runs.into_par_iter().enumerate().for_each_init(
@@ -605,7 +605,6 @@ fn fill_entries(to: wgpu::WriteOnly<'_, [u8]>, entry: usize, fill: &EntryFill<'_
             wgpu::WriteOnly::<[u8]>::from(run).copy_from_slice(local);
         },
     );
-    let mut rest = rest;
     if !rest.is_empty() {
         let mut local = vec![0u8; rest.len()];
         fill(count * RUN_BYTES / entry, &mut local);
