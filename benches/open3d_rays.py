@@ -13,8 +13,10 @@ prints one JSON line: hit/miss disagreements, the largest relative t_hit differe
 fraction of hits with equal primitive ids, the largest difference of create_rays_pinhole's
 rays, and the rates (Mrays/s, median of --repeats) of both and of raycast's single-ray call.
 With --raycast and --scene (the same mesh and camera as a scene file: benches/peers.sh writes
-target/bench/torus.json), `raycast bench` runs in the same process's turn and the rate through
-Python is also given as a ratio of bench's (kernel time, and wall time of its trace stage).
+target/bench/torus.json), `raycast bench` runs too and the rate through Python is also given
+as a ratio of bench's (kernel time, and wall time of its trace stage): in --rounds rounds,
+each a bench run and then the casts through Python, the ratio the median of the rounds'
+(the machine's speed drifts: side by side, not one after the other).
 """
 import argparse
 import json
@@ -52,6 +54,7 @@ def main():
     p.add_argument("--precision", default="f32")
     p.add_argument("--raycast", help="the raycast binary, to run `raycast bench` beside")
     p.add_argument("--scene", help="the scene file of the same mesh and camera, for bench")
+    p.add_argument("--rounds", type=int, default=3, help="bench and Python in turn, this often")
     a = p.parse_args()
     V, F = peer_bench.load_obj(a.mesh)
     o, d = peer_bench.make_rays(a.width, a.height, (0, -3.0, 2.5), (0, 0, 0), (0, 0, 1), 40)
@@ -93,21 +96,31 @@ def main():
         ref = o3d.t.geometry.RaycastingScene.create_rays_pinhole(**o3d_args).numpy()
         pinhole[name] = float(np.max(np.abs(mine - ref)))
 
-    s_ours = median_seconds(lambda: ours.cast_rays(rays, precision=a.precision), a.repeats)
+    cast_ours = lambda: ours.cast_rays(rays, precision=a.precision)  # noqa: E731
     s_theirs = median_seconds(lambda: theirs.cast_rays(rays_o3d), a.repeats)
     one = rays.reshape(n, 6)[n // 2: n // 2 + 1]
     s_one = median_seconds(lambda: ours.cast_rays(one, precision=a.precision), 50)
     bench = {}
     if a.raycast and a.scene:
-        out = subprocess.run(
-            [a.raycast, "bench", a.scene, "--json", "--runs", str(a.repeats),
-             "--mode", f"gpu:{a.precision}"],
-            check=True, capture_output=True, text=True).stdout
-        b = json.loads(out.splitlines()[-1])
-        mine = n / s_ours / 1e6
-        bench = dict(bench_mrays_per_s=b["mrays_per_s"], bench_mrays_per_s_wall=b["mrays_per_s_wall"],
-                     ratio_to_bench=mine / b["mrays_per_s"],
-                     ratio_to_bench_wall=mine / b["mrays_per_s_wall"])
+        rounds = []
+        for _ in range(a.rounds):
+            out = subprocess.run(
+                [a.raycast, "bench", a.scene, "--json", "--runs", str(a.repeats),
+                 "--mode", f"gpu:{a.precision}"],
+                check=True, capture_output=True, text=True).stdout
+            b = json.loads(out.splitlines()[-1])
+            mine = n / median_seconds(cast_ours, a.repeats) / 1e6
+            rounds.append((mine, b["mrays_per_s"], b["mrays_per_s_wall"]))
+        ours_rates, kernel, wall = zip(*rounds)
+        s_ours = n / (statistics.median(ours_rates) * 1e6)
+        bench = dict(
+            bench_mrays_per_s=statistics.median(kernel),
+            bench_mrays_per_s_wall=statistics.median(wall),
+            ratio_to_bench=statistics.median(m / k for m, k, _ in rounds),
+            ratio_to_bench_wall=statistics.median(m / w for m, _, w in rounds),
+            rounds=[dict(raycast=m, bench=k, bench_wall=w) for m, k, w in rounds])
+    else:
+        s_ours = median_seconds(cast_ours, a.repeats)
     print(json.dumps(dict(
         mesh=a.mesh, rays=n, precision=a.precision, adapter=raycast.info()["name"],
         open3d=o3d.__version__,
