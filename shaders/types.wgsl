@@ -15,7 +15,9 @@ const NO_HIT: real = -1.0;
 const T_FAR: real = 3.40282347e+38;
 
 // Conservative `t >= min_t`: a hit within its own error bound of the ray's start is no hit.
-// T_TOLERANCE (16 EPS, from the precision module) bounds the relative error of a computed t.
+// T_TOLERANCE (16 EPS, from the precision module) bounds the relative error of a computed t
+// where the ray is not grazing; a grazing ray's t is off by up to about 1 / cos EPS, which the
+// certainty test accounts for (grazing_condition in shaders/triangle.wgsl).
 fn is_beyond(t: real, min_t: real) -> bool {
     return t - T_TOLERANCE * abs(t) >= min_t;
 }
