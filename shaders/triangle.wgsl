@@ -25,6 +25,32 @@ fn has_repeated_corner(tri: Triangle) -> bool {
     return all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
 }
 
+// How far each edge function (u, v, w) may be off, in units of EPS (is_certain's scale). A
+// sheared corner's x and y are off by about EPS (|x| + |z|) and EPS (|y| + |z|): vertex
+// rounding, the ray's origin, the shear. So e = x1 y2 - y1 x2 is off by about EPS
+// ((|x1|+|z1|)|y2| + |x1|(|y2|+|z2|) + the same of y1 x2), doubled here, plus the
+// second-order term. (The product (|x1|+|z1|)(|y2|+|z2|) used before counted |z1||z2| too,
+// no error term at all, and much the largest for a small triangle far along the ray: it left
+// 18.4% of the torus's pixels uncertain.) Computed only where a decision needs it: most rays
+// miss most triangles by a wide margin.
+fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>) -> vec3<real> {
+    let ax = abs(xs);
+    let ay = abs(ys);
+    let mx = ax + abs(zs);
+    let my = ay + abs(zs);
+    let first = vec3<real>(
+        mx.z * ay.y + ax.z * my.y + my.z * ax.y + ay.z * mx.y,
+        mx.x * ay.z + ax.x * my.z + my.x * ax.z + ay.x * mx.z,
+        mx.y * ay.x + ax.y * my.x + my.y * ax.x + ay.y * mx.x,
+    );
+    let second = vec3<real>(
+        mx.z * my.y + my.z * mx.y,
+        mx.x * my.z + my.x * mx.z,
+        mx.y * my.x + my.y * mx.x,
+    );
+    return 2.0 * first + 16.0 * EPS * second;
+}
+
 // The condition factor of the test's t (certainty.wgsl's t_error): 1 / cos of the angle
 // between the ray and the triangle's plane normal. The edge functions' rounding shifts
 // t = T / det by up to about that many EPS relative: 490 EPS at cos 0.002 on the torus, where
@@ -82,13 +108,6 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
     let u = s.edges.x;
     let v = s.edges.y;
     let w = s.edges.z;
-#if CERTAINTY
-    // Edge e = x1 y2 - y1 x2 is off by at most about EPS * 2((|x1|+|z1|)(|y2|+|z2|) +
-    // (|y1|+|z1|)(|x2|+|z2|)): vertex rounding, the shear, the products. Scales are computed
-    // only where a decision needs them: most rays miss most triangles by a wide margin.
-    let mx = abs(xs) + abs(zs);
-    let my = abs(ys) + abs(zs);
-#endif
     // Inside (or on an edge) iff no edge function has a sign opposite to another's.
     if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
 #if CERTAINTY
@@ -96,12 +115,10 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
         // without short-circuits: straight-line arithmetic suits SIMD lanes better.
         let det_guess = u + v + w;
         let positive = det_guess >= 0.0;
-        let su = 2.0 * (mx.z * my.y + my.z * mx.y);
-        let sv = 2.0 * (mx.x * my.z + my.x * mx.z);
-        let sw = 2.0 * (mx.y * my.x + my.y * mx.x);
-        let certain = ((u != 0.0) & ((u < 0.0) == positive) & is_certain(u, su))
-            | ((v != 0.0) & ((v < 0.0) == positive) & is_certain(v, sv))
-            | ((w != 0.0) & ((w < 0.0) == positive) & is_certain(w, sw));
+        let scales = edge_scales(xs, ys, zs);
+        let certain = ((u != 0.0) & ((u < 0.0) == positive) & is_certain(u, scales.x))
+            | ((v != 0.0) & ((v < 0.0) == positive) & is_certain(v, scales.y))
+            | ((w != 0.0) & ((w < 0.0) == positive) & is_certain(w, scales.z));
         if (certain) {
             decide(true, T_FAR, 1.0);
         } else if (has_repeated_corner(tri)) {
@@ -132,10 +149,9 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
 #endif
     if (is_beyond(t, min_t)) {
 #if CERTAINTY
-        let u_certain = is_certain(u, 2.0 * (mx.z * my.y + my.z * mx.y));
-        let v_certain = is_certain(v, 2.0 * (mx.x * my.z + my.x * mx.z));
-        let w_certain = is_certain(w, 2.0 * (mx.y * my.x + my.y * mx.x));
-        decide(u_certain && v_certain && w_certain && t_certain, t, t_condition);
+        let scales = edge_scales(xs, ys, zs);
+        let edges_certain = is_certain(u, scales.x) && is_certain(v, scales.y) && is_certain(w, scales.z);
+        decide(edges_certain && t_certain, t, t_condition);
 #endif
         return t;
     }
