@@ -25,19 +25,29 @@ fn has_repeated_corner(tri: Triangle) -> bool {
     return all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
 }
 
+// The largest coordinate of a ray's origin (kernel coordinates): a corner stored in f32 is
+// off by up to EPS times its own size, which is at most the size of the corner relative to the
+// origin plus this (0 for a camera's rays, which start at the kernel's origin).
+fn origin_size(ray: Ray) -> real {
+    let o = abs(ray.origin);
+    return max(o.x, max(o.y, o.z));
+}
+
 // How far each edge function (u, v, w) may be off, in units of EPS (is_certain's scale). A
-// sheared corner's x and y are off by about EPS (|x| + |z|) and EPS (|y| + |z|): vertex
-// rounding, the ray's origin, the shear. So e = x1 y2 - y1 x2 is off by about EPS
+// sheared corner's x and y are off by about EPS (|x| + |z| + s) and EPS (|y| + |z| + s), s the
+// origin's size (origin_size, doubled): vertex rounding, the ray's origin, the shear. (Without
+// s, rays from 1e-3 off a small triangle 37 from the kernel's origin were called certain on
+// their wrong side of its edges.) So e = x1 y2 - y1 x2 is off by about EPS
 // ((|x1|+|z1|)|y2| + |x1|(|y2|+|z2|) + the same of y1 x2), doubled here, plus the
 // second-order term. (The product (|x1|+|z1|)(|y2|+|z2|) used before counted |z1||z2| too,
 // no error term at all, and much the largest for a small triangle far along the ray: it left
 // 18.4% of the torus's pixels uncertain.) Computed only where a decision needs it: most rays
 // miss most triangles by a wide margin.
-fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>) -> vec3<real> {
+fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>, origin: real) -> vec3<real> {
     let ax = abs(xs);
     let ay = abs(ys);
-    let mx = ax + abs(zs);
-    let my = ay + abs(zs);
+    let mx = ax + abs(zs) + 2.0 * origin;
+    let my = ay + abs(zs) + 2.0 * origin;
     let first = vec3<real>(
         mx.z * ay.y + ax.z * my.y + my.z * ax.y + ay.z * mx.y,
         mx.x * ay.z + ax.x * my.z + my.x * ax.z + ay.x * mx.z,
@@ -115,7 +125,7 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
         // without short-circuits: straight-line arithmetic suits SIMD lanes better.
         let det_guess = u + v + w;
         let positive = det_guess >= 0.0;
-        let scales = edge_scales(xs, ys, zs);
+        let scales = edge_scales(xs, ys, zs, origin_size(ray));
         let certain = ((u != 0.0) & ((u < 0.0) == positive) & is_certain(u, scales.x))
             | ((v != 0.0) & ((v < 0.0) == positive) & is_certain(v, scales.y))
             | ((w != 0.0) & ((w < 0.0) == positive) & is_certain(w, scales.z));
@@ -144,12 +154,15 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
     let t_scaled = u * (sz * zs.x) + v * (sz * zs.y) + w * (sz * zs.z);
     let t = t_scaled / determinant;
 #if CERTAINTY
-    let t_condition = grazing_condition(ray, tri);
+    // The corners' rounding beyond what the edge functions see (origin_size) moves the plane,
+    // so t, by EPS times that size over the distance to the hit.
+    let d_size = max(abs(ray.direction.x), max(abs(ray.direction.y), abs(ray.direction.z)));
+    let t_condition = grazing_condition(ray, tri) * (1.0 + 2.0 * origin_size(ray) / (abs(t) * d_size));
     let t_certain = start_certain(t, min_t, t_condition);
 #endif
     if (is_beyond(t, min_t)) {
 #if CERTAINTY
-        let scales = edge_scales(xs, ys, zs);
+        let scales = edge_scales(xs, ys, zs, origin_size(ray));
         let edges_certain = is_certain(u, scales.x) && is_certain(v, scales.y) && is_certain(w, scales.z);
         decide(edges_certain && t_certain, t, t_condition);
 #endif

@@ -586,3 +586,55 @@ fn adaptive_grazing_starts_decide_as_f64() {
     // Both sides of the start: some hits beyond it, some before.
     assert!(near > 2000 && near < 22000, "{near} of 24000 occluded");
 }
+
+/// Adaptive precision decides as f64 for rays that start next to a small triangle far from the
+/// scene's centre (so far from the kernel's origin), aimed within 2e-6 of one of its edges:
+/// there the corners' f32 rounding, not seen from the ray's origin, decides the side. Before
+/// the edge bound counted the origin's size, about 22% of these were certain and wrong.
+#[test]
+fn adaptive_rays_near_far_triangles_decide_as_f64() {
+    let gpu = gpu();
+    let mut rng = Rng(5);
+    for _ in 0..10 {
+        let centre = Vec3::from_array([37.123456789, -12.3456789123, 5.7891234567]);
+        let corners: Vec<Vec3<f64>> = (0..3)
+            .map(|_| centre + Vec3::from_array(rng.point(-0.01, 0.01)))
+            .collect();
+        let mut scene = RayScene::new();
+        scene
+            .add_mesh(
+                &corners.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
+                &[[0, 1, 2]],
+            )
+            .unwrap();
+        // A second mesh 100 away: the scene's extent, and so the kernel's unit, is large.
+        let far = [
+            [-60.0, -60.0, -60.0],
+            [-60.5, -60.0, -60.0],
+            [-60.0, -60.5, -60.0],
+        ];
+        scene.add_mesh(&far, &[[0, 1, 2]]).unwrap();
+        let [a, b, c] = [corners[0], corners[1], corners[2]];
+        let normal = normalize(cross(b - a, c - a));
+        let across = normalize((a + b) * 0.5 - c);
+        let rays: Vec<Ray> = (0..2000)
+            .map(|_| {
+                let on_edge = a + (b - a) * rng.range(0.1, 0.9) + across * rng.range(-2e-6, 2e-6);
+                Ray {
+                    origin: (on_edge + normal * 1e-3).to_array(),
+                    direction: (-normal).to_array(),
+                }
+            })
+            .collect();
+        let exact = scene
+            .occluded(None, mode("cpu:f64"), &rays, 0.0, f64::INFINITY)
+            .unwrap();
+        let adaptive = scene
+            .occluded(Some(gpu), mode("gpu:adaptive"), &rays, 0.0, f64::INFINITY)
+            .unwrap();
+        let differ = (0..rays.len()).filter(|&k| adaptive[k] != exact[k]).count();
+        assert_eq!(differ, 0, "of {} rays", rays.len());
+        let hits = exact.iter().filter(|&&h| h).count();
+        assert!(hits > 400 && hits < 1600, "{hits} of 2000 on the triangle");
+    }
+}
