@@ -541,6 +541,20 @@ fn f32_rows_equal_their_f64_rays() {
     }
 }
 
+/// Asserts that adaptive precision on the GPU finds exactly the rays CPU f64 finds occluded
+/// from `t_near` on; returns how many are.
+fn occluded_as_f64(gpu: &raycast::gpu::Gpu, scene: &RayScene, rays: &[Ray], t_near: f64) -> usize {
+    let exact = scene
+        .occluded(None, mode("cpu:f64"), rays, t_near, f64::INFINITY)
+        .unwrap();
+    let adaptive = scene
+        .occluded(Some(gpu), mode("gpu:adaptive"), rays, t_near, f64::INFINITY)
+        .unwrap();
+    let differ = (0..rays.len()).filter(|&k| adaptive[k] != exact[k]).count();
+    assert_eq!(differ, 0, "of {} rays", rays.len());
+    exact.iter().filter(|&&o| o).count()
+}
+
 /// Adaptive precision decides as f64 whether a grazing hit lies beyond the rays' start: rays
 /// nearly in a triangle's plane (cos 2e-4 to 1e-2), started within some hundred EPS of the
 /// hit, where the f32 test's t is off by up to about 1 / cos EPS. With the condition factor of
@@ -573,15 +587,7 @@ fn adaptive_grazing_starts_decide_as_f64() {
                 }
             })
             .collect();
-        let exact = scene
-            .occluded(None, mode("cpu:f64"), &rays, 2.0, f64::INFINITY)
-            .unwrap();
-        let adaptive = scene
-            .occluded(Some(gpu), mode("gpu:adaptive"), &rays, 2.0, f64::INFINITY)
-            .unwrap();
-        let differ = (0..rays.len()).filter(|&k| adaptive[k] != exact[k]).count();
-        assert_eq!(differ, 0, "of {} rays", rays.len());
-        near += exact.iter().filter(|&&o| o).count();
+        near += occluded_as_f64(gpu, &scene, &rays, 2.0);
     }
     // Both sides of the start: some hits beyond it, some before.
     assert!(near > 2000 && near < 22000, "{near} of 24000 occluded");
@@ -626,15 +632,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
                 }
             })
             .collect();
-        let exact = scene
-            .occluded(None, mode("cpu:f64"), &rays, 0.0, f64::INFINITY)
-            .unwrap();
-        let adaptive = scene
-            .occluded(Some(gpu), mode("gpu:adaptive"), &rays, 0.0, f64::INFINITY)
-            .unwrap();
-        let differ = (0..rays.len()).filter(|&k| adaptive[k] != exact[k]).count();
-        assert_eq!(differ, 0, "of {} rays", rays.len());
-        let hits = exact.iter().filter(|&&h| h).count();
+        let hits = occluded_as_f64(gpu, &scene, &rays, 0.0);
         assert!(hits > 400 && hits < 1600, "{hits} of 2000 on the triangle");
     }
 }
