@@ -49,6 +49,15 @@ fn t_error(c: real) -> real {
     return EPS * (16.0 + 8.0 * MARGIN_K * c);
 }
 
+// The largest coordinate of a ray's origin (kernel coordinates): a corner or centre stored in
+// f32 is off by up to EPS times its own size, which is at most its size relative to the origin
+// plus this (0 for a camera's rays, which start at the kernel's origin). The bounds of
+// triangle.wgsl and sphere.wgsl, relative to the origin, add it.
+fn origin_size(ray: Ray) -> real {
+    let o = abs(ray.origin);
+    return max(o.x, max(o.y, o.z));
+}
+
 // The conservative start test decides as exact arithmetic would.
 fn start_certain(t: real, min_t: real, t_condition: real) -> bool {
     return is_finite_real(t) && is_finite_real(t_condition)

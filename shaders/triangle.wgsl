@@ -25,14 +25,6 @@ fn has_repeated_corner(tri: Triangle) -> bool {
     return all(tri.a == tri.b) || all(tri.b == tri.c) || all(tri.c == tri.a);
 }
 
-// The largest coordinate of a ray's origin (kernel coordinates): a corner stored in f32 is
-// off by up to EPS times its own size, which is at most the size of the corner relative to the
-// origin plus this (0 for a camera's rays, which start at the kernel's origin).
-fn origin_size(ray: Ray) -> real {
-    let o = abs(ray.origin);
-    return max(o.x, max(o.y, o.z));
-}
-
 // How far each edge function (u, v, w) may be off, in units of EPS (is_certain's scale). A
 // sheared corner's x and y are off by about EPS (|x| + |z| + s) and EPS (|y| + |z| + s), s the
 // origin's size (origin_size, doubled): vertex rounding, the ray's origin, the shear. (Without

@@ -636,3 +636,35 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
         assert!(hits > 400 && hits < 1600, "{hits} of 2000 on the triangle");
     }
 }
+
+/// As for triangles: adaptive precision decides as f64 for rays that pass within 3e-6 of the
+/// silhouette of a small sphere far from the kernel's origin, starting 2e-3 before it. The
+/// sphere's bound was relative to the ray's origin too: 45% of these were certain and wrong.
+#[test]
+fn adaptive_rays_near_far_spheres_decide_as_f64() {
+    let gpu = gpu();
+    let mut rng = Rng(8);
+    let centre = [37.123456789, -12.3456789123, 5.7891234567];
+    for _ in 0..10 {
+        let radius = 0.01 * rng.range(0.5, 1.0);
+        let mut scene = RayScene::new();
+        scene.add_sphere(centre, radius).unwrap();
+        scene.add_sphere([-60.0, -60.0, -60.0], 0.5).unwrap();
+        let rays: Vec<Ray> = (0..2000)
+            .map(|_| {
+                let off = radius * (1.0 + rng.range(-3e-6, 3e-6));
+                let (sin, cos) = rng.range(0.0, std::f64::consts::TAU).sin_cos();
+                Ray {
+                    origin: [
+                        centre[0] - 2e-3,
+                        centre[1] + off * cos,
+                        centre[2] + off * sin,
+                    ],
+                    direction: [1.0, 0.0, 0.0],
+                }
+            })
+            .collect();
+        let hits = occluded_as_f64(gpu, &scene, &rays, 0.0);
+        assert!(hits > 400 && hits < 1600, "{hits} of 2000 on the sphere");
+    }
+}
