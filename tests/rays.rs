@@ -668,3 +668,39 @@ fn adaptive_rays_near_far_spheres_decide_as_f64() {
         assert!(hits > 400 && hits < 1600, "{hits} of 2000 on the sphere");
     }
 }
+
+/// As for triangles and spheres: adaptive precision decides as f64 for rays started 1e-3
+/// above a plane far from the kernel's origin, straight at it, from a start near their hit
+/// (t_near within 1e-3 relative of it). Before t's condition counted the origin's size, 31%
+/// of these were certain and wrong.
+#[test]
+fn adaptive_rays_near_far_planes_decide_as_f64() {
+    let gpu = gpu();
+    let mut rng = Rng(4);
+    let point = Vec3::from_array([37.123456789, -12.3456789123, 5.7891234567]);
+    let normal = normalize(Vec3::from_array([0.3, 0.5, 0.81]));
+    let mut scene = RayScene::new();
+    scene
+        .add_plane(point.to_array(), normal.to_array())
+        .unwrap();
+    scene.add_sphere([-60.0, -60.0, -60.0], 0.5).unwrap();
+    let mut occluded = 0;
+    for _ in 0..10 {
+        let rays: Vec<Ray> = (0..2000)
+            .map(|_| {
+                let q = Vec3::from_array(rng.point(-0.01, 0.01));
+                let in_plane = q - normal * dot(q, normal);
+                Ray {
+                    origin: (point + in_plane + normal * 1e-3).to_array(),
+                    direction: (-normal).to_array(),
+                }
+            })
+            .collect();
+        let t_near = 1e-3 * (1.0 + rng.range(-1e-3, 1e-3));
+        occluded += occluded_as_f64(gpu, &scene, &rays, t_near);
+    }
+    assert!(
+        occluded > 2000 && occluded < 18000,
+        "{occluded} of 20000 occluded"
+    );
+}
