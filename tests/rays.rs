@@ -593,6 +593,11 @@ fn adaptive_grazing_starts_decide_as_f64() {
     assert!(near > 2000 && near < 22000, "{near} of 24000 occluded");
 }
 
+/// A point 40 from the origin, not representable in f32, where the scenes of the tests below
+/// put a small object; each adds another 100 away, so that the scene's extent (the kernel's
+/// unit) is large and its origin far from the rays.
+const FAR_POINT: [f64; 3] = [37.123456789, -12.3456789123, 5.7891234567];
+
 /// Adaptive precision decides as f64 for rays that start next to a small triangle far from the
 /// scene's centre (so far from the kernel's origin), aimed within 2e-6 of one of its edges:
 /// there the corners' f32 rounding, not seen from the ray's origin, decides the side. Before
@@ -602,7 +607,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
     let gpu = gpu();
     let mut rng = Rng(5);
     for _ in 0..10 {
-        let centre = Vec3::from_array([37.123456789, -12.3456789123, 5.7891234567]);
+        let centre = Vec3::from_array(FAR_POINT);
         let corners: Vec<Vec3<f64>> = (0..3)
             .map(|_| centre + Vec3::from_array(rng.point(-0.01, 0.01)))
             .collect();
@@ -644,7 +649,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
 fn adaptive_rays_near_far_spheres_decide_as_f64() {
     let gpu = gpu();
     let mut rng = Rng(8);
-    let centre = [37.123456789, -12.3456789123, 5.7891234567];
+    let centre = FAR_POINT;
     for _ in 0..10 {
         let radius = 0.01 * rng.range(0.5, 1.0);
         let mut scene = RayScene::new();
@@ -677,7 +682,7 @@ fn adaptive_rays_near_far_spheres_decide_as_f64() {
 fn adaptive_rays_near_far_planes_decide_as_f64() {
     let gpu = gpu();
     let mut rng = Rng(4);
-    let point = Vec3::from_array([37.123456789, -12.3456789123, 5.7891234567]);
+    let point = Vec3::from_array(FAR_POINT);
     let normal = normalize(Vec3::from_array([0.3, 0.5, 0.81]));
     let mut scene = RayScene::new();
     scene
