@@ -54,8 +54,7 @@ fn t_error(c: real) -> real {
 // plus this (0 for a camera's rays, which start at the kernel's origin). The bounds of
 // triangle.wgsl and sphere.wgsl, relative to the origin, add it.
 fn origin_size(ray: Ray) -> real {
-    let o = abs(ray.origin);
-    return max(o.x, max(o.y, o.z));
+    return max_component(ray.origin);
 }
 
 // The conservative start test decides as exact arithmetic would.

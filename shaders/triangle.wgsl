@@ -61,9 +61,8 @@ fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>, origin: real) -> 
 // ray in the plane gives NaN or inf, which decide() takes as uncertain.
 fn grazing_condition(ray: Ray, tri: Triangle) -> real {
     let n = cross(tri.b - tri.a, tri.c - tri.a);
-    let n_unit = n / max(abs(n.x), max(abs(n.y), abs(n.z)));
-    let d = ray.direction;
-    let d_unit = d / max(abs(d.x), max(abs(d.y), abs(d.z)));
+    let n_unit = n / max_component(n);
+    let d_unit = ray.direction / max_component(ray.direction);
     return length(n_unit) * length(d_unit) / abs(dot(n_unit, d_unit));
 }
 #endif
@@ -148,7 +147,7 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
 #if CERTAINTY
     // The corners' rounding beyond what the edge functions see (origin_size) moves the plane,
     // so t, by EPS times that size over the distance to the hit.
-    let d_size = max(abs(ray.direction.x), max(abs(ray.direction.y), abs(ray.direction.z)));
+    let d_size = max_component(ray.direction);
     let t_condition = grazing_condition(ray, tri) * (1.0 + 2.0 * origin_size(ray) / (abs(t) * d_size));
     let t_certain = start_certain(t, min_t, t_condition);
 #endif
@@ -243,7 +242,7 @@ fn triangle_normal(tri: Triangle) -> vec3<real> {
     let n = cross(tri.b - tri.a, tri.c - tri.a);
 #if ROBUST
     // Scale first: the squared length of a tiny triangle's normal can underflow to zero.
-    let m = max(abs(n.x), max(abs(n.y), abs(n.z)));
+    let m = max_component(n);
     if (m == 0.0) {
         return vec3<real>(0.0);
     }

@@ -14,6 +14,12 @@ const NO_HIT: real = -1.0;
 // The largest finite f32: the initial "nearest so far" distance.
 const T_FAR: real = 3.40282347e+38;
 
+// The largest magnitude among v's components.
+fn max_component(v: vec3<real>) -> real {
+    let a = abs(v);
+    return max(a.x, max(a.y, a.z));
+}
+
 // Conservative `t >= min_t`: a hit within its own error bound of the ray's start is no hit.
 // T_TOLERANCE (16 EPS, from the precision module) bounds the relative error of a computed t
 // where the ray is not grazing; a grazing ray's t is off by up to about 1 / cos EPS, which the

@@ -1158,10 +1158,6 @@ impl OutputBuffers {
         let size = |slot: Slot| pixels * slot.pixel_bytes(self.precision);
         // What is mapped: the readback buffer whole (its slots need not start at the mapping
         // alignment), or each output's first `pixels` pixels.
-        let buffers: Vec<&wgpu::Buffer> = match &self.readback {
-            Some(readback) => vec![readback],
-            None => self.slots.iter().map(|(_, buffer, _)| buffer).collect(),
-        };
         let parts: Vec<wgpu::BufferSlice<'_>> = match &self.readback {
             Some(readback) => vec![readback.slice(..)],
             None => self
@@ -1189,7 +1185,7 @@ impl OutputBuffers {
                 .collect();
             f(&Mapped { views, at });
         }
-        buffers.iter().for_each(|buffer| buffer.unmap());
+        parts.iter().for_each(|part| part.buffer().unmap());
         Ok(())
     }
 }
