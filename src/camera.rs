@@ -3,7 +3,7 @@
 //! Ray generation from the frame runs per pixel in `shaders/camera.wgsl` and its CPU mirror
 //! `src/cpu/camera.rs`; this module only builds the orthonormal basis once.
 
-use crate::math::{Real, Vec3, cross, length, normalize};
+use crate::math::{Real, Vec3};
 use crate::scene::{Camera, Projection};
 
 /// Hits closer than this ray parameter are ignored: `t = 1` is the image plane, so only objects
@@ -31,26 +31,44 @@ pub struct Frame<T> {
 }
 
 impl Frame<f64> {
-    /// `w = -look/|look|`, `u = normalize(look x up)`, `v = w x u`; `[nx, ny]` pixels.
+    /// The camera's orthonormal basis ([`Camera::basis`]) and image plane
+    /// ([`Camera::image_plane`]) at `[nx, ny]` pixels.
     ///
-    /// `up` need not be perpendicular to `look`: `v` is rebuilt from `w` and `u`.
+    /// An image plane shifted off the viewing axis (intrinsics with an off-centre principal
+    /// point) is folded into the frame, so that ray generation stays the lecture's: a
+    /// perspective ray's `-d w` becomes `-d w + shift_x u + shift_y v` (so `w` is then not a unit
+    /// vector), an orthographic ray's origin moves by the shift.
     pub fn new(camera: &Camera, resolution: [u32; 2]) -> Frame<f64> {
-        let w = -(camera.look / length(camera.look));
-        let u = normalize(cross(camera.look, camera.up));
-        let v = cross(w, u);
-        Frame {
+        let [u, v, w] = camera.basis().map(Vec3::from);
+        let sized = Camera {
+            resolution,
+            ..camera.clone()
+        };
+        let plane = sized.image_plane();
+        let d = camera.focal_length;
+        let mut frame = Frame {
             projection: camera.projection,
-            eye: camera.eye,
+            eye: camera.eye.into(),
             u,
             v,
             w,
-            focal_length: camera.focal_length,
-            width: camera.width,
-            height: camera.height,
+            focal_length: d,
+            width: plane.width,
+            height: plane.height,
             nx: resolution[0],
             ny: resolution[1],
             min_t: MIN_T,
+        };
+        // Only where there is a shift: adding a zero could flip the sign of a zero component.
+        let [sx, sy] = plane.shift;
+        if sx != 0.0 || sy != 0.0 {
+            let shift = u * sx + v * sy;
+            match camera.projection {
+                Projection::Perspective => frame.w = w - shift / d,
+                Projection::Orthographic => frame.eye = frame.eye + shift,
+            }
         }
+        frame
     }
 }
 
@@ -76,18 +94,23 @@ impl<T: Real> Frame<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{dot, vec3};
+    use crate::math::{cross, dot, length, vec3};
+    use crate::scene::Lens;
+    use glam::DVec3;
 
     fn camera(look: [f64; 3], up: [f64; 3]) -> Camera {
         Camera {
             projection: Projection::Perspective,
-            eye: vec3(0.0, 0.0, 5.0),
-            look: Vec3::from_array(look),
-            up: Vec3::from_array(up),
+            eye: DVec3::new(0.0, 0.0, 5.0),
+            look: DVec3::from_array(look),
+            up: DVec3::from_array(up),
             focal_length: 3.0,
-            width: 1.6,
-            height: 0.9,
+            lens: Lens::Size {
+                width: 1.6,
+                height: 0.9,
+            },
             resolution: [16, 9],
+            depth_white: 3.0,
         }
     }
 
@@ -111,5 +134,37 @@ mod tests {
         // Right-handed, with v on the same side as up.
         assert!(length(cross(f.u, f.v) - f.w) < 1e-15);
         assert!(dot(f.v, vec3(0.3, 1.0, 0.2)) > 0.0);
+    }
+
+    #[test]
+    fn an_off_centre_principal_point_moves_every_ray_to_its_pixel() {
+        for projection in [Projection::Perspective, Projection::Orthographic] {
+            let mut c = camera([1.0, 2.0, -3.0], [0.3, 1.0, 0.2]);
+            c.projection = projection;
+            c.lens = Lens::Intrinsics {
+                fx: 20.0,
+                fy: 18.0,
+                cx: 4.25,
+                cy: 6.5,
+                resolution: [16, 9],
+            };
+            let frame = Frame::new(&c, [16, 9]);
+            let (k, to_camera) = (c.intrinsics(), c.world_to_camera());
+            for (i, j) in [(0, 0), (8, 15), (3, 7)] {
+                let ray = crate::cpu::camera::camera_ray(&frame, i, j);
+                let [o, d] = [ray.origin, ray.direction].map(|p| DVec3::new(p.x, p.y, p.z));
+                let pixel = match projection {
+                    // Any point along the ray projects to the pixel's centre.
+                    Projection::Perspective => k * to_camera.transform_point3(o + 2.5 * d),
+                    Projection::Orthographic => {
+                        let p = to_camera.transform_point3(o + 2.5 * d);
+                        k * DVec3::new(p.x, p.y, 1.0)
+                    }
+                };
+                let pixel = pixel / pixel.z;
+                assert!((pixel.x - j as f64).abs() < 1e-12, "{projection:?} {pixel}");
+                assert!((pixel.y - i as f64).abs() < 1e-12, "{projection:?} {pixel}");
+            }
+        }
     }
 }

@@ -201,6 +201,12 @@ pub fn normalize<T: Real>(a: Vec3<T>) -> Vec3<T> {
     a / length(a)
 }
 
+impl From<glam::DVec3> for Vec3<f64> {
+    fn from(v: glam::DVec3) -> Self {
+        vec3(v.x, v.y, v.z)
+    }
+}
+
 impl<T: Real> Add for Vec3<T> {
     type Output = Self;
     #[inline]

@@ -31,11 +31,12 @@ use crate::error::{Error, Result};
 use crate::gpu::layout::GpuReal;
 use crate::gpu::{self, Gpu, Job};
 use crate::images::MISS;
-use crate::math::{Precision, Real, Vec3, length, normalize, vec3};
+use crate::math::{Precision, Real, Vec3, length, normalize};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Accel;
 use crate::render::{Arithmetic, Device, Mode};
-use crate::scene::{Camera, Object, Projection, Scene};
+use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
+use glam::DVec3;
 
 /// A ray in world coordinates. Points on it are `origin + t * direction`, `t >= 0`. Laid out
 /// as six f64s, so rows of `origin, direction` (a numpy array's) are rays without copying.
@@ -347,7 +348,7 @@ impl RayScene {
     /// The objects of a loaded scene file, measured from its camera's eye.
     pub fn from_scene(scene: Scene) -> RayScene {
         RayScene {
-            extent: extent(bounds(&scene.objects)),
+            extent: extent(scene::bounds(&scene.objects)),
             scene,
             framed: false,
             cache: Mutex::default(),
@@ -427,7 +428,7 @@ impl RayScene {
             .filter(|&id| id < i32::MAX as u32)
             .ok_or_else(|| argument("geometry", "too many objects".into()))?;
         self.scene.objects.push(object);
-        let bounds = bounds(&self.scene.objects);
+        let bounds = scene::bounds(&self.scene.objects);
         self.extent = extent(bounds);
         if self.framed {
             self.scene.camera = framing_camera(bounds);
@@ -690,31 +691,8 @@ fn first_primitives(objects: &[Object]) -> Vec<u32> {
         .collect()
 }
 
-/// The corners of the box bounding `objects` (planes by their point), if there are any.
-fn bounds(objects: &[Object]) -> Option<([f64; 3], [f64; 3])> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    let mut grow = |p: Vec3<f64>, r: f64| {
-        for (k, x) in p.to_array().into_iter().enumerate() {
-            lo[k] = lo[k].min(x - r);
-            hi[k] = hi[k].max(x + r);
-        }
-    };
-    for object in objects {
-        match object {
-            Object::Sphere { center, radius } => grow(*center, *radius),
-            Object::Plane { point, .. } => grow(*point, 0.0),
-            Object::Triangle { corners } => corners.iter().for_each(|c| grow(*c, 0.0)),
-            Object::Soup { triangles, .. } => {
-                triangles.iter().flatten().for_each(|c| grow(*c, 0.0))
-            }
-        }
-    }
-    (lo[0] <= hi[0]).then_some((lo, hi))
-}
-
 /// The largest side of `bounds`, or 1 where there is none.
-fn extent(bounds: Option<([f64; 3], [f64; 3])>) -> f64 {
+fn extent(bounds: Option<(DVec3, DVec3)>) -> f64 {
     let side = bounds.map_or(0.0, |(lo, hi)| {
         (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)
     });
@@ -725,20 +703,23 @@ fn extent(bounds: Option<([f64; 3], [f64; 3])>) -> f64 {
 /// measures coordinates from, so where f32 is most precise) at their centre ([`kernel_eye`]),
 /// its size their extent (which sets the kernel's power-of-two unit), 1x1 pixels; it casts no
 /// ray.
-fn framing_camera(bounds: Option<([f64; 3], [f64; 3])>) -> Camera {
+fn framing_camera(bounds: Option<(DVec3, DVec3)>) -> Camera {
     let size = extent(bounds);
     let eye = bounds.map_or([0.0; 3], |(lo, hi)| {
         [0, 1, 2].map(|k| kernel_eye(0.5 * lo[k] + 0.5 * hi[k], size))
     });
     Camera {
         projection: Projection::Perspective,
-        eye: Vec3::from_array(eye),
-        look: vec3(0.0, 0.0, -1.0),
-        up: vec3(0.0, 1.0, 0.0),
+        eye: DVec3::from_array(eye),
+        look: DVec3::NEG_Z,
+        up: DVec3::Y,
         focal_length: size,
-        width: size,
-        height: size,
+        lens: Lens::Size {
+            width: size,
+            height: size,
+        },
         resolution: [1, 1],
+        depth_white: size,
     }
 }
 

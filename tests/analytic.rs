@@ -221,14 +221,15 @@ fn build(cam: &Cam, objs: &[Obj]) -> (Scene, Cam, Vec<Obj>) {
     let scene = Scene::from_json(&text, Path::new("test.json"), &mut |_| unreachable!())
         .unwrap_or_else(|e| panic!("{e}\n{text}"));
     let c = &scene.camera;
+    let plane = c.image_plane();
     let got = Cam {
         ortho: c.projection == Projection::Orthographic,
         eye: c.eye.to_array(),
         look: c.look.to_array(),
         up: c.up.to_array(),
         d: c.focal_length,
-        width: c.width,
-        height: c.height,
+        width: plane.width,
+        height: plane.height,
         nx: c.resolution[0],
         ny: c.resolution[1],
     };

@@ -164,10 +164,10 @@ fn unknown_field_in_an_object() {
 #[test]
 fn unknown_field_in_the_camera() {
     let message = run_err(
-        &edit(r#""focal_length":3"#, r#""focal_length":3,"fov":40"#),
+        &edit(r#""focal_length":3"#, r#""focal_length":3,"aperture":2"#),
         &[],
     );
-    assert_has(&message, &["camera.fov", "unknown field `fov`"]);
+    assert_has(&message, &["camera.aperture", "unknown field `aperture`"]);
 }
 
 #[test]
@@ -610,4 +610,110 @@ fn closed_stdout_is_not_a_panic() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
+
+// 12. Cameras by field of view, a point to look at, or pixel intrinsics.
+
+/// `VALID`'s course image plane (focal length, width, height, resolution).
+const COURSE_PLANE: &str = r#""focal_length":3,"width":1.6,"height":0.9,"resolution":[32,18]"#;
+
+#[test]
+fn contradictory_or_incomplete_cameras_name_the_field() {
+    let intrinsics = r#""intrinsics":{"fx":60,"fy":60,"cx":15.5,"cy":8.5}"#;
+    let cases: Vec<(String, &[&str])> = vec![
+        (
+            edit(COURSE_PLANE, r#""fov":40,"height":0.9"#),
+            &[
+                "camera.fov",
+                "alternative to focal_length, width and height",
+                "`height`",
+            ],
+        ),
+        (
+            edit(COURSE_PLANE, r#""fov":180"#),
+            &["camera.fov", "between 0 and 180"],
+        ),
+        (
+            edit(COURSE_PLANE, r#""fov":0"#),
+            &["camera.fov", "between 0 and 180"],
+        ),
+        (
+            edit(COURSE_PLANE, r#""fov":-30"#),
+            &["camera.fov", "between 0 and 180"],
+        ),
+        (
+            edit(COURSE_PLANE, intrinsics),
+            &["camera.intrinsics", "camera.resolution"],
+        ),
+        (
+            edit(
+                COURSE_PLANE,
+                &format!(r#""fov":40,{intrinsics},"resolution":[32,18]"#),
+            ),
+            &["camera.intrinsics", "alternative to camera.fov"],
+        ),
+        (
+            edit(
+                COURSE_PLANE,
+                &format!(r#"{intrinsics},"width":1.6,"resolution":[32,18]"#),
+            ),
+            &["camera.intrinsics", "`width`"],
+        ),
+        (
+            edit(
+                COURSE_PLANE,
+                r#""intrinsics":{"fx":0,"fy":60,"cx":15.5,"cy":8.5},"resolution":[32,18]"#,
+            ),
+            &["camera.intrinsics.fx", "must be > 0"],
+        ),
+        (
+            edit(
+                COURSE_PLANE,
+                r#""intrinsics":{"fx":60,"fy":60,"cx":15.5},"resolution":[32,18]"#,
+            ),
+            &["camera.intrinsics", "missing field `cy`"],
+        ),
+        (
+            edit(COURSE_PLANE, r#""fov":40,"near":0"#),
+            &["camera.near", "must be > 0"],
+        ),
+        (
+            edit(r#""focal_length":3"#, r#""focal_length":3,"near":0.1"#),
+            &["camera.near", "fov or intrinsics"],
+        ),
+        (
+            edit(r#""focal_length":3,"#, ""),
+            &[
+                "camera",
+                "missing field `focal_length`",
+                "fov or intrinsics",
+            ],
+        ),
+        (
+            edit(r#""type":"perspective""#, r#""type":"orthographic""#)
+                .replace(COURSE_PLANE, r#""fov":40"#),
+            &["camera.fov", "perspective"],
+        ),
+        (
+            edit(r#""look":[0,0,-1]"#, r#""look":[0,0,-1],"look_at":[0,0,0]"#),
+            &["camera.look_at", "alternative to camera.look"],
+        ),
+        (edit(r#""look":[0,0,-1],"#, ""), &["camera", "`look_at`"]),
+        (
+            edit(r#""look":[0,0,-1]"#, r#""look_at":[0,0,5]"#),
+            &["camera.look_at", "is the eye"],
+        ),
+        (
+            edit(r#""look":[0,0,-1]"#, r#""look_at":[0,7,5]"#),
+            &["camera.up", "parallel", "camera.look_at"],
+        ),
+        (
+            edit(r#""look":[0,0,-1]"#, r#""look_at":[0,0,1e30]"#),
+            &["camera.look_at[2]", "1e30"],
+        ),
+    ];
+    for (scene, parts) in cases {
+        let message = run_err(&scene, &[]);
+        assert_has(&message, parts);
+    }
 }

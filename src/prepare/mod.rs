@@ -137,7 +137,8 @@ pub struct Primitives<T> {
 /// within 2^61, which also adds exactly `k` under scaling.
 pub fn unit_exponent(scene: &Scene) -> i32 {
     let c = &scene.camera;
-    let camera = binary_exponent(c.focal_length.max(c.width).max(c.height));
+    let plane = c.image_plane();
+    let camera = binary_exponent(c.focal_length.max(plane.width).max(plane.height));
     camera.max(binary_exponent(scene.largest_magnitude()) - MAX_KERNEL_EXPONENT)
 }
 
@@ -167,7 +168,7 @@ fn in_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
 pub fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
     match algorithm {
         Algorithm::Textbook => vec3(0.0, 0.0, 0.0),
-        Algorithm::Robust => scene.camera.eye,
+        Algorithm::Robust => scene.camera.eye.into(),
     }
 }
 

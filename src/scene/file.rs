@@ -5,11 +5,14 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use glam::DVec3;
+
 use super::{
-    Camera, DEFAULT_RESOLUTION, Light, Lighting, Material, Object, Projection, Scene, Triangle,
+    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, Object, Projection, Scene,
+    Triangle, camera,
 };
 use crate::error::{Error, Result};
-use crate::math::{Vec3, cross, length, normalize};
+use crate::math::{Vec3, length, normalize};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,18 +38,34 @@ enum ProjectionFile {
     Orthographic,
 }
 
+/// The course's camera fields, and their alternatives: `look_at` for `look`; `fov` or
+/// `intrinsics` (with `near`) for `focal_length`, `width` and `height`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraFile {
     #[serde(rename = "type", default)]
     projection: ProjectionFile,
     eye: [f64; 3],
-    look: [f64; 3],
+    look: Option<[f64; 3]>,
+    look_at: Option<[f64; 3]>,
     up: [f64; 3],
-    focal_length: f64,
-    width: f64,
-    height: f64,
+    focal_length: Option<f64>,
+    width: Option<f64>,
+    height: Option<f64>,
+    fov: Option<f64>,
+    intrinsics: Option<IntrinsicsFile>,
+    near: Option<f64>,
     resolution: Option<[u32; 2]>,
+}
+
+/// Pixel intrinsics, OpenCV's convention.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct IntrinsicsFile {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
 }
 
 #[derive(Deserialize)]
@@ -136,13 +155,13 @@ pub(super) fn parse(
 ) -> Result<Scene> {
     let raw: SceneFile = deserialize(text, file)?;
     let checker = Checker { file };
-    let camera = checker.camera(&raw.camera)?;
     let objects = raw
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| checker.object(i, o, load_mesh))
         .collect::<Result<Vec<_>>>()?;
+    let camera = checker.camera(&raw.camera, &objects)?;
     let lighting = checker.lighting(&raw)?;
     Ok(Scene {
         camera,
@@ -276,6 +295,12 @@ impl Checker<'_> {
         Ok(Vec3::from_array(v))
     }
 
+    /// [`Checker::vector`] as glam's.
+    fn point(&self, field: &str, v: [f64; 3]) -> Result<DVec3> {
+        self.vector(field, v)
+            .map(|v| DVec3::from_array(v.to_array()))
+    }
+
     fn nonzero(&self, field: &str, v: [f64; 3]) -> Result<Vec3<f64>> {
         let v = self.vector(field, v)?;
         let len = length(v);
@@ -285,14 +310,47 @@ impl Checker<'_> {
         Ok(v)
     }
 
-    fn camera(&self, c: &CameraFile) -> Result<Camera> {
-        let look = self.nonzero("camera.look", c.look)?;
-        let up = self.nonzero("camera.up", c.up)?;
+    fn camera(&self, c: &CameraFile, objects: &[Object]) -> Result<Camera> {
+        let eye = self.point("camera.eye", c.eye)?;
+        let look = match (c.look, c.look_at) {
+            (Some(look), None) => self.point("camera.look", look)?,
+            (None, Some(target)) => {
+                let look = self.point("camera.look_at", target)? - eye;
+                if look == DVec3::ZERO {
+                    return Err(self.fail("camera.look_at", "is the eye: no direction to look in"));
+                }
+                look
+            }
+            (Some(_), Some(_)) => {
+                return Err(self.fail(
+                    "camera.look_at",
+                    "is an alternative to camera.look (a direction): give one of the two",
+                ));
+            }
+            (None, None) => {
+                return Err(self.fail(
+                    "camera",
+                    "needs `look` (a direction) or `look_at` (a point)",
+                ));
+            }
+        };
+        if look == DVec3::ZERO {
+            return Err(self.fail("camera.look", "must be a non-zero vector"));
+        }
+        let up = self.point("camera.up", c.up)?;
+        if up == DVec3::ZERO {
+            return Err(self.fail("camera.up", "must be a non-zero vector"));
+        }
         // Relative test: exact or near-exact parallelism leaves no usable horizontal axis.
         // Nearly parallel vectors (angle above ~1e-12 rad) still give a valid frame.
-        let side = length(cross(normalize(look), normalize(up)));
+        let side = look.normalize().cross(up.normalize()).length();
         if side <= 1e-12 {
-            return Err(self.fail("camera.up", "is parallel to camera.look"));
+            let look_field = if c.look.is_some() {
+                "camera.look"
+            } else {
+                "the direction from camera.eye to camera.look_at"
+            };
+            return Err(self.fail("camera.up", format!("is parallel to {look_field}")));
         }
         let resolution = c.resolution.unwrap_or(DEFAULT_RESOLUTION);
         if resolution[0] == 0 || resolution[1] == 0 {
@@ -304,19 +362,120 @@ impl Checker<'_> {
                 ),
             ));
         }
+        let projection = match c.projection {
+            ProjectionFile::Perspective => Projection::Perspective,
+            ProjectionFile::Orthographic => Projection::Orthographic,
+        };
+        let (lens, given_distance) = self.lens(c, projection)?;
+        let bounds = super::bounds(objects);
+        let focal_length = match given_distance {
+            Some(d) => d,
+            None => camera::default_near(eye, bounds),
+        };
+        let depth_white = match lens {
+            Lens::Size { .. } => focal_length,
+            _ => camera::default_depth_white(eye, bounds).max(focal_length),
+        };
         Ok(Camera {
-            projection: match c.projection {
-                ProjectionFile::Perspective => Projection::Perspective,
-                ProjectionFile::Orthographic => Projection::Orthographic,
-            },
-            eye: self.vector("camera.eye", c.eye)?,
+            projection,
+            eye,
             look,
             up,
-            focal_length: self.positive("camera.focal_length", c.focal_length)?,
-            width: self.positive("camera.width", c.width)?,
-            height: self.positive("camera.height", c.height)?,
+            focal_length,
+            lens,
             resolution,
+            depth_white,
         })
+    }
+
+    /// The image plane's description and the distance to it, where the file gives one (the
+    /// course's focal length, or `near`).
+    fn lens(&self, c: &CameraFile, projection: Projection) -> Result<(Lens, Option<f64>)> {
+        let course = [
+            ("focal_length", c.focal_length),
+            ("width", c.width),
+            ("height", c.height),
+        ];
+        let given: Vec<&str> = course
+            .iter()
+            .filter(|(_, x)| x.is_some())
+            .map(|(n, _)| *n)
+            .collect();
+        let alternative = match (c.fov.is_some(), c.intrinsics.is_some()) {
+            (true, true) => {
+                return Err(self.fail(
+                    "camera.intrinsics",
+                    "is an alternative to camera.fov: give one of the two",
+                ));
+            }
+            (true, false) => Some("fov"),
+            (false, true) => Some("intrinsics"),
+            (false, false) => None,
+        };
+        let Some(alternative) = alternative else {
+            if c.near.is_some() {
+                return Err(self.fail(
+                    "camera.near",
+                    "goes with fov or intrinsics (the course's camera draws from its focal_length on)",
+                ));
+            }
+            if let Some((missing, _)) = course.iter().find(|(_, x)| x.is_none()) {
+                return Err(self.fail(
+                    "camera",
+                    format!(
+                        "missing field `{missing}` (the image plane is given by focal_length, width and height, or by fov or intrinsics)"
+                    ),
+                ));
+            }
+            let lens = Lens::Size {
+                width: self.positive("camera.width", c.width.unwrap_or_default())?,
+                height: self.positive("camera.height", c.height.unwrap_or_default())?,
+            };
+            let d = self.positive("camera.focal_length", c.focal_length.unwrap_or_default())?;
+            return Ok((lens, Some(d)));
+        };
+        let field = format!("camera.{alternative}");
+        if let Some(first) = given.first() {
+            return Err(self.fail(
+                field,
+                format!("is an alternative to focal_length, width and height: remove `{first}` or `{alternative}`"),
+            ));
+        }
+        if projection == Projection::Orthographic {
+            return Err(self.fail(
+                field,
+                "needs a perspective camera (an orthographic one takes focal_length, width and height)",
+            ));
+        }
+        let near = c
+            .near
+            .map(|x| self.positive("camera.near", x))
+            .transpose()?;
+        if let Some(degrees) = c.fov {
+            let degrees = self.number("camera.fov", degrees)?;
+            if !(degrees > 0.0 && degrees < 180.0) {
+                return Err(self.fail(
+                    "camera.fov",
+                    format!("must be between 0 and 180 degrees, both excluded (got {degrees})"),
+                ));
+            }
+            return Ok((Lens::Fov { degrees }, near));
+        }
+        let k = c.intrinsics.as_ref().expect("intrinsics were given");
+        let Some(resolution) = c.resolution else {
+            return Err(self.fail(
+                "camera.intrinsics",
+                "needs camera.resolution, the image size in pixels the intrinsics are for",
+            ));
+        };
+        let lens = Lens::Intrinsics {
+            fx: self.positive("camera.intrinsics.fx", k.fx)?,
+            fy: self.positive("camera.intrinsics.fy", k.fy)?,
+            cx: self.number("camera.intrinsics.cx", k.cx)?,
+            cy: self.number("camera.intrinsics.cy", k.cy)?,
+            resolution,
+        };
+        Ok((lens, near))
     }
 
     fn object(

@@ -4,6 +4,7 @@
 //! Every check that can fail on user input happens here, so later stages can assume
 //! finite numbers, positive sizes and non-degenerate camera vectors.
 
+mod camera;
 mod file;
 pub(crate) use file::MAX_MAGNITUDE;
 mod mesh;
@@ -11,8 +12,11 @@ mod mesh;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use glam::DVec3;
+
 use crate::math::Vec3;
 
+pub use camera::{Camera, ImagePlane, Lens, Projection};
 pub use mesh::{load_mesh, parse_mesh};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
@@ -22,29 +26,6 @@ pub const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
 pub const DEFAULT_SCENE_JSON: &str = include_str!("../../scenes/default.json");
 /// The mesh the default scene refers to as `bunny.stl` (the course's bunny).
 pub const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny.stl");
-
-/// Perspective (rays from the eye) or orthographic (parallel rays from the image plane).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Projection {
-    Perspective,
-    Orthographic,
-}
-
-/// The camera as the scene file states it (validated, not yet turned into a frame).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Camera {
-    pub projection: Projection,
-    pub eye: Vec3<f64>,
-    /// A direction, not a point.
-    pub look: Vec3<f64>,
-    pub up: Vec3<f64>,
-    pub focal_length: f64,
-    /// Image-plane size in scene units.
-    pub width: f64,
-    pub height: f64,
-    /// Pixels `[nx, ny]`.
-    pub resolution: [u32; 2],
-}
 
 /// One triangle by its corners, in the order that fixes its normal.
 pub type Triangle = [Vec3<f64>; 3];
@@ -141,6 +122,27 @@ impl Lighting {
     }
 }
 
+/// The corners of the box bounding `objects` (spheres whole, planes by their point, triangles
+/// and meshes by their corners), if there are any.
+pub fn bounds(objects: &[Object]) -> Option<(DVec3, DVec3)> {
+    let mut lo = DVec3::INFINITY;
+    let mut hi = DVec3::NEG_INFINITY;
+    let mut grow = |p: &Vec3<f64>, r: f64| {
+        let p = DVec3::from(p.to_array());
+        lo = lo.min(p - r);
+        hi = hi.max(p + r);
+    };
+    for object in objects {
+        match object {
+            Object::Sphere { center, radius } => grow(center, *radius),
+            Object::Plane { point, .. } => grow(point, 0.0),
+            Object::Triangle { corners } => corners.iter().for_each(|c| grow(c, 0.0)),
+            Object::Soup { triangles, .. } => triangles.iter().flatten().for_each(|c| grow(c, 0.0)),
+        }
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}
+
 /// An image size written `WIDTHxHEIGHT` (`--size 640x360`), each at least 1.
 pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
     let err = || format!("expected WIDTHxHEIGHT such as 640x360, got `{s}`");
@@ -211,8 +213,12 @@ impl Scene {
         let v = |p: Vec3<f64>| p * f;
         let mut scene = self.clone();
         let c = &mut scene.camera;
-        c.eye = v(c.eye);
-        (c.focal_length, c.width, c.height) = (c.focal_length * f, c.width * f, c.height * f);
+        c.eye *= f;
+        c.focal_length *= f;
+        c.depth_white *= f;
+        if let Lens::Size { width, height } = &mut c.lens {
+            (*width, *height) = (*width * f, *height * f);
+        }
         for object in &mut scene.objects {
             match object {
                 Object::Sphere { center, radius } => (*center, *radius) = (v(*center), *radius * f),
@@ -249,10 +255,16 @@ impl Scene {
     pub fn largest_magnitude(&self) -> f64 {
         let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
         let c = &self.camera;
-        let camera = largest(&c.eye)
+        let plane = c.image_plane();
+        let camera = c
+            .eye
+            .abs()
+            .max_element()
             .max(c.focal_length)
-            .max(c.width)
-            .max(c.height);
+            .max(plane.width)
+            .max(plane.height)
+            .max(plane.shift[0].abs())
+            .max(plane.shift[1].abs());
         self.objects
             .iter()
             .map(|object| match object {
