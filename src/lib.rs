@@ -9,7 +9,7 @@
 //! scene file --Scene::load--> Scene (validated, f64)
 //!   --prepare::Prepared--> camera frame, camera-relative primitives in the kernel's precision, BVH
 //!   --gpu::run(Job) | cpu::render_prepared--> Images (id, distance, normal)
-//!   --output::write(Encoding)--> png / ppm / npy files
+//!   --output::write(Encoding, Camera)--> png / ppm / npy / npz / exr / depth16 files + camera.json
 //! ```
 //!
 //! [`render::render`] does all of it for a [`render::Mode`] (device, precision, algorithm):
@@ -21,7 +21,7 @@
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let mode = Mode { device: Device::Gpu, precision: Arithmetic::F32, algorithm: Algorithm::Robust };
 //! let images = render::render(&scene, mode, Some(&gpu), false)?;
-//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?)?;
+//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
 //! # Ok::<(), raycast::Error>(())
 //! ```
 //!

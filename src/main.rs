@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use glam::DVec3;
 use raycast::Algorithm;
 use raycast::compare;
 use raycast::error::Result;
@@ -26,11 +27,14 @@ struct Cli {
     command: Command,
 }
 
+// Parsed once per run: the size of the largest variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to id, depth and normal images.
     Render {
-        /// Scene file (JSON). Without it, the built-in default scene is rendered.
+        /// Scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view
+        /// (docs/cli.md). Without it, the built-in default scene is rendered.
         scene: Option<PathBuf>,
         /// Output folder (created if missing).
         #[arg(short, long, default_value = "out")]
@@ -38,9 +42,30 @@ enum Command {
         /// Image size in pixels, e.g. 1920x1080 (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
-        /// Comma-separated output formats: png, ppm, npy.
+        /// Comma-separated output formats: png, ppm, npy, npz (render.npz), exr (render.exr),
+        /// depth16 (depth16.png). camera.json is written beside every render.
         #[arg(long, value_delimiter = ',', default_value = "png")]
         format: Vec<Format>,
+        /// The depth npy, npz, exr and depth16 hold: distance (from the ray's origin,
+        /// distance.npy) or z (planar, along the viewing axis, z.npy).
+        #[arg(long, default_value = "distance")]
+        depth: output::Depth,
+        /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
+        /// 65535 (1000: millimetres for scenes in metres).
+        #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
+        depth_scale: f64,
+        /// The camera's position, X,Y,Z (replaces the scene's, or a mesh's default view's).
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        eye: Option<DVec3>,
+        /// A point for the camera to look at, X,Y,Z.
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        look_at: Option<DVec3>,
+        /// The camera's up direction, X,Y,Z.
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        up: Option<DVec3>,
+        /// Vertical field of view in degrees (replaces the scene's image plane; perspective).
+        #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
+        fov: Option<f64>,
         /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
         #[arg(long, default_value = "gpu")]
         device: Device,
@@ -271,6 +296,24 @@ fn quiet_mesa() {
     }
 }
 
+/// A point or direction written `X,Y,Z`.
+fn parse_vector(s: &str) -> std::result::Result<DVec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 => Ok(DVec3::new(x, y, z)),
+        _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
+    }
+}
+
+/// `--depth-scale`: a positive finite number.
+fn parse_depth_scale(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("expected a positive number, got `{s}`")),
+    }
+}
+
 fn run(command: Command) -> Result<ExitCode> {
     match command {
         Command::Render {
@@ -289,6 +332,12 @@ fn run(command: Command) -> Result<ExitCode> {
             shader,
             watch,
             band_rows,
+            depth,
+            depth_scale,
+            eye,
+            look_at,
+            up,
+            fov,
         } => {
             let mode = Mode {
                 device,
@@ -297,7 +346,15 @@ fn run(command: Command) -> Result<ExitCode> {
             };
             let encoding = output::Encoding {
                 background,
+                depth,
+                depth_scale,
                 ..output::Encoding::new(&format, outputs.as_deref())?
+            };
+            let view = scene::CameraOverrides {
+                eye,
+                look_at,
+                up,
+                fov,
             };
             let spec = render::Spec {
                 scene,
@@ -311,6 +368,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 out_dir: output,
                 encoding,
                 emit_shader,
+                view,
             };
             render(&spec, watch)?;
             Ok(ExitCode::SUCCESS)

@@ -569,7 +569,13 @@ fn render_ok(args: &[&str]) -> Vec<String> {
 fn valid_scene_renders_png() {
     assert_eq!(
         render_ok(&[]),
-        ["color.png", "depth.png", "id.png", "normal.png"]
+        [
+            "camera.json",
+            "color.png",
+            "depth.png",
+            "id.png",
+            "normal.png"
+        ]
     );
 }
 
@@ -578,6 +584,7 @@ fn valid_scene_renders_every_format() {
     assert_eq!(
         render_ok(&["--format", "png,npy,ppm"]),
         [
+            "camera.json",
             "color.png",
             "depth.png",
             "depth.ppm",
@@ -714,6 +721,85 @@ fn contradictory_or_incomplete_cameras_name_the_field() {
     ];
     for (scene, parts) in cases {
         let message = run_err(&scene, &[]);
+        assert_has(&message, parts);
+    }
+}
+
+// 13. Output formats, depths and camera options.
+
+#[test]
+fn bad_format_depth_and_camera_options_name_the_option() {
+    let ortho = edit(r#""type":"perspective""#, r#""type":"orthographic""#);
+    let cases: &[(&str, &[&str], &[&str])] = &[
+        (
+            VALID,
+            &["--format", "exr", "--band-rows", "4"],
+            &["--format exr", "whole"],
+        ),
+        (
+            VALID,
+            &["--format", "npz", "--band-rows", "4"],
+            &["--format npz", "whole"],
+        ),
+        (
+            VALID,
+            &["--format", "npz,png", "--outputs", "color"],
+            &["--format npz", "none of them"],
+        ),
+        (
+            VALID,
+            &["--format", "depth16", "--outputs", "id"],
+            &["--format depth16", "distance"],
+        ),
+        (VALID, &["--depth", "zz"], &["--depth", "zz"]),
+        (
+            VALID,
+            &["--depth-scale", "0"],
+            &["--depth-scale", "positive"],
+        ),
+        (
+            VALID,
+            &["--depth-scale", "-1"],
+            &["--depth-scale", "positive"],
+        ),
+        (
+            VALID,
+            &["--depth-scale", "nan"],
+            &["--depth-scale", "positive"],
+        ),
+        (VALID, &["--eye", "1,2"], &["--eye", "X,Y,Z"]),
+        (VALID, &["--eye", "1e30,0,0"], &["--eye", "magnitude"]),
+        (VALID, &["--look-at", "0,0,x"], &["--look-at", "X,Y,Z"]),
+        (VALID, &["--fov", "180"], &["--fov", "between 0 and 180"]),
+        (VALID, &["--fov", "-5"], &["--fov", "between 0 and 180"]),
+        (VALID, &["--look-at", "0,0,5"], &["--look-at", "is the eye"]),
+        (VALID, &["--up", "0,0,0"], &["--up", "non-zero"]),
+        (VALID, &["--up", "0,0,1"], &["--up", "parallel"]),
+        (&ortho, &["--fov", "40"], &["--fov", "perspective"]),
+    ];
+    for (scene, args, parts) in cases {
+        let message = Case::new(scene).fail(args, &[]);
+        assert_has(&message, parts);
+    }
+}
+
+#[test]
+fn bad_mesh_files_rendered_directly_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let huge = dir.path().join("huge.obj");
+    std::fs::write(&huge, "v 0 0 0\nv 1 0 0\nv 0 1e30 0\nf 1 2 3\n").unwrap();
+    let missing = dir.path().join("missing.stl");
+    for (mesh, parts) in [
+        (&huge, &["huge.obj", "triangle 0", "1e30"][..]),
+        (&missing, &["missing.stl", "cannot read"]),
+    ] {
+        let case = Case {
+            dir: tempfile::tempdir().unwrap(),
+            scene: mesh.clone(),
+            out: out.clone(),
+        };
+        let message = case.fail(&[], &[]);
         assert_has(&message, parts);
     }
 }

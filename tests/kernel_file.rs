@@ -107,7 +107,7 @@ fn round_trip(scene: &Path, extra: &[&str]) -> PathBuf {
     let (a, b) = (files(&dir.join("a")), files(&dir.join("b")));
     assert_eq!(
         a.len(),
-        7,
+        8,
         "{:?}",
         a.iter().map(|f| &f.0).collect::<Vec<_>>()
     );

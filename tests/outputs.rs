@@ -88,9 +88,21 @@ fn raycast_render(args: &[&str]) -> std::process::Output {
 fn the_files_written_follow_outputs() {
     let dir = tempfile::tempdir().unwrap();
     for (outputs, formats, files) in [
-        ("distance", "png,npy", vec!["depth.png", "distance.npy"]),
-        ("id,normal", "ppm", vec!["id.ppm", "normal.ppm"]),
-        ("normal,color", "png", vec!["color.png", "normal.png"]),
+        (
+            "distance",
+            "png,npy",
+            vec!["camera.json", "depth.png", "distance.npy"],
+        ),
+        (
+            "id,normal",
+            "ppm",
+            vec!["camera.json", "id.ppm", "normal.ppm"],
+        ),
+        (
+            "normal,color",
+            "png",
+            vec!["camera.json", "color.png", "normal.png"],
+        ),
     ] {
         let out = dir.path().join(outputs.replace(',', "-"));
         let o = raycast_render(&[
@@ -115,6 +127,7 @@ fn the_files_written_follow_outputs() {
     assert_eq!(
         file_names(&out),
         [
+            "camera.json",
             "color.png",
             "depth.png",
             "distance.npy",

@@ -368,6 +368,7 @@ fn render_with_spp_writes_color_png_and_alpha_npy() {
         file_names(&out),
         [
             "alpha.npy",
+            "camera.json",
             "color.png",
             "depth.png",
             "distance.npy",
@@ -396,7 +397,13 @@ fn render_with_spp_writes_color_png_and_alpha_npy() {
     assert_eq!(output.status.code(), Some(0));
     assert_eq!(
         file_names(&out),
-        ["color.png", "depth.png", "id.png", "normal.png"]
+        [
+            "camera.json",
+            "color.png",
+            "depth.png",
+            "id.png",
+            "normal.png"
+        ]
     );
     let color = image::open(out.join("color.png")).unwrap().into_rgba8();
     for (px, &a) in color.pixels().zip(&alpha) {

@@ -3,6 +3,8 @@
 //! a failed render leaves no partial output.
 
 mod color;
+mod depth;
+mod exr;
 mod npy;
 pub mod pending;
 mod pictures;
@@ -15,8 +17,10 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
+use crate::scene::Camera;
 
 pub use color::{PixelCoverage, Rgba, color_rgba8, opaque, over, pixel_coverage, to_level};
+pub use depth::{Depth, camera_json, depth16_levels};
 pub use npy::encode_npy;
 pub use pictures::{
     PALETTE, Picture, Pictures, depth_level, id_color, normal_color, picture_set, pictures,
@@ -29,21 +33,49 @@ pub enum Format {
     Png,
     /// `id.ppm` (P3), `depth.ppm` (P2), `normal.ppm` (P3), ASCII, max value 255.
     Ppm,
-    /// `id.npy` (int32), `distance.npy` (float32/float64), `normal.npy` (HxWx3).
+    /// `id.npy` (int32), `distance.npy` or `z.npy` (float32/float64), `normal.npy` (HxWx3).
     Npy,
+    /// `render.npz`: the npy files' arrays in one archive.
+    Npz,
+    /// `render.exr`: channels `Z`, `N.X`, `N.Y`, `N.Z`, `id` (and `A` with `--spp`).
+    Exr,
+    /// `depth16.png`: 16-bit grey, the depth times `--depth-scale`, rounded.
+    Depth16,
+}
+
+impl Format {
+    /// Whether the format's files are written whole (they cannot be written in bands of rows).
+    pub fn whole_only(self) -> bool {
+        matches!(self, Format::Npz | Format::Exr)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Png => "png",
+            Format::Ppm => "ppm",
+            Format::Npy => "npy",
+            Format::Npz => "npz",
+            Format::Exr => "exr",
+            Format::Depth16 => "depth16",
+        }
+    }
 }
 
 impl FromStr for Format {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s.trim() {
-            "png" => Ok(Format::Png),
-            "ppm" => Ok(Format::Ppm),
-            "npy" => Ok(Format::Npy),
-            other => Err(format!(
-                "unknown format `{other}` (expected png, ppm or npy)"
-            )),
-        }
+        let all = [
+            Format::Png,
+            Format::Ppm,
+            Format::Npy,
+            Format::Npz,
+            Format::Exr,
+            Format::Depth16,
+        ];
+        let name = s.trim();
+        all.into_iter().find(|f| f.name() == name).ok_or_else(|| {
+            format!("unknown format `{name}` (expected png, ppm, npy, npz, exr or depth16)")
+        })
     }
 }
 
@@ -69,8 +101,8 @@ pub fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
     Ok(rgb)
 }
 
-/// The files a render writes: in which formats, of which outputs, and `color.png` composited
-/// over what.
+/// The files a render writes: in which formats, of which outputs, `color.png` composited over
+/// what, and which depth.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Encoding {
     pub formats: Vec<Format>,
@@ -79,12 +111,20 @@ pub struct Encoding {
     /// The opaque colour `color.png` is composited over (`--background`); `None`: transparent,
     /// premultiplied alpha.
     pub background: Option<[u8; 3]>,
+    /// The depth the npy, npz and EXR files and `depth16.png` hold (`--depth`).
+    pub depth: Depth,
+    /// `depth16.png`'s levels per scene unit (`--depth-scale`).
+    pub depth_scale: f64,
 }
+
+/// `--depth-scale`'s default: millimetres for scenes in metres.
+pub const DEFAULT_DEPTH_SCALE: f64 = 1000.0;
 
 impl Encoding {
     /// The outputs of `list` (`--outputs`) in `formats`, or without a list every output the
-    /// formats write (`color.png` with png). Colour without png is an error naming
-    /// `--outputs color`.
+    /// formats write (`color.png` with png). Colour without png, depth16 without the distance
+    /// output, and exr or npz without any of id, distance and normal are errors naming
+    /// `--outputs`.
     pub fn new(formats: &[Format], list: Option<&[Output]>) -> Result<Encoding> {
         let png = formats.contains(&Format::Png);
         let outputs = match list {
@@ -94,62 +134,103 @@ impl Encoding {
             },
             Some(list) => Outputs::of(list),
         };
+        let refuse = |option: &str, message: &str| {
+            Err(Error::Argument {
+                option: option.into(),
+                message: message.into(),
+            })
+        };
         if outputs.color && !png {
-            return Err(Error::Argument {
-                option: "--outputs color".into(),
-                message: "color is written as color.png only; add png to --format".into(),
-            });
+            return refuse(
+                "--outputs color",
+                "color is written as color.png only; add png to --format",
+            );
+        }
+        if formats.contains(&Format::Depth16) && !outputs.distance {
+            return refuse(
+                "--format depth16",
+                "depth16.png holds depths; add distance to --outputs",
+            );
+        }
+        let arrays = outputs.id || outputs.distance || outputs.normal;
+        if let Some(f) = formats.iter().find(|f| f.whole_only() && !arrays) {
+            return refuse(
+                &format!("--format {}", f.name()),
+                "holds ids, distances and normals; --outputs asks for none of them",
+            );
         }
         Ok(Encoding {
             formats: formats.to_vec(),
             outputs,
             background: None,
+            depth: Depth::Distance,
+            depth_scale: DEFAULT_DEPTH_SCALE,
         })
+    }
+
+    /// `camera.json` for a render of `camera` in this encoding.
+    pub fn camera_json(&self, camera: &Camera) -> EncodedFile {
+        let scale = self.formats.contains(&Format::Depth16);
+        camera_json(camera, self.depth, scale.then_some(self.depth_scale))
     }
 }
 
-/// Encodes `images` as `encoding` asks, in each of its formats: `id.*`; `depth.png`,
-/// `depth.ppm`, `distance.npy`; `normal.*`; `color.png` (the shade hook's RGBA as it returned
-/// it, where [`Images::color`] holds it; else the palette by coverage, premultiplied alpha, or
-/// opaque over the background, see [`PixelCoverage::to_rgba8`]); and for supersampled images
-/// with ids, `alpha.npy` (float32, H x W).
-pub fn encode<T: Real>(images: &Images<T>, encoding: &Encoding) -> Vec<EncodedFile> {
-    let Encoding {
-        formats,
-        outputs,
-        background,
-    } = encoding;
-    formats
-        .iter()
-        .flat_map(|&f| encode_format(images, f, *outputs, *background))
-        .collect()
+/// Encodes `images`, a render of `camera`, as `encoding` asks, in each of its formats:
+/// `id.*`; `depth.png`, `depth.ppm`, `distance.npy` or `z.npy`; `normal.*`; `color.png` (the
+/// shade hook's RGBA as it returned it, where [`Images::color`] holds it; else the palette by
+/// coverage, premultiplied alpha, or opaque over the background, see
+/// [`PixelCoverage::to_rgba8`]); for supersampled images with ids, `alpha.npy` (float32,
+/// H x W); `render.npz`, `render.exr`, `depth16.png`; and `camera.json`.
+pub fn encode<T: Real>(
+    images: &Images<T>,
+    encoding: &Encoding,
+    camera: &Camera,
+) -> Vec<EncodedFile> {
+    let depth = encoding.depth.of(images, camera, 0);
+    let mut files: Vec<EncodedFile> = (encoding.formats.iter())
+        .flat_map(|&f| encode_format(images, f, encoding, &depth))
+        .collect();
+    files.push(encoding.camera_json(camera));
+    files
 }
 
-/// The files of one format (see [`encode`]).
+/// The files of one format (see [`encode`]); `depth` holds the images' depths as `encoding`
+/// asks for them.
 pub(super) fn encode_format<T: Real>(
     images: &Images<T>,
     format: Format,
-    outputs: Outputs,
-    background: Option<[u8; 3]>,
+    encoding: &Encoding,
+    depth: &[T],
 ) -> Vec<EncodedFile> {
+    let outputs = encoding.outputs;
     match format {
-        Format::Png => png_pictures(images, outputs, background)
+        Format::Png => png_pictures(images, outputs, encoding.background)
             .iter()
             .map(Picture::to_png)
             .collect(),
         Format::Ppm => pictures::encode_ppm(images, outputs),
-        Format::Npy => {
-            let mut files = npy::encode_all(images, outputs);
-            if let (Some(c), true) = (&images.coverage, outputs.id) {
-                let shape = [images.height as usize, images.width as usize];
-                let bytes: Vec<u8> = c.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
-                files.push(EncodedFile {
-                    name: "alpha.npy",
-                    bytes: encode_npy("<f4", &shape, &bytes),
-                });
-            }
-            files
-        }
+        Format::Npy => npy::encode_all(images, outputs, encoding.depth, depth),
+        Format::Npz => vec![npy::encode_npz(&npy::encode_all(
+            images,
+            outputs,
+            encoding.depth,
+            depth,
+        ))],
+        Format::Exr => vec![exr::encode_exr(images, depth, outputs)],
+        Format::Depth16 => vec![depth16_picture(images, depth, encoding.depth_scale).to_png()],
+    }
+}
+
+/// `depth16.png` as a picture ([`depth16_levels`]).
+pub(super) fn depth16_picture<T: Real>(images: &Images<T>, depth: &[T], scale: f64) -> Picture {
+    let levels = depth16_levels(depth, scale);
+    Picture {
+        name: "depth16.png",
+        width: images.width,
+        height: images.height,
+        channels: 1,
+        bits: 16,
+        pixels: levels.iter().flat_map(|l| l.to_be_bytes()).collect(),
     }
 }
 
@@ -165,22 +246,27 @@ pub fn png_pictures<T: Real>(
             Some(hook) => hook.iter().flatten().copied().collect(),
             None => color_rgba8(pixel_coverage(images).into_iter(), background),
         };
-        set.push(Picture {
-            name: "color.png",
-            width: images.width,
-            height: images.height,
-            channels: 4,
-            pixels: rgba,
-        });
+        set.push(Picture::new(
+            "color.png",
+            images.width,
+            images.height,
+            4,
+            rgba,
+        ));
     }
     set
 }
 
 /// Encodes (see [`encode`]) and writes into `dir`, all files or none; returns the files
 /// written.
-pub fn write<T: Real>(images: &Images<T>, dir: &Path, encoding: &Encoding) -> Result<Vec<PathBuf>> {
+pub fn write<T: Real>(
+    images: &Images<T>,
+    dir: &Path,
+    encoding: &Encoding,
+    camera: &Camera,
+) -> Result<Vec<PathBuf>> {
     check_writable(dir)?;
-    write_files(dir, &encode(images, encoding))
+    write_files(dir, &encode(images, encoding, camera))
 }
 
 /// PNG bytes of an RGB image.

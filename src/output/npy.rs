@@ -1,6 +1,6 @@
 //! NumPy `.npy` (format version 1.0) encoding of the raw render buffers.
 
-use super::EncodedFile;
+use super::{Depth, EncodedFile};
 use crate::images::{Images, Outputs};
 use crate::math::{Precision, Real};
 
@@ -40,10 +40,16 @@ fn float_bytes<T: Real>(values: impl Iterator<Item = T>) -> (&'static str, Vec<u
     }
 }
 
-/// `id.npy` (int32, -1 on a miss), `distance.npy` (+inf on a miss) and `normal.npy` (HxWx3,
-/// 0 on a miss), those of `outputs` only; floats are float32 for f32 renders and float64 for
-/// f64 renders.
-pub(super) fn encode_all<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<EncodedFile> {
+/// `id.npy` (int32, -1 on a miss), `distance.npy` or `z.npy` (`depth`'s name and values, +inf
+/// on a miss), `normal.npy` (HxWx3, 0 on a miss), those of `outputs` only, and for
+/// supersampled images with ids `alpha.npy` (float32); floats are float32 for f32 renders and
+/// float64 for f64 renders.
+pub(super) fn encode_all<T: Real>(
+    images: &Images<T>,
+    outputs: Outputs,
+    kind: Depth,
+    depth: &[T],
+) -> Vec<EncodedFile> {
     let (h, w) = (images.height as usize, images.width as usize);
     let mut files = Vec::new();
     if outputs.id {
@@ -54,10 +60,10 @@ pub(super) fn encode_all<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<E
         });
     }
     if outputs.distance {
-        let (dtype, distance) = float_bytes(images.distance.iter().copied());
+        let (dtype, values) = float_bytes(depth.iter().copied());
         files.push(EncodedFile {
-            name: "distance.npy",
-            bytes: encode_npy(dtype, &[h, w], &distance),
+            name: kind.npy_name(),
+            bytes: encode_npy(dtype, &[h, w], &values),
         });
     }
     if outputs.normal {
@@ -67,7 +73,36 @@ pub(super) fn encode_all<T: Real>(images: &Images<T>, outputs: Outputs) -> Vec<E
             bytes: encode_npy(dtype, &[h, w, 3], &normal),
         });
     }
+    if let (Some(c), true) = (&images.coverage, outputs.id) {
+        let bytes: Vec<u8> = c.alpha.iter().flat_map(|a| a.to_le_bytes()).collect();
+        files.push(EncodedFile {
+            name: "alpha.npy",
+            bytes: encode_npy("<f4", &[h, w], &bytes),
+        });
+    }
     files
+}
+
+/// `render.npz`: `files` (npy) in one uncompressed zip archive, as `numpy.savez` writes it
+/// (`numpy.load` names each array by its file name without `.npy`). ZIP64 where an array
+/// passes 4 GiB.
+pub(super) fn encode_npz(files: &[EncodedFile]) -> EncodedFile {
+    use std::io::Write;
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    for file in files {
+        let options = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Stored)
+            .large_file(file.bytes.len() as u64 >= u32::MAX as u64);
+        let written = zip
+            .start_file(file.name, options)
+            .and_then(|()| zip.write_all(&file.bytes).map_err(Into::into));
+        written.expect("zipping into memory cannot fail");
+    }
+    let bytes = zip.finish().expect("zipping into memory cannot fail");
+    EncodedFile {
+        name: "render.npz",
+        bytes: bytes.into_inner(),
+    }
 }
 
 #[cfg(test)]

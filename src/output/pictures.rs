@@ -98,31 +98,63 @@ pub(super) fn png(
     bytes
 }
 
-/// A picture file before encoding: its name and 8-bit pixels, row-major from the top row,
-/// `channels` a pixel (1 grey, 3 RGB, 4 RGBA).
+/// A picture file before encoding: its name and pixels, row-major from the top row,
+/// `channels` a pixel (1 grey, 3 RGB, 4 RGBA) of `bits` each: 8, or 16 (grey only), whose
+/// samples are big-endian (PNG's order).
 pub struct Picture {
     pub name: &'static str,
     pub width: u32,
     pub height: u32,
     pub channels: usize,
+    pub bits: u8,
     pub pixels: Vec<u8>,
 }
 
 impl Picture {
+    /// An 8-bit picture.
+    pub fn new(
+        name: &'static str,
+        width: u32,
+        height: u32,
+        channels: usize,
+        pixels: Vec<u8>,
+    ) -> Self {
+        Picture {
+            name,
+            width,
+            height,
+            channels,
+            bits: 8,
+            pixels,
+        }
+    }
+
     /// The PNG colour type of its pixels.
     pub fn png_color(&self) -> image::ExtendedColorType {
-        use image::ExtendedColorType::{L8, Rgb8, Rgba8};
-        match self.channels {
-            1 => L8,
-            3 => Rgb8,
+        use image::ExtendedColorType::{L8, L16, Rgb8, Rgba8};
+        match (self.channels, self.bits) {
+            (1, 16) => L16,
+            (1, _) => L8,
+            (3, _) => Rgb8,
             _ => Rgba8,
         }
     }
 
     pub fn to_png(&self) -> EncodedFile {
+        let native: Vec<u8>;
+        let pixels = match self.bits {
+            // The encoder takes 16-bit samples in the machine's order.
+            16 => {
+                native = (self.pixels.chunks_exact(2))
+                    .flat_map(|b| u16::from_be_bytes([b[0], b[1]]).to_ne_bytes())
+                    .collect();
+                &native
+            }
+            _ => &self.pixels,
+        };
         EncodedFile {
             name: self.name,
-            bytes: png(self.width, self.height, &self.pixels, self.png_color()),
+            bytes: png(self.width, self.height, pixels, self.png_color()),
         }
     }
 
@@ -156,13 +188,7 @@ pub fn picture_set<T: Real>(
     ]
     .into_iter()
     .filter(|(wanted, ..)| *wanted)
-    .map(|(_, name, channels, pixels)| Picture {
-        name,
-        width,
-        height,
-        channels,
-        pixels,
-    })
+    .map(|(_, name, channels, pixels)| Picture::new(name, width, height, channels, pixels))
     .collect()
 }
 

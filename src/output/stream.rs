@@ -11,11 +11,13 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::{
-    EncodedFile, Encoding, Format, Picture, encode_format, encode_npy, pending, png_pictures,
+    EncodedFile, Encoding, Format, Picture, depth16_picture, encode_format, encode_npy, pending,
+    png_pictures,
 };
 use crate::error::{Error, Result};
 use crate::images::Images;
 use crate::math::Real;
+use crate::scene::Camera;
 
 /// One file being written: its final path, its temporary path, its encoder.
 struct Stream {
@@ -52,39 +54,55 @@ pub struct BandWriter {
     width: u32,
     height: u32,
     encoding: Encoding,
+    camera: Camera,
     streams: Vec<Stream>,
     rows_written: u32,
 }
 
 impl BandWriter {
-    /// A writer for a `width` x `height` render into `dir`; files open with the first band.
-    pub fn new(dir: &Path, [width, height]: [u32; 2], encoding: &Encoding) -> BandWriter {
-        BandWriter {
+    /// A writer for a render of `camera` (at its resolution) into `dir`; files open with the
+    /// first band. Formats written whole only ([`Format::whole_only`]) are an error naming
+    /// `--format`.
+    pub fn new(dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<BandWriter> {
+        if let Some(f) = encoding.formats.iter().find(|f| f.whole_only()) {
+            return Err(Error::Argument {
+                option: format!("--format {}", f.name()),
+                message: "is written whole, not in bands of rows (--band-rows, or images above 16,777,216 pixels)".into(),
+            });
+        }
+        let [width, height] = camera.resolution;
+        Ok(BandWriter {
             dir: dir.to_owned(),
             width,
             height,
             encoding: encoding.clone(),
+            camera: camera.clone(),
             streams: Vec::new(),
             rows_written: 0,
-        }
+        })
     }
 
-    /// The band's files, in the same order for every band: png pictures as raw pixels, the
-    /// other formats encoded.
+    /// The band's files, in the same order for every band: png pictures (and depth16.png) as
+    /// raw pixels, the other formats encoded.
     fn band_files<T: Real>(&self, band: &Images<T>) -> Vec<BandFile> {
-        let Encoding {
-            formats,
-            outputs,
-            background,
-        } = &self.encoding;
+        let encoding = &self.encoding;
+        let depth = encoding.depth.of(band, &self.camera, self.rows_written);
         let mut files = Vec::new();
-        for &format in formats {
-            if format == Format::Png {
-                let set = png_pictures(band, *outputs, *background);
-                files.extend(set.into_iter().map(BandFile::Picture));
-            } else {
-                let encoded = encode_format(band, format, *outputs, *background);
-                files.extend(encoded.into_iter().map(BandFile::Encoded));
+        for &format in &encoding.formats {
+            match format {
+                Format::Png => {
+                    let set = png_pictures(band, encoding.outputs, encoding.background);
+                    files.extend(set.into_iter().map(BandFile::Picture));
+                }
+                Format::Depth16 => files.push(BandFile::Picture(depth16_picture(
+                    band,
+                    &depth,
+                    encoding.depth_scale,
+                ))),
+                _ => {
+                    let encoded = encode_format(band, format, encoding, &depth);
+                    files.extend(encoded.into_iter().map(BandFile::Encoded));
+                }
             }
         }
         files
@@ -122,8 +140,20 @@ impl BandWriter {
             )));
         }
         let streams = std::mem::take(&mut self.streams);
-        let temps: Vec<PathBuf> = streams.iter().map(|s| s.tmp.clone()).collect();
+        let mut temps: Vec<PathBuf> = streams.iter().map(|s| s.tmp.clone()).collect();
         let mut done = Vec::new();
+        // camera.json, whole, among the files placed together.
+        let camera = self.encoding.camera_json(&self.camera);
+        let camera_path = self.dir.join(camera.name);
+        let camera_tmp = pending::temp_path(&camera_path)?;
+        temps.push(camera_tmp.clone());
+        let written = pending::create(&camera_tmp)
+            .and_then(|mut f| f.write_all(&camera.bytes).and_then(|()| f.flush()));
+        if let Err(e) = written {
+            pending::discard(temps.iter().map(PathBuf::as_path));
+            return Err(Error::io(&camera_tmp, format!("cannot write: {e}")));
+        }
+        done.push((camera_tmp, camera_path));
         for s in streams {
             let finished = match s.sink {
                 Sink::Png(w) => w.finish().map_err(|e| e.to_string()),
@@ -170,7 +200,10 @@ impl BandWriter {
                     3 => png::ColorType::Rgb,
                     _ => png::ColorType::Rgba,
                 });
-                encoder.set_depth(png::BitDepth::Eight);
+                encoder.set_depth(match p.bits {
+                    16 => png::BitDepth::Sixteen,
+                    _ => png::BitDepth::Eight,
+                });
                 let writer = encoder.write_header().map_err(|e| e.to_string())?;
                 let stream = writer.into_stream_writer().map_err(|e| e.to_string())?;
                 Sink::Png(Box::new(stream))

@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
-use crate::scene::{self, Object, Scene};
+use crate::scene::{self, CameraOverrides, Object, Scene};
 use crate::supersample;
 
 /// Everything a render to files is asked for.
@@ -47,6 +47,8 @@ pub struct Spec {
     pub encoding: Encoding,
     /// Also write the kernel the render ran (its first pass, for adaptive precision) here.
     pub emit_shader: Option<PathBuf>,
+    /// Camera settings replacing the scene's (or a mesh's default view's).
+    pub view: CameraOverrides,
 }
 
 /// What a render to files did, for the user.
@@ -183,6 +185,14 @@ impl Spec {
                 );
             }
         }
+        if let Some(f) = self.encoding.formats.iter().find(|f| f.whole_only())
+            && self.band_rows.is_some()
+        {
+            return refuse(
+                &format!("--format {}", f.name()),
+                "is written whole, not in bands of rows (--band-rows)",
+            );
+        }
         if self.band_rows.is_some() && !self.streamable() {
             return refuse(
                 "--band-rows",
@@ -222,7 +232,7 @@ impl Spec {
     /// kernel with `emit_shader`. `gpu` is needed for a GPU mode.
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
         self.check()?;
-        let scene = scene::load_sized(self.scene.as_deref(), self.size)?;
+        let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;
         let [nx, ny] = scene.camera.resolution;
         let huge = nx as u64 * ny as u64 > STREAM_PIXELS;
         self.resolved(huge).run_resolved(gpu, &scene, huge)
@@ -277,7 +287,7 @@ impl Spec {
                 let (images, recast) = images?;
                 summary.elapsed = elapsed;
                 summary.recast = recast;
-                summary.written = images.write(&self.out_dir, &self.encoding)?;
+                summary.written = images.write(&self.out_dir, &self.encoding, &scene.camera)?;
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
@@ -296,8 +306,8 @@ impl Spec {
         request: &Request,
         rows: u32,
     ) -> Result<Vec<PathBuf>> {
-        let size = scene.camera.resolution;
-        let mut writer = output::stream::BandWriter::new(&self.out_dir, size, &self.encoding);
+        let mut writer =
+            output::stream::BandWriter::new(&self.out_dir, &self.encoding, &scene.camera)?;
         render_streamed(
             scene,
             self.mode,
@@ -369,6 +379,7 @@ mod tests {
             out_dir: PathBuf::from("out"),
             encoding: Encoding::new(&[Format::Png], None).unwrap(),
             emit_shader: None,
+            view: CameraOverrides::default(),
         }
     }
 

@@ -24,7 +24,7 @@ use crate::math::Precision;
 use crate::output::{self, Encoding};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Accel;
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 use crate::supersample;
 
 /// Images in whichever precision they were rendered in.
@@ -35,11 +35,11 @@ pub enum AnyImages {
 }
 
 impl AnyImages {
-    /// Encodes and writes the images (see [`output::write`]).
-    pub fn write(&self, dir: &Path, encoding: &Encoding) -> Result<Vec<PathBuf>> {
+    /// Encodes and writes the images, a render of `camera` (see [`output::write`]).
+    pub fn write(&self, dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<Vec<PathBuf>> {
         match self {
-            AnyImages::F32(i) => output::write(i, dir, encoding),
-            AnyImages::F64(i) => output::write(i, dir, encoding),
+            AnyImages::F32(i) => output::write(i, dir, encoding, camera),
+            AnyImages::F64(i) => output::write(i, dir, encoding, camera),
         }
     }
 

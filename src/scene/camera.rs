@@ -4,6 +4,9 @@
 
 use glam::{DMat3, DMat4, DVec3};
 
+use super::MAX_MAGNITUDE;
+use crate::error::{Error, Result};
+
 /// Perspective (rays from the eye) or orthographic (parallel rays from the image plane).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Projection {
@@ -133,7 +136,11 @@ impl Camera {
 
     /// World to camera coordinates with OpenCV's axes (x right, y down, z forward).
     pub fn world_to_camera(&self) -> DMat4 {
-        self.camera_to_world().inverse()
+        let [u, v, w] = self.basis();
+        let rotation = DMat3::from_cols(u, -v, -w).transpose();
+        let mut m = DMat4::from_mat3(rotation);
+        m.w_axis = (-(rotation * self.eye)).extend(1.0);
+        m
     }
 
     /// Camera coordinates (OpenCV's axes) to world: columns right, down, forward and the eye.
@@ -145,6 +152,145 @@ impl Camera {
             (-w).extend(0.0),
             self.eye.extend(1.0),
         )
+    }
+}
+
+/// Camera settings from the command line (`--eye`, `--look-at`, `--up`, `--fov`), which
+/// replace those of the scene's camera or of a mesh's default view.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraOverrides {
+    pub eye: Option<DVec3>,
+    pub look_at: Option<DVec3>,
+    pub up: Option<DVec3>,
+    /// Vertical field of view, degrees.
+    pub fov: Option<f64>,
+}
+
+/// The default view of a mesh rendered directly: from the front (+z), right (+x) and above
+/// (+y), up +y, in this direction from the centre of its bounding box.
+pub const MESH_VIEW_DIRECTION: DVec3 = DVec3::new(0.6, 0.5, 1.0);
+/// The default view's vertical field of view, degrees.
+pub const MESH_VIEW_FOV: f64 = 40.0;
+
+impl CameraOverrides {
+    pub fn is_empty(&self) -> bool {
+        *self == CameraOverrides::default()
+    }
+
+    fn refuse(option: &str, message: impl Into<String>) -> Error {
+        Error::Argument {
+            option: option.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The values checked: finite, within the scene's limits, a field of view in (0, 180).
+    fn check(&self) -> Result<()> {
+        for (option, v) in [
+            ("--eye", self.eye),
+            ("--look-at", self.look_at),
+            ("--up", self.up),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v.abs().max_element() <= MAX_MAGNITUDE)
+            {
+                return Err(Self::refuse(
+                    option,
+                    format!("needs finite numbers of magnitude at most {MAX_MAGNITUDE:e}"),
+                ));
+            }
+        }
+        if self.up == Some(DVec3::ZERO) {
+            return Err(Self::refuse("--up", "must be a non-zero vector"));
+        }
+        if let Some(fov) = self.fov
+            && !(fov > 0.0 && fov < 180.0)
+        {
+            return Err(Self::refuse(
+                "--fov",
+                format!("must be between 0 and 180 degrees, both excluded (got {fov})"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// `camera` with these settings: the eye moved (looking the same way unless `look_at` is
+    /// given), looking at `look_at`, `up` replaced, and the image plane given by `fov` (the
+    /// focal length kept as the distance rays start at).
+    pub fn apply(&self, camera: &Camera) -> Result<Camera> {
+        self.check()?;
+        let mut c = camera.clone();
+        if let Some(eye) = self.eye {
+            c.eye = eye;
+        }
+        if let Some(target) = self.look_at {
+            c.look = target - c.eye;
+            if c.look == DVec3::ZERO {
+                return Err(Self::refuse(
+                    "--look-at",
+                    "is the eye: no direction to look in",
+                ));
+            }
+        }
+        if let Some(up) = self.up {
+            c.up = up;
+        }
+        if c.look.normalize().cross(c.up.normalize()).length() <= 1e-12 {
+            let option = if self.up.is_some() {
+                "--up"
+            } else {
+                "--look-at"
+            };
+            return Err(Self::refuse(
+                option,
+                "makes up parallel to the viewing direction",
+            ));
+        }
+        if let Some(degrees) = self.fov {
+            if c.projection == Projection::Orthographic {
+                return Err(Self::refuse("--fov", "needs a perspective camera"));
+            }
+            if let Lens::Size { .. } = c.lens {
+                c.depth_white = c.focal_length;
+            }
+            c.lens = Lens::Fov { degrees };
+        }
+        Ok(c)
+    }
+
+    /// The default view of objects within `bounds` at `resolution` pixels, with these
+    /// settings: looking at the box's centre (or `look_at`) from [`MESH_VIEW_DIRECTION`], far
+    /// enough for the box's bounding sphere to fit the image (or from `eye`), up +y (or `up`),
+    /// vertical field of view [`MESH_VIEW_FOV`] (or `fov`).
+    pub fn framing(&self, bounds: Option<(DVec3, DVec3)>, resolution: [u32; 2]) -> Result<Camera> {
+        self.check()?;
+        let (lo, hi) = bounds.unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
+        let target = self.look_at.unwrap_or((lo + hi) / 2.0);
+        let radius = ((hi - lo).length() / 2.0).max(f64::MIN_POSITIVE);
+        let degrees = self.fov.unwrap_or(MESH_VIEW_FOV);
+        let [nx, ny] = resolution.map(f64::from);
+        let half_height = (degrees.to_radians() / 2.0).tan();
+        let half_angle = half_height.min(half_height * nx / ny).atan();
+        let eye = self.eye.unwrap_or(
+            (lo + hi) / 2.0 + MESH_VIEW_DIRECTION.normalize() * (radius / half_angle.sin()),
+        );
+        let framed = Camera {
+            projection: Projection::Perspective,
+            eye,
+            look: target - eye,
+            up: DVec3::Y,
+            focal_length: default_near(eye, bounds),
+            lens: Lens::Fov { degrees },
+            resolution,
+            depth_white: default_depth_white(eye, bounds),
+        };
+        let settings = CameraOverrides {
+            eye: None,
+            look_at: self.look_at.or(Some(target)),
+            fov: None,
+            ..*self
+        };
+        settings.apply(&framed)
     }
 }
 

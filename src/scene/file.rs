@@ -170,6 +170,28 @@ pub(super) fn parse(
     })
 }
 
+/// A scene of the mesh file `path` alone (object 0) with the camera `camera(bounds)` makes
+/// for the mesh's bounding box; the mesh's numbers are checked as a scene's.
+pub(super) fn mesh_scene(
+    path: &Path,
+    camera: impl FnOnce(Option<(DVec3, DVec3)>) -> Result<Camera>,
+) -> Result<Scene> {
+    let triangles = super::mesh::load_mesh(path)?;
+    Checker { file: path }.mesh_values("", &triangles)?;
+    let objects = vec![Object::Soup {
+        path: path.to_owned(),
+        triangles,
+    }];
+    Ok(Scene {
+        camera: camera(super::bounds(&objects))?,
+        lighting: Lighting {
+            object_materials: vec![None],
+            ..Lighting::default()
+        },
+        objects,
+    })
+}
+
 fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
     let de = &mut serde_json::Deserializer::from_str(text);
     let raw = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
@@ -517,7 +539,7 @@ impl Checker<'_> {
                     }
                 };
                 let triangles = load_mesh(name)?;
-                self.mesh_values(i, &triangles)?;
+                self.mesh_values(&format!("objects[{i}] "), &triangles)?;
                 Object::Soup {
                     path: name.into(),
                     triangles,
@@ -607,11 +629,13 @@ impl Checker<'_> {
         })
     }
 
-    fn mesh_values(&self, i: usize, triangles: &[Triangle]) -> Result<()> {
+    /// Every coordinate finite and within [`MAX_MAGNITUDE`]; errors name `place` and the
+    /// triangle.
+    fn mesh_values(&self, place: &str, triangles: &[Triangle]) -> Result<()> {
         for (k, t) in triangles.iter().enumerate() {
             for c in t {
                 for x in c.to_array() {
-                    self.number(&format!("objects[{i}] triangle {k}"), x)?;
+                    self.number(&format!("{place}triangle {k}"), x)?;
                 }
             }
         }

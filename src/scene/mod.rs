@@ -16,7 +16,9 @@ use glam::DVec3;
 
 use crate::math::Vec3;
 
-pub use camera::{Camera, ImagePlane, Lens, Projection};
+pub use camera::{
+    Camera, CameraOverrides, ImagePlane, Lens, MESH_VIEW_DIRECTION, MESH_VIEW_FOV, Projection,
+};
 pub use mesh::{load_mesh, parse_mesh};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
@@ -155,10 +157,24 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
     Ok([w, h])
 }
 
-/// The scene of `path` ([`Scene::load`]), or without one the built-in default scene, with its
+/// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
+/// that mesh alone, [`Scene::of_mesh`]), or without one the built-in default scene, with its
 /// resolution replaced by `size` where given (`--size`): the command line's loader, which notes
 /// on stderr, each time it loads such a scene, that its materials and lights are ignored.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
+    load_viewed(path, size, &CameraOverrides::default())
+}
+
+/// [`load_sized`] with the camera's settings replaced by `view`'s ([`CameraOverrides`]; for a
+/// mesh file they replace those of its default view).
+pub fn load_viewed(
+    path: Option<&Path>,
+    size: Option<[u32; 2]>,
+    view: &CameraOverrides,
+) -> Result<Scene> {
+    if let Some(path) = path.filter(|p| is_mesh_file(p)) {
+        return Scene::of_mesh(path, size.unwrap_or(DEFAULT_RESOLUTION), view);
+    }
     let mut scene = match path {
         Some(path) => Scene::load(path)?,
         None => Scene::default_scene(),
@@ -175,7 +191,18 @@ pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> 
     if let Some(size) = size {
         scene.camera.resolution = size;
     }
+    if !view.is_empty() {
+        scene.camera = view.apply(&scene.camera)?;
+    }
     Ok(scene)
+}
+
+/// Whether `path` names a mesh file (`.obj`, `.stl`, `.ply`, any case) rather than a scene.
+pub fn is_mesh_file(path: &Path) -> bool {
+    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    ["obj", "stl", "ply"]
+        .iter()
+        .any(|e| extension.eq_ignore_ascii_case(e))
 }
 
 impl Scene {
@@ -184,6 +211,12 @@ impl Scene {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let base = path.parent().unwrap_or(Path::new(""));
         file::parse(&text, path, &mut |name| mesh::load_mesh(&base.join(name)))
+    }
+
+    /// The mesh file `path` as a scene of one object, seen by its default view
+    /// ([`CameraOverrides::framing`]) at `resolution` pixels, with `view`'s settings.
+    pub fn of_mesh(path: &Path, resolution: [u32; 2], view: &CameraOverrides) -> Result<Scene> {
+        file::mesh_scene(path, |bounds| view.framing(bounds, resolution))
     }
 
     /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves soup paths.
