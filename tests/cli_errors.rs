@@ -790,16 +790,26 @@ fn bad_mesh_files_rendered_directly_name_the_file() {
     let huge = dir.path().join("huge.obj");
     std::fs::write(&huge, "v 0 0 0\nv 1 0 0\nv 0 1e30 0\nf 1 2 3\n").unwrap();
     let missing = dir.path().join("missing.stl");
-    for (mesh, parts) in [
-        (&huge, &["huge.obj", "triangle 0", "1e30"][..]),
-        (&missing, &["missing.stl", "cannot read"]),
+    let good = dir.path().join("good.obj");
+    std::fs::write(&good, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    for (mesh, args, parts) in [
+        (&huge, &[][..], &["huge.obj", "triangle 0", "1e30"][..]),
+        (&missing, &[], &["missing.stl", "cannot read"]),
+        // The default view looks at the box's centre, (0.5, 0.5, 0), up +y.
+        (&good, &["--eye", "0.5,0.5,0"], &["--eye", "looked at"]),
+        (&good, &["--eye", "0.5,3,0"], &["--eye", "parallel"]),
+        (
+            &good,
+            &["--eye", "2,1,0", "--look-at", "2,-3,0"],
+            &["--look-at", "parallel"],
+        ),
     ] {
         let case = Case {
             dir: tempfile::tempdir().unwrap(),
             scene: mesh.clone(),
             out: out.clone(),
         };
-        let message = case.fail(&[], &[]);
+        let message = case.fail(args, &[]);
         assert_has(&message, parts);
     }
 }

@@ -34,6 +34,10 @@ pub fn encode_exr<T: Real>(images: &Images<T>, depth: &[T], outputs: Outputs) ->
             channels.push(x::AnyChannel::new("A", alpha));
         }
     }
+    // Data, not colour: no channel is a hint for perceptual (lossy) compression.
+    for channel in &mut channels {
+        channel.quantize_linearly = false;
+    }
     let size = (images.width as usize, images.height as usize);
     let layer = x::Layer::new(
         size,

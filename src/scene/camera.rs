@@ -236,14 +236,15 @@ impl CameraOverrides {
             c.up = up;
         }
         if c.look.normalize().cross(c.up.normalize()).length() <= 1e-12 {
-            let option = if self.up.is_some() {
-                "--up"
-            } else {
-                "--look-at"
-            };
+            // The option that set the last of the two directions.
+            let given = [
+                ("--up", self.up.is_some()),
+                ("--look-at", self.look_at.is_some()),
+            ];
+            let option = given.iter().find(|(_, g)| *g).map_or("--eye", |(o, _)| o);
             return Err(Self::refuse(
                 option,
-                "makes up parallel to the viewing direction",
+                "leaves the up direction parallel to the viewing direction",
             ));
         }
         if let Some(degrees) = self.fov {
@@ -284,9 +285,12 @@ impl CameraOverrides {
             resolution,
             depth_white: default_depth_white(eye, bounds),
         };
+        if framed.look == DVec3::ZERO {
+            return Err(Self::refuse("--eye", "is the point looked at"));
+        }
+        // The eye and the field of view are the framed camera's already.
         let settings = CameraOverrides {
             eye: None,
-            look_at: self.look_at.or(Some(target)),
             fov: None,
             ..*self
         };
