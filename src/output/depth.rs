@@ -4,6 +4,7 @@
 use std::str::FromStr;
 
 use glam::{DMat3, DMat4};
+use rayon::prelude::*;
 use serde_json::json;
 
 use super::EncodedFile;
@@ -61,7 +62,7 @@ impl Depth {
         }
         let frame = Frame::new(camera, camera.resolution);
         let width = images.width as usize;
-        (images.distance.iter().enumerate())
+        (images.distance.par_iter().enumerate())
             .map(|(k, &distance)| {
                 let (i, j) = ((k / width) as u32 + first_row, (k % width) as u32);
                 let ray = crate::cpu::camera::camera_ray(&frame, i, j);
