@@ -715,6 +715,13 @@ fn contradictory_or_incomplete_cameras_name_the_field() {
             &["camera.up", "parallel", "camera.look_at"],
         ),
         (
+            edit(
+                COURSE_PLANE,
+                r#""intrinsics":{"fx":1e-300,"fy":60,"cx":15.5,"cy":8.5},"resolution":[32,18]"#,
+            ),
+            &["camera.intrinsics", "image plane", "1e18"],
+        ),
+        (
             edit(r#""look":[0,0,-1]"#, r#""look_at":[0,0,1e30]"#),
             &["camera.look_at[2]", "1e30"],
         ),

@@ -398,7 +398,7 @@ impl Checker<'_> {
             Lens::Size { .. } => focal_length,
             _ => camera::default_depth_white(eye, bounds).max(focal_length),
         };
-        Ok(Camera {
+        let camera = Camera {
             projection,
             eye,
             look,
@@ -407,7 +407,27 @@ impl Checker<'_> {
             lens,
             resolution,
             depth_white,
-        })
+        };
+        // Intrinsics or a field of view give the plane's size indirectly: it must stay within
+        // what the course's fields may give.
+        let plane = camera.image_plane();
+        let size = [plane.width, plane.height, plane.shift[0], plane.shift[1]];
+        if let Some(x) = size
+            .iter()
+            .find(|x| !(x.is_finite() && x.abs() <= MAX_MAGNITUDE))
+        {
+            let field = match lens {
+                Lens::Intrinsics { .. } => "camera.intrinsics",
+                _ => "camera.fov",
+            };
+            return Err(self.fail(
+                field,
+                format!(
+                    "gives an image plane of size {x:e}, beyond the supported {MAX_MAGNITUDE:e}"
+                ),
+            ));
+        }
+        Ok(camera)
     }
 
     /// The image plane's description and the distance to it, where the file gives one (the
