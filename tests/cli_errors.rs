@@ -737,6 +737,7 @@ fn contradictory_or_incomplete_cameras_name_the_field() {
 #[test]
 fn bad_format_depth_and_camera_options_name_the_option() {
     let ortho = edit(r#""type":"perspective""#, r#""type":"orthographic""#);
+    let far = edit(r#""focal_length":3"#, r#""focal_length":1e17"#);
     let cases: &[(&str, &[&str], &[&str])] = &[
         (
             VALID,
@@ -783,6 +784,11 @@ fn bad_format_depth_and_camera_options_name_the_option() {
         (VALID, &["--up", "0,0,0"], &["--up", "non-zero"]),
         (VALID, &["--up", "0,0,1"], &["--up", "parallel"]),
         (&ortho, &["--fov", "40"], &["--fov", "perspective"]),
+        (
+            &far,
+            &["--fov", "179.99"],
+            &["--fov", "image plane", "1e18"],
+        ),
     ];
     for (scene, args, parts) in cases {
         let message = Case::new(scene).fail(args, &[]);

@@ -104,6 +104,16 @@ impl Camera {
         }
     }
 
+    /// A size or shift of the image plane beyond [`MAX_MAGNITUDE`] (or not finite), which
+    /// intrinsics or a field of view can give where the course's fields cannot.
+    pub(crate) fn oversized_plane(&self) -> Option<f64> {
+        let plane = self.image_plane();
+        let values = [plane.width, plane.height, plane.shift[0], plane.shift[1]];
+        values
+            .into_iter()
+            .find(|x| !(x.is_finite() && x.abs() <= MAX_MAGNITUDE))
+    }
+
     /// The orthonormal frame: right `u = normalize(look x up)`, up `v = w x u`, backward
     /// `w = -look / |look|` (the lecture's formulas, in this order of operations).
     pub fn basis(&self) -> [DVec3; 3] {
@@ -255,6 +265,14 @@ impl CameraOverrides {
                 c.depth_white = c.focal_length;
             }
             c.lens = Lens::Fov { degrees };
+            if let Some(x) = c.oversized_plane() {
+                return Err(Self::refuse(
+                    "--fov",
+                    format!(
+                        "gives an image plane of size {x:e}, beyond the supported {MAX_MAGNITUDE:e}"
+                    ),
+                ));
+            }
         }
         Ok(c)
     }

@@ -410,12 +410,7 @@ impl Checker<'_> {
         };
         // Intrinsics or a field of view give the plane's size indirectly: it must stay within
         // what the course's fields may give.
-        let plane = camera.image_plane();
-        let size = [plane.width, plane.height, plane.shift[0], plane.shift[1]];
-        if let Some(x) = size
-            .iter()
-            .find(|x| !(x.is_finite() && x.abs() <= MAX_MAGNITUDE))
-        {
+        if let Some(x) = camera.oversized_plane() {
             let field = match lens {
                 Lens::Intrinsics { .. } => "camera.intrinsics",
                 _ => "camera.fov",
