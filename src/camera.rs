@@ -40,11 +40,7 @@ impl Frame<f64> {
     /// vector), an orthographic ray's origin moves by the shift.
     pub fn new(camera: &Camera, resolution: [u32; 2]) -> Frame<f64> {
         let [u, v, w] = camera.basis().map(Vec3::from);
-        let sized = Camera {
-            resolution,
-            ..camera.clone()
-        };
-        let plane = sized.image_plane();
+        let plane = camera.image_plane_at(resolution);
         let d = camera.focal_length;
         let mut frame = Frame {
             projection: camera.projection,

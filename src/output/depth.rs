@@ -1,6 +1,7 @@
 //! The depth the files hold (distance from the ray's origin, or planar z), `depth16.png`, and
 //! `camera.json`: what other tools need to go back from pixels and depths to 3D points.
 
+use std::borrow::Cow;
 use std::str::FromStr;
 
 use glam::{DMat3, DMat4};
@@ -56,9 +57,14 @@ impl Depth {
     /// ray reaches the image plane at t = 1 and its z grows by the focal length per unit of t,
     /// so z = distance * d / |direction| (the direction in f64 from the camera's frame; an
     /// orthographic ray's length is d: z is the distance). A miss stays `+inf`.
-    pub fn of<T: Real>(self, images: &Images<T>, camera: &Camera, first_row: u32) -> Vec<T> {
+    pub fn of<'a, T: Real>(
+        self,
+        images: &'a Images<T>,
+        camera: &Camera,
+        first_row: u32,
+    ) -> Cow<'a, [T]> {
         if self == Depth::Distance || camera.projection == Projection::Orthographic {
-            return images.distance.clone();
+            return Cow::Borrowed(&images.distance);
         }
         let frame = Frame::new(camera, camera.resolution);
         let width = images.width as usize;
@@ -69,7 +75,8 @@ impl Depth {
                 let scale = frame.focal_length / length(ray.direction);
                 T::from_f64(distance.to_f64() * scale)
             })
-            .collect()
+            .collect::<Vec<T>>()
+            .into()
     }
 }
 

@@ -67,7 +67,12 @@ pub struct ImagePlane {
 impl Camera {
     /// The image plane at [`Camera::resolution`].
     pub fn image_plane(&self) -> ImagePlane {
-        let [nx, ny] = self.resolution.map(f64::from);
+        self.image_plane_at(self.resolution)
+    }
+
+    /// The image plane at `[nx, ny]` pixels.
+    pub fn image_plane_at(&self, resolution: [u32; 2]) -> ImagePlane {
+        let [nx, ny] = resolution.map(f64::from);
         let d = self.focal_length;
         match self.lens {
             Lens::Size { width, height } => ImagePlane {
@@ -261,9 +266,6 @@ impl CameraOverrides {
             if c.projection == Projection::Orthographic {
                 return Err(Self::refuse("--fov", "needs a perspective camera"));
             }
-            if let Lens::Size { .. } = c.lens {
-                c.depth_white = c.focal_length;
-            }
             c.lens = Lens::Fov { degrees };
             if let Some(x) = c.oversized_plane() {
                 return Err(Self::refuse(
@@ -321,15 +323,17 @@ impl CameraOverrides {
 /// box of the scene's objects ([`super::bounds`]), so that only what is that close to the eye
 /// is cut away; 1/1000 of a unit without objects.
 pub fn default_near(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
-    let farthest = bounds.map_or(0.0, |(lo, hi)| {
-        let corner = (eye - lo).abs().max((eye - hi).abs());
-        corner.length()
-    });
+    let farthest = bounds.map_or(0.0, |(lo, hi)| farthest_corner(eye, lo, hi));
     if farthest > 0.0 {
         farthest / 1000.0
     } else {
         1e-3
     }
+}
+
+/// The distance from `eye` to the farthest corner of the box from `lo` to `hi`.
+fn farthest_corner(eye: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    (eye - lo).abs().max((eye - hi).abs()).length()
 }
 
 /// The distance `depth.png` shows white for a camera other than the course's (whose focal
@@ -343,7 +347,7 @@ pub fn default_depth_white(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
     let white = if outside > 0.0 {
         outside
     } else {
-        (eye - lo).abs().max((eye - hi).abs()).length() / 8.0
+        farthest_corner(eye, lo, hi) / 8.0
     };
     if white > 0.0 { white } else { 1.0 }
 }

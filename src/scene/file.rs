@@ -433,11 +433,6 @@ impl Checker<'_> {
             ("width", c.width),
             ("height", c.height),
         ];
-        let given: Vec<&str> = course
-            .iter()
-            .filter(|(_, x)| x.is_some())
-            .map(|(n, _)| *n)
-            .collect();
         let alternative = match (c.fov.is_some(), c.intrinsics.is_some()) {
             (true, true) => {
                 return Err(self.fail(
@@ -472,7 +467,7 @@ impl Checker<'_> {
             return Ok((lens, Some(d)));
         };
         let field = format!("camera.{alternative}");
-        if let Some(first) = given.first() {
+        if let Some((first, _)) = course.iter().find(|(_, x)| x.is_some()) {
             return Err(self.fail(
                 field,
                 format!("is an alternative to focal_length, width and height: remove `{first}` or `{alternative}`"),
