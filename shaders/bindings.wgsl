@@ -26,11 +26,19 @@ struct Params {
 // as many as fit 64 KiB (UNIFORM_* from the precision module); the structs' sizes are multiples
 // of 16 bytes, as uniform arrays need.
 #if SPHERES
+// Spheres as vec4s (Sphere's layout: the centre in xyz, the radius in w), so that a subgroup can
+// load one a component per lane (shared_sphere in traverse.wgsl).
 #if UNIFORM_PRIMS
-@group(0) @binding(1) var<uniform> spheres: array<Sphere, UNIFORM_SPHERES>;
+@group(0) @binding(1) var<uniform> spheres: array<vec4<real>, UNIFORM_SPHERES>;
 #else
-@group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(1) var<storage, read> spheres: array<vec4<real>>;
 #endif
+
+// Sphere k.
+fn sphere_at(k: u32) -> Sphere {
+    let v = spheres[k];
+    return Sphere(v.xyz, v.w);
+}
 #endif
 #if PLANES
 #if UNIFORM_PRIMS
@@ -40,47 +48,36 @@ struct Params {
 #endif
 #endif
 #if TRIANGLES
-// Triangles are stored packed, 9 reals each (StoredTriangle, 36 bytes in f32 instead of the
-// 48 of three padded vec3). Meshes larger than one storage binding are split in chunks of
-// 2^CHUNK_BITS triangles (CHUNK_BITS from the precision module), bound as triangles,
-// triangles_2, ... (CHUNKS_2..4).
+// Triangles are stored packed, 9 reals each (StoredTriangle's layout, 36 bytes in f32 instead
+// of the 48 of three padded vec3), bound as flat reals so that a subgroup can load one
+// triangle a real per lane (intersect_leaf_shared). Meshes larger than one storage binding are
+// split in chunks of 2^CHUNK_BITS triangles (CHUNK_BITS from the precision module), bound as
+// triangles, triangles_2, ... (CHUNKS_2..4).
 #if UNIFORM_PRIMS
 // The same packed reals in vec4s: arrays in uniform buffers have a stride of 16 bytes.
 @group(0) @binding(3) var<uniform> triangles: array<vec4<real>, UNIFORM_TRIANGLE_VEC4S>;
 
-fn triangle_at(k: u32) -> Triangle {
-    return Triangle(triangle_corner(k, 0u), triangle_corner(k, 1u), triangle_corner(k, 2u));
-}
-
-// Corner c (0 to 2) of triangle k: its reals 9k + 3c to 9k + 3c + 2.
-fn triangle_corner(k: u32, c: u32) -> vec3<real> {
-    let i = 9u * k + 3u * c;
-    return vec3<real>(triangles[i >> 2u][i & 3u], triangles[(i + 1u) >> 2u][(i + 1u) & 3u], triangles[(i + 2u) >> 2u][(i + 2u) & 3u]);
+// Real w (0 to 8) of triangle k: corner w / 3, coordinate w % 3.
+fn triangle_real(k: u32, w: u32) -> real {
+    let i = 9u * k + w;
+    return triangles[i >> 2u][i & 3u];
 }
 #else
-@group(0) @binding(3) var<storage, read> triangles: array<StoredTriangle>;
+@group(0) @binding(3) var<storage, read> triangles: array<real>;
 #if CHUNKS_2
-@group(0) @binding(11) var<storage, read> triangles_2: array<StoredTriangle>;
+@group(0) @binding(11) var<storage, read> triangles_2: array<real>;
 #endif
 #if CHUNKS_3
-@group(0) @binding(12) var<storage, read> triangles_3: array<StoredTriangle>;
+@group(0) @binding(12) var<storage, read> triangles_3: array<real>;
 #endif
 #if CHUNKS_4
-@group(0) @binding(13) var<storage, read> triangles_4: array<StoredTriangle>;
+@group(0) @binding(13) var<storage, read> triangles_4: array<real>;
 #endif
 
-// Triangle k, from the chunk it lies in.
-fn triangle_at(k: u32) -> Triangle {
-    return unpack_triangle(stored_triangle(k));
-}
-
-fn unpack_triangle(t: StoredTriangle) -> Triangle {
-    return Triangle(vec3<real>(t.a[0], t.a[1], t.a[2]), vec3<real>(t.b[0], t.b[1], t.b[2]), vec3<real>(t.c[0], t.c[1], t.c[2]));
-}
-
-fn stored_triangle(k: u32) -> StoredTriangle {
+// Real w (0 to 8) of triangle k, from the chunk it lies in: corner w / 3, coordinate w % 3.
+fn triangle_real(k: u32, w: u32) -> real {
 #if CHUNKS_2
-    let i = k & ((1u << CHUNK_BITS) - 1u);
+    let i = 9u * (k & ((1u << CHUNK_BITS) - 1u)) + w;
     switch (k >> CHUNK_BITS) {
         case 1u: {
             return triangles_2[i];
@@ -100,10 +97,18 @@ fn stored_triangle(k: u32) -> StoredTriangle {
         }
     }
 #else
-    return triangles[k];
+    return triangles[9u * k + w];
 #endif
 }
 #endif
+
+// Triangle k.
+fn triangle_at(k: u32) -> Triangle {
+    let a = vec3<real>(triangle_real(k, 0u), triangle_real(k, 1u), triangle_real(k, 2u));
+    let b = vec3<real>(triangle_real(k, 3u), triangle_real(k, 4u), triangle_real(k, 5u));
+    let c = vec3<real>(triangle_real(k, 6u), triangle_real(k, 7u), triangle_real(k, 8u));
+    return Triangle(a, b, c);
+}
 #endif
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).

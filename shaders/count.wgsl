@@ -45,7 +45,7 @@ fn count_crossings(ray: Ray, min_t: real) -> u32 {
 fn count_spheres(ray: Ray, min_t: real, first: u32, count: u32) -> u32 {
     var n = 0u;
     for (var k = first; k < first + count; k++) {
-        n += sphere_crossings(ray, spheres[k], min_t);
+        n += sphere_crossings(ray, sphere_at(k), min_t);
     }
     return n;
 }

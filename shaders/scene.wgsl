@@ -41,7 +41,7 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
 #if SPHERES
 #if !BVH
     for (var k = 0u; k < params.sphere_count; k++) {
-        keep(intersect_sphere(ray, spheres[k], min_t), KIND_SPHERE, k, 0u, &best);
+        keep(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, &best);
     }
 #endif
 #endif
@@ -71,7 +71,7 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
     switch (hit.kind) {
 #if SPHERES
         case KIND_SPHERE: {
-            return sphere_normal(ray, hit.t, spheres[hit.index]);
+            return sphere_normal(ray, hit.t, sphere_at(hit.index));
         }
 #endif
 #if PLANES

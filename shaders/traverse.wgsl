@@ -100,7 +100,7 @@ fn intersect_leaf(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, b
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_sphere(ray, spheres[k], min_t), KIND_SPHERE, k, 0u, best);
+            keep_ordered(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, best);
         }
 #endif
     } else {
@@ -194,12 +194,36 @@ fn packet_count(b: bool) -> u32 {
 }
 #endif
 
+#if !F64
+#if SPHERES
+// Sphere k, which the whole subgroup tests: lanes 0 to 3 load a component of its vec4 each and
+// broadcasts from constant lanes hand them to every lane (as shared_triangle; 1.04x as fast
+// on the 100 spheres as one sphere loaded per lane and shuffled).
+fn shared_sphere(k: u32) -> Sphere {
+    let x = spheres[k][lane & 3u];
+    let center = vec3<real>(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u));
+    return Sphere(center, subgroupBroadcast(x, 3u));
+}
+#endif
+#if TRIANGLES
+// Triangle k, which the whole subgroup tests: lane l loads its real l and broadcasts from
+// constant lanes hand every lane all nine, 2 loads per lane instead of 9. (A shuffle by the
+// loop's index compiles to a loop over the lanes on llvmpipe; this traced the torus 1.06x as
+// fast as one triangle loaded per lane and shuffled.)
+fn shared_triangle(k: u32) -> Triangle {
+    let x = triangle_real(k, lane & 7u);
+    let last = triangle_real(k, 8u);
+    let a = vec3<real>(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u));
+    let b = vec3<real>(subgroupBroadcast(x, 3u), subgroupBroadcast(x, 4u), subgroupBroadcast(x, 5u));
+    let c = vec3<real>(subgroupBroadcast(x, 6u), subgroupBroadcast(x, 7u), last);
+    return Triangle(a, b, c);
+}
+#endif
+#endif
+
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
-// lane l loads the leaf's primitive l (a leaf holds at most 8, MAX_LEAF in src/prepare/bvh.rs)
-// and shuffles hand each primitive to every lane, so each is loaded once for the subgroup.
-// (Unrolled, with constant-lane broadcasts, it traced 1.05x as fast on llvmpipe but compiled
-// 1.3 s slower: docs/performance.md.) In f64 each lane loads what it tests: subgroup
-// operations have no f64.
+// each primitive is loaded once for the subgroup, spread over its lanes (shared_sphere,
+// shared_triangle). In f64 each lane loads what it tests: subgroup operations have no f64.
 fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
@@ -210,12 +234,10 @@ fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count:
     if (n == 0u) {
         return;
     }
-    let mine = first + min(lane & 7u, n - 1u);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
-        let s = spheres[mine];
         for (var k = 0u; k < n; k++) {
-            let sphere = Sphere(subgroupShuffle(s.center, k), subgroupShuffle(s.radius, k));
+            let sphere = shared_sphere(first + k);
             if (wanted) {
                 keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, best);
             }
@@ -224,9 +246,8 @@ fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count:
     } else {
 #if TRIANGLES
         let base = params.sphere_count + params.plane_count;
-        let t = triangle_at(mine);
         for (var k = 0u; k < n; k++) {
-            let tri = Triangle(subgroupShuffle(t.a, k), subgroupShuffle(t.b, k), subgroupShuffle(t.c, k));
+            let tri = shared_triangle(first + k);
             if (wanted) {
                 keep_ordered(intersect_triangle(ray, shear, tri, min_t), KIND_TRIANGLE, first + k, base, best);
             }
