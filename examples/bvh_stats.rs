@@ -7,7 +7,7 @@ use raycast::cpu::camera::camera_ray;
 use raycast::cpu::traverse::{box_entry, ray_inverse};
 use raycast::cpu::triangle::intersect_triangle;
 use raycast::cpu::types::{no_hit, shear_of};
-use raycast::prepare::bvh::{Bvh, LEAF_BIT, SPHERE_LEAF};
+use raycast::prepare::bvh::{Bvh, LEAF_BIT, leaf_len};
 use raycast::prepare::{Primitives, kernel_frame};
 
 fn main() {
@@ -22,7 +22,7 @@ fn main() {
         .iter()
         .flat_map(|n| [(n.reference0, n.count0), (n.reference1, n.count1)])
         .filter(|(r, _)| r & LEAF_BIT != 0)
-        .map(|(_, c)| c & !SPHERE_LEAF)
+        .map(|(_, c)| leaf_len(c))
         .collect();
     println!(
         "{} nodes, {} leaves, {:.2} triangles a leaf, depth {}",
@@ -56,7 +56,7 @@ fn main() {
                     }
                     if r & LEAF_BIT != 0 {
                         let first = r & !LEAF_BIT;
-                        for k in first..first + (c & !SPHERE_LEAF) {
+                        for k in first..first + leaf_len(c) {
                             tests += 1;
                             let th = intersect_triangle::<f32, true>(
                                 &ray,

@@ -63,7 +63,7 @@ fn count_triangles(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32) 
 
 #if BVH
 fn count_leaf(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32) -> u32 {
-    let n = count & ~SPHERE_LEAF;
+    let n = leaf_len(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         return count_spheres(ray, min_t, first, n);

@@ -16,7 +16,22 @@
 // At least MAX_DEPTH in src/prepare/bvh.rs: one entry per level at most is waiting.
 const BVH_STACK: u32 = 40u;
 const LEAF_BIT: u32 = 0x80000000u;
+// A leaf's count word (leaf_word in src/prepare/bvh.rs): SPHERE_LEAF, and either MANY_LEAF
+// and its count, or its count in the low LEAF_COUNT bits and above them the object all its
+// primitives belong to (MIXED_OBJECTS: several).
 const SPHERE_LEAF: u32 = 0x80000000u;
+const MANY_LEAF: u32 = 0x40000000u;
+const LEAF_COUNT: u32 = 0xFu;
+const LEAF_OBJECT_SHIFT: u32 = 4u;
+const MIXED_OBJECTS: u32 = 0x3FFFFFFu;
+
+fn leaf_len(count: u32) -> u32 {
+    return select(count & LEAF_COUNT, count & (MANY_LEAF - 1u), (count & MANY_LEAF) != 0u);
+}
+
+fn leaf_object(count: u32) -> u32 {
+    return select((count >> LEAF_OBJECT_SHIFT) & MIXED_OBJECTS, MIXED_OBJECTS, (count & MANY_LEAF) != 0u);
+}
 // Relative widening of every slab interval: far above the rounding of the box test, so a box
 // is skipped only when the ray certainly misses it (boxes were grown on the host as well).
 const BOX_SLACK: real = 1.52587890625e-5;  // 2^-16
@@ -73,12 +88,22 @@ fn is_closer_ordered(t: real, object: u32, index: u32, base: u32, best: Hit) -> 
     return prim_order[base + index] < prim_order[base + best.index];
 }
 
-// Keeps primitive `index` of a kind (`base`: the kind's offset in `objects` and `prim_order`)
-// as the nearest hit if its `t` is closer. With CERTAINTY every decision is recorded, misses
-// too; without, a miss loads nothing.
-fn keep_ordered(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
+// The object of primitive `index` of a kind (`base`: the kind's offset in `objects`): its
+// leaf's, `leaf`, where all the leaf's primitives have one, without a load per candidate (the
+// torus traced 1.02x as fast).
+fn object_of(leaf: u32, index: u32, base: u32) -> u32 {
+    if (leaf != MIXED_OBJECTS) {
+        return leaf;
+    }
+    return objects[base + index];
+}
+
+// Keeps primitive `index` of a kind (`base`: the kind's offset in `objects` and `prim_order`;
+// `leaf`: its leaf's object) as the nearest hit if its `t` is closer. With CERTAINTY every
+// decision is recorded, misses too; without, a miss loads nothing.
+fn keep_ordered(t: real, kind: u32, index: u32, base: u32, leaf: u32, best: ptr<function, Hit>) {
 #if CERTAINTY
-    let object = objects[base + index];
+    let object = object_of(leaf, index, base);
     let closer = is_closer_ordered(t, object, index, base, *best);
     record(t, object, closer, *best);
     if (closer) {
@@ -86,7 +111,7 @@ fn keep_ordered(t: real, kind: u32, index: u32, base: u32, best: ptr<function, H
     }
 #else
     if (t != NO_HIT) {
-        let object = objects[base + index];
+        let object = object_of(leaf, index, base);
         if (is_closer_ordered(t, object, index, base, *best)) {
             *best = Hit(t, i32(object), kind, index);
         }
@@ -96,18 +121,19 @@ fn keep_ordered(t: real, kind: u32, index: u32, base: u32, best: ptr<function, H
 
 // Tests the `count` primitives of a leaf from `first` (`shear`: shear_of(ray.direction)).
 fn intersect_leaf(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
-    let n = count & ~SPHERE_LEAF;
+    let n = leaf_len(count);
+    let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, best);
+            keep_ordered(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, leaf, best);
         }
 #endif
     } else {
 #if TRIANGLES
         let base = params.sphere_count + params.plane_count;
         for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, base, best);
+            keep_ordered(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, base, leaf, best);
         }
 #endif
     }
@@ -230,16 +256,17 @@ fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count:
         intersect_leaf(ray, shear, min_t, first, count, best);
     }
 #else
-    let n = count & ~SPHERE_LEAF;
+    let n = leaf_len(count);
     if (n == 0u) {
         return;
     }
+    let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
         for (var k = 0u; k < n; k++) {
             let sphere = shared_sphere(first + k);
             if (wanted) {
-                keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, best);
+                keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, first + k, 0u, leaf, best);
             }
         }
 #endif
@@ -249,7 +276,7 @@ fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count:
         for (var k = 0u; k < n; k++) {
             let tri = shared_triangle(first + k);
             if (wanted) {
-                keep_ordered(intersect_triangle(ray, shear, tri, min_t), KIND_TRIANGLE, first + k, base, best);
+                keep_ordered(intersect_triangle(ray, shear, tri, min_t), KIND_TRIANGLE, first + k, base, leaf, best);
             }
         }
 #endif

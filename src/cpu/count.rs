@@ -8,7 +8,7 @@ use super::triangle::intersect_triangle;
 use super::types::{Ray, Shear, no_hit, shear_of, t_far};
 use crate::math::Real;
 use crate::prepare::Primitives;
-use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
+use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF, leaf_len};
 
 fn hit_count<T: Real>(t: T) -> u32 {
     u32::from(t != no_hit())
@@ -79,7 +79,7 @@ fn count_leaf<T: Real, const ROBUST: bool>(
     first: u32,
     count: u32,
 ) -> u32 {
-    let n = count & !SPHERE_LEAF;
+    let n = leaf_len(count);
     if count & SPHERE_LEAF != 0 {
         count_spheres::<T, ROBUST>(ray, min_t, prims, first, n)
     } else {

@@ -7,7 +7,9 @@ use super::triangle::intersect_triangle;
 use super::types::{Ray, Shear, no_hit, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
-use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF};
+use crate::prepare::bvh::{
+    BvhNode, LEAF_BIT, MAX_DEPTH, MIXED_OBJECTS, SPHERE_LEAF, leaf_len, leaf_object,
+};
 
 /// The traversal stack's size (`BVH_STACK` in WGSL).
 const BVH_STACK: usize = MAX_DEPTH;
@@ -94,18 +96,28 @@ fn is_closer_ordered<T: Real>(
     key(index) < key(best.index)
 }
 
-/// Keeps primitive `index` of a kind as the nearest hit if its `t` is closer (`objects` and
-/// `key` are the kind's object ids and scene-order keys).
+/// The object of primitive `index` of a kind (`objects`: the kind's object ids): the leaf's,
+/// `leaf`, where all its primitives have one ([`leaf_object`]).
+fn object_of(leaf: u32, index: u32, objects: &[u32]) -> u32 {
+    match leaf {
+        MIXED_OBJECTS => objects[index as usize],
+        object => object,
+    }
+}
+
+/// Keeps primitive `index` of a kind as the nearest hit if its `t` is closer (`leaf`: its
+/// leaf's object, `objects` and `key` are the kind's object ids and scene-order keys).
 fn keep_ordered<T: Real>(
     t: T,
     kind: u32,
     index: u32,
+    leaf: u32,
     objects: &[u32],
     key: impl Fn(u32) -> u32,
     best: &mut Hit<T>,
 ) {
     if t != no_hit() {
-        let object = objects[index as usize];
+        let object = object_of(leaf, index, objects);
         if is_closer_ordered(t, object, index, key, best) {
             *best = Hit {
                 t,
@@ -127,19 +139,28 @@ fn intersect_leaf<T: Real, const ROBUST: bool>(
     count: u32,
     best: &mut Hit<T>,
 ) {
-    let n = count & !SPHERE_LEAF;
+    let n = leaf_len(count);
+    let leaf = leaf_object(count);
     if count & SPHERE_LEAF != 0 {
         for k in first..first + n {
             let t = intersect_sphere::<T, ROBUST>(ray, &prims.spheres[k as usize], min_t);
             let key = |i| prims.sphere_key(i);
-            keep_ordered(t, KIND_SPHERE, k, &prims.sphere_objects, key, best);
+            keep_ordered(t, KIND_SPHERE, k, leaf, &prims.sphere_objects, key, best);
         }
     } else {
         for k in first..first + n {
             let tri = &prims.triangles[k as usize];
             let t = intersect_triangle::<T, ROBUST>(ray, shear, tri, min_t);
             let key = |i| prims.triangle_key(i);
-            keep_ordered(t, KIND_TRIANGLE, k, &prims.triangle_objects, key, best);
+            keep_ordered(
+                t,
+                KIND_TRIANGLE,
+                k,
+                leaf,
+                &prims.triangle_objects,
+                key,
+                best,
+            );
         }
     }
 }

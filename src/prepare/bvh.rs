@@ -91,6 +91,44 @@ pub fn bounded_count(scene: &Scene) -> usize {
 pub const LEAF_BIT: u32 = 1 << 31;
 /// Set in a leaf's `count` when its primitives are spheres (else triangles).
 pub const SPHERE_LEAF: u32 = 1 << 31;
+/// Set in a leaf's `count` when it holds more primitives than [`LEAF_COUNT`] counts (only a
+/// leaf at [`MAX_DEPTH`] can): the bits below are the count, and each primitive's object is
+/// looked up.
+pub const MANY_LEAF: u32 = 1 << 30;
+/// A leaf's `count` without [`MANY_LEAF`]: its primitives in these bits, and from
+/// [`LEAF_OBJECT_SHIFT`] up the object all of them belong to, or [`MIXED_OBJECTS`]. The kernel
+/// then takes a candidate's object id from the node it already holds instead of loading it
+/// for every hit (1.02x on the torus; shaders/traverse.wgsl).
+pub const LEAF_COUNT: u32 = 0xF;
+pub const LEAF_OBJECT_SHIFT: u32 = 4;
+/// The leaf's primitives belong to several objects (or to one whose id does not fit).
+pub const MIXED_OBJECTS: u32 = (1 << 26) - 1;
+
+/// The `count` of a leaf of `len` primitives of `kind` ([`SPHERE_LEAF`] or 0), all of `object`
+/// or of several ([`MIXED_OBJECTS`]).
+fn leaf_word(kind: u32, len: usize, object: u32) -> u32 {
+    let len = len as u32;
+    match len > LEAF_COUNT {
+        true => kind | MANY_LEAF | len,
+        false => kind | (object.min(MIXED_OBJECTS) << LEAF_OBJECT_SHIFT) | len,
+    }
+}
+
+/// The number of primitives of a leaf from its `count`.
+pub fn leaf_len(count: u32) -> u32 {
+    match count & MANY_LEAF != 0 {
+        true => count & (MANY_LEAF - 1),
+        false => count & LEAF_COUNT,
+    }
+}
+
+/// The object every primitive of a leaf belongs to, from its `count`, or [`MIXED_OBJECTS`].
+pub fn leaf_object(count: u32) -> u32 {
+    match count & MANY_LEAF != 0 {
+        true => MIXED_OBJECTS,
+        false => (count >> LEAF_OBJECT_SHIFT) & MIXED_OBJECTS,
+    }
+}
 /// Relative growth of every primitive's box before the build: 2^-18, about 64 f32 ulps of the
 /// coordinates, far above what the f32 intersection tests can be off by.
 const GROWTH: f64 = 1.0 / 262_144.0;
@@ -115,7 +153,7 @@ pub struct BvhNode {
     pub lo0: [f32; 3],   // offset 0: child 0 box
     pub reference0: u32, // offset 12: node index, or LEAF_BIT | first primitive
     pub hi0: [f32; 3],   // offset 16
-    pub count0: u32,     // offset 28: leaf primitives (| SPHERE_LEAF), 0 for a node
+    pub count0: u32,     // offset 28: leaf primitives and their object (leaf_word), 0 for a node
     pub lo1: [f32; 3],   // offset 32: child 1 box
     pub reference1: u32, // offset 44
     pub hi1: [f32; 3],   // offset 48
@@ -482,22 +520,36 @@ fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Exten
 }
 
 /// Appends the interior nodes of `tree` to `nodes` (the tree's own node first) and returns the
-/// child entry its parent stores. `kind` is `SPHERE_LEAF` or 0.
-fn flatten(bounds: Aabb, tree: &Tree, kind: u32, nodes: &mut Vec<BvhNode>) -> Child {
+/// child entry its parent stores. `kind` is `SPHERE_LEAF` or 0; `objects` holds the object of
+/// each primitive of the kind in BVH order.
+fn flatten(
+    bounds: Aabb,
+    tree: &Tree,
+    kind: u32,
+    objects: &[u32],
+    nodes: &mut Vec<BvhNode>,
+) -> Child {
     let Aabb { lo, hi } = bounds;
     match tree {
-        Tree::Leaf { start, len } => Child {
-            lo,
-            hi,
-            reference: LEAF_BIT | *start as u32,
-            count: kind | *len as u32,
-        },
+        Tree::Leaf { start, len } => {
+            let mine = &objects[*start..*start + *len];
+            let object = match mine.iter().all(|&o| o == mine[0]) {
+                true => mine.first().copied().unwrap_or(MIXED_OBJECTS),
+                false => MIXED_OBJECTS,
+            };
+            Child {
+                lo,
+                hi,
+                reference: LEAF_BIT | *start as u32,
+                count: leaf_word(kind, *len, object),
+            }
+        }
         Tree::Inner(children) => {
             let at = nodes.len();
             nodes.push(BvhNode::zeroed());
             let [(b0, t0), (b1, t1)] = &**children;
-            let c0 = flatten(*b0, t0, kind, nodes);
-            let c1 = flatten(*b1, t1, kind, nodes);
+            let c0 = flatten(*b0, t0, kind, objects, nodes);
+            let c1 = flatten(*b1, t1, kind, objects, nodes);
             nodes[at] = BvhNode::new(c0, c1);
             Child {
                 lo,
@@ -538,23 +590,44 @@ impl Bvh {
         let eye = length(kernel_frame(scene, algorithm).eye);
         let mut spheres = Vec::new();
         let mut triangles = Vec::new();
-        for object in &scene.objects {
+        // The object of each sphere and triangle, in the scene's order.
+        let mut sphere_objects = Vec::new();
+        let mut triangle_objects = Vec::new();
+        for (id, object) in scene.objects.iter().enumerate() {
+            let id = id as u32;
             match object {
                 Object::Sphere { center, radius } => {
                     let c = *center - origin;
                     spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
+                    sphere_objects.push(id);
                 }
-                Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
+                Object::Triangle { corners } => {
+                    triangles.push(triangle_box(corners, origin));
+                    triangle_objects.push(id);
+                }
                 Object::Soup { triangles: t, .. } => {
-                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)))
+                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)));
+                    triangle_objects.resize(triangles.len(), id);
                 }
                 Object::Plane { .. } => {}
             }
         }
-        Bvh::from_boxes(grown(spheres, eye), grown(triangles, eye))
+        Bvh::from_boxes(
+            grown(spheres, eye),
+            grown(triangles, eye),
+            &sphere_objects,
+            &triangle_objects,
+        )
     }
 
-    fn from_boxes(mut spheres: Vec<Item>, mut triangles: Vec<Item>) -> Bvh {
+    /// The BVH over the boxes of each kind, whose objects (by the items' `index`) are
+    /// `sphere_objects` and `triangle_objects`.
+    fn from_boxes(
+        mut spheres: Vec<Item>,
+        mut triangles: Vec<Item>,
+        sphere_objects: &[u32],
+        triangle_objects: &[u32],
+    ) -> Bvh {
         let mut nodes = Vec::new();
         let (sphere_tree, triangle_tree) =
             rayon::join(|| build_root(&mut spheres), || build_root(&mut triangles));
@@ -565,12 +638,15 @@ impl Bvh {
             reference: LEAF_BIT,
             count: 0,
         };
-        let mut child = |tree: Option<(Aabb, Tree)>, kind| match tree {
-            Some((b, t)) => flatten(b, &t, kind, &mut nodes),
+        let in_order = |items: &[Item], objects: &[u32]| -> Vec<u32> {
+            items.iter().map(|i| objects[i.index as usize]).collect()
+        };
+        let mut child = |tree: Option<(Aabb, Tree)>, kind, objects: Vec<u32>| match tree {
+            Some((b, t)) => flatten(b, &t, kind, &objects, &mut nodes),
             None => empty,
         };
-        let c0 = child(sphere_tree, SPHERE_LEAF);
-        let c1 = child(triangle_tree, 0);
+        let c0 = child(sphere_tree, SPHERE_LEAF, in_order(&spheres, sphere_objects));
+        let c1 = child(triangle_tree, 0, in_order(&triangles, triangle_objects));
         nodes[0] = BvhNode::new(c0, c1);
         Bvh {
             nodes,
@@ -631,8 +707,9 @@ mod tests {
 
     /// Every primitive sits in exactly one leaf, inside every box on its path from the root
     /// (each child's box inside the box its parent was reached by, the primitive inside its
-    /// leaf's).
-    fn check(bvh: &Bvh, boxes: &[Item]) {
+    /// leaf's), and a leaf names an object exactly when all its primitives are of it
+    /// (`objects`: the triangles' objects by index).
+    fn check(bvh: &Bvh, boxes: &[Item], objects: &[u32]) {
         let inside = |lo: [f32; 3], hi: [f32; 3], outer: &Child| {
             (0..3).all(|a| outer.lo[a] <= lo[a] && hi[a] <= outer.hi[a])
         };
@@ -641,7 +718,7 @@ mod tests {
         while let Some((node, depth, reached_by)) = stack.pop() {
             for k in 0..2 {
                 let c = bvh.nodes[node].child(k);
-                let empty = c.reference & LEAF_BIT != 0 && c.count & !SPHERE_LEAF == 0;
+                let empty = c.reference & LEAF_BIT != 0 && leaf_len(c.count) == 0;
                 if let Some(parent) = &reached_by
                     && !empty
                 {
@@ -651,12 +728,18 @@ mod tests {
                     stack.push((c.reference as usize, depth + 1, Some(c)));
                     continue;
                 }
-                if c.count & SPHERE_LEAF != 0 || c.count == 0 {
+                if c.count & SPHERE_LEAF != 0 || leaf_len(c.count) == 0 {
                     continue;
                 }
                 assert!(depth < MAX_DEPTH);
                 let first = (c.reference & !LEAF_BIT) as usize;
-                for p in first..first + c.count as usize {
+                let range = first..first + leaf_len(c.count) as usize;
+                let of = |p: usize| objects[bvh.triangle_order[p] as usize];
+                match leaf_object(c.count) {
+                    MIXED_OBJECTS => assert!(range.clone().any(|p| of(p) != of(first))),
+                    object => assert!(range.clone().all(|p| of(p) == object)),
+                }
+                for p in range {
                     let original = bvh.triangle_order[p] as usize;
                     assert!(!seen[original]);
                     seen[original] = true;
@@ -672,10 +755,32 @@ mod tests {
     fn every_primitive_is_in_one_leaf_inside_its_boxes() {
         for n in [1, 2, 7, 100, 10_000] {
             let boxes = items(n);
-            let bvh = Bvh::from_boxes(Vec::new(), boxes.clone());
-            check(&bvh, &boxes);
+            // Objects of 50 consecutive items: some leaves hold one object, some several.
+            let objects: Vec<u32> = (0..n as u32).map(|k| k / 50).collect();
+            let bvh = Bvh::from_boxes(Vec::new(), boxes.clone(), &[], &objects);
+            check(&bvh, &boxes, &objects);
             assert_eq!(bvh.sphere_order.len(), 0);
         }
+    }
+
+    #[test]
+    fn a_leaf_count_word_keeps_its_length_and_object() {
+        for (kind, len, object) in [(0, 1, 0), (SPHERE_LEAF, 8, 12), (0, 15, MIXED_OBJECTS - 1)] {
+            let word = leaf_word(kind, len, object);
+            assert_eq!(
+                (word & SPHERE_LEAF, leaf_len(word), leaf_object(word)),
+                (kind, len as u32, object)
+            );
+        }
+        // An id beyond the field, or more primitives than LEAF_COUNT (a leaf at MAX_DEPTH):
+        // the objects are looked up.
+        let word = leaf_word(0, 3, MIXED_OBJECTS + 5);
+        assert_eq!((leaf_len(word), leaf_object(word)), (3, MIXED_OBJECTS));
+        let word = leaf_word(SPHERE_LEAF, 5000, 2);
+        assert_eq!(
+            (word & SPHERE_LEAF, leaf_len(word), leaf_object(word)),
+            (SPHERE_LEAF, 5000, MIXED_OBJECTS)
+        );
     }
 
     #[test]
@@ -687,8 +792,9 @@ mod tests {
                 index: k,
             })
             .collect();
-        let bvh = Bvh::from_boxes(Vec::new(), same.clone());
-        check(&bvh, &same);
+        let objects = vec![7; same.len()];
+        let bvh = Bvh::from_boxes(Vec::new(), same.clone(), &[], &objects);
+        check(&bvh, &same, &objects);
         assert!(bvh.depth() <= MAX_DEPTH);
     }
 
