@@ -249,7 +249,8 @@ fn shared_triangle(k: u32) -> Triangle {
 
 // intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
 // each primitive is loaded once for the subgroup, spread over its lanes (shared_sphere,
-// shared_triangle). In f64 each lane loads what it tests: subgroup operations have no f64.
+// shared_triangle). In f64 each lane loads what it tests: f64 broadcasts (which Vulkan allows
+// only with shaderSubgroupExtendedTypes) made llvmpipe's f64 kernel 2.1x slower.
 fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
 #if F64
     if (wanted) {
