@@ -223,7 +223,7 @@ fn packet_count(b: bool) -> u32 {
 #if !F64
 #if SPHERES
 // Sphere k, which the whole subgroup tests: lanes 0 to 3 load a component of its vec4 each and
-// broadcasts from constant lanes hand them to every lane (as shared_triangle; 1.04x as fast
+// broadcasts from constant lanes hand them to every lane (as shared_triangle; 1.03x as fast
 // on the 100 spheres as one sphere loaded per lane and shuffled).
 fn shared_sphere(k: u32) -> Sphere {
     let x = spheres[k][lane & 3u];

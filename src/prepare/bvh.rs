@@ -12,7 +12,7 @@
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
-use super::{kernel_frame, kernel_origin};
+use super::{ObjectIds, kernel_frame, kernel_origin};
 use crate::algorithm::Algorithm;
 use crate::math::{Vec3, length};
 use crate::scene::{Object, Scene};
@@ -519,37 +519,49 @@ fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Exten
     (mid, sides)
 }
 
+/// The primitives of one kind as the build ordered them (`items`) and their objects by the
+/// items' `index` (`objects`).
+#[derive(Clone, Copy)]
+struct Kind<'a> {
+    /// `SPHERE_LEAF` or 0.
+    leaf: u32,
+    items: &'a [Item],
+    objects: &'a [u32],
+}
+
+impl Kind<'_> {
+    /// The object all the items `start..start + len` belong to, or `MIXED_OBJECTS`.
+    fn object_of(&self, start: usize, len: usize) -> u32 {
+        let mut objects = self.items[start..start + len]
+            .iter()
+            .map(|i| self.objects[i.index as usize]);
+        match objects.next() {
+            Some(first) if objects.all(|o| o == first) => first,
+            _ => MIXED_OBJECTS,
+        }
+    }
+}
+
 /// Appends the interior nodes of `tree` to `nodes` (the tree's own node first) and returns the
-/// child entry its parent stores. `kind` is `SPHERE_LEAF` or 0; `objects` holds the object of
-/// each primitive of the kind in BVH order.
-fn flatten(
-    bounds: Aabb,
-    tree: &Tree,
-    kind: u32,
-    objects: &[u32],
-    nodes: &mut Vec<BvhNode>,
-) -> Child {
+/// child entry its parent stores.
+fn flatten(bounds: Aabb, tree: &Tree, kind: Kind<'_>, nodes: &mut Vec<BvhNode>) -> Child {
     let Aabb { lo, hi } = bounds;
     match tree {
         Tree::Leaf { start, len } => {
-            let mine = &objects[*start..*start + *len];
-            let object = match mine.iter().all(|&o| o == mine[0]) {
-                true => mine.first().copied().unwrap_or(MIXED_OBJECTS),
-                false => MIXED_OBJECTS,
-            };
+            let object = kind.object_of(*start, *len);
             Child {
                 lo,
                 hi,
                 reference: LEAF_BIT | *start as u32,
-                count: leaf_word(kind, *len, object),
+                count: leaf_word(kind.leaf, *len, object),
             }
         }
         Tree::Inner(children) => {
             let at = nodes.len();
             nodes.push(BvhNode::zeroed());
             let [(b0, t0), (b1, t1)] = &**children;
-            let c0 = flatten(*b0, t0, kind, objects, nodes);
-            let c1 = flatten(*b1, t1, kind, objects, nodes);
+            let c0 = flatten(*b0, t0, kind, nodes);
+            let c1 = flatten(*b1, t1, kind, nodes);
             nodes[at] = BvhNode::new(c0, c1);
             Child {
                 lo,
@@ -590,33 +602,25 @@ impl Bvh {
         let eye = length(kernel_frame(scene, algorithm).eye);
         let mut spheres = Vec::new();
         let mut triangles = Vec::new();
-        // The object of each sphere and triangle, in the scene's order.
-        let mut sphere_objects = Vec::new();
-        let mut triangle_objects = Vec::new();
-        for (id, object) in scene.objects.iter().enumerate() {
-            let id = id as u32;
+        for object in &scene.objects {
             match object {
                 Object::Sphere { center, radius } => {
                     let c = *center - origin;
                     spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
-                    sphere_objects.push(id);
                 }
-                Object::Triangle { corners } => {
-                    triangles.push(triangle_box(corners, origin));
-                    triangle_objects.push(id);
-                }
+                Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
                 Object::Soup { triangles: t, .. } => {
-                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)));
-                    triangle_objects.resize(triangles.len(), id);
+                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)))
                 }
                 Object::Plane { .. } => {}
             }
         }
+        let ids = ObjectIds::of(scene);
         Bvh::from_boxes(
             grown(spheres, eye),
             grown(triangles, eye),
-            &sphere_objects,
-            &triangle_objects,
+            &ids.spheres,
+            &ids.triangles,
         )
     }
 
@@ -638,15 +642,26 @@ impl Bvh {
             reference: LEAF_BIT,
             count: 0,
         };
-        let in_order = |items: &[Item], objects: &[u32]| -> Vec<u32> {
-            items.iter().map(|i| objects[i.index as usize]).collect()
-        };
-        let mut child = |tree: Option<(Aabb, Tree)>, kind, objects: Vec<u32>| match tree {
-            Some((b, t)) => flatten(b, &t, kind, &objects, &mut nodes),
+        let mut child = |tree: Option<(Aabb, Tree)>, kind| match tree {
+            Some((b, t)) => flatten(b, &t, kind, &mut nodes),
             None => empty,
         };
-        let c0 = child(sphere_tree, SPHERE_LEAF, in_order(&spheres, sphere_objects));
-        let c1 = child(triangle_tree, 0, in_order(&triangles, triangle_objects));
+        let c0 = child(
+            sphere_tree,
+            Kind {
+                leaf: SPHERE_LEAF,
+                items: &spheres,
+                objects: sphere_objects,
+            },
+        );
+        let c1 = child(
+            triangle_tree,
+            Kind {
+                leaf: 0,
+                items: &triangles,
+                objects: triangle_objects,
+            },
+        );
         nodes[0] = BvhNode::new(c0, c1);
         Bvh {
             nodes,

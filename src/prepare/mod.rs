@@ -179,30 +179,60 @@ pub fn kernel_frame(scene: &Scene, algorithm: Algorithm) -> Frame<f64> {
     frame
 }
 
+/// The object id of each primitive of `scene` by kind, in the scene's order: its spheres, its
+/// planes and its triangles (a soup's triangles all under its one id).
+pub(crate) struct ObjectIds {
+    pub spheres: Vec<u32>,
+    pub planes: Vec<u32>,
+    pub triangles: Vec<u32>,
+}
+
+impl ObjectIds {
+    pub(crate) fn of(scene: &Scene) -> ObjectIds {
+        let mut ids = ObjectIds {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for (id, object) in scene.objects.iter().enumerate() {
+            let id = id as u32;
+            match object {
+                Object::Sphere { .. } => ids.spheres.push(id),
+                Object::Plane { .. } => ids.planes.push(id),
+                Object::Triangle { .. } => ids.triangles.push(id),
+                Object::Soup { triangles, .. } => {
+                    let len = ids.triangles.len() + triangles.len();
+                    ids.triangles.resize(len, id);
+                }
+            }
+        }
+        ids
+    }
+}
+
 impl<T: Real> Primitives<T> {
     /// Every object of `scene` in the kernel's coordinates for `algorithm`, rounded from f64
     /// to `T`; a soup adds all its triangles under its one id. Robust planes are stored by
     /// their point nearest the eye, `((p - e).n) n`, computed in f64.
     pub fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
         let origin = kernel_origin(scene, algorithm);
+        let ids = ObjectIds::of(scene);
         let mut p = Primitives {
             spheres: Vec::new(),
             planes: Vec::new(),
             triangles: Vec::new(),
-            sphere_objects: Vec::new(),
-            plane_objects: Vec::new(),
-            triangle_objects: Vec::new(),
+            sphere_objects: ids.spheres,
+            plane_objects: ids.planes,
+            triangle_objects: ids.triangles,
             bvh: None,
         };
-        for (id, object) in scene.objects.iter().enumerate() {
-            let id = id as u32;
+        for object in &scene.objects {
             match object {
                 Object::Sphere { center, radius } => {
                     p.spheres.push(Sphere {
                         center: (*center - origin).cast(),
                         radius: T::from_f64(*radius),
                     });
-                    p.sphere_objects.push(id);
                 }
                 Object::Plane { point, normal } => {
                     let point = match algorithm {
@@ -213,13 +243,11 @@ impl<T: Real> Primitives<T> {
                         point: point.cast(),
                         normal: normal.cast(),
                     });
-                    p.plane_objects.push(id);
                 }
-                Object::Triangle { corners } => p.push_triangle(id, corners, origin),
+                Object::Triangle { corners } => p.triangles.push(triangle_at(corners, origin)),
                 Object::Soup { triangles, .. } => {
                     let corners = triangles.par_iter().map(|t| triangle_at(t, origin));
                     p.triangles.par_extend(corners);
-                    p.triangle_objects.resize(p.triangles.len(), id);
                 }
             }
         }
@@ -256,11 +284,6 @@ impl<T: Real> Primitives<T> {
         self.bvh
             .as_ref()
             .map_or(k, |b| b.triangle_order[k as usize])
-    }
-
-    fn push_triangle(&mut self, id: u32, t: &crate::scene::Triangle, origin: Vec3<f64>) {
-        self.triangles.push(triangle_at(t, origin));
-        self.triangle_objects.push(id);
     }
 }
 
