@@ -37,20 +37,57 @@ fn leaf_object(count: u32) -> u32 {
 const BOX_SLACK: real = 1.52587890625e-5;  // 2^-16
 
 // What the traversal needs of the ray: which direction components are zero (their slab is
-// all or nothing) and the inverse of the others.
+// all or nothing), which are negative (their far plane is the box's low one) and the inverse
+// of the nonzero ones.
 struct RayInverse {
     zero: vec3<bool>,
+    negative: vec3<bool>,
     inv: vec3<real>,
 }
 
 fn ray_inverse(ray: Ray) -> RayInverse {
     let zero = ray.direction == vec3<real>(0.0);
-    return RayInverse(zero, 1.0 / select(ray.direction, vec3<real>(1.0), zero));
+    let inv = 1.0 / select(ray.direction, vec3<real>(1.0), zero);
+    return RayInverse(zero, inv < vec3<real>(0.0), inv);
 }
 
-// Where the ray enters the box (0 if it starts inside), or NO_HIT when it misses the box, leaves
-// it before min_t, or enters it beyond t_max.
+// The smaller and the larger of a and b, written as selects: llvmpipe compiles `min` and `max`
+// to three instructions each (the IEEE rule for a NaN operand), these to one. No operand here
+// is a NaN: the box test divides by nonzero direction components only.
+fn smaller(a: real, b: real) -> real {
+    return select(b, a, a < b);
+}
+
+fn larger(a: real, b: real) -> real {
+    return select(b, a, a > b);
+}
+
+// A box's entry distance is scaled by this before it is compared, so that a box is skipped only
+// when the ray certainly misses it: each slab distance is within 3 roundings of exact, far
+// below 2^-15 of it, and the boxes were grown on the host as well.
+const BOX_ENTRY_SHRINK: real = 0.999969482421875;  // 1 - 2 BOX_SLACK = 1 - 2^-15
+
+// Where the ray enters the box (shrunk by BOX_ENTRY_SHRINK, at least min_t), or NO_HIT when it
+// misses the box, leaves it before min_t, or enters it beyond t_max. The near plane of each
+// slab is chosen by the direction's sign, so each plane's distance is computed once. With the
+// selects and one scaling instead of a widening of both ends, the torus traced 1.12x and the
+// 100 spheres 1.04x as fast as with the axis-parallel test for every ray (same bits).
 fn box_entry(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> real {
+    if (any(ri.zero)) {
+        return box_entry_axis_parallel(lo, hi, ray, ri, min_t, t_max);
+    }
+    let lo_r = vec3<real>(lo);
+    let hi_r = vec3<real>(hi);
+    let enter = (select(lo_r, hi_r, ri.negative) - ray.origin) * ri.inv;
+    let leave = (select(hi_r, lo_r, ri.negative) - ray.origin) * ri.inv;
+    let t_in = larger(larger(enter.x, enter.y), larger(enter.z, min_t)) * BOX_ENTRY_SHRINK;
+    let t_out = smaller(smaller(leave.x, leave.y), smaller(leave.z, t_max));
+    return select(NO_HIT, t_in, t_in <= t_out);
+}
+
+// box_entry() for a ray with a zero direction component: that slab holds the whole ray or none
+// of it. Each slab interval is widened by BOX_SLACK; the entry is 0 if the ray starts inside.
+fn box_entry_axis_parallel(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> real {
     let lo_r = vec3<real>(lo);
     let hi_r = vec3<real>(hi);
     let a = (lo_r - ray.origin) * ri.inv;

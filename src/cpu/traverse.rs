@@ -19,9 +19,11 @@ fn box_slack<T: Real>() -> T {
     T::from_f64(1.0 / 65536.0)
 }
 
-/// Which direction components are zero, and the inverse of the others.
+/// Which direction components are zero, which are negative, and the inverse of the nonzero
+/// ones.
 pub struct RayInverse<T> {
     pub zero: [bool; 3],
+    pub negative: [bool; 3],
     pub inv: Vec3<T>,
 }
 
@@ -31,13 +33,63 @@ pub fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
     let inv = [0, 1, 2].map(|k| T::ONE / if zero[k] { T::ONE } else { d[k] });
     RayInverse {
         zero,
+        negative: inv.map(|x| x < T::ZERO),
         inv: Vec3::from_array(inv),
     }
 }
 
-/// Where the ray enters the box (0 if it starts inside), or NO_HIT when it misses the box,
-/// leaves it before `min_t`, or enters it beyond `t_max`.
+/// The smaller of a and b, as WGSL's `smaller` selects it.
+fn smaller<T: Real>(a: T, b: T) -> T {
+    if a < b { a } else { b }
+}
+
+/// The larger of a and b, as WGSL's `larger` selects it.
+fn larger<T: Real>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
+/// `BOX_ENTRY_SHRINK`: 1 - 2^-15.
+fn box_entry_shrink<T: Real>() -> T {
+    T::ONE - T::from_f64(2.0) * box_slack::<T>()
+}
+
+/// Where the ray enters the box (shrunk by `BOX_ENTRY_SHRINK`, at least `min_t`), or NO_HIT
+/// when it misses the box, leaves it before `min_t`, or enters it beyond `t_max`.
 pub fn box_entry<T: Real>(
+    lo: [f32; 3],
+    hi: [f32; 3],
+    ray: &Ray<T>,
+    ri: &RayInverse<T>,
+    min_t: T,
+    t_max: T,
+) -> T {
+    if ri.zero.iter().any(|&z| z) {
+        return box_entry_axis_parallel(lo, hi, ray, ri, min_t, t_max);
+    }
+    let o = ray.origin.to_array();
+    let inv = ri.inv.to_array();
+    let mut enter = [T::ZERO; 3];
+    let mut leave = [T::ZERO; 3];
+    for k in 0..3 {
+        let lo_r = T::from_f64(lo[k] as f64);
+        let hi_r = T::from_f64(hi[k] as f64);
+        let (near, far) = if ri.negative[k] {
+            (hi_r, lo_r)
+        } else {
+            (lo_r, hi_r)
+        };
+        enter[k] = (near - o[k]) * inv[k];
+        leave[k] = (far - o[k]) * inv[k];
+    }
+    let t_in = larger(larger(enter[0], enter[1]), larger(enter[2], min_t)) * box_entry_shrink();
+    let t_out = smaller(smaller(leave[0], leave[1]), smaller(leave[2], t_max));
+    if t_in <= t_out { t_in } else { no_hit() }
+}
+
+/// `box_entry` for a ray with a zero direction component: that slab holds the whole ray or
+/// none of it. Each slab interval is widened by the slack; the entry is 0 if the ray starts
+/// inside.
+fn box_entry_axis_parallel<T: Real>(
     lo: [f32; 3],
     hi: [f32; 3],
     ray: &Ray<T>,
