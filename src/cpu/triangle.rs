@@ -18,17 +18,29 @@ pub fn intersect_triangle<T: Real, const ROBUST: bool>(
     }
 }
 
-/// `a*b - c*d` with its exact sign (`#if RECHECK_F64`, which the CPU always has for f32):
-/// when the f32 value `approx` is too close to zero for its sign to be certain, recompute in
-/// f64, where products of f32 values are exact.
-pub fn edge_exact<T: Real>(a: T, b: T, c: T, d: T, approx: T) -> T {
+/// The edge functions `a*b - c*d`, one per component, with their exact signs (`#if
+/// RECHECK_F64`, which the CPU always has for f32): where the f32 value in `approx` is too
+/// close to zero for its sign to be certain, recomputed in f64, where products of f32 values
+/// are exact.
+pub fn edges_exact<T: Real>(
+    a: Vec3<T>,
+    b: Vec3<T>,
+    c: Vec3<T>,
+    d: Vec3<T>,
+    approx: Vec3<T>,
+) -> Vec3<T> {
     if T::PRECISION == Precision::F64 {
         return approx;
     }
-    if approx.abs() > T::TWO * T::EPS * ((a * b).abs() + (c * d).abs()) {
-        return approx;
-    }
-    T::from_f64(a.to_f64() * b.to_f64() - c.to_f64() * d.to_f64())
+    let edge = |k: usize| {
+        let (a, b, c, d, approx) = (a.get(k), b.get(k), c.get(k), d.get(k), approx.get(k));
+        if approx.abs() > T::TWO * T::EPS * ((a * b).abs() + (c * d).abs()) {
+            approx
+        } else {
+            T::from_f64(a.to_f64() * b.to_f64() - c.to_f64() * d.to_f64())
+        }
+    };
+    vec3(edge(0), edge(1), edge(2))
 }
 
 /// The triangle's corners in the ray's sheared frame and its edge functions (`Sheared` in WGSL):
@@ -53,14 +65,13 @@ pub fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>
     let u = xs.z * ys.y - ys.z * xs.y;
     let v = xs.x * ys.z - ys.x * xs.z;
     let w = xs.y * ys.x - ys.y * xs.x;
-    let u = edge_exact(xs.z, ys.y, ys.z, xs.y, u);
-    let v = edge_exact(xs.x, ys.z, ys.x, xs.z, v);
-    let w = edge_exact(xs.y, ys.x, ys.y, xs.x, w);
+    let zxy = |p: Vec3<T>| vec3(p.z, p.x, p.y);
+    let yzx = |p: Vec3<T>| vec3(p.y, p.z, p.x);
     Sheared {
         xs,
         ys,
         zs,
-        edges: vec3(u, v, w),
+        edges: edges_exact(zxy(xs), yzx(ys), zxy(ys), yzx(xs), vec3(u, v, w)),
     }
 }
 
