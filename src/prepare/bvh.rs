@@ -6,8 +6,9 @@
 //! Correctness first: a node is skipped only when the ray certainly misses every primitive in
 //! it, so the BVH finds exactly the hits brute force finds. Boxes are grown by a relative
 //! margin far above the rounding error of the intersection tests and rounded outward to f32,
-//! and the traversal widens its slab interval too (`BOX_SLACK`), so a hit that a watertight
-//! test reports right on an edge is never culled by a box test rounded the other way.
+//! and the traversal's box test has slack of its own (`BOX_ENTRY_SHRINK`, `BOX_SLACK`), so a
+//! hit that a watertight test reports right on an edge is never culled by a box test rounded
+//! the other way.
 
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
