@@ -133,6 +133,8 @@ say "== torus: raycast"
 raycast_bench "$out/torus.json" torus
 say "== torus: peers"
 peer_bench mesh || say "warning: peer_bench.py failed on the mesh workload"
+say "== torus: raycast again"
+raycast_bench "$out/torus.json" torus-after
 
 # peer_bench.py writes the spheres (centres and radii, seed 0) into OUT/spheres.json.
 [[ -f $out/peers/spheres.json ]] || die "peer_bench.py wrote no $out/peers/spheres.json"
@@ -146,6 +148,8 @@ say "== spheres: raycast"
 raycast_bench "$out/spheres.json" spheres
 say "== spheres: peers"
 peer_bench spheres || say "warning: peer_bench.py failed on the spheres workload"
+say "== spheres: raycast again"
+raycast_bench "$out/spheres.json" spheres-after
 
 # --- the table -----------------------------------------------------------------------------
 "$py" - "$out" <<'EOF' | tee "$out/table.md"
@@ -173,16 +177,30 @@ def num(x, digits=3):
 def ratio(a, b):
     return "-" if not a or not b else "%.2f" % (a / b)
 
+def mean(*xs):
+    """Geometric mean of the values given (None where one is missing)."""
+    if any(x is None for x in xs):
+        return None
+    product = 1.0
+    for x in xs:
+        product *= x
+    return product ** (1.0 / len(xs))
+
 print("Mrays/s ratio = raycast / peer (above 1: raycast casts faster); build ratio = "
       "raycast / peer (below 1: raycast builds faster). raycast rows: Mrays/s from GPU "
-      "timestamps (kernel only) and from wall time (dispatch + readback); ratios use each. "
-      "others CPU: CPUs used by other processes, during the timed runs (peers) or just "
-      "before (raycast); above ~0.1 the numbers are contaminated.")
+      "timestamps (kernel only) and from wall time (dispatch + readback), measured before "
+      "and again after the peers; ratios use each, and the geometric mean of the two "
+      "measurements (this machine's speed drifts: far apart, they say the run was "
+      "disturbed). others CPU: CPUs used by other processes, during the timed runs (peers) "
+      "or just before (raycast); above ~0.1 the numbers are contaminated.")
 for workload, peers_file in (("torus", "peers-mesh.jsonl"), ("spheres", "peers-spheres.jsonl")):
     ours = [r for r in lines("raycast-%s.jsonl" % workload) if "mode" in r]
-    idle = os.path.join(out, "raycast-%s.idle" % workload)
-    # Other processes' CPU use: during the timed runs for peers, just before for raycast.
-    others = open(idle).read().strip() + " before" if os.path.exists(idle) else "-"
+    again = [r for r in lines("raycast-%s-after.jsonl" % workload) if "mode" in r]
+
+    def others(when):
+        # Other processes' CPU use: during the timed runs for peers, just before for raycast.
+        idle = os.path.join(out, "raycast-%s%s.idle" % (workload, when))
+        return open(idle).read().strip() + " before" if os.path.exists(idle) else "-"
     peers = [r for r in lines(peers_file) if "peer" in r]
     setup = next((r for r in lines(peers_file) if r.get("kind") == "setup"), {})
     if ours:
@@ -196,16 +214,25 @@ for workload, peers_file in (("torus", "peers-mesh.jsonl"), ("spheres", "peers-s
     print("| engine | build s | trace s | Mrays/s | hit % | others CPU "
           "| Mrays/s ratio (GPU) | Mrays/s ratio (wall) | build ratio |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for r in ours:
-        name = "raycast %s %s%s" % (r["mode"], r["accel"],
-                                    " (bvh)" if r["accel"] == "auto" and r["bvh"] else "")
-        print("| %s, GPU timestamps | %s | %s | %s | %.1f | %s | | | |"
-              % (name, num(r["build_s"]), num(r["trace_gpu_s"]), num(r["mrays_per_s"]),
-                 100 * r["hit_fraction"], others))
-        print("| %s, wall | %s | %s | %s | %.1f | %s | | | |"
-              % (name, num(r["build_s"]), num(r["trace_s"]), num(r["mrays_per_s_wall"]),
-                 100 * r["hit_fraction"], others))
-    us = ours[0] if ours else {}
+    for when, rows, suffix in (("before peers", ours, ""), ("after peers", again, "-after")):
+        for r in rows:
+            name = "raycast %s %s%s, %s" % (r["mode"], r["accel"],
+                                            " (bvh)" if r["accel"] == "auto" and r["bvh"] else "",
+                                            when)
+            print("| %s, GPU timestamps | %s | %s | %s | %.1f | %s | | | |"
+                  % (name, num(r["build_s"]), num(r["trace_gpu_s"]), num(r["mrays_per_s"]),
+                     100 * r["hit_fraction"], others(suffix)))
+            print("| %s, wall | %s | %s | %s | %.1f | %s | | | |"
+                  % (name, num(r["build_s"]), num(r["trace_s"]), num(r["mrays_per_s_wall"]),
+                     100 * r["hit_fraction"], others(suffix)))
+    # The first configuration, before and after the peers (before alone if the second failed).
+    runs_of_first = [rows[0] for rows in (ours, again) if rows]
+    us = {}
+    if runs_of_first:
+        gpu = all(r["mrays_from"] == "gpu_timestamps" for r in runs_of_first)
+        us = {key: mean(*(r[key] for r in runs_of_first))
+              for key in ("mrays_per_s", "mrays_per_s_wall", "build_s")}
+        us["mrays_from"] = "gpu_timestamps" if gpu else "wall"
     for p in peers:
         name = "%s %s" % (p["peer"], p.get("version", ""))
         if "error" in p:

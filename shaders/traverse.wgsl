@@ -37,23 +37,22 @@ fn leaf_object(count: u32) -> u32 {
 const BOX_SLACK: real = 1.52587890625e-5;  // 2^-16
 
 // What the traversal needs of the ray: which direction components are zero (their slab is
-// all or nothing), which are negative (their far plane is the box's low one) and the inverse
-// of the nonzero ones.
+// all or nothing) and the inverse of the nonzero ones.
 struct RayInverse {
     zero: vec3<bool>,
-    negative: vec3<bool>,
     inv: vec3<real>,
 }
 
 fn ray_inverse(ray: Ray) -> RayInverse {
     let zero = ray.direction == vec3<real>(0.0);
     let inv = 1.0 / select(ray.direction, vec3<real>(1.0), zero);
-    return RayInverse(zero, inv < vec3<real>(0.0), inv);
+    return RayInverse(zero, inv);
 }
 
 // The smaller and the larger of a and b, written as selects: llvmpipe compiles `min` and `max`
 // to three instructions each (the IEEE rule for a NaN operand), these to one. No operand here
-// is a NaN: the box test divides by nonzero direction components only.
+// is a NaN: the box test divides by nonzero direction components only, and a product of a
+// finite difference and a finite nonzero inverse is never one.
 fn smaller(a: real, b: real) -> real {
     return select(b, a, a < b);
 }
@@ -68,20 +67,22 @@ fn larger(a: real, b: real) -> real {
 const BOX_ENTRY_SHRINK: real = 0.999969482421875;  // 1 - 2 BOX_SLACK = 1 - 2^-15
 
 // Where the ray enters the box (shrunk by BOX_ENTRY_SHRINK, at least min_t), or NO_HIT when it
-// misses the box, leaves it before min_t, or enters it beyond t_max. The near plane of each
-// slab is chosen by the direction's sign, so each plane's distance is computed once. With the
-// selects and one scaling instead of a widening of both ends, the torus traced 1.12x and the
-// 100 spheres 1.04x as fast as with the axis-parallel test for every ray (same bits).
+// misses the box, leaves it before min_t, or enters it beyond t_max. Each slab's near and far
+// distances are the smaller and larger of its planes' (the same values as choosing the planes
+// by the direction's sign, which kept three more masks live through the traversal: the torus
+// traced 1.01x to 1.02x as fast without). With the selects and one scaling instead of a
+// widening of both ends, the torus traced 1.12x and the 100 spheres 1.04x as fast as with the
+// axis-parallel test for every ray (same bits).
 fn box_entry(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> real {
     if (any(ri.zero)) {
         return box_entry_axis_parallel(lo, hi, ray, ri, min_t, t_max);
     }
     let lo_r = vec3<real>(lo);
     let hi_r = vec3<real>(hi);
-    let enter = (select(lo_r, hi_r, ri.negative) - ray.origin) * ri.inv;
-    let leave = (select(hi_r, lo_r, ri.negative) - ray.origin) * ri.inv;
-    let t_in = larger(larger(enter.x, enter.y), larger(enter.z, min_t)) * BOX_ENTRY_SHRINK;
-    let t_out = smaller(smaller(leave.x, leave.y), smaller(leave.z, t_max));
+    let a = (lo_r - ray.origin) * ri.inv;
+    let b = (hi_r - ray.origin) * ri.inv;
+    let t_in = larger(larger(smaller(a.x, b.x), smaller(a.y, b.y)), larger(smaller(a.z, b.z), min_t)) * BOX_ENTRY_SHRINK;
+    let t_out = smaller(smaller(larger(a.x, b.x), larger(a.y, b.y)), smaller(larger(a.z, b.z), t_max));
     return select(NO_HIT, t_in, t_in <= t_out);
 }
 

@@ -19,11 +19,9 @@ fn box_slack<T: Real>() -> T {
     T::from_f64(1.0 / 65536.0)
 }
 
-/// Which direction components are zero, which are negative, and the inverse of the nonzero
-/// ones.
+/// Which direction components are zero, and the inverse of the nonzero ones.
 pub struct RayInverse<T> {
     pub zero: [bool; 3],
-    pub negative: [bool; 3],
     pub inv: Vec3<T>,
 }
 
@@ -33,7 +31,6 @@ pub fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
     let inv = [0, 1, 2].map(|k| T::ONE / if zero[k] { T::ONE } else { d[k] });
     RayInverse {
         zero,
-        negative: inv.map(|x| x < T::ZERO),
         inv: Vec3::from_array(inv),
     }
 }
@@ -68,19 +65,14 @@ pub fn box_entry<T: Real>(
     }
     let o = ray.origin.to_array();
     let inv = ri.inv.to_array();
-    let mut enter = [T::ZERO; 3];
-    let mut leave = [T::ZERO; 3];
+    let mut a = [T::ZERO; 3];
+    let mut b = [T::ZERO; 3];
     for k in 0..3 {
-        let lo_r = T::from_f64(lo[k] as f64);
-        let hi_r = T::from_f64(hi[k] as f64);
-        let (near, far) = if ri.negative[k] {
-            (hi_r, lo_r)
-        } else {
-            (lo_r, hi_r)
-        };
-        enter[k] = (near - o[k]) * inv[k];
-        leave[k] = (far - o[k]) * inv[k];
+        a[k] = (T::from_f64(lo[k] as f64) - o[k]) * inv[k];
+        b[k] = (T::from_f64(hi[k] as f64) - o[k]) * inv[k];
     }
+    let enter = [0, 1, 2].map(|k| smaller(a[k], b[k]));
+    let leave = [0, 1, 2].map(|k| larger(a[k], b[k]));
     let t_in = larger(larger(enter[0], enter[1]), larger(enter[2], min_t)) * box_entry_shrink();
     let t_out = smaller(smaller(leave[0], leave[1]), smaller(leave[2], t_max));
     if t_in <= t_out { t_in } else { no_hit() }
