@@ -177,7 +177,7 @@ def num(x, digits=3):
 def ratio(a, b):
     return "-" if not a or not b else "%.2f" % (a / b)
 
-def mean(*xs):
+def geometric_mean(*xs):
     """Geometric mean of the values given (None where one is missing)."""
     if any(x is None for x in xs):
         return None
@@ -230,7 +230,7 @@ for workload, peers_file in (("torus", "peers-mesh.jsonl"), ("spheres", "peers-s
     us = {}
     if runs_of_first:
         gpu = all(r["mrays_from"] == "gpu_timestamps" for r in runs_of_first)
-        us = {key: mean(*(r[key] for r in runs_of_first))
+        us = {key: geometric_mean(*(r[key] for r in runs_of_first))
               for key in ("mrays_per_s", "mrays_per_s_wall", "build_s")}
         us["mrays_from"] = "gpu_timestamps" if gpu else "wall"
     for p in peers:

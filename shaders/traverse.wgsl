@@ -45,8 +45,7 @@ struct RayInverse {
 
 fn ray_inverse(ray: Ray) -> RayInverse {
     let zero = ray.direction == vec3<real>(0.0);
-    let inv = 1.0 / select(ray.direction, vec3<real>(1.0), zero);
-    return RayInverse(zero, inv);
+    return RayInverse(zero, 1.0 / select(ray.direction, vec3<real>(1.0), zero));
 }
 
 // The smaller and the larger of a and b, written as selects: llvmpipe compiles `min` and `max`
