@@ -195,8 +195,12 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         mut sink,
         resident,
     } = job;
+    let source = rays.source();
     let variant = Variant {
-        source: rays.source(),
+        source,
+        rays_from_origin: variant.rays_from_origin
+            && source != Source::Rays
+            && prepared.camera_rays_from_origin(),
         ..variant
     };
     let variant = match (variant.source, variant.count) {

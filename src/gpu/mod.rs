@@ -66,6 +66,10 @@ impl Gpu {
     ) -> Variant {
         let general = self.variant(precision, algorithm);
         Variant {
+            // Camera-relative (robust) perspective rays all start at the eye; the dispatch
+            // leaves it off for a caller's rays.
+            rays_from_origin: algorithm == crate::Algorithm::Robust
+                && scene.camera.projection == crate::scene::Projection::Perspective,
             bvh: crate::prepare::bvh::worth_it(scene),
             chunks: shader::chunks_for(scene, general.chunk_bits),
             uniform_prims: shader::UNIFORM_BY_DEFAULT && self.uniform_fits(scene, precision),
@@ -98,6 +102,7 @@ impl Gpu {
             certainty: false,
             source: shader::Source::Camera,
             count: false,
+            rays_from_origin: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets,

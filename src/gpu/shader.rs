@@ -78,6 +78,12 @@ pub struct Variant {
     /// Count every intersection along each ray instead of finding the nearest (`COUNT`; ray
     /// lists only: `out_count`).
     pub count: bool,
+    /// Every ray starts at the kernel's origin: the camera's rays (or listed pixels') of a
+    /// perspective camera whose eye is that origin, as in the robust set
+    /// ([`super::Gpu::scene_variant`]; the dispatch clears it for a caller's rays, or where
+    /// [`crate::prepare::Prepared::camera_rays_from_origin`] does not hold). The kernel then
+    /// makes each ray's origin the constant zero (`RAYS_FROM_ORIGIN`, shaders/camera.wgsl).
+    pub rays_from_origin: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
     /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
@@ -202,6 +208,7 @@ impl Variant {
             certainty: false,
             source: Source::Camera,
             count: false,
+            rays_from_origin: false,
             kinds: Kinds::ALL,
             bvh: false,
             packets: false,
@@ -247,7 +254,7 @@ impl Variant {
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
-    /// (count intersections), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
+    /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
     /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
@@ -275,6 +282,9 @@ impl Variant {
         }
         if self.count {
             d.push("COUNT");
+        }
+        if self.rays_from_origin {
+            d.push("RAYS_FROM_ORIGIN");
         }
         for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
             if self.chunks >= k {
@@ -573,6 +583,9 @@ pub fn all_variants() -> Vec<Variant> {
                         certainty,
                         source,
                         count,
+                        // As robust perspective renders set it (the textbook set covers the
+                        // camera's general rays).
+                        rays_from_origin: source != Source::Rays && algorithm == Algorithm::Robust,
                         kinds: Kinds::ALL,
                         bvh: false,
                         packets: false,

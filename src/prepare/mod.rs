@@ -105,6 +105,19 @@ impl<T: Real> Prepared<T> {
         }
     }
 
+    /// Whether every camera ray starts at the kernel's origin: a perspective camera whose eye
+    /// is that origin, +0 in each coordinate (the robust set measures from the eye,
+    /// [`kernel_origin`], and eye - eye is +0).
+    pub fn camera_rays_from_origin(&self) -> bool {
+        self.frame.projection == crate::scene::Projection::Perspective
+            && self
+                .frame
+                .eye
+                .to_array()
+                .iter()
+                .all(|x| x.to_f64().to_bits() == 0)
+    }
+
     /// The BVH the primitives are ordered by, if any.
     pub fn bvh(&self) -> Option<&Arc<Bvh>> {
         self.primitives.bvh.as_ref()
@@ -293,5 +306,53 @@ fn triangle_at<T: Real>(t: &crate::scene::Triangle, origin: Vec3<f64>) -> Triang
         a: (t[0] - origin).cast(),
         b: (t[1] - origin).cast(),
         c: (t[2] - origin).cast(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Projection;
+
+    /// The kernel's RAYS_FROM_ORIGIN (shaders/camera.wgsl) puts every camera ray's origin at +0:
+    /// right exactly where the prepared eye is +0, which the robust set gives every perspective
+    /// camera, and the textbook set only a perspective camera at the world origin.
+    #[test]
+    fn camera_rays_start_at_the_origin_exactly_for_robust_perspective_cameras() {
+        let dirs = ["scenes/course", "scenes/extremes"]
+            .map(|d| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(d));
+        let mut seen = [0; 2];
+        for dir in dirs {
+            for entry in std::fs::read_dir(dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.extension().is_none_or(|e| e != "json") {
+                    continue;
+                }
+                let scene = Scene::load(&path).unwrap();
+                let perspective = scene.camera.projection == Projection::Perspective;
+                seen[perspective as usize] += 1;
+                let at_world_origin = scene.camera.eye.to_array().iter().all(|x| x.to_bits() == 0);
+                for (algorithm, expected) in [
+                    (Algorithm::Robust, perspective),
+                    (Algorithm::Textbook, perspective && at_world_origin),
+                ] {
+                    let prepared = Prepared::<f32>::new(&scene, algorithm, Accel::BruteForce);
+                    assert_eq!(
+                        prepared.camera_rays_from_origin(),
+                        expected,
+                        "{} {algorithm:?}",
+                        path.display()
+                    );
+                    if expected {
+                        let eye = prepared.frame.eye.to_array();
+                        assert!(eye.iter().all(|x| x.to_bits() == 0), "{eye:?}");
+                    }
+                }
+            }
+        }
+        assert!(
+            seen[0] > 0 && seen[1] > 0,
+            "both projections among the scenes: {seen:?}"
+        );
     }
 }
