@@ -60,16 +60,15 @@ pub fn box_entry<T: Real>(
     min_t: T,
     t_max: T,
 ) -> T {
-    if ri.zero.iter().any(|&z| z) {
-        return box_entry_axis_parallel(lo, hi, ray, ri, min_t, t_max);
-    }
+    let lo_r = lo.map(|x| T::from_f64(x as f64));
+    let hi_r = hi.map(|x| T::from_f64(x as f64));
     let o = ray.origin.to_array();
     let inv = ri.inv.to_array();
-    let mut a = [T::ZERO; 3];
-    let mut b = [T::ZERO; 3];
-    for k in 0..3 {
-        a[k] = (T::from_f64(lo[k] as f64) - o[k]) * inv[k];
-        b[k] = (T::from_f64(hi[k] as f64) - o[k]) * inv[k];
+    let a = [0, 1, 2].map(|k| (lo_r[k] - o[k]) * inv[k]);
+    let b = [0, 1, 2].map(|k| (hi_r[k] - o[k]) * inv[k]);
+    if ri.zero.iter().any(|&z| z) {
+        let inside = [0, 1, 2].map(|k| lo_r[k] <= o[k] && o[k] <= hi_r[k]);
+        return box_entry_axis_parallel(a, b, inside, ri.zero, min_t, t_max);
     }
     let enter = [0, 1, 2].map(|k| smaller(a[k], b[k]));
     let leave = [0, 1, 2].map(|k| larger(a[k], b[k]));
@@ -78,32 +77,30 @@ pub fn box_entry<T: Real>(
     if t_in <= t_out { t_in } else { no_hit() }
 }
 
-/// `box_entry` for a ray with a zero direction component: that slab holds the whole ray or
-/// none of it. Each slab interval is widened by the slack; the entry is 0 if the ray starts
-/// inside.
+/// `box_entry` for a ray with a zero direction component (`zero`): that slab holds the whole ray
+/// (where the origin is `inside` it) or none of it. `a` and `b` are the distances to the box's
+/// planes, `box_entry`'s. Each slab interval is widened by the slack; the entry is 0 if the ray
+/// starts inside.
 fn box_entry_axis_parallel<T: Real>(
-    lo: [f32; 3],
-    hi: [f32; 3],
-    ray: &Ray<T>,
-    ri: &RayInverse<T>,
+    a: [T; 3],
+    b: [T; 3],
+    inside: [bool; 3],
+    zero: [bool; 3],
     min_t: T,
     t_max: T,
 ) -> T {
-    let o = ray.origin.to_array();
-    let inv = ri.inv.to_array();
     let mut t0 = [T::ZERO; 3];
     let mut t1 = [T::ZERO; 3];
     for k in 0..3 {
-        let lo_r = T::from_f64(lo[k] as f64);
-        let hi_r = T::from_f64(hi[k] as f64);
-        let a = (lo_r - o[k]) * inv[k];
-        let b = (hi_r - o[k]) * inv[k];
-        let inside = lo_r <= o[k] && o[k] <= hi_r;
-        let open = if inside { -t_far::<T>() } else { t_far::<T>() };
-        (t0[k], t1[k]) = if ri.zero[k] {
+        let open = if inside[k] {
+            -t_far::<T>()
+        } else {
+            t_far::<T>()
+        };
+        (t0[k], t1[k]) = if zero[k] {
             (open, -open)
         } else {
-            (a.min(b), a.max(b))
+            (a[k].min(b[k]), a[k].max(b[k]))
         };
     }
     let mut t_in = t0[0].max(t0[1].max(t0[2]));
