@@ -41,7 +41,15 @@ fn cast_pixel(i: u32, j: u32, index: u32, write: bool) {
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);
 #endif
 #if SURFACE
+#if ID
+    // With ids the host reads a pixel's surface only where its id is a hit (each store to a
+    // lane's own address is a loop of scalar stores on llvmpipe).
+    if (hit.object >= 0) {
+        out_surface[index] = surface;
+    }
+#else
     out_surface[index] = surface;
+#endif
 #endif
 #if USER_SHADE
     let colour = shade(shade_hit(ray, hit, surface, i, j));
