@@ -343,6 +343,12 @@ impl Variant {
         }
     }
 
+    /// Whether the kernel is assembled from shaders/ alone: no user hook, no user kernel. Only
+    /// such kernels are compiled without wgpu's runtime checks (`create_pipeline`).
+    pub fn is_ours(&self) -> bool {
+        self.shade.is_none() && self.kernel.is_none()
+    }
+
     /// Whether the BVH is traversed by packets: asked for, through a BVH, and over image tiles,
     /// whose neighbouring pixels have coherent rays, or over a caller's rays (whose owner says
     /// whether they are coherent), for the nearest hit. Listed pixels are scattered.
@@ -720,6 +726,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Kernels assembled from shaders/ run without wgpu's index clamps
+    /// (`Variant::is_ours`): the traversal's stacks must hold one waiting node per level of
+    /// the deepest tree the host builds.
+    #[test]
+    fn traversal_stack_holds_the_deepest_tree() {
+        let variant = Variant {
+            bvh: true,
+            ..Variant::new(Precision::F32, Algorithm::Robust)
+        };
+        let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+        let (_, stack) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some("BVH_STACK"))
+            .expect("the kernel declares BVH_STACK");
+        let size = match module.global_expressions[stack.init] {
+            naga::Expression::Literal(naga::Literal::U32(n)) => n as usize,
+            ref e => panic!("BVH_STACK is {e:?}"),
+        };
+        assert!(
+            size >= crate::prepare::bvh::MAX_DEPTH,
+            "BVH_STACK {size} < MAX_DEPTH {}",
+            crate::prepare::bvh::MAX_DEPTH
+        );
     }
 
     #[test]
