@@ -19,20 +19,25 @@ fn box_slack<T: Real>() -> T {
     T::from_f64(1.0 / 65536.0)
 }
 
-/// Which direction components are zero, and the inverse of the nonzero ones.
+/// Whether a direction component is zero, and the inverse of the nonzero ones.
 pub struct RayInverse<T> {
-    pub zero: [bool; 3],
+    pub axis_parallel: bool,
     pub inv: Vec3<T>,
 }
 
 pub fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
+    let zero = direction_zero(ray);
     let d = ray.direction.to_array();
-    let zero = d.map(|x| x == T::ZERO);
     let inv = [0, 1, 2].map(|k| T::ONE / if zero[k] { T::ONE } else { d[k] });
     RayInverse {
-        zero,
+        axis_parallel: zero.iter().any(|&z| z),
         inv: Vec3::from_array(inv),
     }
+}
+
+/// Which of the ray's direction components are zero.
+fn direction_zero<T: Real>(ray: &Ray<T>) -> [bool; 3] {
+    ray.direction.to_array().map(|x| x == T::ZERO)
 }
 
 /// The smaller of a and b, as WGSL's `smaller` selects it.
@@ -66,9 +71,9 @@ pub fn box_entry<T: Real>(
     let inv = ri.inv.to_array();
     let a = [0, 1, 2].map(|k| (lo_r[k] - o[k]) * inv[k]);
     let b = [0, 1, 2].map(|k| (hi_r[k] - o[k]) * inv[k]);
-    if ri.zero.iter().any(|&z| z) {
+    if ri.axis_parallel {
         let inside = [0, 1, 2].map(|k| lo_r[k] <= o[k] && o[k] <= hi_r[k]);
-        return box_entry_axis_parallel(a, b, inside, ri.zero, min_t, t_max);
+        return box_entry_axis_parallel(a, b, inside, direction_zero(ray), min_t, t_max);
     }
     let enter = [0, 1, 2].map(|k| smaller(a[k], b[k]));
     let leave = [0, 1, 2].map(|k| larger(a[k], b[k]));
