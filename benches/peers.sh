@@ -153,7 +153,7 @@ raycast_bench "$out/spheres.json" spheres-after
 
 # --- the table -----------------------------------------------------------------------------
 "$py" - "$out" <<'EOF' | tee "$out/table.md"
-import json, os, sys
+import json, os, statistics, sys
 
 out = sys.argv[1]
 
@@ -179,12 +179,7 @@ def ratio(a, b):
 
 def geometric_mean(*xs):
     """Geometric mean of the values given (None where one is missing)."""
-    if any(x is None for x in xs):
-        return None
-    product = 1.0
-    for x in xs:
-        product *= x
-    return product ** (1.0 / len(xs))
+    return None if any(x is None for x in xs) else statistics.geometric_mean(xs)
 
 print("Mrays/s ratio = raycast / peer (above 1: raycast casts faster); build ratio = "
       "raycast / peer (below 1: raycast builds faster). raycast rows: Mrays/s from GPU "

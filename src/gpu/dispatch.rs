@@ -755,10 +755,11 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
         source: wgpu::ShaderSource::Wgsl(source.into()),
     };
     let shader_module = match variant.is_ours() {
-        // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays (the
-        // traversal's stacks) within bounds, since BVH_STACK >= bvh::MAX_DEPTH (a test checks
-        // it); its loops end (the traversal visits each node at most once); and it divides only
-        // by nonzero values. The driver still bounds storage accesses (robustBufferAccess).
+        // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
+        // bounds: the traversal's stacks hold BVH_STACK >= bvh::MAX_DEPTH entries (a test
+        // checks it), the uniform primitive arrays are indexed by the host's own counts and
+        // leaves. Its loops end (the traversal visits each node at most once), and it divides
+        // only by nonzero values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {
             gpu.device
                 .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
