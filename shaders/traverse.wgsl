@@ -216,18 +216,17 @@ fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit
 var<private> lane: u32;
 
 // visit() for a node the whole subgroup visits (same `node` in every lane): lanes 0 to 7 each
-// load two of its sixteen words, and broadcasts hand every lane all of them. On llvmpipe
-// (Mesa 25.0) a storage load whose offset is not a constant runs as one branchy scalar load
-// per lane and word, even where the offset is the same in every lane, so this is 2 words per
-// lane instead of 16. Needs subgroups of at least 8 invocations.
+// load two of its sixteen words (node_element: one vec2<u32>), and broadcasts hand every lane
+// all of them. On llvmpipe (Mesa 25.0) a storage load whose offset is not a constant runs as a
+// branchy loop of scalar loads over the lanes, even where the offset is the same in every
+// lane, so this is 2 words per lane instead of 16, in one such loop. Needs subgroups of at
+// least 8 invocations.
 fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
-    let w = lane & 7u;
-    let low = node_word(node, w);
-    let high = node_word(node, w + 8u);
-    let q0 = vec4<u32>(subgroupBroadcast(low, 0u), subgroupBroadcast(low, 1u), subgroupBroadcast(low, 2u), subgroupBroadcast(low, 3u));
-    let q1 = vec4<u32>(subgroupBroadcast(low, 4u), subgroupBroadcast(low, 5u), subgroupBroadcast(low, 6u), subgroupBroadcast(low, 7u));
-    let q2 = vec4<u32>(subgroupBroadcast(high, 0u), subgroupBroadcast(high, 1u), subgroupBroadcast(high, 2u), subgroupBroadcast(high, 3u));
-    let q3 = vec4<u32>(subgroupBroadcast(high, 4u), subgroupBroadcast(high, 5u), subgroupBroadcast(high, 6u), subgroupBroadcast(high, 7u));
+    let pair = node_element(node, lane & 7u);
+    let q0 = vec4<u32>(subgroupBroadcast(pair, 0u), subgroupBroadcast(pair, 1u));
+    let q1 = vec4<u32>(subgroupBroadcast(pair, 2u), subgroupBroadcast(pair, 3u));
+    let q2 = vec4<u32>(subgroupBroadcast(pair, 4u), subgroupBroadcast(pair, 5u));
+    let q3 = vec4<u32>(subgroupBroadcast(pair, 6u), subgroupBroadcast(pair, 7u));
     return visit_parts(q0, q1, q2, q3, ray, ri, min_t, t_max);
 }
 

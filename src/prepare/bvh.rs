@@ -147,7 +147,7 @@ const TRAVERSAL_COST: f64 = 3.0;
 const PARALLEL_ITEMS: usize = 4096;
 
 /// One interior node: the boxes of its two children and where they are. 64 bytes, read in the
-/// kernel as four `vec4<u32>`. Offsets in bytes.
+/// kernel as four `vec4<u32>` (per ray) or eight `vec2<u32>` (packets). Offsets in bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
@@ -161,7 +161,7 @@ pub struct BvhNode {
     pub count1: u32,     // offset 60
 } // size 64
 
-// The kernel reads a node as four vec4<u32> (shaders/traverse.wgsl).
+// The kernel reads a node as four vec4<u32> or eight vec2<u32> (shaders/bindings.wgsl).
 const _: () = assert!(size_of::<BvhNode>() == 64);
 
 /// A child as its parent stores it.
