@@ -141,8 +141,13 @@ const MAX_LEAF: usize = 8;
 /// on the 518,400-triangle torus (lavapipe, packets, at 3162c2b): at 3 rather than 1 the BVH
 /// has 119,395 nodes instead of 287,440 (70.7 bytes per triangle instead of 91.5 with the
 /// triangles of then) and builds in 0.35 s instead of 0.45 s, tracing as fast (0.36 s both);
-/// at 5 leaves reach `MAX_LEAF` and tracing slows by 2-3%.
+/// at 5 leaves reach `MAX_LEAF` and tracing slows by 2-3%. (At 2 and 4 the torus took 1.014x
+/// and 1.007x the time once a node was one load a lane: still the best.)
 const TRAVERSAL_COST: f64 = 3.0;
+/// [`TRAVERSAL_COST`] for the spheres' subtree, where a primitive test is cheaper: the 100
+/// spheres of `benches/peers.sh` traced 1.02x to 1.06x as fast at 1.5 than at 3 (four runs of
+/// one process timing both trees, 11 to 21 rounds), about as fast at 1, slower at 0.5 and 6.
+const SPHERE_TRAVERSAL_COST: f64 = 1.5;
 /// Nodes with more primitives are built with their two halves in parallel.
 const PARALLEL_ITEMS: usize = 4096;
 
@@ -419,7 +424,12 @@ fn fill_bins(items: &[Item], binning: &Binning) -> [Bins; 3] {
 
 /// The cheapest split of `axis`: (SAH cost relative to one primitive test, first bin of the
 /// right side).
-fn best_split_of_axis(bins: &Bins, used: usize, parent_area: f64) -> Option<(f64, usize)> {
+fn best_split_of_axis(
+    bins: &Bins,
+    used: usize,
+    parent_area: f64,
+    traversal_cost: f64,
+) -> Option<(f64, usize)> {
     let mut right_area = [0.0; BINS];
     let mut right_count = [0usize; BINS];
     let (mut b, mut n) = (Aabb::EMPTY, 0);
@@ -437,7 +447,7 @@ fn best_split_of_axis(bins: &Bins, used: usize, parent_area: f64) -> Option<(f64
         if left_count == 0 || right_count[k] == 0 {
             continue;
         }
-        let cost = TRAVERSAL_COST
+        let cost = traversal_cost
             + (left.half_area() * left_count as f64 + right_area[k] * right_count[k] as f64)
                 / parent_area;
         if best.is_none_or(|(c, _)| cost < c) {
@@ -448,9 +458,16 @@ fn best_split_of_axis(bins: &Bins, used: usize, parent_area: f64) -> Option<(f64
 }
 
 /// Builds the subtree over `items` (which start at `start` in the whole list, and span
-/// `extent`) at `depth`. A split passes each side its extent, found while partitioning, so no
-/// node makes a pass over its items for its bounds.
-fn build_tree(items: &mut [Item], start: usize, depth: usize, extent: Extent) -> (Aabb, Tree) {
+/// `extent`) at `depth`, a node visit costing `traversal_cost` primitive tests. A split passes
+/// each side its extent, found while partitioning, so no node makes a pass over its items for
+/// its bounds.
+fn build_tree(
+    items: &mut [Item],
+    start: usize,
+    depth: usize,
+    extent: Extent,
+    traversal_cost: f64,
+) -> (Aabb, Tree) {
     let bounds = extent.boxes;
     let n = items.len();
     let leaf = Tree::Leaf { start, len: n };
@@ -465,7 +482,12 @@ fn build_tree(items: &mut [Item], start: usize, depth: usize, extent: Extent) ->
         if !binning.spreads(axis) {
             continue;
         }
-        let split = best_split_of_axis(bins, binning.used, area.max(f64::MIN_POSITIVE));
+        let split = best_split_of_axis(
+            bins,
+            binning.used,
+            area.max(f64::MIN_POSITIVE),
+            traversal_cost,
+        );
         if let Some((cost, bin)) = split
             && best.is_none_or(|(c, _, _)| cost < c)
         {
@@ -485,22 +507,22 @@ fn build_tree(items: &mut [Item], start: usize, depth: usize, extent: Extent) ->
     let (left, right) = items.split_at_mut(mid);
     let (l, r) = if n >= PARALLEL_ITEMS {
         rayon::join(
-            || build_tree(left, start, depth + 1, sides[0]),
-            || build_tree(right, start + mid, depth + 1, sides[1]),
+            || build_tree(left, start, depth + 1, sides[0], traversal_cost),
+            || build_tree(right, start + mid, depth + 1, sides[1], traversal_cost),
         )
     } else {
         (
-            build_tree(left, start, depth + 1, sides[0]),
-            build_tree(right, start + mid, depth + 1, sides[1]),
+            build_tree(left, start, depth + 1, sides[0], traversal_cost),
+            build_tree(right, start + mid, depth + 1, sides[1], traversal_cost),
         )
     };
     (bounds, Tree::Inner(Box::new([l, r])))
 }
 
 /// The tree over all `items` of one kind, if there are any.
-fn build_root(items: &mut [Item]) -> Option<(Aabb, Tree)> {
+fn build_root(items: &mut [Item], traversal_cost: f64) -> Option<(Aabb, Tree)> {
     let extent = Extent::of(items);
-    (!items.is_empty()).then(|| build_tree(items, 0, 1, extent))
+    (!items.is_empty()).then(|| build_tree(items, 0, 1, extent, traversal_cost))
 }
 
 /// Moves the items for which `left` holds to the front; returns how many there are and the
@@ -634,8 +656,10 @@ impl Bvh {
         triangle_objects: &[u32],
     ) -> Bvh {
         let mut nodes = Vec::new();
-        let (sphere_tree, triangle_tree) =
-            rayon::join(|| build_root(&mut spheres), || build_root(&mut triangles));
+        let (sphere_tree, triangle_tree) = rayon::join(
+            || build_root(&mut spheres, SPHERE_TRAVERSAL_COST),
+            || build_root(&mut triangles, TRAVERSAL_COST),
+        );
         nodes.push(BvhNode::zeroed());
         let empty = Child {
             lo: [0.0; 3],
