@@ -13,8 +13,8 @@
 #import certainty
 #endif
 
-// At least MAX_DEPTH in src/prepare/bvh.rs: one entry per level at most is waiting.
-const BVH_STACK: u32 = 40u;
+// BVH_STACK, the traversal stack's entries, comes with the precision module: at least the
+// tree's depth, one entry per level at most is waiting (Bvh::stack_entries in src/prepare/bvh.rs).
 const LEAF_BIT: u32 = 0x80000000u;
 // A leaf's count word (leaf_word in src/prepare/bvh.rs): SPHERE_LEAF, and either MANY_LEAF
 // and its count, or its count in the low LEAF_COUNT bits and above them the object all its

@@ -229,6 +229,12 @@ fn bvh_depth_stays_within_the_traversal_stack() {
     for (name, scene) in scenes() {
         let bvh = Bvh::build(&scene, Robust);
         assert!(bvh.depth() <= MAX_DEPTH, "{name}: depth {}", bvh.depth());
+        // What the kernels' stacks are sized to (shaders/traverse.wgsl, BVH_STACK).
+        let stack = bvh.stack_entries() as usize;
+        assert!(
+            stack >= bvh.depth() && stack <= MAX_DEPTH,
+            "{name}: stack {stack}"
+        );
         let n = raycast::prepare::bvh::bounded_count(&scene);
         assert_eq!(
             bvh.sphere_order.len() + bvh.triangle_order.len(),

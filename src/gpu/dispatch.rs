@@ -172,6 +172,13 @@ pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<
     Ok(Prepared::new(scene, variant.algorithm, variant.accel()))
 }
 
+/// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
+/// which is built again here (for `--emit-shader`, which writes the kernel a render ran).
+pub fn as_run(scene: &Scene, variant: Variant) -> Variant {
+    let prepared = Prepared::<f32>::new(scene, variant.algorithm, variant.accel());
+    variant.with_stack_for(prepared.bvh().map(|b| &**b))
+}
+
 /// An error if `scene` has more spheres and triangles than `variant`'s storage bindings hold.
 pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
     let bounded = crate::prepare::bvh::bounded_count(scene) as u64;
@@ -201,7 +208,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         rays_from_origin: variant.rays_from_origin
             && source != Source::Rays
             && prepared.camera_rays_from_origin(),
-        ..variant
+        ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
     };
     let variant = match (variant.source, variant.count) {
         // A ray list writes every per-ray output, or with COUNT the counts alone.

@@ -109,6 +109,7 @@ impl Gpu {
             eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
+            bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
             outputs: crate::images::Outputs::GEOMETRY,
             shade: None,
             uniform_prims: false,

@@ -19,7 +19,7 @@ use crate::math::{Vec3, length};
 use crate::scene::{Object, Scene};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
-/// per level, so `BVH_STACK` in shaders/traverse.wgsl must be at least this.
+/// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
 pub const MAX_DEPTH: usize = 40;
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
 /// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
@@ -700,6 +700,13 @@ impl Bvh {
         size_of_val(&self.nodes[..]) + 4 * (self.sphere_order.len() + self.triangle_order.len())
     }
 
+    /// Entries a traversal stack needs for this tree (`BVH_STACK` in the kernel): its depth, at
+    /// least, since at most one node per level above the one visited is waiting; rounded up to
+    /// a multiple of 8, so that few kernels are compiled, and at most [`MAX_DEPTH`].
+    pub fn stack_entries(&self) -> u8 {
+        stack_for_depth(self.depth())
+    }
+
     /// The deepest leaf (root at depth 0); at most [`MAX_DEPTH`].
     pub fn depth(&self) -> usize {
         fn depth_of(nodes: &[BvhNode], node: usize) -> usize {
@@ -717,6 +724,11 @@ impl Bvh {
         }
         depth_of(&self.nodes, 0)
     }
+}
+
+/// [`Bvh::stack_entries`] of a tree `depth` deep.
+fn stack_for_depth(depth: usize) -> u8 {
+    (depth.max(1).div_ceil(8) * 8).min(MAX_DEPTH) as u8
 }
 
 fn triangle_box(c: &crate::scene::Triangle, origin: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
@@ -824,6 +836,17 @@ mod tests {
     }
 
     #[test]
+    fn every_depth_gets_a_stack_that_holds_it() {
+        for depth in 0..=MAX_DEPTH {
+            let stack = stack_for_depth(depth) as usize;
+            assert!(
+                stack >= depth && stack <= MAX_DEPTH && stack % 8 == 0,
+                "{depth}: {stack}"
+            );
+        }
+    }
+
+    #[test]
     fn identical_boxes_still_build_within_the_depth_limit() {
         let same: Vec<Item> = (0..5000)
             .map(|k| Item {
@@ -836,6 +859,7 @@ mod tests {
         let bvh = Bvh::from_boxes(Vec::new(), same.clone(), &[], &objects);
         check(&bvh, &same, &objects);
         assert!(bvh.depth() <= MAX_DEPTH);
+        assert!(bvh.stack_entries() as usize >= bvh.depth());
     }
 
     /// A scene of `spheres` spheres and a soup of `triangles` triangles.

@@ -291,7 +291,8 @@ impl Spec {
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
-            let source = shader::kernel_source(&self.first_kernel(g, scene, &request)?)?;
+            let ran = gpu::dispatch::as_run(scene, self.first_kernel(g, scene, &request)?);
+            let source = shader::kernel_source(&ran)?;
             output::write_file(path, source.as_bytes())?;
             summary.emitted = Some(path.clone());
         }
