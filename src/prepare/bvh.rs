@@ -146,7 +146,8 @@ const MAX_LEAF: usize = 8;
 const TRAVERSAL_COST: f64 = 3.0;
 /// [`TRAVERSAL_COST`] for the spheres' subtree, where a primitive test is cheaper: the 100
 /// spheres of `benches/peers.sh` traced 1.02x to 1.06x as fast at 1.5 than at 3 (four runs of
-/// one process timing both trees, 11 to 21 rounds), about as fast at 1, slower at 0.5 and 6.
+/// one process timing both trees, 11 to 21 rounds), about as fast at 0.5 and 1, and took 1.06x
+/// the time at 6.
 const SPHERE_TRAVERSAL_COST: f64 = 1.5;
 /// Nodes with more primitives are built with their two halves in parallel.
 const PARALLEL_ITEMS: usize = 4096;
