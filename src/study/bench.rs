@@ -607,6 +607,7 @@ mod tests {
             nodes: vec![bytemuck::Zeroable::zeroed(); 3],
             sphere_order: vec![0; 2],
             triangle_order: vec![0; 10],
+            depth: 1,
         };
         // + 3 * 64 + 4 * 12 = 240.
         assert_eq!(bytes_per_triangle(counts, 48, Some(&bvh)), Some(77.2));
