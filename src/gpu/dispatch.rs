@@ -175,8 +175,8 @@ pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
 /// which is built again here (for `--emit-shader`, which writes the kernel a render ran).
 pub fn as_run(scene: &Scene, variant: Variant) -> Variant {
-    let prepared = Prepared::<f32>::new(scene, variant.algorithm, variant.accel());
-    variant.with_stack_for(prepared.bvh().map(|b| &**b))
+    let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.accel());
+    variant.with_stack_for(bvh.as_ref())
 }
 
 /// An error if `scene` has more spheres and triangles than `variant`'s storage bindings hold.
@@ -763,9 +763,9 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     };
     let shader_module = match variant.is_ours() {
         // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
-        // bounds: the traversal's stacks hold BVH_STACK >= bvh::MAX_DEPTH entries (a test
-        // checks it), the uniform primitive arrays are indexed by the host's own counts and
-        // leaves. Its loops end (the traversal visits each node at most once), and it divides
+        // bounds: the traversal's stacks hold at least the tree's depth in entries, one waiting
+        // node per level at most (`with_stack_for` in `run`; tests check it), and the uniform
+        // primitive arrays are indexed by the host's own counts and leaves. Its loops end (the traversal visits each node at most once), and it divides
         // only by nonzero values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {
             gpu.device

@@ -46,9 +46,7 @@ impl<T: Real> Prepared<T> {
     pub fn new(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Prepared<T> {
         let clock = Instant::now();
         let kernel = in_kernel_units(scene);
-        let bvh = accel
-            .uses_bvh(scene)
-            .then(|| Arc::new(Bvh::build(&kernel.0, algorithm)));
+        let bvh = kernel_bvh(scene, &kernel.0, algorithm, accel).map(Arc::new);
         Prepared::assemble(scene, kernel, algorithm, bvh).timed(clock)
     }
 
@@ -163,6 +161,17 @@ const _: () = assert!((1u64 << MAX_KERNEL_EXPONENT) as f64 > crate::scene::MAX_M
 /// `floor(log2(x))` of a positive finite `x`, or -1023 for a subnormal one.
 fn binary_exponent(x: f64) -> i32 {
     ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023
+}
+
+/// The BVH [`Prepared::new`] builds for `scene` where `accel` asks for one, without the rest
+/// of the preparation.
+pub fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
+    kernel_bvh(scene, &in_kernel_units(scene).0, algorithm, accel)
+}
+
+/// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one.
+fn kernel_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
+    accel.uses_bvh(scene).then(|| Bvh::build(kernel, algorithm))
 }
 
 /// `scene` in kernel units (scaled by `2^-e`, [`unit_exponent`]; borrowed when `e` is 0, the
