@@ -7,44 +7,73 @@
 //! of the rounds' time ratios to the first kernel, which this shared machine's drifts move far
 //! less than the times. Every kernel must give the first one's ids, unless `--no-check`.
 //!
+//! With `--list` the kernels are ray-list kernels (the Python package's `cast_rays`): the
+//! camera's rays, in world coordinates and float32 as NumPy callers hold them, cast as an
+//! image's list; each round also times the camera's kernel, and it prints the median ratio of
+//! the first kernel's time to the camera kernel's. `--emit FILE` writes the assembled kernel
+//! (camera or list) to edit, and stops.
+//!
 //! A `--kernel` file keeps wgpu's runtime checks, the assembled kernel does not
 //! (`Variant::is_ours`): compare an edited kernel with the same kernel emitted, not with
 //! `builtin`.
 use std::path::Path;
 
 use raycast::gpu::layout::GpuReal;
-use raycast::gpu::shader::Variant;
+use raycast::gpu::shader::{Source, Variant};
 use raycast::gpu::{self, Gpu, Job, kernel};
 use raycast::math::Precision;
+use raycast::rays::RayList;
 
 struct Options {
     scene: String,
     precision: Precision,
     rounds: usize,
     check: bool,
+    list: bool,
+    emit: Option<String>,
     kernels: Vec<String>,
 }
 
 fn options() -> Options {
-    let usage = "usage: kernel_ab SCENE [--f64] [--rounds N] [--no-check] KERNEL...";
+    let usage = "usage: kernel_ab SCENE [--f64] [--list] [--rounds N] [--no-check] \
+                 [--emit FILE] KERNEL...";
     let mut args = std::env::args().skip(1);
     let mut o = Options {
         scene: args.next().expect(usage),
         precision: Precision::F32,
         rounds: 15,
         check: true,
+        list: false,
+        emit: None,
         kernels: Vec::new(),
     };
     while let Some(a) = args.next() {
         match a.as_str() {
             "--f64" => o.precision = Precision::F64,
             "--no-check" => o.check = false,
+            "--list" => o.list = true,
+            "--emit" => o.emit = Some(args.next().expect(usage)),
             "--rounds" => o.rounds = args.next().and_then(|n| n.parse().ok()).expect(usage),
             _ => o.kernels.push(a),
         }
     }
-    assert!(!o.kernels.is_empty(), "{usage}");
+    assert!(!o.kernels.is_empty() || o.emit.is_some(), "{usage}");
     o
+}
+
+/// The camera's ray through every pixel, row by row, in world coordinates rounded to f32 (as
+/// a NumPy caller holds them): origin, direction.
+fn camera_rows(scene: &raycast::Scene) -> Vec<[f32; 6]> {
+    let [nx, ny] = scene.camera.resolution;
+    let frame = raycast::camera::Frame::new(&scene.camera, [nx, ny]);
+    let pixels = (0..ny).flat_map(|i| (0..nx).map(move |j| (i, j)));
+    pixels
+        .map(|(i, j)| {
+            let ray = raycast::cpu::camera::camera_ray(&frame, i, j);
+            let (o, d) = (ray.origin, ray.direction);
+            [o.x, o.y, o.z, d.x, d.y, d.z].map(|x| x as f32)
+        })
+        .collect()
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -53,16 +82,38 @@ fn median(v: &[f64]) -> f64 {
     v[v.len() / 2]
 }
 
-/// Each kernel's kernel times, one per round after the warm-up.
+/// Each kernel's kernel times, one per round after the warm-up, and with `--list` last the
+/// camera kernel's.
 fn time_kernels<R: GpuReal>(
     gpu: &Gpu,
     scene: &raycast::Scene,
-    base: Variant,
+    camera: Variant,
     o: &Options,
 ) -> Vec<Vec<f64>> {
-    let prepared = gpu::prepare::<R>(scene, &base).unwrap();
-    let resident = gpu::upload(gpu, &prepared, &base).unwrap();
-    let variants: Vec<Variant> = (o.kernels.iter())
+    let prepared = gpu::prepare::<R>(scene, &camera).unwrap();
+    let resident = gpu::upload(gpu, &prepared, &camera).unwrap();
+    let rows = if o.list {
+        camera_rows(scene)
+    } else {
+        Vec::new()
+    };
+    let list = RayList::image(&rows[..], scene.camera.resolution[0] as usize);
+    // As gpu::run specialises it, so that an emitted kernel fits its interface.
+    let base = match o.list {
+        true => Variant {
+            source: Source::Rays,
+            ..camera
+        }
+        .with_outputs(raycast::images::Outputs::GEOMETRY),
+        false => camera,
+    }
+    .with_stack_for(prepared.bvh().map(|b| &**b));
+    if let Some(file) = &o.emit {
+        let source = raycast::gpu::shader::kernel_source(&base).unwrap();
+        std::fs::write(file, source).unwrap_or_else(|e| panic!("{file}: {e}"));
+        std::process::exit(0);
+    }
+    let mut variants: Vec<Variant> = (o.kernels.iter())
         .map(|k| match k.as_str() {
             "builtin" => base,
             file => kernel::load(Path::new(file))
@@ -70,22 +121,30 @@ fn time_kernels<R: GpuReal>(
                 .unwrap_or_else(|e| panic!("{file}: {e}")),
         })
         .collect();
+    if o.list {
+        variants.push(camera);
+    }
+    let is_list = |k: usize| o.list && k < o.kernels.len();
     let mut times = vec![Vec::new(); variants.len()];
     let mut first_ids = None;
     for round in 0..=o.rounds {
         let mut order: Vec<usize> = (0..variants.len()).collect();
+        // Each kernel in each place in turn: this machine's speed drifts within a round too.
+        order.rotate_left(round % variants.len());
         if round % 2 == 1 {
             order.reverse();
         }
         for k in order {
             let job = Job::new(variants[k]).timed(true).resident(&resident);
+            let job = if is_list(k) { job.rays(list, 0.0) } else { job };
             let out = gpu::run(gpu, &prepared, job).unwrap();
             if round > 0 {
                 times[k].push(out.stages.kernel_s.expect("timestamp queries"));
             }
-            if o.check {
-                let ids = first_ids.get_or_insert_with(|| out.images.id.clone());
-                assert!(*ids == out.images.id, "{} gives other ids", o.kernels[k]);
+            if o.check && (is_list(k) || !o.list) {
+                let ids = out.hits.map_or(out.images.id, |h| h.id);
+                let first = first_ids.get_or_insert_with(|| ids.clone());
+                assert!(*first == ids, "{} gives other ids", o.kernels[k]);
             }
         }
     }
@@ -101,6 +160,16 @@ fn main() {
         Precision::F32 => time_kernels::<f32>(&gpu, &scene, base, &o),
         Precision::F64 => time_kernels::<f64>(&gpu, &scene, base, &o),
     };
+    if o.list {
+        let camera = times.last().expect("the camera kernel's times");
+        let ratios: Vec<f64> = times[0].iter().zip(camera).map(|(a, b)| a / b).collect();
+        println!(
+            "camera kernel: median {:.4} s; {} / camera kernel's time {:.4}",
+            median(camera),
+            o.kernels[0],
+            median(&ratios)
+        );
+    }
     for (name, t) in o.kernels.iter().zip(&times) {
         let ratios: Vec<f64> = t.iter().zip(&times[0]).map(|(a, b)| a / b).collect();
         println!(
