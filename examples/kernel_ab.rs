@@ -98,16 +98,9 @@ fn time_kernels<R: GpuReal>(
         Vec::new()
     };
     let list = RayList::image(&rows[..], scene.camera.resolution[0] as usize);
-    // As gpu::run specialises it, so that an emitted kernel fits its interface.
-    let base = match o.list {
-        true => Variant {
-            source: Source::Rays,
-            ..camera
-        }
-        .with_outputs(raycast::images::Outputs::GEOMETRY),
-        false => camera,
-    }
-    .with_stack_for(prepared.bvh().map(|b| &**b));
+    // As gpu::run compiles it, so that --emit writes the kernel that runs.
+    let source = if o.list { Source::Rays } else { Source::Camera };
+    let base = gpu::dispatch::specialised(camera, source, &prepared).unwrap();
     if let Some(file) = &o.emit {
         let source = raycast::gpu::shader::kernel_source(&base).unwrap();
         std::fs::write(file, source).unwrap_or_else(|e| panic!("{file}: {e}"));

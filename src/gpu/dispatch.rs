@@ -192,6 +192,31 @@ pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 }
 
 /// Runs `job` on `prepared` (module docs).
+/// `variant` as [`run`] compiles it for rays from `source` at `prepared`: the traversal stack
+/// sized to its BVH, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
+/// and a ray list's outputs (every per-ray one, or with COUNT the counts alone).
+pub fn specialised<R: GpuReal>(
+    variant: Variant,
+    source: Source,
+    prepared: &Prepared<R>,
+) -> Result<Variant> {
+    let variant = Variant {
+        source,
+        rays_from_origin: variant.rays_from_origin
+            && source != Source::Rays
+            && prepared.camera_rays_from_origin(),
+        ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
+    };
+    match (source, variant.count) {
+        (Source::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
+        (Source::Rays, true) => Ok(variant.with_outputs(crate::images::Outputs::NONE)),
+        (_, false) => Ok(variant),
+        (_, true) => Err(Error::Device(
+            "intersections are counted for a list of rays only".into(),
+        )),
+    }
+}
+
 pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Result<Rendered<R>> {
     gpu.check_alive()?;
     let Job {
@@ -202,25 +227,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         mut sink,
         resident,
     } = job;
-    let source = rays.source();
-    let variant = Variant {
-        source,
-        rays_from_origin: variant.rays_from_origin
-            && source != Source::Rays
-            && prepared.camera_rays_from_origin(),
-        ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
-    };
-    let variant = match (variant.source, variant.count) {
-        // A ray list writes every per-ray output, or with COUNT the counts alone.
-        (Source::Rays, false) => variant.with_outputs(crate::images::Outputs::GEOMETRY),
-        (Source::Rays, true) => variant.with_outputs(crate::images::Outputs::NONE),
-        (_, false) => variant,
-        (_, true) => {
-            return Err(Error::Device(
-                "intersections are counted for a list of rays only".into(),
-            ));
-        }
-    };
+    let variant = specialised(variant, rays.source(), prepared)?;
     if variant.source != Source::Camera && sink.is_some() {
         return Err(Error::Device(
             "a list comes back whole; only camera rays are streamed".into(),
@@ -764,9 +771,10 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     let shader_module = match variant.is_ours() {
         // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
         // bounds: the traversal's stacks hold at least the tree's depth in entries, one waiting
-        // node per level at most (`with_stack_for` in `run`; tests check it), and the uniform
-        // primitive arrays are indexed by the host's own counts and leaves. Its loops end (the traversal visits each node at most once), and it divides
-        // only by nonzero values. The driver still bounds storage accesses (robustBufferAccess).
+        // node per level at most (`with_stack_for` in `specialised`; tests check it), and the
+        // uniform primitive arrays are indexed by the host's own counts and leaves. Its loops
+        // end (the traversal visits each node at most once), and it divides only by nonzero
+        // values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {
             gpu.device
                 .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
