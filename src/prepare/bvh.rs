@@ -21,6 +21,9 @@ use crate::scene::{Object, Scene};
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
 pub const MAX_DEPTH: usize = 40;
+// The packet kernels hold their stack of 40 entries in five registers (`PacketStack` in
+// shaders/traverse.wgsl).
+const _: () = assert!(MAX_DEPTH <= 40);
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
 /// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
 /// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
