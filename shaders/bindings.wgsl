@@ -48,36 +48,39 @@ fn sphere_at(k: u32) -> Sphere {
 #endif
 #endif
 #if TRIANGLES
-// Triangles are stored packed, 9 reals each (StoredTriangle's layout, 36 bytes in f32 instead
-// of the 48 of three padded vec3), bound as flat reals so that a subgroup can load one
-// triangle a real per lane (intersect_leaf_shared). Meshes larger than one storage binding are
-// split in chunks of 2^CHUNK_BITS triangles (CHUNK_BITS from the precision module), bound as
-// triangles, triangles_2, ... (CHUNKS_2..4).
+// Triangles are stored packed, 9 reals and one of padding each (StoredTriangle's layout, 40
+// bytes in f32 instead of the 48 of three padded vec3), bound as pairs of reals: a triangle
+// is five pairs, and llvmpipe loads a pair per lane in one loop over the lanes where two
+// reals are two loops (a subgroup loads a triangle a pair per lane: shared_triangle). Meshes
+// larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles (CHUNK_BITS
+// from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
 #if UNIFORM_PRIMS
 // The same packed reals in vec4s: arrays in uniform buffers have a stride of 16 bytes.
 @group(0) @binding(3) var<uniform> triangles: array<vec4<real>, UNIFORM_TRIANGLE_VEC4S>;
 
-// Real w (0 to 8) of triangle k: corner w / 3, coordinate w % 3.
-fn triangle_real(k: u32, w: u32) -> real {
-    let i = 9u * k + w;
-    return triangles[i >> 2u][i & 3u];
+// Pair p (0 to 4) of triangle k's reals: real w is corner w / 3, coordinate w % 3.
+fn triangle_pair(k: u32, p: u32) -> vec2<real> {
+    let i = 10u * k + 2u * p;
+    let v = triangles[i >> 2u];
+    return select(v.zw, v.xy, (i & 3u) == 0u);
 }
 #else
-@group(0) @binding(3) var<storage, read> triangles: array<real>;
+@group(0) @binding(3) var<storage, read> triangles: array<vec2<real>>;
 #if CHUNKS_2
-@group(0) @binding(11) var<storage, read> triangles_2: array<real>;
+@group(0) @binding(11) var<storage, read> triangles_2: array<vec2<real>>;
 #endif
 #if CHUNKS_3
-@group(0) @binding(12) var<storage, read> triangles_3: array<real>;
+@group(0) @binding(12) var<storage, read> triangles_3: array<vec2<real>>;
 #endif
 #if CHUNKS_4
-@group(0) @binding(13) var<storage, read> triangles_4: array<real>;
+@group(0) @binding(13) var<storage, read> triangles_4: array<vec2<real>>;
 #endif
 
-// Real w (0 to 8) of triangle k, from the chunk it lies in: corner w / 3, coordinate w % 3.
-fn triangle_real(k: u32, w: u32) -> real {
+// Pair p (0 to 4) of triangle k's reals, from the chunk it lies in: real w is corner w / 3,
+// coordinate w % 3.
+fn triangle_pair(k: u32, p: u32) -> vec2<real> {
 #if CHUNKS_2
-    let i = 9u * (k & ((1u << CHUNK_BITS) - 1u)) + w;
+    let i = 5u * (k & ((1u << CHUNK_BITS) - 1u)) + p;
     switch (k >> CHUNK_BITS) {
         case 1u: {
             return triangles_2[i];
@@ -97,17 +100,19 @@ fn triangle_real(k: u32, w: u32) -> real {
         }
     }
 #else
-    return triangles[9u * k + w];
+    return triangles[5u * k + p];
 #endif
 }
 #endif
 
+// The triangle whose reals are the pairs p0 to p4 (the fifth's second is padding).
+fn triangle_of_pairs(p0: vec2<real>, p1: vec2<real>, p2: vec2<real>, p3: vec2<real>, p4: vec2<real>) -> Triangle {
+    return Triangle(vec3<real>(p0, p1.x), vec3<real>(p1.y, p2), vec3<real>(p3, p4.x));
+}
+
 // Triangle k.
 fn triangle_at(k: u32) -> Triangle {
-    let a = vec3<real>(triangle_real(k, 0u), triangle_real(k, 1u), triangle_real(k, 2u));
-    let b = vec3<real>(triangle_real(k, 3u), triangle_real(k, 4u), triangle_real(k, 5u));
-    let c = vec3<real>(triangle_real(k, 6u), triangle_real(k, 7u), triangle_real(k, 8u));
-    return Triangle(a, b, c);
+    return triangle_of_pairs(triangle_pair(k, 0u), triangle_pair(k, 1u), triangle_pair(k, 2u), triangle_pair(k, 3u), triangle_pair(k, 4u));
 }
 #endif
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever

@@ -300,22 +300,15 @@ fn shared_sphere(k: u32) -> Sphere {
 }
 #endif
 #if TRIANGLES
-// Triangle k, which the whole subgroup tests: lane l loads its real l, lane 0 its ninth too,
-// and broadcasts from constant lanes hand every lane all nine. (A shuffle by the loop's index
-// compiles to a loop over the lanes on llvmpipe; this traced the torus 1.06x as fast as one
-// triangle loaded per lane and shuffled. Every lane loading the ninth real, which llvmpipe
-// does lane by lane, took 1.05x as long as lane 0 alone and a broadcast.)
+// Triangle k, which the whole subgroup tests: lane l loads its pair l (lanes 5 to 7 the
+// fifth again), and broadcasts from constant lanes hand every lane all five: one loop of
+// loads over the lanes on llvmpipe. (A shuffle by the loop's index compiles to a loop over
+// the lanes; a real per lane traced the torus 1.06x as fast as one triangle loaded per lane
+// and shuffled, and the pairs, which need no second loop for a ninth real, 1.017x as fast
+// again, f64 kernels, which load whole triangles per lane, 1.064x.)
 fn shared_triangle(k: u32) -> Triangle {
-    let x = triangle_real(k, lane & 7u);
-    var ninth = 0.0;
-    if (lane == 0u) {
-        ninth = triangle_real(k, 8u);
-    }
-    let last = subgroupBroadcast(ninth, 0u);
-    let a = vec3<real>(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u));
-    let b = vec3<real>(subgroupBroadcast(x, 3u), subgroupBroadcast(x, 4u), subgroupBroadcast(x, 5u));
-    let c = vec3<real>(subgroupBroadcast(x, 6u), subgroupBroadcast(x, 7u), last);
-    return Triangle(a, b, c);
+    let x = triangle_pair(k, min(lane & 7u, 4u));
+    return triangle_of_pairs(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u), subgroupBroadcast(x, 3u), subgroupBroadcast(x, 4u));
 }
 #endif
 #endif

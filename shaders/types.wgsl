@@ -101,9 +101,11 @@ struct StoredRay {
     _pad1: real,          // offset 28 / 56
 }                         // size 32 / 64
 
-// A triangle as the buffers hold it: packed, without the padding of vec3 (bindings.wgsl).
+// A triangle as the buffers hold it: packed, without the padding of vec3, and one real of
+// padding, so that it is five pairs of reals (bindings.wgsl).
 struct StoredTriangle {
     a: array<real, 3>,    // offset 0
     b: array<real, 3>,    // offset 12 / 24
     c: array<real, 3>,    // offset 24 / 48
-}                         // size 36 / 72
+    _pad: real,           // offset 36 / 72
+}                         // size 40 / 80

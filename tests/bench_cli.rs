@@ -128,7 +128,7 @@ fn json_lines_per_configuration_with_consistent_numbers() {
         assert!(!row["adapter"].as_str().unwrap().is_empty());
         assert!(!row["driver"].as_str().unwrap().is_empty());
 
-        // The documented formula: (T * 36 + 4 * (S + P + T) + Bvh::bytes()) / T in f32.
+        // The documented formula: (T * 40 + 4 * (S + P + T) + Bvh::bytes()) / T in f32 on the GPU.
         let (t, s, p) = (1000.0, 0.0, number(row, "planes"));
         let bvh_bytes = if accel == "bvh" {
             assert_eq!(row["bvh_nodes"], nodes);
@@ -137,7 +137,7 @@ fn json_lines_per_configuration_with_consistent_numbers() {
             assert!(row["bvh_nodes"].is_null());
             0.0
         };
-        let expected = (t * 36.0 + 4.0 * (s + p + t) + bvh_bytes) / t;
+        let expected = (t * 40.0 + 4.0 * (s + p + t) + bvh_bytes) / t;
         assert!(close(number(row, "bytes_per_triangle"), expected), "{row}");
     }
     let load: Vec<f64> = rows.iter().map(|r| number(r, "load_s")).collect();

@@ -68,14 +68,16 @@ pub struct GpuPlane<R> {
     pub _pad1: R,       // offset 28 / 56
 } // size 32 / 64
 
-/// `struct StoredTriangle` in shaders/types.wgsl: a triangle packed, 9 reals.
+/// `struct StoredTriangle` in shaders/types.wgsl: a triangle packed, 9 reals and one of
+/// padding, which the kernel reads as five pairs.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct GpuTriangle<R> {
     pub a: [R; 3], // offset 0
     pub b: [R; 3], // offset 12 / 24
     pub c: [R; 3], // offset 24 / 48
-} // size 36 / 72
+    pub _pad: R,   // offset 36 / 72
+} // size 40 / 80
 
 /// `struct StoredRay` in shaders/types.wgsl: a caller's ray in kernel coordinates.
 #[repr(C)]
@@ -149,6 +151,7 @@ impl<R: GpuReal> From<&Triangle<R>> for GpuTriangle<R> {
             a: t.a.to_array(),
             b: t.b.to_array(),
             c: t.c.to_array(),
+            _pad: R::ZERO,
         }
     }
 }
@@ -236,7 +239,7 @@ mod tests {
             &m,
             "StoredTriangle",
             size_of::<GpuTriangle<R>>(),
-            fields!(GpuTriangle<R>: a, b, c),
+            fields!(GpuTriangle<R>: a, b, c, _pad),
         );
         check(
             &m,

@@ -166,10 +166,10 @@ impl UniformCapacity {
         }
     }
 
-    /// The length of the uniform triangle array: vec4s holding the packed reals (9 per
-    /// triangle) of [`UniformCapacity::triangles`].
+    /// The length of the uniform triangle array: vec4s holding the packed reals (10 per
+    /// triangle, `StoredTriangle`) of [`UniformCapacity::triangles`].
     pub fn triangle_vec4s(&self) -> u32 {
-        (9 * self.triangles).div_ceil(4)
+        (10 * self.triangles).div_ceil(4)
     }
 
     /// Whether `scene`'s spheres, planes and triangles each fit.
@@ -193,7 +193,7 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
 }
 
 /// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
-/// bytes: every chunk of BVH nodes (64 bytes) or triangles (36 bytes in f32, 72 in f64) fits
+/// bytes: every chunk of BVH nodes (64 bytes) or triangles (40 bytes in f32, 80 in f64) fits
 /// one binding.
 pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
     use super::layout::GpuTriangle;
@@ -1045,9 +1045,9 @@ mod tests {
     #[test]
     fn uniform_capacity_is_what_fits_64_kib() {
         let c = UniformCapacity::of(Precision::F32);
-        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1820));
+        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1638));
         let c = UniformCapacity::of(Precision::F64);
-        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 910));
+        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 819));
     }
 
     #[test]

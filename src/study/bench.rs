@@ -159,7 +159,7 @@ impl Counts {
 /// `(T * triangle_bytes + 4 * (S + P + T) + bvh_bytes) / T`
 ///
 /// with `S`, `P`, `T` the sphere, plane and triangle counts, `triangle_bytes` the size of one
-/// triangle as the render stores it (on the GPU `GpuTriangle`: 36 bytes in f32, 72 in f64; on
+/// triangle as the render stores it (on the GPU `GpuTriangle`: 40 bytes in f32, 80 in f64; on
 /// the CPU `cpu::types::Triangle`: 36 in f32, 72 in f64), `4 * (S + P + T)` the object-id
 /// buffer (one `u32` per primitive) and `bvh_bytes` [`Bvh::bytes`] (64 bytes per node plus a
 /// 4-byte order entry per sphere and triangle) when the render uses a BVH, else 0. On the GPU
@@ -620,8 +620,8 @@ mod tests {
 
     #[test]
     fn triangle_sizes_are_as_documented() {
-        assert_eq!(size_of::<GpuTriangle<f32>>(), 36);
-        assert_eq!(size_of::<GpuTriangle<f64>>(), 72);
+        assert_eq!(size_of::<GpuTriangle<f32>>(), 40);
+        assert_eq!(size_of::<GpuTriangle<f64>>(), 80);
         assert_eq!(size_of::<cpu::types::Triangle<f32>>(), 36);
         assert_eq!(size_of::<cpu::types::Triangle<f64>>(), 72);
     }
