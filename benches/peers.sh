@@ -181,6 +181,19 @@ def geometric_mean(*xs):
     """Geometric mean of the values given (None where one is missing)."""
     return None if any(x is None for x in xs) else statistics.geometric_mean(xs)
 
+def cpu():
+    """The CPU's model and widest vector instructions: the peers' JIT and SIMD code use
+    AVX-512 where it exists, llvmpipe 256-bit vectors (docs/performance.md), so only runs on
+    CPUs of one kind compare."""
+    try:
+        info = open("/proc/cpuinfo").read().splitlines()
+    except OSError:
+        return "unknown CPU"
+    model = next((l.split(":", 1)[1].strip() for l in info if l.startswith("model name")), "?")
+    flags = next((l.split(":", 1)[1].split() for l in info if l.startswith("flags")), [])
+    widest = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
+    return "%s, %s" % (model, widest)
+
 print("Mrays/s ratio = raycast / peer (above 1: raycast casts faster); build ratio = "
       "raycast / peer (below 1: raycast builds faster). raycast rows: Mrays/s from GPU "
       "timestamps (kernel only) and from wall time (dispatch + readback), measured before "
@@ -202,8 +215,8 @@ for workload, peers_file in (("torus", "peers-mesh.jsonl"), ("spheres", "peers-s
         r = ours[0]
         what = "%d triangles" % r["triangles"] if r["triangles"] else "%d spheres" % r["spheres"]
         print("\n### %s (%s, %dx%d = %d rays)\n" % (workload, what, *r["size"], r["rays"]))
-        print("raycast on %s, %s; peers on %d threads\n"
-              % (r["adapter"], r["driver"], setup.get("threads") or 0))
+        print("raycast on %s, %s; peers on %d threads; CPU %s\n"
+              % (r["adapter"], r["driver"], setup.get("threads") or 0, cpu()))
     else:
         print("\n### %s: raycast bench gave no result\n" % workload)
     print("| engine | build s | trace s | Mrays/s | hit % | others CPU "
