@@ -237,60 +237,72 @@ impl<T: Real> Primitives<T> {
     /// to `T`; a soup adds all its triangles under its one id. Robust planes are stored by
     /// their point nearest the eye, `((p - e).n) n`, computed in f64.
     pub fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
-        let origin = kernel_origin(scene, algorithm);
-        let ids = ObjectIds::of(scene);
-        let mut p = Primitives {
-            spheres: Vec::new(),
-            planes: Vec::new(),
-            triangles: Vec::new(),
-            sphere_objects: ids.spheres,
-            plane_objects: ids.planes,
-            triangle_objects: ids.triangles,
-            bvh: None,
-        };
-        for object in &scene.objects {
-            match object {
-                Object::Sphere { center, radius } => {
-                    p.spheres.push(Sphere {
-                        center: (*center - origin).cast(),
-                        radius: T::from_f64(*radius),
-                    });
-                }
-                Object::Plane { point, normal } => {
-                    let point = match algorithm {
-                        Algorithm::Textbook => *point,
-                        Algorithm::Robust => *normal * dot(*point - origin, *normal),
-                    };
-                    p.planes.push(Plane {
-                        point: point.cast(),
-                        normal: normal.cast(),
-                    });
-                }
-                Object::Triangle { corners } => p.triangles.push(triangle_at(corners, origin)),
-                Object::Soup { triangles, .. } => {
-                    let corners = triangles.par_iter().map(|t| triangle_at(t, origin));
-                    p.triangles.par_extend(corners);
-                }
-            }
-        }
-        p
+        Primitives::ordered(scene, algorithm, None)
     }
 
     /// [`Primitives::new`] with the spheres and triangles in the order of `bvh` (built by
     /// [`Bvh::build`] for the same scene and algorithm), which the traversal then uses.
     pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
-        let p = Primitives::new(scene, algorithm);
+        Primitives::ordered(scene, algorithm, Some(bvh))
+    }
+
+    /// The primitives in the scene's order, or in `bvh`'s. The triangles are rounded straight
+    /// into the BVH's order, one pass over them rather than a rounding and then a permutation
+    /// (on the 518,400-triangle torus `Prepared::with_bvh` took 0.84x the time).
+    fn ordered(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Primitives<T> {
+        let origin = kernel_origin(scene, algorithm);
+        let ids = ObjectIds::of(scene);
+        let mut spheres = Vec::new();
+        let mut planes = Vec::new();
+        let mut scene_triangles: Vec<&crate::scene::Triangle> = Vec::new();
+        for object in &scene.objects {
+            match object {
+                Object::Sphere { center, radius } => spheres.push(Sphere {
+                    center: (*center - origin).cast(),
+                    radius: T::from_f64(*radius),
+                }),
+                Object::Plane { point, normal } => {
+                    let point = match algorithm {
+                        Algorithm::Textbook => *point,
+                        Algorithm::Robust => *normal * dot(*point - origin, *normal),
+                    };
+                    planes.push(Plane {
+                        point: point.cast(),
+                        normal: normal.cast(),
+                    });
+                }
+                Object::Triangle { corners } => scene_triangles.push(corners),
+                Object::Soup { triangles, .. } => scene_triangles.extend(triangles),
+            }
+        }
+        let Some(bvh) = bvh else {
+            return Primitives {
+                spheres,
+                planes,
+                triangles: scene_triangles
+                    .par_iter()
+                    .map(|t| triangle_at(t, origin))
+                    .collect(),
+                sphere_objects: ids.spheres,
+                plane_objects: ids.planes,
+                triangle_objects: ids.triangles,
+                bvh: None,
+            };
+        };
         fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
             order.par_iter().map(|&k| list[k as usize]).collect()
         }
         let (s, t) = (&bvh.sphere_order, &bvh.triangle_order);
         Primitives {
-            spheres: permute(&p.spheres, s),
-            sphere_objects: permute(&p.sphere_objects, s),
-            triangles: permute(&p.triangles, t),
-            triangle_objects: permute(&p.triangle_objects, t),
-            planes: p.planes,
-            plane_objects: p.plane_objects,
+            spheres: permute(&spheres, s),
+            sphere_objects: permute(&ids.spheres, s),
+            triangles: t
+                .par_iter()
+                .map(|&k| triangle_at(scene_triangles[k as usize], origin))
+                .collect(),
+            triangle_objects: permute(&ids.triangles, t),
+            planes,
+            plane_objects: ids.planes,
             bvh: Some(bvh),
         }
     }

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::math::Vec3;
 
@@ -304,9 +305,12 @@ impl Scene {
                 Object::Sphere { center, radius } => largest(center).max(*radius),
                 Object::Plane { point, .. } => largest(point),
                 Object::Triangle { corners } => corners.iter().map(largest).fold(0.0, f64::max),
-                Object::Soup { triangles, .. } => {
-                    triangles.iter().flatten().map(largest).fold(0.0, f64::max)
-                }
+                // In parallel: a pass over a large mesh's coordinates that every preparation
+                // makes (prepare::unit_exponent).
+                Object::Soup { triangles, .. } => triangles
+                    .par_iter()
+                    .map(|t| t.iter().map(largest).fold(0.0, f64::max))
+                    .reduce(|| 0.0, f64::max),
             })
             .fold(camera, f64::max)
     }
