@@ -16,8 +16,18 @@
 // Only the outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID,
 // SURFACE).
 fn cast_pixel(i: u32, j: u32, index: u32, write: bool) {
-    let ray = camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
-    let hit = nearest_hit(ray, params.frame.min_t);
+    let ray = pixel_ray(i, j);
+    write_pixel(ray, nearest_hit(ray, params.frame.min_t), i, j, index, write);
+}
+
+// The camera's ray through pixel (i, j).
+fn pixel_ray(i: u32, j: u32) -> Ray {
+    return camera_ray(params.frame, params.projection, params.nx, params.ny, i, j);
+}
+
+// Writes the results of pixel (i, j), whose ray `ray` found `hit`, to output slot `index` if
+// `write`.
+fn write_pixel(ray: Ray, hit: Hit, i: u32, j: u32, index: u32, write: bool) {
     if (!write) {
         return;
     }
@@ -133,7 +143,13 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
         out_count[index] = count;
     }
 #else
-    let hit = nearest_hit(ray, params.frame.min_t);
+    write_ray(ray, nearest_hit(ray, params.frame.min_t), index, write);
+#endif
+}
+
+#if !COUNT
+// Writes the results of a listed ray `ray`, which found `hit`, to slot `index` if `write`.
+fn write_ray(ray: Ray, hit: Hit, index: u32, write: bool) {
     if (!write) {
         return;
     }
@@ -154,8 +170,8 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
     let in_range = all(abs(surface) <= vec4<real>(T_FAR));
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);
 #endif
-#endif
 }
+#endif
 
 #if PACKETS
 // An invocation's entry of the list, and whether it exists.
@@ -184,17 +200,40 @@ fn grid_entry(group: u32, local: u32) -> ListEntry {
 @compute @workgroup_size(64)
 fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     lane = invocation.lane;
-    let local = local_index(invocation);
+#if PAIRS
+    // Two rays a lane, as the camera's packets (main above): each even subgroup casts its own
+    // entries and the odd subgroup's.
+    if ((invocation.subgroup & 1u) != 0u) {
+        return;
+    }
+    let a = list_entry(invocation, groups, local_index(invocation));
+    let b = list_entry(invocation, groups, local_index(invocation) + 8u);
+    let ray_a = listed_ray(a);
+    let ray_b = listed_ray(b);
+    let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
+    write_ray(ray_a, hits.a, a.slot, a.exists);
+    write_ray(ray_b, hits.b, b.slot, b.exists);
+#else
+    let entry = list_entry(invocation, groups, local_index(invocation));
+    cast_ray(listed_ray(entry), entry.slot, entry.exists);
+#endif
+}
+
+// The entry of invocation `local` (0 to 63) of the workgroup of `invocation`.
+fn list_entry(invocation: Invocation, groups: vec3<u32>, local: u32) -> ListEntry {
     // As list_slot numbers them.
     let flat_group = invocation.group.x + invocation.group.y * groups.x;
-    var entry = ListEntry(flat_group * 64u + local, false);
     if (params.nx != 0u) {
-        entry = grid_entry(flat_group, local);
-    } else {
-        entry.exists = entry.slot < params.tile_rows;
+        return grid_entry(flat_group, local);
     }
+    let slot = flat_group * 64u + local;
+    return ListEntry(slot, slot < params.tile_rows);
+}
+
+// The listed ray of `entry` (the last one for an entry beyond the list).
+fn listed_ray(entry: ListEntry) -> Ray {
     let stored = ray_list[min(entry.slot, params.tile_rows - 1u)];
-    cast_ray(Ray(stored.origin, stored.direction), entry.slot, entry.exists);
+    return Ray(stored.origin, stored.direction);
 }
 #else
 @compute @workgroup_size(64)
@@ -237,13 +276,42 @@ fn main(
 @compute @workgroup_size(64)
 fn main(invocation: Invocation) {
     lane = invocation.lane;
-    let offset = packet_tile_offset(local_index(invocation));
+#if PAIRS
+    // Packets of 16 rays, two a lane (traverse_bvh_pair): each even subgroup casts its own 4x2
+    // tile and the odd one's beside it, and the odd subgroups have nothing to do.
+    if ((invocation.subgroup & 1u) != 0u) {
+        return;
+    }
+    let a = packet_pixel(invocation, local_index(invocation));
+    let b = packet_pixel(invocation, local_index(invocation) + 8u);
+    let ray_a = pixel_ray(a.i, a.j);
+    let ray_b = pixel_ray(b.i, b.j);
+    let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
+    write_pixel(ray_a, hits.a, a.i, a.j, a.index, a.inside);
+    write_pixel(ray_b, hits.b, b.i, b.j, b.index, b.inside);
+#else
+    let p = packet_pixel(invocation, local_index(invocation));
+    cast_pixel(p.i, p.j, p.index, p.inside);
+#endif
+}
+
+// A pixel of a packet kernel's 8x8 block and its output slot; a pixel beyond the image is
+// the nearest one inside it, and not `inside`.
+struct PacketPixel {
+    i: u32,
+    j: u32,
+    index: u32,
+    inside: bool,
+}
+
+// The pixel of invocation `local` (0 to 63) of the workgroup of `invocation`.
+fn packet_pixel(invocation: Invocation, local: u32) -> PacketPixel {
+    let offset = packet_tile_offset(local);
     let j = invocation.group.x * 8u + offset.x;
     let row = invocation.group.y * 8u + offset.y;
-    let inside = j < params.nx && row < params.tile_rows;
     let jc = min(j, params.nx - 1u);
     let rc = min(row, params.tile_rows - 1u);
-    cast_pixel(params.row_offset + rc, jc, rc * params.nx + jc, inside);
+    return PacketPixel(params.row_offset + rc, jc, rc * params.nx + jc, j < params.nx && row < params.tile_rows);
 }
 #else
 @compute @workgroup_size(8, 8)

@@ -45,13 +45,10 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
     }
 #endif
 #endif
-    let plane_base = params.sphere_count;
 #if PLANES
-    for (var k = 0u; k < params.plane_count; k++) {
-        keep(intersect_plane(ray, planes[k], min_t), KIND_PLANE, k, plane_base, &best);
-    }
+    nearest_plane(ray, min_t, &best);
 #endif
-    let triangle_base = plane_base + params.plane_count;
+    let triangle_base = params.sphere_count + params.plane_count;
 #if TRIANGLES
 #if !BVH
     let shear = shear_of(ray.direction);
@@ -65,6 +62,37 @@ fn nearest_hit(ray: Ray, min_t: real) -> Hit {
 #endif
     return best;
 }
+
+#if PLANES
+// Keeps the nearest plane hit if nearer than `best` (planes, being unbounded, are searched by
+// brute force).
+fn nearest_plane(ray: Ray, min_t: real, best: ptr<function, Hit>) {
+    for (var k = 0u; k < params.plane_count; k++) {
+        keep(intersect_plane(ray, planes[k], min_t), KIND_PLANE, k, params.sphere_count, best);
+    }
+}
+#endif
+#if PAIRS
+
+// The nearest hits of a lane's two rays.
+struct HitPair {
+    a: Hit,
+    b: Hit,
+}
+
+// nearest_hit() for a lane's two rays, which traverse the BVH as one packet
+// (traverse_bvh_pair; PAIRS, camera kernels through a BVH in f32).
+fn nearest_hit_pair(a: Ray, b: Ray, min_t: real) -> HitPair {
+    var best_a = Hit(T_FAR, -1, 0u, 0u);
+    var best_b = Hit(T_FAR, -1, 0u, 0u);
+#if PLANES
+    nearest_plane(a, min_t, &best_a);
+    nearest_plane(b, min_t, &best_b);
+#endif
+    traverse_bvh_pair(a, b, min_t, &best_a, &best_b);
+    return HitPair(best_a, best_b);
+}
+#endif
 
 // The normal of the nearest hit, computed once rather than for every candidate.
 fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {

@@ -315,6 +315,12 @@ fn kernel_variants() -> Vec<Variant> {
                 packets: true,
                 ..base
             });
+            // Two rays a lane (f32 only).
+            variants.push(Variant {
+                packets: true,
+                eight_lanes: true,
+                ..base
+            });
             variants.push(Variant {
                 uniform_prims: true,
                 chunks: 1,

@@ -316,6 +316,9 @@ impl Variant {
                 if self.eight_lanes {
                     d.push("EIGHT_LANES");
                 }
+                if self.uses_pairs() {
+                    d.push("PAIRS");
+                }
             }
         }
         for (present, name) in [
@@ -374,6 +377,19 @@ impl Variant {
             Source::Pixels => false,
         };
         self.packets && self.uses_bvh() && coherent
+    }
+
+    /// Whether each invocation casts two rays, so that a packet is 16 rays and every node and
+    /// primitive fetched serves twice as many (`PAIRS`, shaders/traverse.wgsl
+    /// `traverse_bvh_pair`): packets of the camera's or a caller's rays on subgroups of exactly
+    /// 8 (each subgroup then casts its own rays and the next subgroup's), in f32 (whose leaves
+    /// are shared), without the certainty pass (which records per ray).
+    pub fn uses_pairs(&self) -> bool {
+        self.uses_packets()
+            && self.eight_lanes
+            && matches!(self.source, Source::Camera | Source::Rays)
+            && self.precision == Precision::F32
+            && !self.certainty
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -776,6 +792,64 @@ mod tests {
                 }
                 ref e => panic!("BVH_STACK is {e:?}"),
             }
+        }
+    }
+
+    /// Two rays a lane only where a subgroup of 8 can take its neighbour's rays, for the
+    /// camera's rays and a caller's (not their counts) in f32 without the certainty pass; the
+    /// kernel then traces through the pair traversal.
+    #[test]
+    fn pairs_only_for_f32_packets_of_eight() {
+        let pairs = Variant {
+            bvh: true,
+            packets: true,
+            eight_lanes: true,
+            ..Variant::new(Precision::F32, Algorithm::Robust)
+        };
+        let listed = Variant {
+            source: Source::Rays,
+            ..pairs
+        };
+        for variant in [pairs, listed] {
+            assert!(variant.uses_pairs());
+            let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
+            let named = |name: &str| {
+                module
+                    .functions
+                    .iter()
+                    .any(|(_, f)| f.name.as_deref() == Some(name))
+            };
+            assert!(named("traverse_bvh_pair") && named("nearest_hit_pair"));
+        }
+        for other in [
+            Variant {
+                eight_lanes: false,
+                ..pairs
+            },
+            Variant {
+                precision: Precision::F64,
+                ..pairs
+            },
+            Variant {
+                certainty: true,
+                ..pairs
+            },
+            Variant {
+                source: Source::Rays,
+                count: true,
+                ..pairs
+            },
+            Variant {
+                source: Source::Pixels,
+                ..pairs
+            },
+            Variant {
+                bvh: false,
+                ..pairs
+            },
+        ] {
+            assert!(!other.uses_pairs(), "{other:?}");
+            assert!(!other.defines().contains(&"PAIRS"), "{other:?}");
         }
     }
 
