@@ -81,7 +81,7 @@ struct HitPair {
 }
 
 // nearest_hit() for a lane's two rays, which traverse the BVH as one packet
-// (traverse_bvh_pair; PAIRS, camera kernels through a BVH in f32).
+// (traverse_bvh_pair; PAIRS: packet kernels on subgroups of 8, without CERTAINTY).
 fn nearest_hit_pair(a: Ray, b: Ray, min_t: real) -> HitPair {
     var best_a = Hit(T_FAR, -1, 0u, 0u);
     var best_b = Hit(T_FAR, -1, 0u, 0u);

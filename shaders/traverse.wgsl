@@ -469,8 +469,16 @@ fn traced(ray: Ray) -> Traced {
 }
 
 // intersect_leaf_shared() for a lane's two rays, `a` and `b`, each testing the leaf where it
-// wants it: each primitive is loaded once for both.
+// wants it: each primitive is loaded once for both (in f64 by each ray that tests it).
 fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min_t: real, first: u32, count: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
+#if F64
+    if (wanted_a) {
+        intersect_leaf(a.ray, a.shear, min_t, first, count, best_a);
+    }
+    if (wanted_b) {
+        intersect_leaf(b.ray, b.shear, min_t, first, count, best_b);
+    }
+#else
     let n = leaf_len(count);
     let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
@@ -490,6 +498,7 @@ fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min
         }
 #endif
     }
+#endif
 }
 
 // Packet traversal (traverse_bvh) of two rays a lane, `a` and `b`: a packet of 16 rays, so each

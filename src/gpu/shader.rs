@@ -382,13 +382,12 @@ impl Variant {
     /// Whether each invocation casts two rays, so that a packet is 16 rays and every node and
     /// primitive fetched serves twice as many (`PAIRS`, shaders/traverse.wgsl
     /// `traverse_bvh_pair`): packets of the camera's or a caller's rays on subgroups of exactly
-    /// 8 (each subgroup then casts its own rays and the next subgroup's), in f32 (whose leaves
-    /// are shared), without the certainty pass (which records per ray).
+    /// 8 (each subgroup then casts its own rays and the next subgroup's), without the
+    /// certainty pass (which records per ray).
     pub fn uses_pairs(&self) -> bool {
         self.uses_packets()
             && self.eight_lanes
             && matches!(self.source, Source::Camera | Source::Rays)
-            && self.precision == Precision::F32
             && !self.certainty
     }
 
@@ -796,10 +795,10 @@ mod tests {
     }
 
     /// Two rays a lane only where a subgroup of 8 can take its neighbour's rays, for the
-    /// camera's rays and a caller's (not their counts) in f32 without the certainty pass; the
-    /// kernel then traces through the pair traversal.
+    /// camera's rays and a caller's (not their counts) without the certainty pass; the kernel
+    /// then traces through the pair traversal.
     #[test]
-    fn pairs_only_for_f32_packets_of_eight() {
+    fn pairs_only_for_packets_of_eight() {
         let pairs = Variant {
             bvh: true,
             packets: true,
@@ -810,7 +809,11 @@ mod tests {
             source: Source::Rays,
             ..pairs
         };
-        for variant in [pairs, listed] {
+        let f64 = Variant {
+            precision: Precision::F64,
+            ..pairs
+        };
+        for variant in [pairs, listed, f64] {
             assert!(variant.uses_pairs());
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
             let named = |name: &str| {
@@ -824,10 +827,6 @@ mod tests {
         for other in [
             Variant {
                 eight_lanes: false,
-                ..pairs
-            },
-            Variant {
-                precision: Precision::F64,
                 ..pairs
             },
             Variant {
