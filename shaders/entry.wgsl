@@ -212,6 +212,7 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     let ray_b = listed_ray(b);
     let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
     write_ray(ray_a, hits.a, a.slot, a.exists);
+    swap_rays();
     write_ray(ray_b, hits.b, b.slot, b.exists);
 #else
     let entry = list_entry(invocation, groups, local_index(invocation));
@@ -288,6 +289,7 @@ fn main(invocation: Invocation) {
     let ray_b = pixel_ray(b.i, b.j);
     let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
     write_pixel(ray_a, hits.a, a.i, a.j, a.index, a.inside);
+    swap_rays();
     write_pixel(ray_b, hits.b, b.i, b.j, b.index, b.inside);
 #else
     let p = packet_pixel(invocation, local_index(invocation));

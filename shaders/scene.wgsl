@@ -81,13 +81,21 @@ struct HitPair {
 }
 
 // nearest_hit() for a lane's two rays, which traverse the BVH as one packet
-// (traverse_bvh_pair; PAIRS: packet kernels on subgroups of 8, without CERTAINTY).
+// (traverse_bvh_pair; PAIRS: packet kernels on subgroups of 8). With CERTAINTY the first
+// ray's record is `certainty` and the second's is swapped in around its work (swap_rays).
 fn nearest_hit_pair(a: Ray, b: Ray, min_t: real) -> HitPair {
     var best_a = Hit(T_FAR, -1, 0u, 0u);
     var best_b = Hit(T_FAR, -1, 0u, 0u);
+#if CERTAINTY
+    start_certainty(b);
+    swap_certainty();
+    start_certainty(a);
+#endif
 #if PLANES
     nearest_plane(a, min_t, &best_a);
+    swap_rays();
     nearest_plane(b, min_t, &best_b);
+    swap_rays();
 #endif
     traverse_bvh_pair(a, b, min_t, &best_a, &best_b);
     return HitPair(best_a, best_b);

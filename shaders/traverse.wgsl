@@ -468,6 +468,22 @@ fn traced(ray: Ray) -> Traced {
     return Traced(ray, ray_inverse(ray), shear_of(ray.direction));
 }
 
+// Around work on a lane's second ray (`b` below): with CERTAINTY its record is swapped in, as
+// the certainty pass keeps one ray's record in private state; otherwise nothing.
+fn swap_rays() {
+#if CERTAINTY
+    swap_certainty();
+#endif
+}
+
+// cull_t() of a lane's second ray.
+fn cull_t_second(best: Hit) -> real {
+    swap_rays();
+    let t = cull_t(best);
+    swap_rays();
+    return t;
+}
+
 // intersect_leaf_shared() for a lane's two rays, `a` and `b`, each testing the leaf where it
 // wants it: each primitive is loaded once for both (in f64 by each ray that tests it).
 fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min_t: real, first: u32, count: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
@@ -475,9 +491,11 @@ fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min
     if (wanted_a) {
         intersect_leaf(a.ray, a.shear, min_t, first, count, best_a);
     }
+    swap_rays();
     if (wanted_b) {
         intersect_leaf(b.ray, b.shear, min_t, first, count, best_b);
     }
+    swap_rays();
 #else
     let n = leaf_len(count);
     let leaf = leaf_object(count);
@@ -486,7 +504,9 @@ fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min
         for (var k = first; k < first + n; k++) {
             let sphere = shared_sphere(k);
             test_sphere(a.ray, sphere, min_t, k, leaf, wanted_a, best_a);
+            swap_rays();
             test_sphere(b.ray, sphere, min_t, k, leaf, wanted_b, best_b);
+            swap_rays();
         }
 #endif
     } else {
@@ -494,7 +514,9 @@ fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min
         for (var k = first; k < first + n; k++) {
             let tri = shared_triangle(k);
             test_triangle(a.ray, a.shear, tri, min_t, k, leaf, wanted_a, best_a);
+            swap_rays();
             test_triangle(b.ray, b.shear, tri, min_t, k, leaf, wanted_b, best_b);
+            swap_rays();
         }
 #endif
     }
@@ -516,7 +538,7 @@ fn traverse_bvh_pair(ray_a: Ray, ray_b: Ray, min_t: real, best_a: ptr<function, 
     loop {
         let w = fetch_shared(node);
         let na = visit_parts(w.q0, w.q1, w.q2, w.q3, a.ray, a.inverse, min_t, cull_t(*best_a));
-        let nb = visit_parts(w.q0, w.q1, w.q2, w.q3, b.ray, b.inverse, min_t, cull_t(*best_b));
+        let nb = visit_parts(w.q0, w.q1, w.q2, w.q3, b.ray, b.inverse, min_t, cull_t_second(*best_b));
         let leaf0 = (na.reference0 & LEAF_BIT) != 0u;
         let leaf1 = (na.reference1 & LEAF_BIT) != 0u;
         let enters_a0 = na.t0 != NO_HIT;
@@ -529,10 +551,12 @@ fn traverse_bvh_pair(ray_a: Ray, ray_b: Ray, min_t: real, best_a: ptr<function, 
         if (leaf1 && packet_any(enters_a1 || enters_b1)) {
             intersect_leaf_pair(a, enters_a1, b, enters_b1, min_t, na.reference1 & ~LEAF_BIT, na.count1, best_a, best_b);
         }
-        let want_a0 = enters_a0 && !leaf0 && na.t0 <= cull_t(*best_a);
-        let want_a1 = enters_a1 && !leaf1 && na.t1 <= cull_t(*best_a);
-        let want_b0 = enters_b0 && !leaf0 && nb.t0 <= cull_t(*best_b);
-        let want_b1 = enters_b1 && !leaf1 && nb.t1 <= cull_t(*best_b);
+        let cull_a = cull_t(*best_a);
+        let cull_b = cull_t_second(*best_b);
+        let want_a0 = enters_a0 && !leaf0 && na.t0 <= cull_a;
+        let want_a1 = enters_a1 && !leaf1 && na.t1 <= cull_a;
+        let want_b0 = enters_b0 && !leaf0 && nb.t0 <= cull_b;
+        let want_b1 = enters_b1 && !leaf1 && nb.t1 <= cull_b;
         let prefer_a0 = want_a0 && (!want_a1 || na.t0 <= na.t1);
         let prefer_a1 = want_a1 && (!want_a0 || na.t1 < na.t0);
         let prefer_b0 = want_b0 && (!want_b1 || nb.t0 <= nb.t1);

@@ -382,13 +382,11 @@ impl Variant {
     /// Whether each invocation casts two rays, so that a packet is 16 rays and every node and
     /// primitive fetched serves twice as many (`PAIRS`, shaders/traverse.wgsl
     /// `traverse_bvh_pair`): packets of the camera's or a caller's rays on subgroups of exactly
-    /// 8 (each subgroup then casts its own rays and the next subgroup's), without the
-    /// certainty pass (which records per ray).
+    /// 8 (each subgroup then casts its own rays and the next subgroup's).
     pub fn uses_pairs(&self) -> bool {
         self.uses_packets()
             && self.eight_lanes
             && matches!(self.source, Source::Camera | Source::Rays)
-            && !self.certainty
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -795,8 +793,8 @@ mod tests {
     }
 
     /// Two rays a lane only where a subgroup of 8 can take its neighbour's rays, for the
-    /// camera's rays and a caller's (not their counts) without the certainty pass; the kernel
-    /// then traces through the pair traversal.
+    /// camera's rays and a caller's (not their counts); the kernel then traces through the
+    /// pair traversal.
     #[test]
     fn pairs_only_for_packets_of_eight() {
         let pairs = Variant {
@@ -813,7 +811,11 @@ mod tests {
             precision: Precision::F64,
             ..pairs
         };
-        for variant in [pairs, listed, f64] {
+        let certainty = Variant {
+            certainty: true,
+            ..pairs
+        };
+        for variant in [pairs, listed, f64, certainty] {
             assert!(variant.uses_pairs());
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
             let named = |name: &str| {
@@ -827,10 +829,6 @@ mod tests {
         for other in [
             Variant {
                 eight_lanes: false,
-                ..pairs
-            },
-            Variant {
-                certainty: true,
                 ..pairs
             },
             Variant {
