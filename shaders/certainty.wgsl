@@ -96,8 +96,9 @@ struct Certainty {
 }
 
 var<private> certainty: Certainty;
-// With two rays a lane (PAIRS) the record of the ray not being worked on: swap_certainty()
-// exchanges the two around work on a lane's second ray.
+#if PAIRS
+// With two rays a lane the record of the ray not being worked on: swap_certainty() exchanges
+// the two around work on a lane's second ray.
 var<private> certainty_other: Certainty;
 
 fn swap_certainty() {
@@ -105,6 +106,7 @@ fn swap_certainty() {
     certainty = certainty_other;
     certainty_other = held;
 }
+#endif
 
 // Resets the pixel's certainty state before the nearest-hit search of `ray`.
 fn start_certainty(ray: Ray) {

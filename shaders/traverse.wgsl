@@ -525,9 +525,9 @@ fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min
 
 // Packet traversal (traverse_bvh) of two rays a lane, `a` and `b`: a packet of 16 rays, so each
 // node and primitive is fetched once for twice the rays, and two rays' box and primitive tests
-// (independent work) follow each fetch. On the torus the camera kernel took 0.82x to 0.86x the
-// time of 8-ray packets, on the 100 spheres 0.73x (emitted kernels timed interleaved, the same
-// ids).
+// (independent work) follow each fetch. On the torus the camera kernel took 0.80x and 0.82x the
+// time of 8-ray packets, on the 100 spheres 0.73x and 0.74x (emitted kernels timed interleaved,
+// the same ids; docs/performance.md, "Two rays a lane").
 fn traverse_bvh_pair(ray_a: Ray, ray_b: Ray, min_t: real, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
     let a = traced(ray_a);
     let b = traced(ray_b);

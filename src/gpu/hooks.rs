@@ -315,10 +315,11 @@ fn kernel_variants() -> Vec<Variant> {
                 packets: true,
                 ..base
             });
-            // Two rays a lane (f32 only).
+            // Two rays a lane (PAIRS), with the certainty pass's second record where robust.
             variants.push(Variant {
                 packets: true,
                 eight_lanes: true,
+                certainty: algorithm == Algorithm::Robust,
                 ..base
             });
             variants.push(Variant {

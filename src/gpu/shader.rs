@@ -381,12 +381,10 @@ impl Variant {
 
     /// Whether each invocation casts two rays, so that a packet is 16 rays and every node and
     /// primitive fetched serves twice as many (`PAIRS`, shaders/traverse.wgsl
-    /// `traverse_bvh_pair`): packets of the camera's or a caller's rays on subgroups of exactly
-    /// 8 (each subgroup then casts its own rays and the next subgroup's).
+    /// `traverse_bvh_pair`): wherever packets are used (the camera's rays, a caller's) on
+    /// subgroups of exactly 8 (each subgroup then casts its own rays and the next subgroup's).
     pub fn uses_pairs(&self) -> bool {
-        self.uses_packets()
-            && self.eight_lanes
-            && matches!(self.source, Source::Camera | Source::Rays)
+        self.uses_packets() && self.eight_lanes
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split

@@ -275,35 +275,35 @@ impl<T: Real> Primitives<T> {
                 Object::Soup { triangles, .. } => scene_triangles.extend(triangles),
             }
         }
-        let Some(bvh) = bvh else {
-            return Primitives {
-                spheres,
-                planes,
-                triangles: scene_triangles
-                    .par_iter()
-                    .map(|t| triangle_at(t, origin))
-                    .collect(),
-                sphere_objects: ids.spheres,
-                plane_objects: ids.planes,
-                triangle_objects: ids.triangles,
-                bvh: None,
-            };
-        };
+        let round = |t: &crate::scene::Triangle| triangle_at(t, origin);
         fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
             order.par_iter().map(|&k| list[k as usize]).collect()
         }
-        let (s, t) = (&bvh.sphere_order, &bvh.triangle_order);
+        let (spheres, sphere_objects, triangles, triangle_objects) = match &bvh {
+            None => (
+                spheres,
+                ids.spheres,
+                scene_triangles.par_iter().map(|t| round(t)).collect(),
+                ids.triangles,
+            ),
+            Some(bvh) => (
+                permute(&spheres, &bvh.sphere_order),
+                permute(&ids.spheres, &bvh.sphere_order),
+                bvh.triangle_order
+                    .par_iter()
+                    .map(|&k| round(scene_triangles[k as usize]))
+                    .collect(),
+                permute(&ids.triangles, &bvh.triangle_order),
+            ),
+        };
         Primitives {
-            spheres: permute(&spheres, s),
-            sphere_objects: permute(&ids.spheres, s),
-            triangles: t
-                .par_iter()
-                .map(|&k| triangle_at(scene_triangles[k as usize], origin))
-                .collect(),
-            triangle_objects: permute(&ids.triangles, t),
+            spheres,
             planes,
+            triangles,
+            sphere_objects,
             plane_objects: ids.planes,
-            bvh: Some(bvh),
+            triangle_objects,
+            bvh,
         }
     }
 
