@@ -365,41 +365,67 @@ fn shared_triangle(k: u32) -> Triangle {
 #endif
 #endif
 
-// intersect_leaf() for a leaf the whole subgroup enters, tested by the lanes where `wanted`:
-// each primitive is loaded once for the subgroup, spread over its lanes (shared_sphere,
-// shared_triangle). In f64 each lane loads what it tests: f64 broadcasts (which Vulkan allows
-// only with shaderSubgroupExtendedTypes) made llvmpipe's f64 kernel 2.1x slower.
-fn intersect_leaf_shared(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
-#if F64
-    if (wanted) {
-        intersect_leaf(ray, shear, min_t, first, count, best);
-    }
-#else
-    let n = leaf_len(count);
-    if (n == 0u) {
-        return;
-    }
+// The primitives of the leaf children a packet tests after a visit (those of `take0`,
+// `take1` that some ray of it enters), leaf 0's then leaf 1's, as one run that a single loop
+// walks (run_primitive): the kernel then holds one site of each primitive test rather than
+// one per child, which made the two-ray kernels twice the code: a cold f32 render of the bunny
+// at 1920x1080 took 1.63x the time of 638577a's one-ray kernels, 1.22x with one run, and the
+// kernels' times stayed within 3% (docs/performance.md, "Two rays a lane"). A loop over the
+// two children around each leaf's loop, whose trip count is at most 2, cost the torus 1.04x.
+struct LeafRun {
+    length0: u32, // leaf 0's primitives in the run
+    length: u32,
+    from0: u32,   // primitive i < length0 of the run is from0 + i,
+    from1: u32,   // any later one from1 + i (u32 arithmetic wraps)
+}
+
+fn leaf_run(n: Visit, take0: bool, take1: bool) -> LeafRun {
+    let length0 = select(0u, leaf_len(n.count0), take0);
+    let length1 = select(0u, leaf_len(n.count1), take1);
+    return LeafRun(length0, length0 + length1, n.reference0 & ~LEAF_BIT, (n.reference1 & ~LEAF_BIT) - length0);
+}
+
+// Whether primitive i of `run` is leaf 1's.
+fn in_leaf1(run: LeafRun, i: u32) -> bool {
+    return i >= run.length0;
+}
+
+fn run_primitive(run: LeafRun, i: u32) -> u32 {
+    return select(run.from0, run.from1, in_leaf1(run, i)) + i;
+}
+
+// intersect_leaf() for primitive k of a leaf (with `count`, leaf_len) the whole subgroup
+// enters, tested by the lanes where `wanted`: in f32 loaded once for the subgroup, spread over
+// its lanes (shared_sphere, shared_triangle). In f64 each lane loads what it tests: f64
+// broadcasts (which Vulkan allows only with shaderSubgroupExtendedTypes) made llvmpipe's f64
+// kernel 2.1x slower.
+fn intersect_shared(ray: Ray, shear: Shear, min_t: real, k: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
     let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
-        for (var k = 0u; k < n; k++) {
-            test_sphere(ray, shared_sphere(first + k), min_t, first + k, leaf, wanted, best);
+#if F64
+        if (wanted) {
+            test_sphere(ray, sphere_at(k), min_t, k, leaf, true, best);
         }
+#else
+        test_sphere(ray, shared_sphere(k), min_t, k, leaf, wanted, best);
+#endif
 #endif
     } else {
 #if TRIANGLES
-        for (var k = 0u; k < n; k++) {
-            test_triangle(ray, shear, shared_triangle(first + k), min_t, first + k, leaf, wanted, best);
+#if F64
+        if (wanted) {
+            test_triangle(ray, shear, triangle_at(k), min_t, k, leaf, true, best);
         }
+#else
+        test_triangle(ray, shear, shared_triangle(k), min_t, k, leaf, wanted, best);
+#endif
 #endif
     }
-#endif
 }
 
-#if !F64
 #if SPHERES
-// Sphere k of a leaf of object `leaf`, loaded for the whole subgroup, tested by a ray that
-// wants it.
+// Sphere k of a leaf of object `leaf`, tested by a ray that wants it.
 fn test_sphere(ray: Ray, sphere: Sphere, min_t: real, k: u32, leaf: u32, wanted: bool, best: ptr<function, Hit>) {
     if (wanted) {
         keep_ordered(intersect_sphere(ray, sphere, min_t), KIND_SPHERE, k, 0u, leaf, best);
@@ -413,7 +439,6 @@ fn test_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real, k: u32, lea
         keep_ordered(intersect_triangle(ray, shear, tri, min_t), KIND_TRIANGLE, k, params.sphere_count + params.plane_count, leaf, best);
     }
 }
-#endif
 #endif
 
 // Packet traversal: the rays of a subgroup walk the tree together, visiting a node when any of
@@ -439,11 +464,10 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
-        if (leaf0 && packet_any(t0 != NO_HIT)) {
-            intersect_leaf_shared(ray, shear, min_t, n.reference0 & ~LEAF_BIT, n.count0, t0 != NO_HIT, best);
-        }
-        if (leaf1 && packet_any(t1 != NO_HIT)) {
-            intersect_leaf_shared(ray, shear, min_t, n.reference1 & ~LEAF_BIT, n.count1, t1 != NO_HIT, best);
+        let run = leaf_run(n, leaf0 && packet_any(t0 != NO_HIT), leaf1 && packet_any(t1 != NO_HIT));
+        for (var i = 0u; i < run.length; i++) {
+            let second = in_leaf1(run, i);
+            intersect_shared(ray, shear, min_t, run_primitive(run, i), select(n.count0, n.count1, second), select(t0, t1, second) != NO_HIT, best);
         }
         let want0 = t0 != NO_HIT && !leaf0 && t0 <= cull_t(*best);
         let want1 = t1 != NO_HIT && !leaf1 && t1 <= cull_t(*best);
@@ -484,44 +508,49 @@ fn cull_t_second(best: Hit) -> real {
     return t;
 }
 
-// intersect_leaf_shared() for a lane's two rays, `a` and `b`, each testing the leaf where it
-// wants it: each primitive is loaded once for both (in f64 by each ray that tests it).
-fn intersect_leaf_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min_t: real, first: u32, count: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
-#if F64
-    if (wanted_a) {
-        intersect_leaf(a.ray, a.shear, min_t, first, count, best_a);
-    }
-    swap_rays();
-    if (wanted_b) {
-        intersect_leaf(b.ray, b.shear, min_t, first, count, best_b);
-    }
-    swap_rays();
-#else
-    let n = leaf_len(count);
+// intersect_shared() for a lane's two rays, `a` and `b`, each testing primitive k where it
+// wants it: loaded once for both (in f64 by each lane where either wants it).
+fn intersect_shared_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min_t: real, k: u32, count: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
     let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
-        for (var k = first; k < first + n; k++) {
-            let sphere = shared_sphere(k);
-            test_sphere(a.ray, sphere, min_t, k, leaf, wanted_a, best_a);
-            swap_rays();
-            test_sphere(b.ray, sphere, min_t, k, leaf, wanted_b, best_b);
-            swap_rays();
+#if F64
+        if (wanted_a || wanted_b) {
+            test_sphere_pair(a, wanted_a, b, wanted_b, sphere_at(k), min_t, k, leaf, best_a, best_b);
         }
+#else
+        test_sphere_pair(a, wanted_a, b, wanted_b, shared_sphere(k), min_t, k, leaf, best_a, best_b);
+#endif
 #endif
     } else {
 #if TRIANGLES
-        for (var k = first; k < first + n; k++) {
-            let tri = shared_triangle(k);
-            test_triangle(a.ray, a.shear, tri, min_t, k, leaf, wanted_a, best_a);
-            swap_rays();
-            test_triangle(b.ray, b.shear, tri, min_t, k, leaf, wanted_b, best_b);
-            swap_rays();
+#if F64
+        if (wanted_a || wanted_b) {
+            test_triangle_pair(a, wanted_a, b, wanted_b, triangle_at(k), min_t, k, leaf, best_a, best_b);
         }
+#else
+        test_triangle_pair(a, wanted_a, b, wanted_b, shared_triangle(k), min_t, k, leaf, best_a, best_b);
+#endif
 #endif
     }
-#endif
 }
+
+#if SPHERES
+fn test_sphere_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, sphere: Sphere, min_t: real, k: u32, leaf: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
+    test_sphere(a.ray, sphere, min_t, k, leaf, wanted_a, best_a);
+    swap_rays();
+    test_sphere(b.ray, sphere, min_t, k, leaf, wanted_b, best_b);
+    swap_rays();
+}
+#endif
+#if TRIANGLES
+fn test_triangle_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, tri: Triangle, min_t: real, k: u32, leaf: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
+    test_triangle(a.ray, a.shear, tri, min_t, k, leaf, wanted_a, best_a);
+    swap_rays();
+    test_triangle(b.ray, b.shear, tri, min_t, k, leaf, wanted_b, best_b);
+    swap_rays();
+}
+#endif
 
 // Packet traversal (traverse_bvh) of two rays a lane, `a` and `b`: a packet of 16 rays, so each
 // node and primitive is fetched once for twice the rays, and two rays' box and primitive tests
@@ -545,11 +574,10 @@ fn traverse_bvh_pair(ray_a: Ray, ray_b: Ray, min_t: real, best_a: ptr<function, 
         let enters_a1 = na.t1 != NO_HIT;
         let enters_b0 = nb.t0 != NO_HIT;
         let enters_b1 = nb.t1 != NO_HIT;
-        if (leaf0 && packet_any(enters_a0 || enters_b0)) {
-            intersect_leaf_pair(a, enters_a0, b, enters_b0, min_t, na.reference0 & ~LEAF_BIT, na.count0, best_a, best_b);
-        }
-        if (leaf1 && packet_any(enters_a1 || enters_b1)) {
-            intersect_leaf_pair(a, enters_a1, b, enters_b1, min_t, na.reference1 & ~LEAF_BIT, na.count1, best_a, best_b);
+        let run = leaf_run(na, leaf0 && packet_any(enters_a0 || enters_b0), leaf1 && packet_any(enters_a1 || enters_b1));
+        for (var i = 0u; i < run.length; i++) {
+            let second = in_leaf1(run, i);
+            intersect_shared_pair(a, select(enters_a0, enters_a1, second), b, select(enters_b0, enters_b1, second), min_t, run_primitive(run, i), select(na.count0, na.count1, second), best_a, best_b);
         }
         let cull_a = cull_t(*best_a);
         let cull_b = cull_t_second(*best_b);
