@@ -96,9 +96,9 @@ struct Certainty {
 }
 
 var<private> certainty: Certainty;
-#if PAIRS
-// With two rays a lane the record of the ray not being worked on: swap_certainty() exchanges
-// the two around work on a lane's second ray.
+#if LANES
+// With two rays a lane (certainty kernels cast two: Variant::lane_rays) the record of the ray
+// not being worked on: swap_certainty() exchanges the two after work on each (swap_rays).
 var<private> certainty_other: Certainty;
 
 fn swap_certainty() {

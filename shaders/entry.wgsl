@@ -200,20 +200,22 @@ fn grid_entry(group: u32, local: u32) -> ListEntry {
 @compute @workgroup_size(64)
 fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     lane = invocation.lane;
-#if PAIRS
-    // Two rays a lane, as the camera's packets (main above): each even subgroup casts its own
-    // entries and the odd subgroup's.
-    if ((invocation.subgroup & 1u) != 0u) {
+#if LANES
+    // Several rays a lane, as the camera's packets (main below): one subgroup in LANE_RAYS
+    // casts its own entries and the next ones'.
+    if ((invocation.subgroup & (LANE_RAYS - 1u)) != 0u) {
         return;
     }
-    let a = list_entry(invocation, groups, local_index(invocation));
-    let b = list_entry(invocation, groups, local_index(invocation) + 8u);
-    let ray_a = listed_ray(a);
-    let ray_b = listed_ray(b);
-    let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
-    write_ray(ray_a, hits.a, a.slot, a.exists);
+    var rays: LaneRays;
+#each_ray
+    let entry$r = list_entry(invocation, groups, local_index(invocation) + 8u * $ru);
+    rays.r$r = listed_ray(entry$r);
+#end_each
+    let hits = nearest_hit_lanes(rays, params.frame.min_t);
+#each_ray
+    write_ray(rays.r$r, hits.h$r, entry$r.slot, entry$r.exists);
     swap_rays();
-    write_ray(ray_b, hits.b, b.slot, b.exists);
+#end_each
 #else
     let entry = list_entry(invocation, groups, local_index(invocation));
     cast_ray(listed_ray(entry), entry.slot, entry.exists);
@@ -277,20 +279,23 @@ fn main(
 @compute @workgroup_size(64)
 fn main(invocation: Invocation) {
     lane = invocation.lane;
-#if PAIRS
-    // Packets of 16 rays, two a lane (traverse_bvh_pair): each even subgroup casts its own 4x2
-    // tile and the odd one's beside it, and the odd subgroups have nothing to do.
-    if ((invocation.subgroup & 1u) != 0u) {
+#if LANES
+    // Packets of 8 LANE_RAYS rays, LANE_RAYS a lane (traverse_bvh_lanes): one subgroup in
+    // LANE_RAYS casts its own 4x2 tile and the next ones' (with four rays a lane the 8x4 pixels
+    // of tiles 0 to 3 or 4 to 7, packet_tile_offset), and the others have nothing to do.
+    if ((invocation.subgroup & (LANE_RAYS - 1u)) != 0u) {
         return;
     }
-    let a = packet_pixel(invocation, local_index(invocation));
-    let b = packet_pixel(invocation, local_index(invocation) + 8u);
-    let ray_a = pixel_ray(a.i, a.j);
-    let ray_b = pixel_ray(b.i, b.j);
-    let hits = nearest_hit_pair(ray_a, ray_b, params.frame.min_t);
-    write_pixel(ray_a, hits.a, a.i, a.j, a.index, a.inside);
+    var rays: LaneRays;
+#each_ray
+    let pixel$r = packet_pixel(invocation, local_index(invocation) + 8u * $ru);
+    rays.r$r = pixel_ray(pixel$r.i, pixel$r.j);
+#end_each
+    let hits = nearest_hit_lanes(rays, params.frame.min_t);
+#each_ray
+    write_pixel(rays.r$r, hits.h$r, pixel$r.i, pixel$r.j, pixel$r.index, pixel$r.inside);
     swap_rays();
-    write_pixel(ray_b, hits.b, b.i, b.j, b.index, b.inside);
+#end_each
 #else
     let p = packet_pixel(invocation, local_index(invocation));
     cast_pixel(p.i, p.j, p.index, p.inside);

@@ -72,33 +72,26 @@ fn nearest_plane(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     }
 }
 #endif
-#if PAIRS
+#if LANES
 
-// The nearest hits of a lane's two rays.
-struct HitPair {
-    a: Hit,
-    b: Hit,
-}
-
-// nearest_hit() for a lane's two rays, which traverse the BVH as one packet
-// (traverse_bvh_pair; PAIRS: packet kernels on subgroups of 8). With CERTAINTY the first
-// ray's record is `certainty` and the second's is swapped in around its work (swap_rays).
-fn nearest_hit_pair(a: Ray, b: Ray, min_t: real) -> HitPair {
-    var best_a = Hit(T_FAR, -1, 0u, 0u);
-    var best_b = Hit(T_FAR, -1, 0u, 0u);
+// nearest_hit() for a lane's rays, which traverse the BVH as one packet (traverse_bvh_lanes;
+// LANES: packet kernels on subgroups of 8). With CERTAINTY (two rays a lane) the first ray's
+// record is `certainty` and the second's is swapped in around its work (swap_rays).
+fn nearest_hit_lanes(rays: LaneRays, min_t: real) -> LaneHits {
+    var hits: LaneHits;
+#each_ray
+    var best$r = Hit(T_FAR, -1, 0u, 0u);
 #if CERTAINTY
-    start_certainty(b);
-    swap_certainty();
-    start_certainty(a);
+    start_certainty(rays.r$r);
 #endif
 #if PLANES
-    nearest_plane(a, min_t, &best_a);
-    swap_rays();
-    nearest_plane(b, min_t, &best_b);
-    swap_rays();
+    nearest_plane(rays.r$r, min_t, &best$r);
 #endif
-    traverse_bvh_pair(a, b, min_t, &best_a, &best_b);
-    return HitPair(best_a, best_b);
+    swap_rays();
+    hits.h$r = best$r;
+#end_each
+    traverse_bvh_lanes(rays, min_t, &hits);
+    return hits;
 }
 #endif
 

@@ -479,9 +479,9 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         }
     }
 }
-#if PAIRS
+#if LANES
 
-// What the traversal needs of one of a lane's two rays.
+// What the traversal needs of one of a lane's rays.
 struct Traced {
     ray: Ray,
     inverse: RayInverse,
@@ -492,109 +492,148 @@ fn traced(ray: Ray) -> Traced {
     return Traced(ray, ray_inverse(ray), shear_of(ray.direction));
 }
 
-// Around work on a lane's second ray (`b` below): with CERTAINTY its record is swapped in, as
-// the certainty pass keeps one ray's record in private state; otherwise nothing.
+// A lane's LANE_RAYS rays and their nearest hits, a field each. The code for them is written
+// once per ray by the host (`#each_ray` blocks, `$r` the ray's number): llvmpipe kept arrays
+// indexed in loops over the rays in memory, and eight rays a lane so written traced the torus
+// in 2.27x the time of two, four 1.06x, against 0.74x and 0.80x written out.
+struct LaneRays {
+#each_ray
+    r$r: Ray,
+#end_each
+}
+
+struct LaneHits {
+#each_ray
+    h$r: Hit,
+#end_each
+}
+
+// After work on each of a lane's rays in turn: with CERTAINTY, which keeps the ray worked on's
+// record in private state and casts two rays a lane, the other ray's record is swapped in;
+// otherwise nothing.
 fn swap_rays() {
 #if CERTAINTY
     swap_certainty();
 #endif
 }
 
-// cull_t() of a lane's second ray.
-fn cull_t_second(best: Hit) -> real {
-    swap_rays();
-    let t = cull_t(best);
-    swap_rays();
-    return t;
-}
-
-// intersect_shared() for a lane's two rays, `a` and `b`, each testing primitive k where it
-// wants it: loaded once for both (in f64 by each lane where either wants it).
-fn intersect_shared_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, min_t: real, k: u32, count: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
-    let leaf = leaf_object(count);
-    if ((count & SPHERE_LEAF) != 0u) {
-#if SPHERES
+// Whether a lane loads primitive k of a leaf for its rays that want it (`wanted`): in f32 every
+// lane does, spreading the subgroup's shared load (lane_sphere, lane_triangle); in f64 each
+// lane loads what it tests.
+fn loads_primitive(wanted: bool) -> bool {
 #if F64
-        if (wanted_a || wanted_b) {
-            test_sphere_pair(a, wanted_a, b, wanted_b, sphere_at(k), min_t, k, leaf, best_a, best_b);
-        }
+    return wanted;
 #else
-        test_sphere_pair(a, wanted_a, b, wanted_b, shared_sphere(k), min_t, k, leaf, best_a, best_b);
+    return true;
 #endif
-#endif
-    } else {
-#if TRIANGLES
-#if F64
-        if (wanted_a || wanted_b) {
-            test_triangle_pair(a, wanted_a, b, wanted_b, triangle_at(k), min_t, k, leaf, best_a, best_b);
-        }
-#else
-        test_triangle_pair(a, wanted_a, b, wanted_b, shared_triangle(k), min_t, k, leaf, best_a, best_b);
-#endif
-#endif
-    }
 }
 
 #if SPHERES
-fn test_sphere_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, sphere: Sphere, min_t: real, k: u32, leaf: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
-    test_sphere(a.ray, sphere, min_t, k, leaf, wanted_a, best_a);
-    swap_rays();
-    test_sphere(b.ray, sphere, min_t, k, leaf, wanted_b, best_b);
-    swap_rays();
+fn lane_sphere(k: u32) -> Sphere {
+#if F64
+    return sphere_at(k);
+#else
+    return shared_sphere(k);
+#endif
 }
 #endif
 #if TRIANGLES
-fn test_triangle_pair(a: Traced, wanted_a: bool, b: Traced, wanted_b: bool, tri: Triangle, min_t: real, k: u32, leaf: u32, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
-    test_triangle(a.ray, a.shear, tri, min_t, k, leaf, wanted_a, best_a);
-    swap_rays();
-    test_triangle(b.ray, b.shear, tri, min_t, k, leaf, wanted_b, best_b);
-    swap_rays();
+fn lane_triangle(k: u32) -> Triangle {
+#if F64
+    return triangle_at(k);
+#else
+    return shared_triangle(k);
+#endif
 }
 #endif
 
-// Packet traversal (traverse_bvh) of two rays a lane, `a` and `b`: a packet of 16 rays, so each
-// node and primitive is fetched once for twice the rays, and two rays' box and primitive tests
-// (independent work) follow each fetch. On the torus the camera kernel took 0.80x and 0.82x the
-// time of 8-ray packets, on the 100 spheres 0.73x and 0.74x (emitted kernels timed interleaved,
-// the same ids; docs/performance.md, "Two rays a lane").
-fn traverse_bvh_pair(ray_a: Ray, ray_b: Ray, min_t: real, best_a: ptr<function, Hit>, best_b: ptr<function, Hit>) {
-    let a = traced(ray_a);
-    let b = traced(ray_b);
+// Packet traversal (traverse_bvh) of LANE_RAYS rays a lane (Variant::lane_rays): a packet of
+// 8 LANE_RAYS rays, so each node and primitive is fetched once for that many, and the lane's
+// rays' box and primitive tests (independent work) follow each fetch. On the torus the camera
+// kernel took 0.80x and 0.82x the time of 8-ray packets with two rays a lane, and four rays a
+// lane 0.80x the time of two; on the 100 spheres 0.73x and 0.81x (emitted kernels timed
+// interleaved, the same ids; docs/performance.md, "Two rays a lane").
+fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>) {
+#each_ray
+    let traced$r = traced(rays.r$r);
+    var best$r = (*hits).h$r;
+#end_each
     var stack_low = vec4<u32>(0u);
     var stack_high = 0u;
     var sp = 0u;
     var node = 0u;
     loop {
         let w = fetch_shared(node);
-        let na = visit_parts(w.q0, w.q1, w.q2, w.q3, a.ray, a.inverse, min_t, cull_t(*best_a));
-        let nb = visit_parts(w.q0, w.q1, w.q2, w.q3, b.ray, b.inverse, min_t, cull_t_second(*best_b));
-        let leaf0 = (na.reference0 & LEAF_BIT) != 0u;
-        let leaf1 = (na.reference1 & LEAF_BIT) != 0u;
-        let enters_a0 = na.t0 != NO_HIT;
-        let enters_a1 = na.t1 != NO_HIT;
-        let enters_b0 = nb.t0 != NO_HIT;
-        let enters_b1 = nb.t1 != NO_HIT;
-        let run = leaf_run(na, leaf0 && packet_any(enters_a0 || enters_b0), leaf1 && packet_any(enters_a1 || enters_b1));
+        // Whether any of the lane's rays enters each child.
+        var any_enters0 = false;
+        var any_enters1 = false;
+#each_ray
+        let visit$r = visit_parts(w.q0, w.q1, w.q2, w.q3, traced$r.ray, traced$r.inverse, min_t, cull_t(best$r));
+        swap_rays();
+        let enters$r_0 = visit$r.t0 != NO_HIT;
+        let enters$r_1 = visit$r.t1 != NO_HIT;
+        any_enters0 = any_enters0 || enters$r_0;
+        any_enters1 = any_enters1 || enters$r_1;
+#end_each
+        let n = visit0;
+        let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
+        let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
+        let run = leaf_run(n, leaf0 && packet_any(any_enters0), leaf1 && packet_any(any_enters1));
         for (var i = 0u; i < run.length; i++) {
             let second = in_leaf1(run, i);
-            intersect_shared_pair(a, select(enters_a0, enters_a1, second), b, select(enters_b0, enters_b1, second), min_t, run_primitive(run, i), select(na.count0, na.count1, second), best_a, best_b);
+            let k = run_primitive(run, i);
+            let count = select(n.count0, n.count1, second);
+            let leaf = leaf_object(count);
+            // Whether any of the lane's rays wants primitive k.
+            var wanted = false;
+#each_ray
+            let wanted$r = select(enters$r_0, enters$r_1, second);
+            wanted = wanted || wanted$r;
+#end_each
+            if (!loads_primitive(wanted)) {
+                continue;
+            }
+            if ((count & SPHERE_LEAF) != 0u) {
+#if SPHERES
+                let sphere = lane_sphere(k);
+#each_ray
+                test_sphere(traced$r.ray, sphere, min_t, k, leaf, wanted$r, &best$r);
+                swap_rays();
+#end_each
+#endif
+            } else {
+#if TRIANGLES
+                let tri = lane_triangle(k);
+#each_ray
+                test_triangle(traced$r.ray, traced$r.shear, tri, min_t, k, leaf, wanted$r, &best$r);
+                swap_rays();
+#end_each
+#endif
+            }
         }
-        let cull_a = cull_t(*best_a);
-        let cull_b = cull_t_second(*best_b);
-        let want_a0 = enters_a0 && !leaf0 && na.t0 <= cull_a;
-        let want_a1 = enters_a1 && !leaf1 && na.t1 <= cull_a;
-        let want_b0 = enters_b0 && !leaf0 && nb.t0 <= cull_b;
-        let want_b1 = enters_b1 && !leaf1 && nb.t1 <= cull_b;
-        let prefer_a0 = want_a0 && (!want_a1 || na.t0 <= na.t1);
-        let prefer_a1 = want_a1 && (!want_a0 || na.t1 < na.t0);
-        let prefer_b0 = want_b0 && (!want_b1 || nb.t0 <= nb.t1);
-        let prefer_b1 = want_b1 && (!want_b0 || nb.t1 < nb.t0);
-        let votes0 = select(0u, 1u, prefer_a0) + select(0u, 1u, prefer_b0);
-        let votes1 = select(0u, 1u, prefer_a1) + select(0u, 1u, prefer_b1);
-        if (!packet_next(packet_any(want_a0 || want_b0), packet_any(want_a1 || want_b1), votes0, votes1, na.reference0, na.reference1, &stack_low, &stack_high, &sp, &node)) {
+        // Whether any of the lane's rays wants each inner child, and how many of them reach
+        // each first.
+        var go0 = false;
+        var go1 = false;
+        var votes0 = 0u;
+        var votes1 = 0u;
+#each_ray
+        let cull$r = cull_t(best$r);
+        swap_rays();
+        let want$r_0 = enters$r_0 && !leaf0 && visit$r.t0 <= cull$r;
+        let want$r_1 = enters$r_1 && !leaf1 && visit$r.t1 <= cull$r;
+        go0 = go0 || want$r_0;
+        go1 = go1 || want$r_1;
+        votes0 += select(0u, 1u, want$r_0 && (!want$r_1 || visit$r.t0 <= visit$r.t1));
+        votes1 += select(0u, 1u, want$r_1 && (!want$r_0 || visit$r.t1 < visit$r.t0));
+#end_each
+        if (!packet_next(packet_any(go0), packet_any(go1), votes0, votes1, n.reference0, n.reference1, &stack_low, &stack_high, &sp, &node)) {
             break;
         }
     }
+#each_ray
+    (*hits).h$r = best$r;
+#end_each
 }
 #endif
 #else

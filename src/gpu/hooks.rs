@@ -315,7 +315,7 @@ fn kernel_variants() -> Vec<Variant> {
                 packets: true,
                 ..base
             });
-            // Two rays a lane (PAIRS), with the certainty pass's second record where robust.
+            // Several rays a lane (LANES), with the certainty pass's second record where robust.
             variants.push(Variant {
                 packets: true,
                 eight_lanes: true,

@@ -316,8 +316,8 @@ impl Variant {
                 if self.eight_lanes {
                     d.push("EIGHT_LANES");
                 }
-                if self.uses_pairs() {
-                    d.push("PAIRS");
+                if self.lane_rays() > 1 {
+                    d.push("LANES");
                 }
             }
         }
@@ -379,12 +379,20 @@ impl Variant {
         self.packets && self.uses_bvh() && coherent
     }
 
-    /// Whether each invocation casts two rays, so that a packet is 16 rays and every node and
-    /// primitive fetched serves twice as many (`PAIRS`, shaders/traverse.wgsl
-    /// `traverse_bvh_pair`): wherever packets are used (the camera's rays, a caller's) on
-    /// subgroups of exactly 8 (each subgroup then casts its own rays and the next subgroup's).
-    pub fn uses_pairs(&self) -> bool {
-        self.uses_packets() && self.eight_lanes
+    /// How many rays each invocation casts, so that a packet is 8 times that many and every
+    /// node and primitive fetched serves them all (`LANES`, `LANE_RAYS`, shaders/traverse.wgsl
+    /// `traverse_bvh_lanes`): wherever packets are used (the camera's rays, a caller's) on
+    /// subgroups of exactly 8, four (one subgroup in four then casts its own rays and the next
+    /// three subgroups'), or two with the certainty pass, which keeps each ray's record in
+    /// private state and swaps the second's in around its work; else one. Eight rays a lane
+    /// traced the torus in 0.92x the time of four but took 2.6x as long to compile
+    /// (docs/performance.md, "Two rays a lane").
+    pub fn lane_rays(&self) -> u32 {
+        match (self.uses_packets() && self.eight_lanes, self.certainty) {
+            (false, _) => 1,
+            (true, true) => 2,
+            (true, false) => 4,
+        }
     }
 
     /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
@@ -441,10 +449,13 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
              const CHUNK_BITS: u32 = {}u;\n\
              // Entries of the BVH traversal's stack: at least the tree's depth, one pending\n\
              // node per level at most (Bvh::stack_entries in src/prepare/bvh.rs).\n\
-             const BVH_STACK: u32 = {}u;\n",
+             const BVH_STACK: u32 = {}u;\n\
+             // Rays each invocation casts (Variant::lane_rays).\n\
+             const LANE_RAYS: u32 = {}u;\n",
             precision.name(),
             variant.chunk_bits,
-            variant.bvh_stack
+            variant.bvh_stack,
+            variant.lane_rays()
         );
         if variant.uses_uniform_prims() {
             let c = UniformCapacity::of(precision);
@@ -515,6 +526,41 @@ pub fn preprocess(source: &str, defines: &[&str], module: &str) -> Result<String
     Ok(out)
 }
 
+/// Writes the lines of each `#each_ray` ... `#end_each` block of `source` once per ray of a
+/// lane (`rays`: Variant::lane_rays), `$r` in them replaced by the ray's number (0, 1, ...):
+/// code for each of a lane's rays, written out because llvmpipe keeps arrays indexed in loops
+/// in memory. Blocks do not nest; `#if` blocks inside are repeated with them.
+pub fn each_ray(source: &str, rays: u32, module: &str) -> Result<String> {
+    let fail = |line: usize, m: &str| Error::Device(format!("shaders/{module}.wgsl:{line}: {m}"));
+    let mut out = String::new();
+    let mut block: Option<Vec<&str>> = None;
+    for (k, line) in source.lines().enumerate() {
+        match (line.trim(), &mut block) {
+            ("#each_ray", None) => block = Some(Vec::new()),
+            ("#each_ray", Some(_)) => return Err(fail(k + 1, "#each_ray inside #each_ray")),
+            ("#end_each", None) => return Err(fail(k + 1, "#end_each without #each_ray")),
+            ("#end_each", Some(lines)) => {
+                for r in 0..rays {
+                    for l in lines.iter() {
+                        out.push_str(&l.replace("$r", &r.to_string()));
+                        out.push('\n');
+                    }
+                }
+                block = None;
+            }
+            (_, Some(lines)) => lines.push(line),
+            (_, None) => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    match block {
+        Some(_) => Err(fail(source.lines().count(), "#each_ray without #end_each")),
+        None => Ok(out),
+    }
+}
+
 fn include(
     name: &str,
     variant: &Variant,
@@ -544,7 +590,11 @@ fn include(
         done.push(name.to_owned());
         return Ok(());
     }
-    let source = preprocess(&source, &variant.defines(), name)?;
+    let source = preprocess(
+        &each_ray(&source, variant.lane_rays(), name)?,
+        &variant.defines(),
+        name,
+    )?;
     stack.push(name.to_owned());
     for import in imports(&source) {
         include(import, variant, done, stack, out)?;
@@ -790,12 +840,13 @@ mod tests {
         }
     }
 
-    /// Two rays a lane only where a subgroup of 8 can take its neighbour's rays, for the
-    /// camera's rays and a caller's (not their counts); the kernel then traces through the
-    /// pair traversal.
+    /// Several rays a lane only where a subgroup of 8 can take its neighbours' rays, for the
+    /// camera's rays and a caller's (not their counts): four, two with the certainty pass (its
+    /// record swap serves two); the kernel then traces through the lanes' traversal, with a
+    /// field per ray in `LaneRays`.
     #[test]
-    fn pairs_only_for_packets_of_eight() {
-        let pairs = Variant {
+    fn several_rays_a_lane_only_for_packets_of_eight() {
+        let lanes = Variant {
             bvh: true,
             packets: true,
             eight_lanes: true,
@@ -803,18 +854,19 @@ mod tests {
         };
         let listed = Variant {
             source: Source::Rays,
-            ..pairs
+            ..lanes
         };
         let f64 = Variant {
             precision: Precision::F64,
-            ..pairs
+            ..lanes
         };
         let certainty = Variant {
             certainty: true,
-            ..pairs
+            ..lanes
         };
-        for variant in [pairs, listed, f64, certainty] {
-            assert!(variant.uses_pairs());
+        for (variant, rays) in [(lanes, 4), (listed, 4), (f64, 4), (certainty, 2)] {
+            assert_eq!(variant.lane_rays(), rays, "{variant:?}");
+            assert!(variant.defines().contains(&"LANES"));
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
             let named = |name: &str| {
                 module
@@ -822,29 +874,38 @@ mod tests {
                     .iter()
                     .any(|(_, f)| f.name.as_deref() == Some(name))
             };
-            assert!(named("traverse_bvh_pair") && named("nearest_hit_pair"));
+            assert!(named("traverse_bvh_lanes") && named("nearest_hit_lanes"));
+            let fields = module.types.iter().find_map(|(_, t)| match &t.inner {
+                naga::TypeInner::Struct { members, .. }
+                    if t.name.as_deref() == Some("LaneRays") =>
+                {
+                    Some(members.len())
+                }
+                _ => None,
+            });
+            assert_eq!(fields, Some(rays as usize), "{variant:?}");
         }
         for other in [
             Variant {
                 eight_lanes: false,
-                ..pairs
+                ..lanes
             },
             Variant {
                 source: Source::Rays,
                 count: true,
-                ..pairs
+                ..lanes
             },
             Variant {
                 source: Source::Pixels,
-                ..pairs
+                ..lanes
             },
             Variant {
                 bvh: false,
-                ..pairs
+                ..lanes
             },
         ] {
-            assert!(!other.uses_pairs(), "{other:?}");
-            assert!(!other.defines().contains(&"PAIRS"), "{other:?}");
+            assert_eq!(other.lane_rays(), 1, "{other:?}");
+            assert!(!other.defines().contains(&"LANES"), "{other:?}");
         }
     }
 
@@ -1127,6 +1188,20 @@ mod tests {
         assert_eq!(preprocess(src, &[], "t").unwrap(), "a\ne\nf\n");
         assert!(preprocess("#if X\n", &[], "t").is_err());
         assert!(preprocess("#endif\n", &[], "t").is_err());
+    }
+
+    #[test]
+    fn each_ray_blocks_are_written_once_per_ray() {
+        let src = "a\n#each_ray\nlet x$r = $ru;\n#if X\ny$r\n#endif\n#end_each\nb\n";
+        let expected = "a\nlet x0 = 0u;\n#if X\ny0\n#endif\nlet x1 = 1u;\n#if X\ny1\n#endif\nb\n";
+        assert_eq!(each_ray(src, 2, "t").unwrap(), expected);
+        assert_eq!(
+            each_ray(src, 1, "t").unwrap(),
+            "a\nlet x0 = 0u;\n#if X\ny0\n#endif\nb\n"
+        );
+        assert!(each_ray("#each_ray\n", 2, "t").is_err());
+        assert!(each_ray("#end_each\n", 2, "t").is_err());
+        assert!(each_ray("#each_ray\n#each_ray\n#end_each\n", 2, "t").is_err());
     }
 
     #[test]
