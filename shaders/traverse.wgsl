@@ -529,6 +529,7 @@ fn loads_primitive(wanted: bool) -> bool {
 }
 
 #if SPHERES
+// Sphere k for a lane's rays: in f32 the subgroup's shared load, in f64 the lane's own.
 fn lane_sphere(k: u32) -> Sphere {
 #if F64
     return sphere_at(k);
@@ -538,6 +539,7 @@ fn lane_sphere(k: u32) -> Sphere {
 }
 #endif
 #if TRIANGLES
+// lane_sphere() for triangle k.
 fn lane_triangle(k: u32) -> Triangle {
 #if F64
     return triangle_at(k);
@@ -552,7 +554,7 @@ fn lane_triangle(k: u32) -> Triangle {
 // rays' box and primitive tests (independent work) follow each fetch. On the torus the camera
 // kernel took 0.80x and 0.82x the time of 8-ray packets with two rays a lane, and four rays a
 // lane 0.80x the time of two; on the 100 spheres 0.73x and 0.81x (emitted kernels timed
-// interleaved, the same ids; docs/performance.md, "Two rays a lane").
+// interleaved, the same ids; docs/performance.md, "Four rays a lane").
 fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>) {
 #each_ray
     let traced$r = traced(rays.r$r);

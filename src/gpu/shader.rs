@@ -386,7 +386,7 @@ impl Variant {
     /// three subgroups'), or two with the certainty pass, which keeps each ray's record in
     /// private state and swaps the second's in around its work; else one. Eight rays a lane
     /// traced the torus in 0.92x the time of four but took 2.6x as long to compile
-    /// (docs/performance.md, "Two rays a lane").
+    /// (docs/performance.md, "Four rays a lane").
     pub fn lane_rays(&self) -> u32 {
         match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
