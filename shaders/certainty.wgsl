@@ -97,23 +97,14 @@ struct Certainty {
 
 var<private> certainty: Certainty;
 #if LANES
-// With several rays a lane each ray's record while another is worked on: swap_certainty(r)
-// exchanges ray r's with `certainty`, before and after work on that ray (swap_ray).
-#each_ray
-var<private> certainty_of$r: Certainty;
-#end_each
+// With two rays a lane (certainty kernels cast two: Variant::lane_rays) the record of the ray
+// not being worked on: swap_certainty() exchanges the two after work on each (swap_rays).
+var<private> certainty_other: Certainty;
 
-fn swap_certainty(r: u32) {
-    switch (r) {
-#each_ray
-        case $ru: {
-            let held = certainty;
-            certainty = certainty_of$r;
-            certainty_of$r = held;
-        }
-#end_each
-        default: {}
-    }
+fn swap_certainty() {
+    let held = certainty;
+    certainty = certainty_other;
+    certainty_other = held;
 }
 #endif
 

@@ -213,9 +213,8 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
 #each_ray
-    swap_ray($ru);
     write_ray(rays.r$r, hits.h$r, entry$r.slot, entry$r.exists);
-    swap_ray($ru);
+    swap_rays();
 #end_each
 #else
     let entry = list_entry(invocation, groups, local_index(invocation));
@@ -294,9 +293,8 @@ fn main(invocation: Invocation) {
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
 #each_ray
-    swap_ray($ru);
     write_pixel(rays.r$r, hits.h$r, pixel$r.i, pixel$r.j, pixel$r.index, pixel$r.inside);
-    swap_ray($ru);
+    swap_rays();
 #end_each
 #else
     let p = packet_pixel(invocation, local_index(invocation));

@@ -75,20 +75,19 @@ fn nearest_plane(ray: Ray, min_t: real, best: ptr<function, Hit>) {
 #if LANES
 
 // nearest_hit() for a lane's rays, which traverse the BVH as one packet (traverse_bvh_lanes;
-// LANES: packet kernels on subgroups of 8). With CERTAINTY each ray's record is swapped in
-// around its work (swap_ray).
+// LANES: packet kernels on subgroups of 8). With CERTAINTY (two rays a lane) the first ray's
+// record is `certainty` and the second's is swapped in around its work (swap_rays).
 fn nearest_hit_lanes(rays: LaneRays, min_t: real) -> LaneHits {
     var hits: LaneHits;
 #each_ray
     var best$r = Hit(T_FAR, -1, 0u, 0u);
-    swap_ray($ru);
 #if CERTAINTY
     start_certainty(rays.r$r);
 #endif
 #if PLANES
     nearest_plane(rays.r$r, min_t, &best$r);
 #endif
-    swap_ray($ru);
+    swap_rays();
     hits.h$r = best$r;
 #end_each
     traverse_bvh_lanes(rays, min_t, &hits);

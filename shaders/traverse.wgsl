@@ -508,12 +508,12 @@ struct LaneHits {
 #end_each
 }
 
-// Before and after work on ray r of a lane: with CERTAINTY, which keeps the record of the ray
-// worked on in private state (`certainty`), that ray's record is swapped in, and out again;
+// After work on each of a lane's rays in turn: with CERTAINTY, which keeps the ray worked on's
+// record in private state and casts two rays a lane, the other ray's record is swapped in;
 // otherwise nothing.
-fn swap_ray(r: u32) {
+fn swap_rays() {
 #if CERTAINTY
-    swap_certainty(r);
+    swap_certainty();
 #endif
 }
 
@@ -570,9 +570,8 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
         var any_enters0 = false;
         var any_enters1 = false;
 #each_ray
-        swap_ray($ru);
         let visit$r = visit_parts(w.q0, w.q1, w.q2, w.q3, traced$r.ray, traced$r.inverse, min_t, cull_t(best$r));
-        swap_ray($ru);
+        swap_rays();
         let enters$r_0 = visit$r.t0 != NO_HIT;
         let enters$r_1 = visit$r.t1 != NO_HIT;
         any_enters0 = any_enters0 || enters$r_0;
@@ -600,18 +599,16 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
 #if SPHERES
                 let sphere = lane_sphere(k);
 #each_ray
-                swap_ray($ru);
                 test_sphere(traced$r.ray, sphere, min_t, k, leaf, wanted$r, &best$r);
-                swap_ray($ru);
+                swap_rays();
 #end_each
 #endif
             } else {
 #if TRIANGLES
                 let tri = lane_triangle(k);
 #each_ray
-                swap_ray($ru);
                 test_triangle(traced$r.ray, traced$r.shear, tri, min_t, k, leaf, wanted$r, &best$r);
-                swap_ray($ru);
+                swap_rays();
 #end_each
 #endif
             }
@@ -623,9 +620,8 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
         var votes0 = 0u;
         var votes1 = 0u;
 #each_ray
-        swap_ray($ru);
         let cull$r = cull_t(best$r);
-        swap_ray($ru);
+        swap_rays();
         let want$r_0 = enters$r_0 && !leaf0 && visit$r.t0 <= cull$r;
         let want$r_1 = enters$r_1 && !leaf1 && visit$r.t1 <= cull$r;
         go0 = go0 || want$r_0;

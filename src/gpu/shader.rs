@@ -381,14 +381,17 @@ impl Variant {
 
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
     /// node and primitive fetched serves them all (`LANES`, `LANE_RAYS`, shaders/traverse.wgsl
-    /// `traverse_bvh_lanes`): four wherever packets are used (the camera's rays, a caller's)
-    /// on subgroups of exactly 8 (one subgroup in four then casts its own rays and the next
-    /// three subgroups'), else one. Eight rays a lane traced the torus in 0.92x the time of
-    /// four but took 2.6x as long to compile (docs/performance.md, "Four rays a lane").
+    /// `traverse_bvh_lanes`): wherever packets are used (the camera's rays, a caller's) on
+    /// subgroups of exactly 8, four (one subgroup in four then casts its own rays and the next
+    /// three subgroups'), or two with the certainty pass, which keeps each ray's record in
+    /// private state and swaps the second's in around its work; else one. Eight rays a lane
+    /// traced the torus in 0.92x the time of four but took 2.6x as long to compile
+    /// (docs/performance.md, "Four rays a lane").
     pub fn lane_rays(&self) -> u32 {
-        match self.uses_packets() && self.eight_lanes {
-            true => 4,
-            false => 1,
+        match (self.uses_packets() && self.eight_lanes, self.certainty) {
+            (false, _) => 1,
+            (true, true) => 2,
+            (true, false) => 4,
         }
     }
 
@@ -837,9 +840,10 @@ mod tests {
         }
     }
 
-    /// Several rays a lane (four) only where a subgroup of 8 can take its neighbours' rays, for
-    /// the camera's rays and a caller's (not their counts), with the certainty pass too; the
-    /// kernel then traces through the lanes' traversal, with a field per ray in `LaneRays`.
+    /// Several rays a lane only where a subgroup of 8 can take its neighbours' rays, for the
+    /// camera's rays and a caller's (not their counts): four, two with the certainty pass (its
+    /// record swap serves two); the kernel then traces through the lanes' traversal, with a
+    /// field per ray in `LaneRays`.
     #[test]
     fn several_rays_a_lane_only_for_packets_of_eight() {
         let lanes = Variant {
@@ -860,7 +864,7 @@ mod tests {
             certainty: true,
             ..lanes
         };
-        for (variant, rays) in [(lanes, 4), (listed, 4), (f64, 4), (certainty, 4)] {
+        for (variant, rays) in [(lanes, 4), (listed, 4), (f64, 4), (certainty, 2)] {
             assert_eq!(variant.lane_rays(), rays, "{variant:?}");
             assert!(variant.defines().contains(&"LANES"));
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
