@@ -4,11 +4,7 @@ use std::time::Instant;
 
 use raycast::prepare::Prepared;
 use raycast::prepare::bvh::{Accel, Bvh};
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use raycast::study::median;
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -39,8 +35,8 @@ fn main() {
         });
     println!(
         "build {:.4} s, prepare {:.4} s; {} nodes, hash {hash:016x}",
-        median(build),
-        median(prepare),
+        median(&build),
+        median(&prepare),
         bvh.nodes.len()
     );
 }

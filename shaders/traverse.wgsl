@@ -394,32 +394,54 @@ fn run_primitive(run: LeafRun, i: u32) -> u32 {
     return select(run.from0, run.from1, in_leaf1(run, i)) + i;
 }
 
-// intersect_leaf() for primitive k of a leaf (with `count`, leaf_len) the whole subgroup
-// enters, tested by the lanes where `wanted`: in f32 loaded once for the subgroup, spread over
-// its lanes (shared_sphere, shared_triangle). In f64 each lane loads what it tests: f64
+// Whether a lane loads primitive k of a leaf the whole subgroup enters, for its rays that want
+// it (`wanted`): in f32 every lane does, spreading the subgroup's shared load (lane_sphere,
+// lane_triangle: shared_sphere, shared_triangle); in f64 each lane loads what it tests: f64
 // broadcasts (which Vulkan allows only with shaderSubgroupExtendedTypes) made llvmpipe's f64
 // kernel 2.1x slower.
+fn loads_primitive(wanted: bool) -> bool {
+#if F64
+    return wanted;
+#else
+    return true;
+#endif
+}
+
+#if SPHERES
+// Sphere k for a lane's rays: in f32 the subgroup's shared load, in f64 the lane's own.
+fn lane_sphere(k: u32) -> Sphere {
+#if F64
+    return sphere_at(k);
+#else
+    return shared_sphere(k);
+#endif
+}
+#endif
+#if TRIANGLES
+// lane_sphere() for triangle k.
+fn lane_triangle(k: u32) -> Triangle {
+#if F64
+    return triangle_at(k);
+#else
+    return shared_triangle(k);
+#endif
+}
+#endif
+
+// intersect_leaf() for primitive k of a leaf (with `count`, leaf_len) the whole subgroup
+// enters, tested by the lanes where `wanted`.
 fn intersect_shared(ray: Ray, shear: Shear, min_t: real, k: u32, count: u32, wanted: bool, best: ptr<function, Hit>) {
+    if (!loads_primitive(wanted)) {
+        return;
+    }
     let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
-#if F64
-        if (wanted) {
-            test_sphere(ray, sphere_at(k), min_t, k, leaf, true, best);
-        }
-#else
-        test_sphere(ray, shared_sphere(k), min_t, k, leaf, wanted, best);
-#endif
+        test_sphere(ray, lane_sphere(k), min_t, k, leaf, wanted, best);
 #endif
     } else {
 #if TRIANGLES
-#if F64
-        if (wanted) {
-            test_triangle(ray, shear, triangle_at(k), min_t, k, leaf, true, best);
-        }
-#else
-        test_triangle(ray, shear, shared_triangle(k), min_t, k, leaf, wanted, best);
-#endif
+        test_triangle(ray, shear, lane_triangle(k), min_t, k, leaf, wanted, best);
 #endif
     }
 }
@@ -516,38 +538,6 @@ fn swap_rays() {
     swap_certainty();
 #endif
 }
-
-// Whether a lane loads primitive k of a leaf for its rays that want it (`wanted`): in f32 every
-// lane does, spreading the subgroup's shared load (lane_sphere, lane_triangle); in f64 each
-// lane loads what it tests.
-fn loads_primitive(wanted: bool) -> bool {
-#if F64
-    return wanted;
-#else
-    return true;
-#endif
-}
-
-#if SPHERES
-// Sphere k for a lane's rays: in f32 the subgroup's shared load, in f64 the lane's own.
-fn lane_sphere(k: u32) -> Sphere {
-#if F64
-    return sphere_at(k);
-#else
-    return shared_sphere(k);
-#endif
-}
-#endif
-#if TRIANGLES
-// lane_sphere() for triangle k.
-fn lane_triangle(k: u32) -> Triangle {
-#if F64
-    return triangle_at(k);
-#else
-    return shared_triangle(k);
-#endif
-}
-#endif
 
 // Packet traversal (traverse_bvh) of LANE_RAYS rays a lane (Variant::lane_rays): a packet of
 // 8 LANE_RAYS rays, so each node and primitive is fetched once for that many, and the lane's
