@@ -16,7 +16,7 @@ use std::path::Path;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
-use raycast::math::{Precision, Real, vec3};
+use raycast::math::{Precision, Real, Vec3, vec3};
 use raycast::prepare::bvh::{Accel, Bvh, MAX_DEPTH};
 use raycast::scene::Scene;
 
@@ -240,6 +240,97 @@ fn bvh_depth_stays_within_the_traversal_stack() {
             bvh.sphere_order.len() + bvh.triangle_order.len(),
             n,
             "{name}"
+        );
+    }
+}
+
+/// The packet traversal's box test (`interval_entry`) skips a box only where every ray's own
+/// `box_entry` does, and enters it no later than any of them: seeded packets of 32 rays (from
+/// one point, as the camera's, or from several, as a caller's), boxes around points the rays
+/// pass at distances from 2^-30 to 2^10 of the box, in f32 and f64.
+#[test]
+fn packet_intervals_skip_only_boxes_every_ray_misses() {
+    fn check<T: Real>(seed: u64) -> (usize, usize) {
+        let mut rng = common::Rng(seed);
+        let (mut skipped, mut boxes) = (0, 0);
+        for packet in 0..400 {
+            let shared_origin = packet % 2 == 0;
+            let eye = rng.point(-4.0, 4.0);
+            let axis = rng.point(-1.0, 1.0);
+            let spread = 2f64.powi(-(rng.range(2.0, 12.0) as i32));
+            let rays: Vec<_> = (0..32)
+                .map(|_| {
+                    let o = if shared_origin {
+                        eye
+                    } else {
+                        rng.point(-4.0, 4.0)
+                    };
+                    let mut d = axis.map(|a| a + spread * rng.range(-1.0, 1.0));
+                    if packet % 7 == 3 {
+                        d[packet % 3] = 0.0;
+                    }
+                    let ray = cpu::types::Ray {
+                        origin: Vec3::from_array(o.map(T::from_f64)),
+                        direction: Vec3::from_array(d.map(T::from_f64)),
+                    };
+                    let ri = cpu::traverse::ray_inverse(&ray);
+                    (ray, ri)
+                })
+                .collect();
+            let interval = rays
+                .iter()
+                .map(|(ray, ri)| cpu::traverse::ray_interval(ray, ri))
+                .reduce(|a, b| cpu::traverse::join_intervals(&a, &b))
+                .unwrap();
+            let min_t = T::from_f64(rng.range(0.0, 0.1));
+            for _ in 0..64 {
+                let (ray, _) = &rays[rng.range(0.0, 32.0) as usize];
+                let t = 8.0 * rng.range(0.0, 1.0).powi(3);
+                let at = [0, 1, 2].map(|k| {
+                    ray.origin.to_array()[k].to_f64() + t * ray.direction.to_array()[k].to_f64()
+                });
+                let size = 2f64.powi(rng.range(-20.0, 2.0) as i32);
+                let off = size * 2f64.powi(rng.range(-30.0, 10.0) as i32);
+                let centre = at.map(|x| x + off * rng.range(-1.0, 1.0));
+                let lo = centre.map(|x| (x - size * rng.range(0.0, 1.0)) as f32);
+                let hi =
+                    [0, 1, 2].map(|k| lo[k].max((centre[k] + size * rng.range(0.0, 1.0)) as f32));
+                let t_maxes: Vec<T> = rays
+                    .iter()
+                    .map(|_| {
+                        T::from_f64(if rng.range(0.0, 1.0) < 0.5 {
+                            3.4e38
+                        } else {
+                            rng.range(0.0, 9.0)
+                        })
+                    })
+                    .collect();
+                let t_max = t_maxes
+                    .iter()
+                    .fold(T::ZERO, |m, &x| if x > m { x } else { m });
+                let packet_t = cpu::traverse::interval_entry(lo, hi, &interval, min_t, t_max);
+                boxes += 1;
+                skipped += usize::from(packet_t == cpu::types::no_hit::<T>());
+                for ((ray, ri), &ray_max) in rays.iter().zip(&t_maxes) {
+                    let ray_t = cpu::traverse::box_entry(lo, hi, ray, ri, min_t, ray_max);
+                    if ray_t != cpu::types::no_hit::<T>() {
+                        assert!(
+                            packet_t != cpu::types::no_hit::<T>()
+                                && (interval.unbounded || packet_t <= ray_t),
+                            "packet {packet}: box {lo:?}..{hi:?} entered by a ray at {ray_t:?}, by the packet at {packet_t:?}"
+                        );
+                    }
+                }
+            }
+        }
+        (skipped, boxes)
+    }
+    for (skipped, boxes) in [check::<f32>(1), check::<f64>(2)] {
+        // Only worth something if the packets do skip boxes (about 7%: most boxes lie around
+        // points on the rays) and enter others.
+        assert!(
+            skipped * 20 > boxes && skipped < boxes,
+            "{skipped} of {boxes} boxes skipped"
         );
     }
 }

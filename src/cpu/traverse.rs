@@ -118,6 +118,126 @@ fn box_entry_axis_parallel<T: Real>(
     no_hit()
 }
 
+/// A packet's rays as intervals, componentwise (`PacketInterval` in WGSL): every ray's origin
+/// lies in `[origin_lo, origin_hi]` and its inverse direction in `[inverse_lo, inverse_hi]`, as
+/// f32 bounds; `unbounded` where some ray has a zero direction component or coordinates beyond
+/// `INTERVAL_LIMIT`.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketInterval {
+    pub origin_lo: [f32; 3],
+    pub origin_hi: [f32; 3],
+    pub inverse_lo: [f32; 3],
+    pub inverse_hi: [f32; 3],
+    pub unbounded: bool,
+}
+
+/// `INTERVAL_LIMIT`: 1e30.
+fn interval_limit<T: Real>() -> T {
+    T::from_f64(1e30)
+}
+
+/// f32 bounds of a real below and above it (`f32_below`, `f32_above`): itself in f32; in f64
+/// its nearest f32 moved outward by 2^-22 of itself and 1e-37 where it is beyond.
+fn f32_below<T: Real>(x: T) -> f32 {
+    let y = x.to_f64() as f32;
+    if (y as f64) > x.to_f64() {
+        y - y.abs() * 2.384_185_8e-7 - 1e-37
+    } else {
+        y
+    }
+}
+
+fn f32_above<T: Real>(x: T) -> f32 {
+    let y = x.to_f64() as f32;
+    if (y as f64) < x.to_f64() {
+        y + y.abs() * 2.384_185_8e-7 + 1e-37
+    } else {
+        y
+    }
+}
+
+/// The interval of one ray (`ray_interval`).
+pub fn ray_interval<T: Real>(ray: &Ray<T>, ri: &RayInverse<T>) -> PacketInterval {
+    let o = ray.origin.to_array();
+    let inv = ri.inv.to_array();
+    let limit = interval_limit::<T>();
+    let wild = ri.axis_parallel
+        || inv.iter().any(|x| x.abs() > limit)
+        || o.iter().any(|x| x.abs() > limit);
+    PacketInterval {
+        origin_lo: o.map(f32_below),
+        origin_hi: o.map(f32_above),
+        inverse_lo: inv.map(f32_below),
+        inverse_hi: inv.map(f32_above),
+        unbounded: wild,
+    }
+}
+
+/// The smallest interval holding both (`join_intervals`).
+pub fn join_intervals(a: &PacketInterval, b: &PacketInterval) -> PacketInterval {
+    let lo = |x: [f32; 3], y: [f32; 3]| [0, 1, 2].map(|k| x[k].min(y[k]));
+    let hi = |x: [f32; 3], y: [f32; 3]| [0, 1, 2].map(|k| x[k].max(y[k]));
+    PacketInterval {
+        origin_lo: lo(a.origin_lo, b.origin_lo),
+        origin_hi: hi(a.origin_hi, b.origin_hi),
+        inverse_lo: lo(a.inverse_lo, b.inverse_lo),
+        inverse_hi: hi(a.inverse_hi, b.inverse_hi),
+        unbounded: a.unbounded || b.unbounded,
+    }
+}
+
+/// `box_entry` for a whole packet: where its rays enter the box at the earliest, or NO_HIT
+/// when `box_entry` is NO_HIT for every ray whose `t_max` is at most `t_max`. The bounds are
+/// exact (see shaders/traverse.wgsl): each slab distance is monotonic in the origin and the
+/// inverse, so the corners of the intervals bound it.
+pub fn interval_entry<T: Real>(
+    lo: [f32; 3],
+    hi: [f32; 3],
+    packet: &PacketInterval,
+    min_t: T,
+    t_max: T,
+) -> T {
+    let r = |v: [f32; 3]| v.map(|x| T::from_f64(x as f64));
+    let (o_lo, o_hi) = (r(packet.origin_lo), r(packet.origin_hi));
+    let (i_lo, i_hi) = (r(packet.inverse_lo), r(packet.inverse_hi));
+    let (lo_r, hi_r) = (r(lo), r(hi));
+    let mut near = [T::ZERO; 3];
+    let mut far = [T::ZERO; 3];
+    for k in 0..3 {
+        let (a_lo, a_hi) = (lo_r[k] - o_hi[k], lo_r[k] - o_lo[k]);
+        let (b_lo, b_hi) = (hi_r[k] - o_hi[k], hi_r[k] - o_lo[k]);
+        let a = [
+            a_lo * i_lo[k],
+            a_lo * i_hi[k],
+            a_hi * i_lo[k],
+            a_hi * i_hi[k],
+        ];
+        let b = [
+            b_lo * i_lo[k],
+            b_lo * i_hi[k],
+            b_hi * i_lo[k],
+            b_hi * i_hi[k],
+        ];
+        near[k] = smaller(
+            smaller(smaller(a[0], a[1]), smaller(a[2], a[3])),
+            smaller(smaller(b[0], b[1]), smaller(b[2], b[3])),
+        );
+        far[k] = larger(
+            larger(larger(a[0], a[1]), larger(a[2], a[3])),
+            larger(larger(b[0], b[1]), larger(b[2], b[3])),
+        );
+    }
+    let t_in = larger(larger(near[0], near[1]), larger(near[2], min_t)) * box_entry_shrink();
+    let t_out = smaller(smaller(far[0], far[1]), smaller(far[2], t_max));
+    if packet.unbounded {
+        min_t
+    } else if t_in <= t_out {
+        t_in
+    } else {
+        no_hit()
+    }
+}
+
 /// `is_closer` for a primitive stored at `index` in BVH order: ties within one object go to
 /// the lower index in the scene's order (`key` gives it), as in brute force.
 fn is_closer_ordered<T: Real>(
