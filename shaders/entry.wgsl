@@ -208,14 +208,15 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     }
     var rays: LaneRays;
 #each_ray
-    let entry$r = list_entry(invocation, groups, local_index(invocation) + 8u * $ru);
-    rays.r$r = listed_ray(entry$r);
+    rays.r$r = listed_ray(list_entry(invocation, groups, local_index(invocation) + 8u * $ru));
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
-#each_ray
-    write_ray(rays.r$r, hits.h$r, entry$r.slot, entry$r.exists);
-    swap_rays();
-#end_each
+    // One copy of the output code, as for the camera's rays (main below).
+    for (var r = 0u; r < LANE_RAYS; r++) {
+        let entry = list_entry(invocation, groups, local_index(invocation) + 8u * r);
+        write_ray(listed_ray(entry), lane_hit(hits, r), entry.slot, entry.exists);
+        swap_rays();
+    }
 #else
     let entry = list_entry(invocation, groups, local_index(invocation));
     cast_ray(listed_ray(entry), entry.slot, entry.exists);
@@ -281,8 +282,9 @@ fn main(invocation: Invocation) {
     lane = invocation.lane;
 #if LANES
     // Packets of 8 LANE_RAYS rays, LANE_RAYS a lane (traverse_bvh_lanes): one subgroup in
-    // LANE_RAYS casts its own 4x2 tile and the next ones' (with four rays a lane the 8x4 pixels
-    // of tiles 0 to 3 or 4 to 7, packet_tile_offset), and the others have nothing to do.
+    // LANE_RAYS casts its own 4x2 tile and the next ones' (with eight rays a lane all 8x8
+    // pixels of the workgroup, packet_tile_offset; with two, tiles 0 and 1, 2 and 3, ...), and
+    // the others have nothing to do.
     if ((invocation.subgroup & (LANE_RAYS - 1u)) != 0u) {
         return;
     }
@@ -292,10 +294,15 @@ fn main(invocation: Invocation) {
     rays.r$r = pixel_ray(pixel$r.i, pixel$r.j);
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
-#each_ray
-    write_pixel(rays.r$r, hits.h$r, pixel$r.i, pixel$r.j, pixel$r.index, pixel$r.inside);
-    swap_rays();
-#end_each
+    // The outputs of the lane's rays in a loop, so that the kernel holds one copy of their
+    // code (normals, shading hooks) rather than one per ray: with eight rays a lane written
+    // out a cold f32 render of the bunny at 1920x1080 took 5.0 to 6.5 s to compile, with the
+    // loop 3.2 to 3.7 s, and the kernels as long to run (docs/performance.md).
+    for (var r = 0u; r < LANE_RAYS; r++) {
+        let pixel = packet_pixel(invocation, local_index(invocation) + 8u * r);
+        write_pixel(pixel_ray(pixel.i, pixel.j), lane_hit(hits, r), pixel.i, pixel.j, pixel.index, pixel.inside);
+        swap_rays();
+    }
 #else
     let p = packet_pixel(invocation, local_index(invocation));
     cast_pixel(p.i, p.j, p.index, p.inside);

@@ -382,16 +382,16 @@ impl Variant {
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
     /// node and primitive fetched serves them all (`LANES`, `LANE_RAYS`, shaders/traverse.wgsl
     /// `traverse_bvh_lanes`): wherever packets are used (the camera's rays, a caller's) on
-    /// subgroups of exactly 8, four (one subgroup in four then casts its own rays and the next
-    /// three subgroups'), or two with the certainty pass, which keeps each ray's record in
-    /// private state and swaps the second's in around its work; else one. Eight rays a lane
-    /// traced the torus in 0.92x the time of four but took 2.6x as long to compile
-    /// (docs/performance.md, "Four rays a lane").
+    /// subgroups of exactly 8, eight (one subgroup in eight then casts the rays of its whole
+    /// workgroup, 8x8 pixels of the camera's), or two with the certainty pass, which keeps each
+    /// ray's record in private state and swaps the second's in around its work; else one.
+    /// With packet intervals eight rays a lane traced the 100 spheres in 0.83x and the torus in
+    /// 0.85x the time of four (docs/performance.md, "Eight rays a lane").
     pub fn lane_rays(&self) -> u32 {
         match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
             (true, true) => 2,
-            (true, false) => 4,
+            (true, false) => 8,
         }
     }
 
@@ -841,7 +841,7 @@ mod tests {
     }
 
     /// Several rays a lane only where a subgroup of 8 can take its neighbours' rays, for the
-    /// camera's rays and a caller's (not their counts): four, two with the certainty pass (its
+    /// camera's rays and a caller's (not their counts): eight, two with the certainty pass (its
     /// record swap serves two); the kernel then traces through the lanes' traversal, with a
     /// field per ray in `LaneRays`.
     #[test]
@@ -864,7 +864,7 @@ mod tests {
             certainty: true,
             ..lanes
         };
-        for (variant, rays) in [(lanes, 4), (listed, 4), (f64, 4), (certainty, 2)] {
+        for (variant, rays) in [(lanes, 8), (listed, 8), (f64, 8), (certainty, 2)] {
             assert_eq!(variant.lane_rays(), rays, "{variant:?}");
             assert!(variant.defines().contains(&"LANES"));
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
