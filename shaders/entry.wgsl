@@ -211,10 +211,11 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     rays.r$r = listed_ray(list_entry(invocation, groups, local_index(invocation) + 8u * $ru));
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
-    // One copy of the output code, as for the camera's rays (main below).
+    // One copy of the output code, as for the camera's rays (main below); each ray taken from
+    // `rays` rather than loaded again (0.97x the time on the torus).
     for (var r = 0u; r < LANE_RAYS; r++) {
         let entry = list_entry(invocation, groups, local_index(invocation) + 8u * r);
-        write_ray(listed_ray(entry), lane_hit(hits, r), entry.slot, entry.exists);
+        write_ray(lane_ray(rays, r), lane_hit(hits, r), entry.slot, entry.exists);
         swap_rays();
     }
 #else

@@ -540,9 +540,9 @@ struct LaneHits {
 #end_each
 }
 
-// Hit r of a lane's (r the same in every lane), for code that runs in a loop over the rays:
-// fields chosen by branches, where an array indexed by r would be kept in memory (with one, the
-// 100 spheres' kernel took 1.12x the time).
+// Hit r and ray r of a lane's (r the same in every lane), for code that runs in a loop over the
+// rays: fields chosen by branches, where an array indexed by r would be kept in memory (with
+// one, the 100 spheres' kernel took 1.12x the time).
 fn lane_hit(hits: LaneHits, r: u32) -> Hit {
     var hit = hits.h0;
 #each_ray
@@ -551,6 +551,16 @@ fn lane_hit(hits: LaneHits, r: u32) -> Hit {
     }
 #end_each
     return hit;
+}
+
+fn lane_ray(rays: LaneRays, r: u32) -> Ray {
+    var ray = rays.r0;
+#each_ray
+    if (r == $ru) {
+        ray = rays.r$r;
+    }
+#end_each
+    return ray;
 }
 
 // After work on each of a lane's rays in turn: with CERTAINTY, which keeps the ray worked on's
