@@ -682,6 +682,31 @@ fn interval_entry(lo: vec3<f32>, hi: vec3<f32>, packet: PacketInterval, min_t: r
     return select(select(NO_HIT, t_in, t_in <= t_out), min_t, packet.unbounded);
 }
 
+// Whether a packet's interval culls too little to test boxes by: where its rays' direction
+// components straddle zero on an axis, their inverses span from large negative to large
+// positive values and that axis's slab bounds nothing, so a packet through the middle of a view
+// along an axis (or of rays jittered about it) would visit every box its other axes allow. Such
+// a packet tests each box per ray instead (with intervals alone the torus seen from above
+// traced at 0.9x the rate of 0138f3d's per-ray tests, against 1.36x from the peers' camera).
+fn is_loose(packet: PacketInterval) -> bool {
+    return packet.unbounded || any((packet.inverse_lo < vec3<f32>(0.0)) & (packet.inverse_hi > vec3<f32>(0.0)));
+}
+
+// The earlier of two box entries, either of which may be NO_HIT.
+fn earliest(a: real, b: real) -> real {
+    return select(select(smaller(a, b), b, a == NO_HIT), a, b == NO_HIT);
+}
+
+// The earliest of the lanes' entries into the two boxes of a visit (each NO_HIT where no ray
+// enters), rounded down to f32 for the packet's butterflies: an entry a little early only orders
+// and culls less.
+fn packet_earliest(lane_t0: real, lane_t1: real) -> vec2<real> {
+    let none = vec2<real>(real(F32_MAX));
+    let lanes = select(vec2<real>(lane_t0, lane_t1), none, vec2<real>(lane_t0, lane_t1) == vec2<real>(NO_HIT));
+    let packet = vec2<real>(packet_min(f32_below(vec3<real>(lanes, real(F32_MAX)))).xy);
+    return select(packet, vec2<real>(NO_HIT), packet >= none);
+}
+
 // Whether every ray of a packet tests the primitives of a leaf (`count`) the packet enters,
 // rather than those whose own box test enters it: robust spheres, whose test costs about what
 // a box test does and whose error is far below the boxes' growth, so it finds no hit its box
@@ -725,6 +750,7 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
     swap_rays();
 #end_each
     let packet = packet_interval(lane_interval);
+    let loose = is_loose(packet);
     var cull = packet_cull(lane_cull);
     var stack_low = vec4<u32>(0u);
     var stack_high = 0u;
@@ -732,8 +758,25 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
     var node = 0u;
     loop {
         let w = fetch_shared(node);
-        let t0 = interval_entry(bitcast<vec3<f32>>(w.q0.xyz), bitcast<vec3<f32>>(w.q1.xyz), packet, min_t, cull);
-        let t1 = interval_entry(bitcast<vec3<f32>>(w.q2.xyz), bitcast<vec3<f32>>(w.q3.xyz), packet, min_t, cull);
+        var t0: real;
+        var t1: real;
+        if (loose) {
+            // Each ray's own box tests, and the earliest entry of any ray into each box.
+            var lane_t0 = NO_HIT;
+            var lane_t1 = NO_HIT;
+#each_ray
+            let visit$r = visit_parts(w.q0, w.q1, w.q2, w.q3, traced$r.ray, traced$r.inverse, min_t, cull_t(best$r));
+            swap_rays();
+            lane_t0 = earliest(lane_t0, visit$r.t0);
+            lane_t1 = earliest(lane_t1, visit$r.t1);
+#end_each
+            let entries = packet_earliest(lane_t0, lane_t1);
+            t0 = entries.x;
+            t1 = entries.y;
+        } else {
+            t0 = interval_entry(bitcast<vec3<f32>>(w.q0.xyz), bitcast<vec3<f32>>(w.q1.xyz), packet, min_t, cull);
+            t1 = interval_entry(bitcast<vec3<f32>>(w.q2.xyz), bitcast<vec3<f32>>(w.q3.xyz), packet, min_t, cull);
+        }
         let n = Visit(t0, t1, w.q0.w, w.q1.w, w.q2.w, w.q3.w);
         let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
         let leaf1 = (n.reference1 & LEAF_BIT) != 0u;

@@ -747,13 +747,24 @@ const PACKET: usize = 8;
 
 /// How far apart the rays of sampled packets may be (see [`packet_spread`]) for the list to be
 /// traced in packets: on the torus, directions jittered by 0.01 still traced 1.1x as fast in
-/// packets, by 0.03 1.2x as fast one by one. The 1080p peer camera's rays spread 0.002 in a
-/// 4x2 tile and 0.005 over 8 of a row.
+/// packets, by 0.03 1.2x as fast one by one (packets of 8 rays, each ray testing every box).
+/// The 1080p peer camera's rays spread 0.002 in a 4x2 tile and 0.005 over 8 of a row.
 const COHERENT_SPREAD: f64 = 0.02;
+
+/// How far the sampled packets' rays may stray from a smooth progression (see
+/// [`packet_roughness`]) for the list to be traced in packets. The GPU's packets (64 rays on
+/// lavapipe) test each box against the interval of their rays (docs/performance.md, "Packet
+/// intervals"), which jitter widens far beyond the rays' own paths, while a camera's smooth
+/// spread leaves it tight. The torus's 2M peer-camera rays through Python (2026-11-26), their
+/// unit directions jittered by a normal deviate per component: by 0.002 (roughness 0.0095)
+/// they traced in packets in 0.5x the time of one by one, by 0.005 (0.024) in 1.2x, by 0.01
+/// (0.049) in 3.4x.
+const COHERENT_ROUGHNESS: f64 = 0.015;
 
 /// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list,
 /// as the GPU would form them, the rays lie within [`COHERENT_SPREAD`] of each other
-/// ([`packet_spread`], origins measured against `extent`, the scene's size).
+/// ([`packet_spread`], origins measured against `extent`, the scene's size) and stray at most
+/// [`COHERENT_ROUGHNESS`] from a smooth progression along the rows ([`packet_roughness`]).
 pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
     let n = list.len();
     let packets = n.div_ceil(PACKET);
@@ -761,28 +772,52 @@ pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
         return true;
     }
     let samples = packets.min(64);
-    let mut spreads: Vec<f64> = (0..samples)
+    let (mut spreads, mut roughness): (Vec<f64>, Vec<f64>) = (0..samples)
         .map(|s| {
             let first = s * packets / samples * PACKET;
-            let members: Vec<Ray> = match list.width {
-                // The 4x2 tile whose top-left ray is nearest `first`.
+            let (members, row): (Vec<Ray>, usize) = match list.width {
+                // The 4x2 tile whose top-left ray is nearest `first`, in two rows of 4.
                 Some(w) if w >= 4 => {
                     let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
-                    (0..2)
+                    let members = (0..2)
                         .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
                         .filter(|&k| k < n)
                         .map(|k| list.get(k))
-                        .collect()
+                        .collect();
+                    (members, 4)
                 }
-                _ => (first..(first + PACKET).min(n))
-                    .map(|k| list.get(k))
-                    .collect(),
+                _ => (
+                    (first..(first + PACKET).min(n))
+                        .map(|k| list.get(k))
+                        .collect(),
+                    PACKET,
+                ),
             };
-            packet_spread(&members, extent)
+            (
+                packet_spread(&members, extent),
+                packet_roughness(&members, row, extent),
+            )
         })
-        .collect();
+        .unzip();
     spreads.sort_by(f64::total_cmp);
-    spreads[samples / 2] <= COHERENT_SPREAD
+    roughness.sort_by(f64::total_cmp);
+    spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
+}
+
+/// How far a packet's rays stray from a smooth progression along its rows of `row` rays: the
+/// largest second difference of neighbouring unit directions, plus that of origins in units of
+/// `extent`. A camera's rays change smoothly (about 1e-6 at 1080p); jitter of s per component
+/// gives about 5 s.
+fn packet_roughness(rays: &[Ray], row: usize, extent: f64) -> f64 {
+    let direction = |r: &Ray| normalize(Vec3::from_array(r.direction));
+    let origin = |r: &Ray| Vec3::from_array(r.origin);
+    rays.chunks(row)
+        .flat_map(|run| run.windows(3))
+        .map(|w| {
+            length(direction(&w[0]) - direction(&w[1]) * 2.0 + direction(&w[2]))
+                + length(origin(&w[0]) - origin(&w[1]) * 2.0 + origin(&w[2])) / extent
+        })
+        .fold(0.0, f64::max)
 }
 
 /// How far the rays of a packet are from its first: the largest distance between unit

@@ -193,14 +193,31 @@ fn coherent_rays_in_packets_equal_cpu_rays() {
     }
 }
 
-/// Rays whose neighbours start far apart or point different ways are not coherent; a camera's
-/// are, whether listed flat or as an image.
+/// Rays whose neighbours start far apart, point different ways or zig-zag are not coherent; a
+/// camera's are, whether listed flat or as an image.
 #[test]
 fn coherence_of_ray_lists() {
     // A 640x480 camera's rays 0.001 apart, and a crop of them.
     let camera = pinhole_rays([0.0, 0.0, 5.0], 64, 48, 0.064);
     assert!(coherent(RayList::from(&camera), 2.0));
     assert!(coherent(RayList::image(&camera, 64), 2.0));
+    // The same rays zig-zagging by 0.0045 (every other column turned one way, the rest the
+    // other): as close together (a packet spreads 0.009 more), but not a smooth progression
+    // (second differences 0.018), so a packet's interval would be far wider than its rays' paths.
+    let zigzag: Vec<Ray> = camera
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Ray {
+            origin: r.origin,
+            direction: [
+                r.direction[0] + if k % 2 == 0 { 0.0045 } else { -0.0045 },
+                r.direction[1],
+                r.direction[2],
+            ],
+        })
+        .collect();
+    assert!(!coherent(RayList::from(&zigzag), 2.0));
+    assert!(!coherent(RayList::image(&zigzag, 64), 2.0));
     // 64x48 over the same field of view: 0.01 apart, 0.07 over 8 in a row, 0.03 over a tile.
     let wide = pinhole_rays([0.0, 0.0, 5.0], 64, 48, 0.64);
     assert!(!coherent(RayList::from(&wide), 2.0));
