@@ -576,7 +576,8 @@ fn swap_rays() {
 // origin_hi] and the inverse of its direction (RayInverse) in [inverse_lo, inverse_hi], as
 // f32 bounds (rounded outward from f64: packet_min and packet_max take f32). `unbounded` where
 // some ray has a zero direction component (box_entry_axis_parallel's rays) or coordinates
-// beyond INTERVAL_LIMIT, whose products might overflow: such a packet enters every box.
+// beyond INTERVAL_LIMIT, whose products might overflow: such a packet tests boxes per ray
+// (is_loose), never by interval_entry.
 struct PacketInterval {
     origin_lo: vec3<f32>,
     origin_hi: vec3<f32>,
@@ -679,7 +680,7 @@ fn interval_entry(lo: vec3<f32>, hi: vec3<f32>, packet: PacketInterval, min_t: r
     let far = larger3(larger3(larger3(a[0], a[1]), larger3(a[2], a[3])), larger3(larger3(b[0], b[1]), larger3(b[2], b[3])));
     let t_in = larger(larger(near.x, near.y), larger(near.z, min_t)) * BOX_ENTRY_SHRINK;
     let t_out = smaller(smaller(far.x, far.y), smaller(far.z, t_max));
-    return select(select(NO_HIT, t_in, t_in <= t_out), min_t, packet.unbounded);
+    return select(NO_HIT, t_in, t_in <= t_out);
 }
 
 // Whether a packet's interval culls too little to test boxes by: where its rays' direction
@@ -782,7 +783,6 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
         let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
         let run = leaf_run(n, leaf0 && t0 != NO_HIT, leaf1 && t1 != NO_HIT);
         if (run.length != 0u) {
-            lane_cull = 0.0;
 #each_ray
             let leaf_cull$r = cull_t(best$r);
             let enters$r_0 = run.length0 != 0u && enters_leaf(w.q0, w.q1, n.count0, traced$r, min_t, leaf_cull$r);
@@ -821,6 +821,7 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
 #endif
                 }
             }
+            lane_cull = 0.0;
 #each_ray
             lane_cull = larger(lane_cull, cull_t(best$r));
             swap_rays();

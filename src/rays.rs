@@ -742,7 +742,8 @@ fn kernel_eye(centre: f64, extent: f64) -> f64 {
     }
 }
 
-/// Rays a packet traverses together: 8 consecutive ones, or a 4x2 tile of an image's.
+/// Rays of a sampled packet: 8 consecutive ones, or a 4x2 tile of an image's (a part of the
+/// GPU's packets, which on lavapipe are 64 rays: 8x8 of an image's).
 const PACKET: usize = 8;
 
 /// How far apart the rays of sampled packets may be (see [`packet_spread`]) for the list to be
@@ -757,12 +758,12 @@ const COHERENT_SPREAD: f64 = 0.02;
 /// intervals"), which jitter widens far beyond the rays' own paths, while a camera's smooth
 /// spread leaves it tight. The torus's 2M peer-camera rays through Python (2026-11-26), their
 /// unit directions jittered by a normal deviate per component: by 0.002 (roughness 0.0095)
-/// they traced in packets in 0.5x the time of one by one, by 0.005 (0.024) in 1.2x, by 0.01
+/// they traced in packets in 0.6x the time of one by one, by 0.005 (0.024) in 1.2x, by 0.01
 /// (0.049) in 3.4x.
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
-/// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list,
-/// as the GPU would form them, the rays lie within [`COHERENT_SPREAD`] of each other
+/// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
+/// ([`PACKET`]), the rays lie within [`COHERENT_SPREAD`] of each other
 /// ([`packet_spread`], origins measured against `extent`, the scene's size) and stray at most
 /// [`COHERENT_ROUGHNESS`] from a smooth progression along the rows ([`packet_roughness`]).
 pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
@@ -806,7 +807,7 @@ pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
 
 /// How far a packet's rays stray from a smooth progression along its rows of `row` rays: the
 /// largest second difference of neighbouring unit directions, plus that of origins in units of
-/// `extent`. A camera's rays change smoothly (about 1e-6 at 1080p); jitter of s per component
+/// `extent`. A camera's rays change smoothly (below 1e-4 at 1080p); jitter of s per component
 /// gives about 5 s.
 fn packet_roughness(rays: &[Ray], row: usize, extent: f64) -> f64 {
     let direction = |r: &Ray| normalize(Vec3::from_array(r.direction));

@@ -121,7 +121,7 @@ fn box_entry_axis_parallel<T: Real>(
 /// A packet's rays as intervals, componentwise (`PacketInterval` in WGSL): every ray's origin
 /// lies in `[origin_lo, origin_hi]` and its inverse direction in `[inverse_lo, inverse_hi]`, as
 /// f32 bounds; `unbounded` where some ray has a zero direction component or coordinates beyond
-/// `INTERVAL_LIMIT`.
+/// `INTERVAL_LIMIT` (such a packet tests boxes per ray, not by `interval_entry`).
 #[derive(Clone, Copy, Debug)]
 pub struct PacketInterval {
     pub origin_lo: [f32; 3],
@@ -229,13 +229,7 @@ pub fn interval_entry<T: Real>(
     }
     let t_in = larger(larger(near[0], near[1]), larger(near[2], min_t)) * box_entry_shrink();
     let t_out = smaller(smaller(far[0], far[1]), smaller(far[2], t_max));
-    if packet.unbounded {
-        min_t
-    } else if t_in <= t_out {
-        t_in
-    } else {
-        no_hit()
-    }
+    if t_in <= t_out { t_in } else { no_hit() }
 }
 
 /// `is_closer` for a primitive stored at `index` in BVH order: ties within one object go to
