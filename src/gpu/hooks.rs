@@ -279,69 +279,19 @@ fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)
     names
 }
 
-/// The variants whose global names a hook must avoid: a few that together hold every `#if`
-/// block that declares a name (every kind, output, chunk, the BVH by ray and by packet, the
-/// certainty test, a pixel list, a ray list and its count, f64 and its recheck, a placeholder hook). A test checks that
-/// they declare the same names as every variant a device may build; assembling only these keeps
-/// a hook's check fast (every variant took half a second).
-fn kernel_variants() -> Vec<Variant> {
-    let (placeholder, _) =
-        register("fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(0.0); }\n");
-    let mut variants = Vec::new();
-    for precision in [Precision::F32, Precision::F64] {
-        for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
-            let base = Variant {
-                bvh: true,
-                chunks: shader::MAX_CHUNKS,
-                ..Variant::new(precision, algorithm)
-            };
-            variants.push(Variant {
-                certainty: algorithm == Algorithm::Robust,
-                ..base
-            });
-            variants.push(Variant {
-                source: shader::Source::Pixels,
-                ..base
-            });
-            for (count, packets) in [(false, false), (true, false), (false, true)] {
-                variants.push(Variant {
-                    source: shader::Source::Rays,
-                    count,
-                    packets,
-                    ..base
-                });
-            }
-            variants.push(Variant {
-                packets: true,
-                ..base
-            });
-            // Several rays a lane (LANES), with the certainty pass's second record where robust.
-            variants.push(Variant {
-                packets: true,
-                eight_lanes: true,
-                certainty: algorithm == Algorithm::Robust,
-                ..base
-            });
-            variants.push(Variant {
-                uniform_prims: true,
-                chunks: 1,
-                ..base
-            });
-            variants.push(base.with_shade(placeholder));
-        }
-    }
-    variants
-}
-
-/// The kernel's global names (any variant; the hook's own two left out) and what each names.
+/// The kernel's global names (any variant; the hook's own two left out) and what each names,
+/// read from the declarations at the top level of every shader file whatever its `#if`s (and
+/// of the host's generated module), so that no kernel is assembled or parsed: parsing a few
+/// dozen variants with naga took 0.13-0.16 s of every hook's check. A test checks that they
+/// hold every name, of the same kind, that naga finds in every variant a device may build.
 fn kernel_names() -> &'static HashMap<String, &'static str> {
     static NAMES: OnceLock<HashMap<String, &'static str>> = OnceLock::new();
     NAMES.get_or_init(|| {
+        let generated = shader::generated_module();
+        let sources = shader::MODULES.iter().map(|(_, text)| *text);
         let mut names = HashMap::new();
-        for variant in kernel_variants() {
-            let source = shader::kernel_source(&variant).expect("the kernel assembles");
-            let module = naga::front::wgsl::parse_str(&source).expect("the kernel parses");
-            for (what, name, _) in global_names(&module) {
+        for text in sources.chain([generated.as_str()]) {
+            for (what, name) in top_level_names(text) {
                 if name != HOOK_FUNCTION && name != HOOK_INPUT {
                     names.entry(name).or_insert(what);
                 }
@@ -349,6 +299,91 @@ fn kernel_names() -> &'static HashMap<String, &'static str> {
         }
         names
     })
+}
+
+/// The names declared at the top level of the WGSL `source` and what each declares, as
+/// [`global_names`] calls them (and `alias`). Read line by line, as the shader files are
+/// written: a declaration starts a line outside braces, after its attributes, and the lines of
+/// every `#if` branch are read, each from the depth of braces at its `#if` (two branches may
+/// open one function differently).
+fn top_level_names(source: &str) -> Vec<(&'static str, String)> {
+    let mut names = Vec::new();
+    let mut depth = 0usize;
+    // For each open `#if`: the depth at it, and where its first branch ended once `#else` is met.
+    let mut branches: Vec<(usize, Option<usize>)> = Vec::new();
+    let mut entry_point = false;
+    for line in source.lines() {
+        let code = line.split("//").next().unwrap_or_default().trim();
+        if code.starts_with("#if ") {
+            branches.push((depth, None));
+        } else if code == "#else" {
+            if let Some((at_if, first_end)) = branches.last_mut() {
+                *first_end = Some(depth);
+                depth = *at_if;
+            }
+        } else if code == "#endif"
+            && let Some((_, Some(first_end))) = branches.pop()
+        {
+            depth = first_end;
+        }
+        if depth == 0 && !code.starts_with('#') {
+            let (attributes, rest) = strip_attributes(code);
+            entry_point |= attributes.contains(&"compute");
+            if let Some((keyword, name)) = declared(rest) {
+                let what = match keyword {
+                    "fn" if entry_point => "entry point",
+                    "fn" => "function",
+                    "struct" => "struct",
+                    "const" => "constant",
+                    "var" => "variable",
+                    "override" => "override",
+                    _ => "alias",
+                };
+                names.push((what, name.to_owned()));
+                entry_point = false;
+            }
+        }
+        let opened = code.matches('{').count();
+        let closed = code.matches('}').count();
+        depth = (depth + opened).saturating_sub(closed);
+    }
+    names
+}
+
+/// The names of the attributes (`@compute`, `@group(0)`) that begin `code`, and what follows them.
+fn strip_attributes(mut code: &str) -> (Vec<&str>, &str) {
+    let mut attributes = Vec::new();
+    while let Some(rest) = code.strip_prefix('@') {
+        let (name, mut rest) = split_identifier(rest);
+        attributes.push(name);
+        if let Some(arguments) = rest.trim_start().strip_prefix('(') {
+            rest = arguments.split_once(')').map_or("", |(_, after)| after);
+        }
+        code = rest.trim_start();
+    }
+    (attributes, code)
+}
+
+/// The keyword and name of a module-scope declaration that `code` begins, if it begins one.
+fn declared(code: &str) -> Option<(&str, &str)> {
+    let (keyword, rest) = split_identifier(code);
+    if !["fn", "struct", "const", "var", "override", "alias"].contains(&keyword) {
+        return None;
+    }
+    let mut rest = rest.trim_start();
+    if keyword == "var" && rest.starts_with('<') {
+        rest = rest.split_once('>')?.1.trim_start();
+    }
+    let (name, _) = split_identifier(rest);
+    (!name.is_empty()).then_some((keyword, name))
+}
+
+/// The identifier that `text` begins with (maybe empty) and the rest.
+fn split_identifier(text: &str) -> (&str, &str) {
+    let end = text
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(text.len());
+    text.split_at(end)
 }
 
 /// No global name of the hook's module is one of the kernel's.
@@ -409,22 +444,56 @@ mod tests {
     use super::*;
     use crate::images::Outputs;
 
-    /// The few variants [`kernel_names`] assembles declare every name any variant declares.
+    /// [`kernel_names`], read from the shader files, holds every name naga finds in every
+    /// variant a device may build (with a hook too), as the same kind of thing.
     #[test]
-    fn the_name_variants_cover_every_variant() {
-        let mut all = std::collections::HashSet::new();
+    fn the_scanned_names_cover_every_variant() {
+        let (placeholder, _) =
+            register("fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(0.0); }\n");
+        let scanned = kernel_names();
+        let mut wrong = std::collections::BTreeSet::new();
         for variant in shader::all_variants() {
-            let source = shader::kernel_source(&variant.with_outputs(Outputs::GEOMETRY)).unwrap();
-            let module = naga::front::wgsl::parse_str(&source).unwrap();
-            for (_, name, _) in global_names(&module) {
-                if name != HOOK_FUNCTION && name != HOOK_INPUT {
-                    all.insert(name);
+            for variant in [
+                variant.with_outputs(Outputs::GEOMETRY),
+                variant.with_shade(placeholder),
+            ] {
+                let source = shader::kernel_source(&variant).unwrap();
+                let module = naga::front::wgsl::parse_str(&source).unwrap();
+                for (what, name, _) in global_names(&module) {
+                    if name != HOOK_FUNCTION
+                        && name != HOOK_INPUT
+                        && scanned.get(&name) != Some(&what)
+                    {
+                        wrong.insert(format!("{what} {name} (scanned: {:?})", scanned.get(&name)));
+                    }
                 }
             }
         }
-        let few: std::collections::HashSet<String> = kernel_names().keys().cloned().collect();
-        let missing: Vec<&String> = all.difference(&few).collect();
-        assert!(missing.is_empty(), "names of no name variant: {missing:?}");
+        assert!(
+            wrong.is_empty(),
+            "names naga finds but the scan does not: {wrong:?}"
+        );
+    }
+
+    #[test]
+    fn top_level_names_are_read_past_attributes_and_bodies() {
+        let source = "// fn commented()\n@group(0) @binding(3) var<storage, read> nodes: array<u32>;\n\
+                      struct Pair {\n    a: u32,\n}\nconst N: u32 = 4u;\n#if X\nfn f() {\n    let inner = 1u;\n\
+                      #else\nfn f(k: u32) {\n#endif\n    var local = 2u;\n}\nalias real = f32;\n\
+                      @compute @workgroup_size(8, 8)\nfn main() {}\nvar<private> lane: u32;\n";
+        let names = top_level_names(source);
+        let expected = [
+            ("variable", "nodes"),
+            ("struct", "Pair"),
+            ("constant", "N"),
+            ("function", "f"),
+            ("function", "f"),
+            ("alias", "real"),
+            ("entry point", "main"),
+            ("variable", "lane"),
+        ];
+        let found: Vec<(&str, &str)> = names.iter().map(|(w, n)| (*w, n.as_str())).collect();
+        assert_eq!(found, expected);
     }
 
     const GOOD: &str = "fn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(hit.normal * 0.5 + 0.5, 1.0);\n}\n";

@@ -478,6 +478,16 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
         .map(|(_, s)| s.to_string())
 }
 
+/// The module the host generates (`precision`) with every declaration it may hold.
+pub fn generated_module() -> String {
+    let variant = Variant {
+        uniform_prims: true,
+        chunks: 1,
+        ..Variant::new(Precision::F32, Algorithm::Robust)
+    };
+    module_source(PRECISION_MODULE, &variant).expect("the precision module is generated")
+}
+
 /// Assembles `root` and everything it imports into one WGSL source specialised for `variant`.
 ///
 /// Each module appears once, after its imports, under a `// ---- shaders/NAME.wgsl` banner so a
