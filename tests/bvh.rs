@@ -204,6 +204,16 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 &cpu32,
                 &format!("{name} {algorithm}: per-ray traversal"),
             );
+            // So do the lighter kernels of smaller renders, with fewer rays a lane.
+            for lane_rays_limit in [2, 4] {
+                let lighter = Variant {
+                    lane_rays_limit,
+                    ..variant(true)
+                };
+                let lighter = common::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
+                let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
+                assert_same_bits(&lighter, &cpu32, &what);
+            }
             let what = format!("{name} {algorithm}: GPU vs CPU brute force");
             assert_same_bits(&brute32, &cpu_brute32, &what);
             if algorithm == Robust && !out_of_f32_range(&name) {

@@ -107,6 +107,7 @@ impl Gpu {
             bvh: false,
             packets,
             eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
+            lane_rays_limit: shader::MAX_LANE_RAYS,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,

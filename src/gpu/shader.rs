@@ -95,6 +95,9 @@ pub struct Variant {
     /// constant-xor shuffles (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
     /// compiles to permutes instead of a loop over the lanes.
     pub eight_lanes: bool,
+    /// The most rays a lane casts ([`Variant::lane_rays`]): [`MAX_LANE_RAYS`], or fewer for a
+    /// render too small to repay a longer kernel's compile ([`Variant::for_rays`]).
+    pub lane_rays_limit: u8,
     /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
     /// [`MAX_CHUNKS`]): meshes larger than one binding.
     pub chunks: u8,
@@ -124,6 +127,15 @@ pub struct Variant {
     /// variant says what the host binds and reads back for it.
     pub kernel: Option<SourceKey>,
 }
+
+/// The most rays a lane of a packet kernel casts ([`Variant::lane_rays`]).
+pub const MAX_LANE_RAYS: u8 = 8;
+/// Renders of at least this many rays cast four rays a lane ([`Variant::for_rays`]): 1920x1080
+/// and more.
+pub const FOUR_LANE_RAYS: u64 = 2_000_000;
+/// Renders of at least this many rays cast eight rays a lane ([`Variant::for_rays`]): 3840x2160
+/// and more.
+pub const EIGHT_LANE_RAYS: u64 = 8_000_000;
 
 /// Bytes of each uniform binding of the primitives: 64 KiB, WebGPU's default
 /// `maxUniformBufferBindingSize` (lavapipe allows the same).
@@ -219,6 +231,7 @@ impl Variant {
             bvh: false,
             packets: false,
             eight_lanes: false,
+            lane_rays_limit: MAX_LANE_RAYS,
             chunks: 1,
             chunk_bits: chunk_bits_for(128 << 20, precision),
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
@@ -387,11 +400,33 @@ impl Variant {
     /// ray's record in private state and swaps the second's in around its work; else one.
     /// With packet intervals eight rays a lane traced the 100 spheres in 0.83x and the torus in
     /// 0.85x the time of four (docs/performance.md, "Eight rays a lane").
+    /// At most `lane_rays_limit` ([`Variant::for_rays`]).
     pub fn lane_rays(&self) -> u32 {
-        match (self.uses_packets() && self.eight_lanes, self.certainty) {
+        let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
             (true, true) => 2,
-            (true, false) => 8,
+            (true, false) => MAX_LANE_RAYS as u32,
+        };
+        most.min(self.lane_rays_limit.max(1) as u32)
+    }
+
+    /// This variant for a render of `rays` rays in one process: at most two rays a lane below
+    /// [`FOUR_LANE_RAYS`] rays, four below [`EIGHT_LANE_RAYS`], else eight. Each ray a lane
+    /// lengthens the kernel that llvmpipe translates in every process, even with Mesa's shader
+    /// cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
+    /// four and 0.28 s with eight (through `--kernel`, 2026-11-26), while eight rays gain on
+    /// four only some 15% of the trace (docs/performance.md, "Rays a lane by render size").
+    /// `raycast bench`, Python's casts and ray lists keep eight: they trace the same kernel
+    /// many times.
+    pub fn for_rays(self, rays: u64) -> Variant {
+        let lane_rays_limit = match rays {
+            r if r < FOUR_LANE_RAYS => 2,
+            r if r < EIGHT_LANE_RAYS => 4,
+            _ => MAX_LANE_RAYS,
+        };
+        Variant {
+            lane_rays_limit,
+            ..self
         }
     }
 
@@ -686,6 +721,7 @@ pub fn all_variants() -> Vec<Variant> {
                         bvh: false,
                         packets: false,
                         eight_lanes: false,
+                        lane_rays_limit: MAX_LANE_RAYS,
                         chunks: 1,
                         chunk_bits: 9,
                         bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
@@ -724,6 +760,16 @@ pub fn all_variants() -> Vec<Variant> {
                             uniform_prims: true,
                             ..plain
                         });
+                        // The lighter kernels of smaller renders (Variant::for_rays).
+                        for lane_rays_limit in [2, 4].into_iter().filter(|_| eight_lanes) {
+                            v.push(Variant {
+                                bvh,
+                                packets,
+                                eight_lanes,
+                                lane_rays_limit,
+                                ..plain
+                            });
+                        }
                     }
                     if !certainty && !listed {
                         for outputs in OUTPUT_SUBSETS {
@@ -874,7 +920,21 @@ mod tests {
             certainty: true,
             ..lanes
         };
-        for (variant, rays) in [(lanes, 8), (listed, 8), (f64, 8), (certainty, 2)] {
+        let four = lanes.for_rays(FOUR_LANE_RAYS);
+        let two = lanes.for_rays(FOUR_LANE_RAYS - 1);
+        let eight = lanes.for_rays(EIGHT_LANE_RAYS);
+        let certain_four = certainty.for_rays(FOUR_LANE_RAYS);
+        for (variant, rays) in [
+            (lanes, 8),
+            (listed, 8),
+            (f64, 8),
+            (certainty, 2),
+            (two, 2),
+            (four, 4),
+            (eight, 8),
+            (lanes.for_rays(EIGHT_LANE_RAYS - 1), 4),
+            (certain_four, 2),
+        ] {
             assert_eq!(variant.lane_rays(), rays, "{variant:?}");
             assert!(variant.defines().contains(&"LANES"));
             let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();

@@ -358,7 +358,10 @@ impl Spec {
             return Ok(adaptive::certainty_variant(gpu, scene));
         }
         let spp = self.spp.unwrap_or(1);
-        supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)
+        let variant = supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)?;
+        // Sized for the samples the render casts, as the render of the samples' scene is.
+        let [nx, ny] = scene.camera.resolution;
+        Ok(variant.for_rays(nx as u64 * ny as u64 * spp as u64))
     }
 }
 

@@ -98,8 +98,9 @@ impl Default for Request {
 
 impl Request {
     /// The kernel a GPU render of `scene` in `mode` (f32 or f64) runs for this request:
-    /// specialised for the scene and the outputs, with the hook, and the user's kernel in its
-    /// place where one is given (an error if its bindings do not fit).
+    /// specialised for the scene, its size ([`gpu::shader::Variant::for_rays`]) and the
+    /// outputs, with the hook, and the user's kernel in its place where one is given (an error
+    /// if its bindings do not fit).
     pub fn kernel_variant(
         &self,
         gpu: &Gpu,
@@ -110,7 +111,10 @@ impl Request {
             Arithmetic::F64 => Precision::F64,
             _ => Precision::F32,
         };
-        let mut variant = gpu.scene_variant(scene, precision, mode.algorithm);
+        let [nx, ny] = scene.camera.resolution;
+        let mut variant = gpu
+            .scene_variant(scene, precision, mode.algorithm)
+            .for_rays(nx as u64 * ny as u64);
         if let Some(hook) = &self.shade {
             variant = variant.with_shade(hook.key);
         }
