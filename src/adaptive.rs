@@ -8,8 +8,9 @@
 //! decision it makes (sphere discriminant, plane parallel cutoff, triangle edge functions, the
 //! start test, the order of the two nearest objects) is compared with twice its first-order
 //! error bound (`shaders/certainty.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
-//! where they are derived). Uncertain pixels are cast again in f64 (on the GPU where it has
-//! `SHADER_F64`, else on the CPU) and merged in. The images are f32: the decisions (hit/miss,
+//! where they are derived). Uncertain pixels are cast again in f64 and merged in: on the CPU
+//! where they are few ([`CPU_RECAST_PIXELS`]) or the GPU has no `SHADER_F64`, else on the
+//! GPU. The images are f32: the decisions (hit/miss,
 //! id) are those of f64 on every pixel, and re-cast pixels carry their f64 distance and normal
 //! rounded to f32 (keeping the whole image in f32 spares a widening copy that costs more than
 //! the re-cast on small images).
@@ -44,14 +45,21 @@ impl Adaptive {
     }
 }
 
+/// The most uncertain pixels [`render_adaptive`] casts again on the CPU, where the GPU has
+/// f64: the CPU reference casts them in a few tens of milliseconds (2 cores), less than
+/// compiling the GPU's f64 kernel takes (about 0.1 s on lavapipe with Mesa's shader cache
+/// warm, seconds cold). The course's scenes and the peers' torus re-cast 0.04% to 0.06% of
+/// their pixels at 1920x1080.
+pub const CPU_RECAST_PIXELS: usize = 1 << 16;
+
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
 pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
-    adaptive(gpu, scene, false)
+    render_adaptive_with(gpu, scene, false, CPU_RECAST_PIXELS)
 }
 
 /// [`render_adaptive`], also measuring the kernels' GPU time ([`Adaptive::kernel_s`]).
 pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
-    adaptive(gpu, scene, true)
+    render_adaptive_with(gpu, scene, true, CPU_RECAST_PIXELS)
 }
 
 /// The kernel of the first pass: robust f32, specialised for `scene`, with the certainty test.
@@ -75,7 +83,15 @@ pub fn certainty_pass(
     Ok((first, prepared))
 }
 
-fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
+/// [`render_adaptive`], measuring the kernels' time if `timed`, with at most
+/// `cpu_recast_pixels` uncertain pixels cast again on the CPU (more go to the GPU where it has
+/// f64).
+pub fn render_adaptive_with(
+    gpu: &Gpu,
+    scene: &Scene,
+    timed: bool,
+    cpu_recast_pixels: usize,
+) -> Result<Adaptive> {
     let (first, prepared) = certainty_pass(gpu, scene, timed)?;
     let certain = first
         .certainty
@@ -84,7 +100,8 @@ fn adaptive(gpu: &Gpu, scene: &Scene, timed: bool) -> Result<Adaptive> {
         .filter(|&k| !certain[k as usize])
         .collect();
     let mut images = first.images;
-    let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64);
+    let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64)
+        && uncertain.len() > cpu_recast_pixels;
     let first_s = first.stages.kernel_s;
     if uncertain.is_empty() {
         return Ok(Adaptive {

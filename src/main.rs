@@ -70,7 +70,8 @@ enum Command {
         #[arg(long, default_value = "gpu")]
         device: Device,
         /// Arithmetic: f32, f64 (on the GPU it needs SHADER_F64), or adaptive (GPU, robust:
-        /// f32 with uncertain pixels cast again in f64, on the GPU or else on the CPU).
+        /// f32 with uncertain pixels cast again in f64: on the CPU where they are few or the
+        /// GPU has no f64, else on the GPU).
         /// Default: adaptive on the GPU (f32 with --shader, --kernel, --emit-shader,
         /// --band-rows, the textbook set, or images of more than 16,777,216 pixels, which f32
         /// renders in bands); f64 on the CPU.

@@ -2,7 +2,9 @@
 //! in f64.
 //!
 //! - On every pixel of the course scenes and of `scenes/extremes/`, hit/miss and id equal CPU
-//!   f64 robust exactly, and on the course scenes less than 5% of pixels are re-cast.
+//!   f64 robust exactly, and on the course scenes less than 5% of pixels are re-cast; with the
+//!   re-cast on the CPU (few pixels, the default) and forced onto the GPU's f64 kernel, whose
+//!   images are the same bit for bit.
 //! - The certainty test is sound: over seeded random scenes and the extreme scenes, no pixel
 //!   the f32 pass marks certain disagrees with CPU f64 robust in hit/miss or id (the counter
 //!   must find zero), and the same counter does find disagreements when the certainty flags
@@ -14,7 +16,7 @@ mod common;
 
 use common::*;
 use raycast::Algorithm::Robust;
-use raycast::adaptive::render_adaptive;
+use raycast::adaptive::{Adaptive, render_adaptive, render_adaptive_with};
 use raycast::images::Images;
 use raycast::scene::Scene;
 
@@ -23,6 +25,25 @@ fn extreme_scenes() -> Vec<(String, Scene)> {
         .into_iter()
         .map(|(path, scene)| (scene_name(&path), scene))
         .collect()
+}
+
+/// The adaptive render of `scene` with its re-cast on the CPU (the default for few pixels) and
+/// forced onto the GPU: the same images, bit for bit.
+fn adaptive_both_ways(name: &str, scene: &Scene) -> Adaptive {
+    let on_cpu = render_adaptive(gpu(), scene).unwrap();
+    let on_gpu = render_adaptive_with(gpu(), scene, false, 0).unwrap();
+    assert!(!on_cpu.recast_on_gpu || on_cpu.recast > raycast::adaptive::CPU_RECAST_PIXELS);
+    assert_eq!(
+        on_gpu.recast_on_gpu,
+        on_gpu.recast > 0,
+        "{name}: lavapipe has f64"
+    );
+    assert_eq!(on_cpu.recast, on_gpu.recast, "{name}");
+    assert!(
+        on_cpu.images == on_gpu.images,
+        "{name}: CPU and GPU re-casts differ"
+    );
+    on_cpu
 }
 
 /// Pixels whose hit/miss or id differ.
@@ -34,7 +55,7 @@ fn disagreements<T: raycast::math::Real>(a: &Images<T>, truth: &Images<f64>) -> 
 fn adaptive_equals_f64_on_every_course_pixel_and_recasts_under_5_percent() {
     for name in COURSE_SCENES {
         let scene = course_scene(name);
-        let adaptive = render_adaptive(gpu(), &scene).unwrap();
+        let adaptive = adaptive_both_ways(name, &scene);
         let truth = raycast::cpu::render::<f64>(&scene, Robust);
         let wrong = disagreements(&adaptive.images, &truth);
         println!(
@@ -53,7 +74,7 @@ fn adaptive_equals_f64_on_every_course_pixel_and_recasts_under_5_percent() {
 #[test]
 fn adaptive_equals_f64_on_every_extreme_pixel() {
     for (name, scene) in extreme_scenes() {
-        let adaptive = render_adaptive(gpu(), &scene).unwrap();
+        let adaptive = adaptive_both_ways(&name, &scene);
         let truth = raycast::cpu::render::<f64>(&scene, Robust);
         let wrong = disagreements(&adaptive.images, &truth);
         println!(

@@ -194,6 +194,15 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     if timestamps && t.recast_on_gpu {
         assert!(t.kernel_s.unwrap() > 0.0);
     }
+    // The re-cast forced onto the GPU (the bunny's few pixels go to the CPU): the same images,
+    // both passes timed.
+    let g = raycast::adaptive::render_adaptive_with(gpu, &scene, true, 0).unwrap();
+    assert!(g.recast_on_gpu);
+    assert_eq!(g.images, t.images);
+    assert_eq!(g.kernel_s.is_some(), timestamps);
+    if let Some(k) = g.kernel_s {
+        assert!(k > 0.0 && k < 60.0, "{k}");
+    }
     // render::render_timed: kernel time for the GPU, none for the CPU.
     let mode = |s: &str| s.parse::<raycast::render::Mode>().unwrap();
     let (images, k) = render::render_timed(&scene, mode("gpu:adaptive"), Some(gpu)).unwrap();
