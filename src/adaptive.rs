@@ -10,10 +10,9 @@
 //! error bound (`shaders/certainty.wgsl`, `CERTAINTY`; the same bounds as `src/cpu/margin.rs`,
 //! where they are derived). Uncertain pixels are cast again in f64 and merged in: on the CPU
 //! where they are few ([`CPU_RECAST_PIXELS`]) or the GPU has no `SHADER_F64`, else on the
-//! GPU. The images are f32: the decisions (hit/miss,
-//! id) are those of f64 on every pixel, and re-cast pixels carry their f64 distance and normal
-//! rounded to f32 (keeping the whole image in f32 spares a widening copy that costs more than
-//! the re-cast on small images).
+//! GPU. The images are f32: the decisions (hit/miss, id) are those of f64 on every pixel, and
+//! re-cast pixels carry their f64 distance and normal rounded to f32 (keeping the whole image
+//! in f32 spares a widening copy that costs more than the re-cast on small images).
 
 use crate::algorithm::Algorithm;
 use crate::cpu;
@@ -62,12 +61,15 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, true, CPU_RECAST_PIXELS)
 }
 
-/// The kernel of the first pass: robust f32, specialised for `scene`, with the certainty test.
+/// The kernel of the first pass: robust f32, specialised for `scene` and its size
+/// ([`Variant::for_rays`]), with the certainty test.
 pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
+    let [nx, ny] = scene.camera.resolution;
     Variant {
         certainty: true,
         ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
     }
+    .for_rays(nx as u64 * ny as u64)
 }
 
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its

@@ -8,8 +8,8 @@
 //!    columns naga reports are the user's;
 //! 2. on that naga module: `shade` exists, takes one `ShadeHit` and returns `vec4<f32>`; the
 //!    file declares no entry point, resource binding or pipeline override;
-//! 3. no global name of the file clashes with one of the kernel's (in any variant), compared on
-//!    the naga modules;
+//! 3. no global name of the file's naga module clashes with one the kernel declares in any
+//!    variant (read from the shader files, `kernel_names`);
 //! 4. the general kernel with the hook appended (`#if USER_SHADE`) validates, its errors mapped
 //!    back to the user's lines (this catches what the naga modules do not show, such as an
 //!    `alias` named like the kernel's `real`).

@@ -404,6 +404,9 @@ impl Variant {
     pub fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
+            // With its records swapped per ray, the certainty pass's kernel grows faster per
+            // ray: one ray a lane where a render is too small for four.
+            (true, true) if self.lane_rays_limit < 4 => 1,
             (true, true) => 2,
             (true, false) => MAX_LANE_RAYS as u32,
         };
@@ -411,7 +414,8 @@ impl Variant {
     }
 
     /// This variant for a render of `rays` rays in one process: at most two rays a lane below
-    /// [`FOUR_LANE_RAYS`] rays, four below [`EIGHT_LANE_RAYS`], else eight. Each ray a lane
+    /// [`FOUR_LANE_RAYS`] rays (the certainty pass one), four below [`EIGHT_LANE_RAYS`], else
+    /// eight (the certainty pass two). Each ray a lane
     /// lengthens the kernel that llvmpipe translates in every process, even with Mesa's shader
     /// cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
     /// four and 0.28 s with eight (through `--kernel`, 2026-11-26), while eight rays gain on
@@ -924,6 +928,9 @@ mod tests {
         let two = lanes.for_rays(FOUR_LANE_RAYS - 1);
         let eight = lanes.for_rays(EIGHT_LANE_RAYS);
         let certain_four = certainty.for_rays(FOUR_LANE_RAYS);
+        let certain_small = certainty.for_rays(FOUR_LANE_RAYS - 1);
+        assert_eq!(certain_small.lane_rays(), 1);
+        assert!(!certain_small.defines().contains(&"LANES"));
         for (variant, rays) in [
             (lanes, 8),
             (listed, 8),
