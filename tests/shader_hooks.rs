@@ -351,6 +351,43 @@ fn examples_match_their_golden_images() {
     }
 }
 
+/// A hooked kernel gives the same colours, ids and surfaces with two, four and eight rays a lane
+/// (smaller renders cast fewer, `Variant::for_rays`; the tests above run eight).
+#[test]
+fn hooked_kernels_of_every_lane_count_agree() {
+    let mut scene = common::course_scene("bunny");
+    scene.camera.resolution = [96, 54];
+    let hook = hooks::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
+    let gpu = common::gpu();
+    let base = gpu
+        .scene_variant(&scene, raycast::math::Precision::F32, Robust)
+        .with_shade(hook.key)
+        .with_outputs(Outputs::ALL);
+    let render = |lane_rays_limit| {
+        let variant = raycast::gpu::shader::Variant {
+            lane_rays_limit,
+            ..base
+        };
+        // Packets of several rays a lane on subgroups of 8 (lavapipe), one ray elsewhere.
+        let packets = base.uses_packets() && base.eight_lanes;
+        let rays = if packets { lane_rays_limit as u32 } else { 1 };
+        assert_eq!(variant.lane_rays(), rays);
+        let images: Images<f32> = common::gpu_variant(gpu, &scene, variant).unwrap();
+        let bits = images.distance.iter().map(|d| d.to_bits());
+        let normals = images.normal.iter().flatten().map(|c| c.to_bits());
+        (
+            images.color.clone(),
+            images.id.clone(),
+            bits.chain(normals).collect::<Vec<u32>>(),
+        )
+    };
+    let eight = render(8);
+    assert!(eight.0.as_ref().is_some_and(|c| c.len() == 96 * 54));
+    for limit in [2, 4] {
+        assert!(render(limit) == eight, "at most {limit} rays a lane");
+    }
+}
+
 /// The examples render through the command line too, and `--emit-shader` shows the hook in
 /// the kernel.
 #[test]
