@@ -117,7 +117,10 @@ impl Plan {
 /// The rows to measure for `scene`, from the kernel `raycast render` runs for it by default
 /// (GPU, f32, robust, id, distance and normal).
 fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
-    let base = gpu.scene_variant(scene, Precision::F32, Algorithm::Robust);
+    let [nx, ny] = scene.camera.resolution;
+    let base = gpu
+        .scene_variant(scene, Precision::F32, Algorithm::Robust)
+        .for_rays(nx as u64 * ny as u64);
     let toggle = |on: Variant, off: Variant, default_with: bool, spec| Plan {
         specialisation: spec,
         with: Some(on),
