@@ -513,8 +513,9 @@ impl RayScene {
     }
 
     /// Adaptive precision for rays (as for images, [`crate::adaptive`]): a robust f32 pass that
-    /// says which rays' hit/miss and id are certain, the others cast again in f64 (on the GPU
-    /// where it has f64, else on the CPU) and merged in.
+    /// says which rays' hit/miss and id are certain, the others cast again in f64 and merged
+    /// in: on the CPU where they are at most [`crate::adaptive::CPU_RECAST_PIXELS`] (quicker
+    /// than compiling the GPU's f64 kernel) or the GPU has no f64, else on the GPU.
     fn adaptive(
         &self,
         gpu: Option<&Gpu>,
@@ -539,7 +540,13 @@ impl RayScene {
         }
         let again = rays.subset(&uncertain);
         let exact_mode = match gpu {
-            Some(g) if mode.device == Device::Gpu && has_f64(g) => mode,
+            Some(g)
+                if mode.device == Device::Gpu
+                    && has_f64(g)
+                    && uncertain.len() > crate::adaptive::CPU_RECAST_PIXELS =>
+            {
+                mode
+            }
             _ => Mode {
                 device: Device::Cpu,
                 ..mode
