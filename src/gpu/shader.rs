@@ -428,9 +428,14 @@ impl Variant {
             r if r < EIGHT_LANE_RAYS => 4,
             _ => MAX_LANE_RAYS,
         };
-        Variant {
+        let limited = Variant {
             lane_rays_limit,
             ..self
+        };
+        // Only where the kernel changes, so that one kernel has one key in the pipeline cache.
+        match limited.lane_rays() == self.lane_rays() {
+            true => self,
+            false => limited,
         }
     }
 
@@ -928,6 +933,12 @@ mod tests {
         let two = lanes.for_rays(FOUR_LANE_RAYS - 1);
         let eight = lanes.for_rays(EIGHT_LANE_RAYS);
         let certain_four = certainty.for_rays(FOUR_LANE_RAYS);
+        // Kernels of one ray a lane whatever the size keep their key.
+        let per_ray = Variant {
+            eight_lanes: false,
+            ..lanes
+        };
+        assert_eq!(per_ray.for_rays(1), per_ray);
         let certain_small = certainty.for_rays(FOUR_LANE_RAYS - 1);
         assert_eq!(certain_small.lane_rays(), 1);
         assert!(!certain_small.defines().contains(&"LANES"));
