@@ -13,6 +13,7 @@ mod common;
 
 use std::path::Path;
 
+use common::assert_same_bits;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
@@ -148,26 +149,6 @@ fn cpu_bvh_equals_brute_force_bit_for_bit() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-}
-
-/// `a` and `b` hold the same bits: NaNs (robust f32 normals on the `range-*` scenes) included,
-/// which `==` would call different.
-fn assert_same_bits<T: Real>(
-    a: &raycast::images::Images<T>,
-    b: &raycast::images::Images<T>,
-    what: &str,
-) {
-    let bits = |i: &raycast::images::Images<T>| {
-        let distance: Vec<u64> = i.distance.iter().map(|d| d.to_f64().to_bits()).collect();
-        let normal: Vec<u64> = i
-            .normal
-            .iter()
-            .flatten()
-            .map(|c| c.to_f64().to_bits())
-            .collect();
-        (i.width, i.height, i.id.clone(), distance, normal)
-    };
-    assert!(bits(a) == bits(b), "{what}");
 }
 
 #[test]

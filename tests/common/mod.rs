@@ -363,3 +363,23 @@ pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gp
         raycast::gpu::Gpu::from_parts(adapter, device, queue)
     })
 }
+
+/// `a` and `b` hold the same bits: NaNs (robust f32 normals on the `range-*` scenes) included,
+/// which `==` would call different.
+pub fn assert_same_bits<T: raycast::math::Real>(
+    a: &raycast::images::Images<T>,
+    b: &raycast::images::Images<T>,
+    what: &str,
+) {
+    let bits = |i: &raycast::images::Images<T>| {
+        let distance: Vec<u64> = i.distance.iter().map(|d| d.to_f64().to_bits()).collect();
+        let normal: Vec<u64> = i
+            .normal
+            .iter()
+            .flatten()
+            .map(|c| c.to_f64().to_bits())
+            .collect();
+        (i.width, i.height, i.id.clone(), distance, normal)
+    };
+    assert!(bits(a) == bits(b), "{what}");
+}
