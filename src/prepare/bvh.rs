@@ -373,77 +373,60 @@ impl Bins {
 }
 
 /// Where the bins lie: along one axis ([`Binning::over`]), over the centroid bounds, `used`
-/// equal parts: `BINS`, or one per item below that. Fewer bins offer fewer split planes, but on the torus the tree
-/// barely changed (119,412 nodes instead of 119,395, the same trace time) and built 0.84x as
-/// long.
+/// equal parts: `BINS`, or one per item below that. Fewer bins offer fewer split planes, but
+/// on the torus the tree barely changed (119,412 nodes instead of 119,395, the same trace
+/// time) and built 0.84x as long.
 #[derive(Clone, Copy)]
 struct Binning {
     used: usize,
-    lo: [f32; 3],
-    /// Bins per unit along each axis; 0 where the centroids do not spread (no split there).
-    scale: [f32; 3],
+    axis: usize,
+    lo: f32,
+    /// Bins per unit along `axis`.
+    scale: f32,
 }
 
 impl Binning {
-    /// Bins along the axis the centroids `cb` spread widest on (the first of equals), none
-    /// where they do not spread. Binning all three axes built the torus's tree in 1.4x the time
-    /// and traced it only 1.03x as fast (the spheres 1.014x, the bunny 1.02x; `raycast bench`
-    /// of both trees in turn, 6 to 8 rounds, 2026-11-26): with few items a node's cost is its
-    /// split search, three axes' sweeps of the bins in f64.
-    fn over(cb: &Aabb, items: usize) -> Binning {
+    /// Bins along the axis the centroids `cb` spread widest on (the first of equals); `None`
+    /// where they do not spread. Binning all three axes built the torus's tree in 1.4x the
+    /// time and traced it only 1.03x as fast (the spheres 1.014x, the bunny 1.02x; `raycast
+    /// bench` of both trees in turn, 6 to 8 rounds, 2026-11-26): with few items a node's cost
+    /// is its split search, three axes' sweeps of the bins in f64.
+    fn over(cb: &Aabb, items: usize) -> Option<Binning> {
         let used = items.clamp(2, BINS);
         let extent = [0, 1, 2].map(|k| cb.hi[k] - cb.lo[k]);
-        let widest = (0..3).fold(0, |w, k| if extent[k] > extent[w] { k } else { w });
-        let scale = [0, 1, 2].map(|k| {
-            // A multiplication per item instead of a division; a scale that overflows only
-            // piles items into the last bin, which the clamp in `bin` keeps.
-            if k == widest && extent[k] > 0.0 {
-                used as f32 / extent[k]
-            } else {
-                0.0
-            }
-        });
-        Binning {
+        let axis = (0..3).fold(0, |w, k| if extent[k] > extent[w] { k } else { w });
+        // A multiplication per item instead of a division; a scale that overflows only piles
+        // items into the last bin, which the clamp in `bin` keeps.
+        (extent[axis] > 0.0).then(|| Binning {
             used,
-            lo: cb.lo,
-            scale,
-        }
+            axis,
+            lo: cb.lo[axis],
+            scale: used as f32 / extent[axis],
+        })
     }
 
-    fn spreads(&self, axis: usize) -> bool {
-        self.scale[axis] > 0.0
-    }
-
-    /// Which bin of `axis` an item's centroid falls in.
-    fn bin(&self, item: &Item, axis: usize) -> usize {
+    /// Which bin an item's centroid falls in.
+    fn bin(&self, item: &Item) -> usize {
         // Through i32, whose saturating conversion is a few instructions fewer than usize's;
         // NaN (0 times a scale that overflowed) goes to bin 0, as before.
-        let bin = ((item.centroid(axis) - self.lo[axis]) * self.scale[axis]) as i32;
+        let bin = ((item.centroid(self.axis) - self.lo) * self.scale) as i32;
         (bin.max(0) as usize).min(self.used - 1)
     }
 }
 
-/// The bins of each axis `binning` bins (the others stay empty), in one pass.
-fn fill_bins(items: &[Item], binning: &Binning) -> [Bins; 3] {
+/// The bins of `items`, in one pass.
+fn fill_bins(items: &[Item], binning: &Binning) -> Bins {
     if items.len() > PARALLEL_ITEMS {
         return items
             .par_chunks(PARALLEL_ITEMS)
             .map(|c| fill_bins(c, binning))
-            .reduce(
-                || [Bins::EMPTY; 3],
-                |a, b| [0, 1, 2].map(|k| a[k].merge(b[k])),
-            );
+            .reduce(|| Bins::EMPTY, Bins::merge);
     }
-    let mut bins = [Bins::EMPTY; 3];
-    let spread = [0, 1, 2].map(|axis| binning.spreads(axis));
+    let mut bins = Bins::EMPTY;
     for i in items {
-        for axis in 0..3 {
-            if spread[axis] {
-                let b = binning.bin(i, axis);
-                bins[axis].boxes[b].grow(i.lo, i.hi);
-                bins[axis].counts[b] += 1;
-            }
-        }
+        let b = binning.bin(i);
+        bins.boxes[b].grow(i.lo, i.hi);
+        bins.counts[b] += 1;
     }
     bins
 }
@@ -502,26 +485,17 @@ fn build_tree(
         return (bounds, leaf);
     }
     let area = bounds.half_area();
-    let mut best: Option<(f64, usize, usize)> = None;
-    let binning = Binning::over(&extent.centroids, n);
-    let bins = fill_bins(items, &binning);
-    for (axis, bins) in bins.iter().enumerate() {
-        if !binning.spreads(axis) {
-            continue;
-        }
-        if let Some((weight, bin)) = best_split_of_axis(bins, binning.used)
-            && best.is_none_or(|(w, _, _)| weight < w)
-        {
-            best = Some((weight, axis, bin));
-        }
-    }
-    let (mid, sides) = match best {
+    let split = Binning::over(&extent.centroids, n).and_then(|binning| {
+        let best = best_split_of_axis(&fill_bins(items, &binning), binning.used);
+        best.map(|(weight, bin)| (weight, binning, bin))
+    });
+    let (mid, sides) = match split {
         Some((weight, _, _))
             if n <= MAX_LEAF && sah_cost(weight, area, traversal_cost) >= n as f64 =>
         {
             return (bounds, leaf);
         }
-        Some((_, axis, bin)) => partition(items, |i| binning.bin(i, axis) < bin),
+        Some((_, binning, bin)) => partition(items, |i| binning.bin(i) < bin),
         // Every centroid in one point: no plane separates them, so halve the list.
         None if n <= MAX_LEAF => return (bounds, leaf),
         None => {
