@@ -64,12 +64,11 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
 /// The kernel of the first pass: robust f32, specialised for `scene` and its size
 /// ([`Variant::for_rays`]), with the certainty test.
 pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
-    let [nx, ny] = scene.camera.resolution;
     Variant {
         certainty: true,
         ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
     }
-    .for_rays(nx as u64 * ny as u64)
+    .for_rays(scene.camera.pixel_count())
 }
 
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its

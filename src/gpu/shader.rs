@@ -415,9 +415,8 @@ impl Variant {
 
     /// This variant for a render of `rays` rays in one process: at most two rays a lane below
     /// [`FOUR_LANE_RAYS`] rays (the certainty pass one), four below [`EIGHT_LANE_RAYS`], else
-    /// eight (the certainty pass two). Each ray a lane
-    /// lengthens the kernel that llvmpipe translates in every process, even with Mesa's shader
-    /// cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
+    /// eight (the certainty pass two). Each ray a lane lengthens the kernel that llvmpipe
+    /// translates in every process, even with Mesa's shader cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
     /// four and 0.28 s with eight (through `--kernel`, 2026-11-26), while eight rays gain on
     /// four only some 15% of the trace (docs/performance.md, "Rays a lane by render size").
     /// `raycast bench`, Python's casts and ray lists keep eight: they trace the same kernel

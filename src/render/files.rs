@@ -233,8 +233,7 @@ impl Spec {
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;
-        let [nx, ny] = scene.camera.resolution;
-        let huge = nx as u64 * ny as u64 > STREAM_PIXELS;
+        let huge = scene.camera.pixel_count() > STREAM_PIXELS;
         self.resolved(huge).run_resolved(gpu, &scene, huge)
     }
 
@@ -360,8 +359,7 @@ impl Spec {
         let spp = self.spp.unwrap_or(1);
         let variant = supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)?;
         // Sized for the samples the render casts, as the render of the samples' scene is.
-        let [nx, ny] = scene.camera.resolution;
-        Ok(variant.for_rays(nx as u64 * ny as u64 * spp as u64))
+        Ok(variant.for_rays(scene.camera.pixel_count() * spp as u64))
     }
 }
 

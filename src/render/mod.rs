@@ -111,10 +111,9 @@ impl Request {
             Arithmetic::F64 => Precision::F64,
             _ => Precision::F32,
         };
-        let [nx, ny] = scene.camera.resolution;
         let mut variant = gpu
             .scene_variant(scene, precision, mode.algorithm)
-            .for_rays(nx as u64 * ny as u64);
+            .for_rays(scene.camera.pixel_count());
         if let Some(hook) = &self.shade {
             variant = variant.with_shade(hook.key);
         }

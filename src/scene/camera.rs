@@ -65,6 +65,12 @@ pub struct ImagePlane {
 }
 
 impl Camera {
+    /// Pixels of the image, `nx * ny`: the camera's rays at one sample per pixel.
+    pub fn pixel_count(&self) -> u64 {
+        let [nx, ny] = self.resolution;
+        nx as u64 * ny as u64
+    }
+
     /// The image plane at [`Camera::resolution`].
     pub fn image_plane(&self) -> ImagePlane {
         self.image_plane_at(self.resolution)

@@ -337,8 +337,7 @@ pub fn measure(
         .collect::<Option<Vec<f64>>>()
         .map(|k| median(&k));
 
-    let [nx, ny] = scene.camera.resolution;
-    let rays = nx as u64 * ny as u64;
+    let rays = scene.camera.pixel_count();
     let mrays = |s: f64| rays as f64 / s * 1e-6;
     let (mrays_per_s, mrays_from) = match trace_gpu_s {
         Some(s) if s > 0.0 => (mrays(s), "gpu_timestamps"),
@@ -361,7 +360,7 @@ pub fn measure(
         mode: mode.to_string(),
         accel: accel_name(accel).to_owned(),
         bvh: uses_bvh,
-        size: [nx, ny],
+        size: scene.camera.resolution,
         rays,
         triangles: counts.triangles,
         spheres: counts.spheres,

@@ -117,10 +117,9 @@ impl Plan {
 /// The rows to measure for `scene`, from the kernel `raycast render` runs for it by default
 /// (GPU, f32, robust, id, distance and normal).
 fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
-    let [nx, ny] = scene.camera.resolution;
     let base = gpu
         .scene_variant(scene, Precision::F32, Algorithm::Robust)
-        .for_rays(nx as u64 * ny as u64);
+        .for_rays(scene.camera.pixel_count());
     let toggle = |on: Variant, off: Variant, default_with: bool, spec| Plan {
         specialisation: spec,
         with: Some(on),
