@@ -100,7 +100,11 @@ fn time_kernels<R: GpuReal>(
     let list = RayList::image(&rows[..], scene.camera.resolution[0] as usize);
     // As gpu::run compiles it, so that --emit writes the kernel that runs.
     let source = if o.list { Source::Rays } else { Source::Camera };
-    let base = gpu::dispatch::specialised(camera, source, &prepared).unwrap();
+    let cast = Variant {
+        list_origin: raycast::rays::one_origin(list),
+        ..camera
+    };
+    let base = gpu::dispatch::specialised(cast, source, &prepared).unwrap();
     if let Some(file) = &o.emit {
         let source = raycast::gpu::shader::kernel_source(&base).unwrap();
         std::fs::write(file, source).unwrap_or_else(|e| panic!("{file}: {e}"));

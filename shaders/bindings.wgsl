@@ -143,6 +143,30 @@ fn triangle_at(k: u32) -> Triangle {
 // Per pixel of the tile: 1 if its hit/miss and id decisions are certain, else 0.
 @group(0) @binding(7) var<storage, read_write> out_certain: array<u32>;
 #endif
+#if RAY_LIST
+// The caller's rays, in kernel coordinates (measured from params.origin and scaled by
+// 1 / params.unit on the host: Prepared::kernel_ray); params.tile_rows holds how many there are,
+// and hits count from params.frame.min_t (in units of each ray's direction, which the scaling
+// keeps).
+@group(0) @binding(18) var<storage, read> ray_list: array<StoredRay>;
+
+// The origin of every listed ray where they share one (LIST_ORIGIN: the host checked that each
+// is the first one's), read from the first ray at a constant index: one load, not one a ray,
+// and one value, so that the compiler computes `p - ray.origin` once for a lane's rays and a
+// packet's interval of origins is a point (traverse_bvh_lanes).
+fn listed_origin() -> vec3<real> {
+    return ray_list[0].origin;
+}
+
+// A stored ray as the kernel casts it.
+fn stored_ray(stored: StoredRay) -> Ray {
+#if LIST_ORIGIN
+    return Ray(listed_origin(), stored.direction);
+#else
+    return Ray(stored.origin, stored.direction);
+#endif
+}
+#endif
 #if BVH
 // The BVH over spheres and triangles (src/prepare/bvh.rs): 64-byte nodes in chunks of
 // 2^CHUNK_BITS nodes like the triangles, bound as NODE_ELEMENTS elements a node. A packet's lane

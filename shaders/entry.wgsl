@@ -128,12 +128,6 @@ fn list_slot(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
 }
 
 #if RAY_LIST
-// The caller's rays, in kernel coordinates (measured from params.origin and scaled by
-// 1 / params.unit on the host: Prepared::kernel_ray); params.tile_rows holds how many there are,
-// and hits count from params.frame.min_t (in units of each ray's direction, which the scaling
-// keeps).
-@group(0) @binding(18) var<storage, read> ray_list: array<StoredRay>;
-
 // Casts `ray` and, if `write`, writes its results to slot `index`: the hit's object, normal,
 // t, primitive and barycentrics, or (COUNT) how many surfaces it crosses.
 fn cast_ray(ray: Ray, index: u32, write: bool) {
@@ -237,8 +231,7 @@ fn list_entry(invocation: Invocation, groups: vec3<u32>, local: u32) -> ListEntr
 
 // The listed ray of `entry` (the last one for an entry beyond the list).
 fn listed_ray(entry: ListEntry) -> Ray {
-    let stored = ray_list[min(entry.slot, params.tile_rows - 1u)];
-    return Ray(stored.origin, stored.direction);
+    return stored_ray(ray_list[min(entry.slot, params.tile_rows - 1u)]);
 }
 #else
 @compute @workgroup_size(64)
@@ -250,8 +243,7 @@ fn main(
     if (slot >= params.tile_rows) {
         return;
     }
-    let stored = ray_list[slot];
-    cast_ray(Ray(stored.origin, stored.direction), slot, true);
+    cast_ray(stored_ray(ray_list[slot]), slot, true);
 }
 #endif
 #else

@@ -588,6 +588,7 @@ impl RayScene {
                         && R::PRECISION == Precision::F32,
                     count,
                     packets: general.packets && coherent(rays, self.extent),
+                    list_origin: one_origin(rays),
                     ..general
                 };
                 let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
@@ -810,6 +811,26 @@ pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
     spreads.sort_by(f64::total_cmp);
     roughness.sort_by(f64::total_cmp);
     spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
+}
+
+/// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
+/// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
+/// ([`gpu::shader::Variant::list_origin`]). Checked in parallel runs, each stopping at its
+/// first other origin.
+pub fn one_origin(list: RayList<'_>) -> bool {
+    use rayon::prelude::*;
+    const RUN: usize = 1 << 14;
+    fn all_at<T: Sync, K: PartialEq + Sync>(rows: &[T], key: impl Fn(&T) -> K + Sync) -> bool {
+        rows.first().is_some_and(|first| {
+            let origin = key(first);
+            rows.par_chunks(RUN)
+                .all(|run| run.iter().all(|row| key(row) == origin))
+        })
+    }
+    match list.rays {
+        RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
+        RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
+    }
 }
 
 /// How far a packet's rays stray from a smooth progression along its rows of `row` rays: the

@@ -6,7 +6,7 @@ mod common;
 
 use common::{Rng, gpu, random_scene, sphere_mesh};
 use raycast::math::{Vec3, cross, dot, length, normalize};
-use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayScene, coherent};
+use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayScene, coherent, one_origin};
 use raycast::render::Mode;
 
 fn mode(s: &str) -> Mode {
@@ -146,7 +146,7 @@ fn staging_gpu(gpu: &raycast::gpu::Gpu) -> raycast::gpu::Gpu {
 /// Coherent rays are traced in packets: an image's in 4x2 tiles (a width that is no multiple of
 /// 8, a short last row), a plain list's 8 at a time; on a device that maps its buffers and on one
 /// that copies them through staging buffers in several dispatches. Every way gives the CPU
-/// reference's hits, bit for bit in f32.
+/// reference's hits, bit for bit in f32, from one origin (`LIST_ORIGIN`) and from many.
 #[test]
 fn coherent_rays_in_packets_equal_cpu_rays() {
     let gpu = gpu();
@@ -158,39 +158,78 @@ fn coherent_rays_in_packets_equal_cpu_rays() {
         let scene = RayScene::from_scene(scene);
         let w = 90;
         // 0.002 between neighbours: coherent.
-        let mut rays = pinhole_rays(eye, w, 50, 0.2);
-        rays.truncate(rays.len() - 7);
-        let image = RayList::image(&rays, w);
-        assert!(coherent(image, 4.0) && coherent(RayList::from(&rays), 4.0));
-        for precision in ["f32", "f64"] {
-            let cpu = scene
-                .cast(None, mode(&format!("cpu:{precision}")), &rays)
-                .unwrap();
-            let m = mode(&format!("gpu:{precision}"));
-            let ways = [
-                ("image", scene.cast(Some(gpu), m, image).unwrap()),
-                ("list", scene.cast(Some(gpu), m, &rays).unwrap()),
-                (
-                    "staged image",
-                    scene.cast(Some(&staging), m, image).unwrap(),
-                ),
-                ("staged list", scene.cast(Some(&staging), m, &rays).unwrap()),
-            ];
-            for (way, hits) in ways {
-                let label = format!("seed {seed}, {precision}, {way}");
-                let hit = hits.id().iter().filter(|&&id| id >= 0).count();
-                assert!(hit > 100, "{hit} rays hit ({label})");
-                match (hits, &cpu) {
-                    (AnyHits::F32(g), AnyHits::F32(c)) => assert_same(&g, c, &label),
-                    (AnyHits::F64(g), AnyHits::F64(c)) => assert_close(&g, c, &label),
-                    _ => panic!("precisions differ ({label})"),
+        let mut pinhole = pinhole_rays(eye, w, 50, 0.2);
+        pinhole.truncate(pinhole.len() - 7);
+        // The same rays, each starting a little way along itself: many origins.
+        let along = pinhole.iter().map(|r| Ray {
+            origin: std::array::from_fn(|a| r.origin[a] + 1e-3 * r.direction[a]),
+            ..*r
+        });
+        let along: Vec<Ray> = along.collect();
+        for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
+            let image = RayList::image(rays, w);
+            assert!(coherent(image, 4.0) && coherent(RayList::from(rays), 4.0));
+            assert_eq!(one_origin(image), rays == &pinhole, "{origins}");
+            for precision in ["f32", "f64"] {
+                let cpu = scene
+                    .cast(None, mode(&format!("cpu:{precision}")), rays)
+                    .unwrap();
+                let m = mode(&format!("gpu:{precision}"));
+                let ways = [
+                    ("image", scene.cast(Some(gpu), m, image).unwrap()),
+                    ("list", scene.cast(Some(gpu), m, rays).unwrap()),
+                    (
+                        "staged image",
+                        scene.cast(Some(&staging), m, image).unwrap(),
+                    ),
+                    ("staged list", scene.cast(Some(&staging), m, rays).unwrap()),
+                ];
+                for (way, hits) in ways {
+                    let label = format!("seed {seed}, {origins}, {precision}, {way}");
+                    let hit = hits.id().iter().filter(|&&id| id >= 0).count();
+                    assert!(hit > 100, "{hit} rays hit ({label})");
+                    match (hits, &cpu) {
+                        (AnyHits::F32(g), AnyHits::F32(c)) => assert_same(&g, c, &label),
+                        (AnyHits::F64(g), AnyHits::F64(c)) => assert_close(&g, c, &label),
+                        _ => panic!("precisions differ ({label})"),
+                    }
                 }
             }
+            let adaptive = f32_hits(scene.cast(Some(gpu), mode("gpu:adaptive"), image).unwrap());
+            let exact = f64_hits(scene.cast(None, mode("cpu:f64"), rays).unwrap());
+            assert_eq!(adaptive.id, exact.id, "seed {seed}, {origins}, adaptive");
         }
-        let adaptive = f32_hits(scene.cast(Some(gpu), mode("gpu:adaptive"), image).unwrap());
-        let exact = f64_hits(scene.cast(None, mode("cpu:f64"), &rays).unwrap());
-        assert_eq!(adaptive.id, exact.id, "seed {seed}, adaptive");
     }
+}
+
+/// A list starts at one origin where every ray's is the first one's, bit for bit, in f64
+/// rays and in f32 rows alike.
+#[test]
+fn one_origin_of_ray_lists() {
+    let rays = pinhole_rays([1.0, -2.0, 0.5], 300, 200, 0.5);
+    assert!(one_origin(RayList::from(&rays)));
+    assert!(one_origin(RayList::image(&rays, 300)));
+    let rows: Vec<[f32; 6]> = rays
+        .iter()
+        .map(|r| {
+            let (o, d) = (r.origin, r.direction);
+            [o[0], o[1], o[2], d[0], d[1], d[2]].map(|x| x as f32)
+        })
+        .collect();
+    assert!(one_origin(RayList::from(&rows[..])));
+    // One other origin anywhere, even -0 for +0 (other bits), makes many.
+    for (k, axis, value) in [(rays.len() - 1, 0, 1.0 + 1e-12), (31_000, 1, -2.0 + 1e-9)] {
+        let mut other = rays.clone();
+        other[k].origin[axis] = value;
+        assert!(!one_origin(RayList::from(&other)), "ray {k}");
+        let mut other_rows = rows.clone();
+        other_rows[k][axis] = value as f32 + 1e-3;
+        assert!(!one_origin(RayList::from(&other_rows[..])), "row {k}");
+    }
+    let mut signed = pinhole_rays([0.0; 3], 8, 8, 0.5);
+    signed[5].origin[2] = -0.0;
+    assert!(!one_origin(RayList::from(&signed)));
+    assert!(!one_origin(RayList::from(&Vec::new())), "an empty list");
 }
 
 /// Rays whose neighbours start far apart, point different ways or zig-zag are not coherent; a

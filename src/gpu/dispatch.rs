@@ -205,6 +205,7 @@ pub fn specialised<R: GpuReal>(
         rays_from_origin: variant.rays_from_origin
             && source != Source::Rays
             && prepared.camera_rays_from_origin(),
+        list_origin: variant.list_origin && source == Source::Rays,
         ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
     };
     match (source, variant.count) {

@@ -103,6 +103,7 @@ impl Gpu {
             source: shader::Source::Camera,
             count: false,
             rays_from_origin: false,
+            list_origin: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets,

@@ -84,6 +84,11 @@ pub struct Variant {
     /// [`crate::prepare::Prepared::camera_rays_from_origin`] does not hold). The kernel then
     /// makes each ray's origin the constant zero (`RAYS_FROM_ORIGIN`, shaders/camera.wgsl).
     pub rays_from_origin: bool,
+    /// Every ray of a caller's list starts at the same point, the first one's origin
+    /// ([`crate::rays::one_origin`]; the dispatch clears it for other sources). The kernel reads
+    /// that origin once for all of them, and a packet's origins as that one point
+    /// (`LIST_ORIGIN`, shaders/entry.wgsl `listed_origin`), as the camera's are the constant zero.
+    pub list_origin: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
     /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
@@ -227,6 +232,7 @@ impl Variant {
             source: Source::Camera,
             count: false,
             rays_from_origin: false,
+            list_origin: false,
             kinds: Kinds::ALL,
             bvh: false,
             packets: false,
@@ -282,7 +288,8 @@ impl Variant {
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
-    /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
+    /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin),
+    /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
     /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
@@ -313,6 +320,9 @@ impl Variant {
         }
         if self.rays_from_origin {
             d.push("RAYS_FROM_ORIGIN");
+        }
+        if self.list_origin && self.source == Source::Rays {
+            d.push("LIST_ORIGIN");
         }
         for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
             if self.chunks >= k {
@@ -703,13 +713,15 @@ pub fn all_variants() -> Vec<Variant> {
     for precision in [Precision::F32, Precision::F64] {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
-                for (certainty, source, count) in [
-                    (false, Source::Camera, false),
-                    (true, Source::Camera, false),
-                    (false, Source::Pixels, false),
-                    (false, Source::Rays, false),
-                    (true, Source::Rays, false),
-                    (false, Source::Rays, true),
+                // A caller's rays from many points, and from one (a pinhole camera's).
+                for (certainty, source, count, list_origin) in [
+                    (false, Source::Camera, false, false),
+                    (true, Source::Camera, false, false),
+                    (false, Source::Pixels, false, false),
+                    (false, Source::Rays, false, false),
+                    (false, Source::Rays, false, true),
+                    (true, Source::Rays, false, true),
+                    (false, Source::Rays, true, true),
                 ] {
                     let impossible = precision == Precision::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
@@ -725,6 +737,7 @@ pub fn all_variants() -> Vec<Variant> {
                         // As robust perspective renders set it (the textbook set covers the
                         // camera's general rays).
                         rays_from_origin: source != Source::Rays && algorithm == Algorithm::Robust,
+                        list_origin,
                         kinds: Kinds::ALL,
                         bvh: false,
                         packets: false,
