@@ -1,0 +1,149 @@
+//! The packet traversal as GPUs with subgroups wider than 8 run it. llvmpipe's subgroups are 8
+//! invocations, so every other test runs the `EIGHT_LANES` kernels (butterfly votes, several
+//! rays a lane); NVIDIA's are 32, AMD's 32 or 64, Intel's up to 32, and their kernels vote by
+//! `subgroupAny` and `subgroupAdd` and keep a copy of the packet's stack in each run of 8
+//! lanes. With `LP_NATIVE_VECTOR_WIDTH=512` lavapipe's subgroups are 16 invocations, so this
+//! test runs itself again in a child process with it set (Mesa reads it when it starts) and
+//! checks there that those kernels give the CPU reference's answers: camera renders bit for bit
+//! in f32, ids in f64 and adaptive precision, ray lists from one origin and from many.
+
+mod common;
+
+use std::process::Command;
+
+use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::cpu;
+use raycast::gpu::shader::Variant;
+use raycast::math::Precision;
+use raycast::prepare::bvh::Accel;
+use raycast::rays::{AnyHits, Hits, Ray, RayList, RayScene, one_origin};
+use raycast::scene::Scene;
+
+use common::assert_same_bits;
+
+/// Set in the child process, which does the checking.
+const WIDTH_VAR: &str = "LP_NATIVE_VECTOR_WIDTH";
+const TEST: &str = "sixteen_lane_subgroups_give_the_cpu_answers";
+
+#[test]
+fn sixteen_lane_subgroups_give_the_cpu_answers() {
+    if std::env::var_os(WIDTH_VAR).is_none() {
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let status = Command::new(exe)
+            .args(["--exact", TEST, "--nocapture", "--test-threads", "1"])
+            .env(WIDTH_VAR, "512")
+            .env("NODEVICE_SELECT", "1")
+            .status()
+            .expect("the test binary runs again");
+        assert!(status.success(), "with 16-lane subgroups: {status}");
+        return;
+    }
+    let gpu = common::gpu();
+    let info = gpu.info();
+    assert_eq!(
+        (info.subgroup_min_size, info.subgroup_max_size),
+        (16, 16),
+        "{WIDTH_VAR}=512 gives lavapipe subgroups of 16"
+    );
+    let packets = gpu.variant(Precision::F32, Robust);
+    assert!(packets.packets && !packets.eight_lanes && packets.lane_rays() == 1);
+    for (name, scene) in scenes() {
+        for algorithm in [Robust, Textbook] {
+            camera_renders_agree(&name, &scene, algorithm);
+        }
+        let adaptive = raycast::adaptive::render_adaptive(gpu, &scene).unwrap();
+        let truth = cpu::render_with::<f64>(&scene, Robust, Accel::Bvh);
+        assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
+    }
+    for seed in [2, 3] {
+        ray_lists_agree(seed);
+    }
+}
+
+/// Random scenes of spheres, triangles and planes, the course bunny, and the extreme scenes.
+fn scenes() -> Vec<(String, Scene)> {
+    let mut s: Vec<(String, Scene)> = (0..3)
+        .map(|seed| {
+            let name = format!("random-{seed}");
+            (name, common::random_scene(seed, [80, 60]))
+        })
+        .collect();
+    let mut bunny = common::course_scene("bunny");
+    bunny.camera.resolution = [160, 90];
+    s.push(("bunny".into(), bunny));
+    for (path, scene) in common::extreme_scenes() {
+        s.push((common::scene_name(&path), scene));
+    }
+    s
+}
+
+/// The GPU's packets and per-ray traversal give the CPU BVH's f32 render bit for bit, and the
+/// f64 BVH render the CPU's ids.
+fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
+    let gpu = common::gpu();
+    let variant = |precision, packets| Variant {
+        bvh: true,
+        packets,
+        ..gpu.scene_variant(scene, precision, algorithm)
+    };
+    let cpu32 = cpu::render_with::<f32>(scene, algorithm, Accel::Bvh);
+    for packets in [true, false] {
+        let gpu32 = common::gpu_variant::<f32>(gpu, scene, variant(Precision::F32, packets));
+        let what = format!("{name} {algorithm} f32, packets {packets}");
+        assert_same_bits(&gpu32.unwrap(), &cpu32, &what);
+    }
+    let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Precision::F64, true)).unwrap();
+    let cpu64 = cpu::render_with::<f64>(scene, algorithm, Accel::Bvh);
+    assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
+}
+
+/// A pinhole camera's rays (one origin: `LIST_ORIGIN`), the same rays each moved a little along
+/// itself (many origins), both as an image's rows and as a plain list: in packets on the GPU,
+/// the CPU's hits bit for bit in f32.
+fn ray_lists_agree(seed: u64) {
+    let gpu = common::gpu();
+    let scene = common::random_scene(seed, [4, 4]);
+    let eye = scene.camera.eye.to_array();
+    let scene = RayScene::from_scene(scene);
+    let (w, h) = (90, 50);
+    let pinhole: Vec<Ray> = (0..w * h)
+        .map(|k| {
+            let x = ((k % w) as f64 + 0.5) / w as f64 - 0.5;
+            let y = 0.5 - ((k / w) as f64 + 0.5) / h as f64;
+            Ray {
+                origin: eye,
+                direction: [0.2 * x, 0.15 * y, -1.0],
+            }
+        })
+        .collect();
+    let along: Vec<Ray> = pinhole
+        .iter()
+        .map(|r| Ray {
+            origin: std::array::from_fn(|a| r.origin[a] + 1e-3 * r.direction[a]),
+            ..*r
+        })
+        .collect();
+    let f32_mode = "gpu:f32".parse().unwrap();
+    let cpu_mode = "cpu:f32".parse().unwrap();
+    for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
+        assert_eq!(one_origin(RayList::from(rays)), rays == &pinhole);
+        let cpu = f32_hits(scene.cast(None, cpu_mode, rays).unwrap());
+        for (way, list) in [("image", RayList::image(rays, w)), ("list", rays.into())] {
+            let label = format!("seed {seed}, {origins}, {way}");
+            let on_gpu = f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
+            let hit = on_gpu.id.iter().filter(|&&id| id >= 0).count();
+            assert!(hit > 100, "{hit} rays hit ({label})");
+            for k in 0..rays.len() {
+                let get = |h: &Hits<f32>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
+                assert_eq!(get(&on_gpu), get(&cpu), "ray {k}, {label}");
+            }
+        }
+    }
+}
+
+fn f32_hits(h: AnyHits) -> Hits<f32> {
+    match h {
+        AnyHits::F32(h) => h,
+        AnyHits::F64(_) => panic!("an f32 cast returns f32 hits"),
+    }
+}
