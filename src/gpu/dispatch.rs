@@ -194,7 +194,8 @@ pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 /// Runs `job` on `prepared` (module docs).
 /// `variant` as [`run`] compiles it for rays from `source` at `prepared`: the traversal stack
 /// sized to its BVH, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
-/// and a ray list's outputs (every per-ray one, or with COUNT the counts alone).
+/// `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
+/// with COUNT the counts alone).
 pub fn specialised<R: GpuReal>(
     variant: Variant,
     source: Source,
