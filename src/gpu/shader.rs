@@ -86,8 +86,8 @@ pub struct Variant {
     pub rays_from_origin: bool,
     /// Every ray of a caller's list starts at the same point, the first one's origin
     /// ([`crate::rays::one_origin`]; the dispatch clears it for other sources). The kernel reads
-    /// that origin once for all of them, and a packet's origins as that one point
-    /// (`LIST_ORIGIN`, shaders/bindings.wgsl `listed_origin`), as the camera's are the constant zero.
+    /// that origin once for all of them, and a packet's origins as that one point (`LIST_ORIGIN`,
+    /// shaders/bindings.wgsl `listed_origin`), as the camera's are the constant zero.
     pub list_origin: bool,
     /// The primitive kinds compiled in; code for the others is left out.
     pub kinds: Kinds,
