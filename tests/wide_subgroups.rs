@@ -120,7 +120,7 @@ fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
 
 /// A pinhole camera's rays (one origin: `LIST_ORIGIN`), the same rays each moved a little along
 /// itself (many origins), both as an image's rows and as a plain list: in packets on the GPU,
-/// the CPU's hits bit for bit in f32.
+/// the CPU's hits bit for bit in f32, and its f64 ids in f64 and adaptive precision.
 fn ray_lists_agree(seed: u64) {
     let gpu = discrete_like();
     let scene = common::random_scene(seed, [4, 4]);
@@ -146,9 +146,11 @@ fn ray_lists_agree(seed: u64) {
         .collect();
     let f32_mode = "gpu:f32".parse().unwrap();
     let cpu_mode = "cpu:f32".parse().unwrap();
+    let exact_mode = "cpu:f64".parse().unwrap();
     for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
         assert_eq!(one_origin(RayList::from(rays)), rays == &pinhole);
         let cpu = f32_hits(scene.cast(None, cpu_mode, rays).unwrap());
+        let exact = scene.cast(None, exact_mode, rays).unwrap();
         for (way, list) in [("image", RayList::image(rays, w)), ("list", rays.into())] {
             let label = format!("seed {seed}, {origins}, {way}");
             let on_gpu = f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
@@ -157,6 +159,10 @@ fn ray_lists_agree(seed: u64) {
             for k in 0..rays.len() {
                 let get = |h: &Hits<f32>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
                 assert_eq!(get(&on_gpu), get(&cpu), "ray {k}, {label}");
+            }
+            for mode in ["gpu:f64", "gpu:adaptive"] {
+                let hits = scene.cast(Some(gpu), mode.parse().unwrap(), list).unwrap();
+                assert_eq!(hits.id(), exact.id(), "{label}, {mode} ids");
             }
         }
     }
