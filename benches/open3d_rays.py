@@ -17,6 +17,9 @@ target/bench/torus.json), `raycast bench` runs too and the rate through Python i
 as a ratio of bench's (kernel time, and wall time of its trace stage): in --rounds rounds,
 each a bench run and then the casts through Python, the ratio the median of the rounds'
 (the machine's speed drifts: side by side, not one after the other).
+With --random the rays are incoherent instead, as many: origins uniform in [-2, 2]^3 about the
+mesh and uniformly random directions (seed 1), which the GPU traces one by one, not in packets
+(and `raycast bench`, which casts a camera's rays, is not run).
 """
 import argparse
 import json
@@ -55,9 +58,17 @@ def main():
     p.add_argument("--raycast", help="the raycast binary, to run `raycast bench` beside")
     p.add_argument("--scene", help="the scene file of the same mesh and camera, for bench")
     p.add_argument("--rounds", type=int, default=3, help="bench and Python in turn, this often")
+    p.add_argument("--random", action="store_true", help="incoherent rays (module docs)")
     a = p.parse_args()
+    if a.random and (a.raycast or a.scene):
+        p.error("--random casts other rays than bench's camera: leave out --raycast and --scene")
     V, F = peer_bench.load_obj(a.mesh)
     o, d = peer_bench.make_rays(a.width, a.height, (0, -3.0, 2.5), (0, 0, 0), (0, 0, 1), 40)
+    if a.random:
+        rng = np.random.default_rng(1)
+        o = rng.uniform(-2.0, 2.0, (a.width * a.height, 3))
+        d = rng.normal(size=(a.width * a.height, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
     # As a camera's rays come (create_rays_pinhole): (height, width, 6).
     rays = np.concatenate([o, d], 1).astype(np.float32).reshape(a.height, a.width, 6)
     n = a.width * a.height
@@ -122,7 +133,7 @@ def main():
     else:
         s_ours = median_seconds(cast_ours, a.repeats)
     print(json.dumps(dict(
-        mesh=a.mesh, rays=n, precision=a.precision, adapter=raycast.info()["name"],
+        mesh=a.mesh, rays=n, random=a.random, precision=a.precision, adapter=raycast.info()["name"],
         open3d=o3d.__version__,
         hits=int(hit_ours.sum()), hit_miss_disagree=int(np.sum(hit_ours != hit_theirs)),
         t_hit_max_rel=float(rel.max()) if both.any() else None,
