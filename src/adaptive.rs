@@ -51,6 +51,12 @@ impl Adaptive {
 /// their pixels at 1920x1080.
 pub const CPU_RECAST_PIXELS: usize = 1 << 16;
 
+/// Whether `uncertain` pixels (or rays) are cast again on `gpu` rather than on the CPU: where
+/// it has f64 and they are more than `cpu_recast_pixels`.
+pub fn recasts_on_gpu(gpu: &Gpu, uncertain: usize, cpu_recast_pixels: usize) -> bool {
+    gpu.device.features().contains(wgpu::Features::SHADER_F64) && uncertain > cpu_recast_pixels
+}
+
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
 pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, false, CPU_RECAST_PIXELS)
@@ -101,8 +107,7 @@ pub fn render_adaptive_with(
         .filter(|&k| !certain[k as usize])
         .collect();
     let mut images = first.images;
-    let recast_on_gpu = gpu.device.features().contains(wgpu::Features::SHADER_F64)
-        && uncertain.len() > cpu_recast_pixels;
+    let recast_on_gpu = recasts_on_gpu(gpu, uncertain.len(), cpu_recast_pixels);
     let first_s = first.stages.kernel_s;
     if uncertain.is_empty() {
         return Ok(Adaptive {

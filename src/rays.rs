@@ -542,8 +542,11 @@ impl RayScene {
         let exact_mode = match gpu {
             Some(g)
                 if mode.device == Device::Gpu
-                    && has_f64(g)
-                    && uncertain.len() > crate::adaptive::CPU_RECAST_PIXELS =>
+                    && crate::adaptive::recasts_on_gpu(
+                        g,
+                        uncertain.len(),
+                        crate::adaptive::CPU_RECAST_PIXELS,
+                    ) =>
             {
                 mode
             }
