@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Rng, gpu, random_scene, sphere_mesh};
+use common::{Rng, f32_hits, gpu, moved_along, pinhole_rays, random_scene, sphere_mesh};
 use raycast::math::{Vec3, cross, dot, length, normalize};
 use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayScene, coherent, one_origin};
 use raycast::render::Mode;
@@ -29,13 +29,6 @@ fn random_rays(rng: &mut Rng, n: usize) -> Vec<Ray> {
             Ray { origin, direction }
         })
         .collect()
-}
-
-fn f32_hits(h: AnyHits) -> Hits<f32> {
-    match h {
-        AnyHits::F32(h) => h,
-        AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
-    }
 }
 
 fn f64_hits(h: AnyHits) -> Hits<f64> {
@@ -106,23 +99,6 @@ fn assert_close(g: &Hits<f64>, c: &Hits<f64>, label: &str) {
     }
 }
 
-/// A pinhole camera's rays from `eye` looking down -z, `w` by `h` pixels, row-major, its image
-/// `span` wide at distance 1 (and 3/4 of that high).
-fn pinhole_rays(eye: [f64; 3], w: usize, h: usize, span: f64) -> Vec<Ray> {
-    let mut rays = Vec::new();
-    for i in 0..h {
-        for j in 0..w {
-            let x = (j as f64 + 0.5) / w as f64 - 0.5;
-            let y = 0.5 - (i as f64 + 0.5) / h as f64;
-            rays.push(Ray {
-                origin: eye,
-                direction: [span * x, 0.75 * span * y, -1.0],
-            });
-        }
-    }
-    rays
-}
-
 /// The device of `gpu` opened again without host-mapped buffers (lists and outputs go through
 /// staging buffers, as on a discrete GPU) and with storage bindings of 64 KiB, so that a few
 /// thousand rays take several dispatches.
@@ -161,11 +137,7 @@ fn coherent_rays_in_packets_equal_cpu_rays() {
         let mut pinhole = pinhole_rays(eye, w, 50, 0.2);
         pinhole.truncate(pinhole.len() - 7);
         // The same rays, each starting a little way along itself: many origins.
-        let along = pinhole.iter().map(|r| Ray {
-            origin: std::array::from_fn(|a| r.origin[a] + 1e-3 * r.direction[a]),
-            ..*r
-        });
-        let along: Vec<Ray> = along.collect();
+        let along = moved_along(&pinhole, 1e-3);
         for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
             let image = RayList::image(rays, w);
             assert!(coherent(image, 4.0) && coherent(RayList::from(rays), 4.0));

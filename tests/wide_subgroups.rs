@@ -19,7 +19,7 @@ use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::Precision;
 use raycast::prepare::bvh::Accel;
-use raycast::rays::{AnyHits, Hits, Ray, RayList, RayScene, one_origin};
+use raycast::rays::{Hits, RayList, RayScene, one_origin};
 use raycast::scene::Scene;
 
 use common::assert_same_bits;
@@ -126,34 +126,19 @@ fn ray_lists_agree(seed: u64) {
     let scene = common::random_scene(seed, [4, 4]);
     let eye = scene.camera.eye.to_array();
     let scene = RayScene::from_scene(scene);
-    let (w, h) = (90, 50);
-    let pinhole: Vec<Ray> = (0..w * h)
-        .map(|k| {
-            let x = ((k % w) as f64 + 0.5) / w as f64 - 0.5;
-            let y = 0.5 - ((k / w) as f64 + 0.5) / h as f64;
-            Ray {
-                origin: eye,
-                direction: [0.2 * x, 0.15 * y, -1.0],
-            }
-        })
-        .collect();
-    let along: Vec<Ray> = pinhole
-        .iter()
-        .map(|r| Ray {
-            origin: std::array::from_fn(|a| r.origin[a] + 1e-3 * r.direction[a]),
-            ..*r
-        })
-        .collect();
+    let w = 90;
+    let pinhole = common::pinhole_rays(eye, w, 50, 0.2);
+    let along = common::moved_along(&pinhole, 1e-3);
     let f32_mode = "gpu:f32".parse().unwrap();
     let cpu_mode = "cpu:f32".parse().unwrap();
     let exact_mode = "cpu:f64".parse().unwrap();
     for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
         assert_eq!(one_origin(RayList::from(rays)), rays == &pinhole);
-        let cpu = f32_hits(scene.cast(None, cpu_mode, rays).unwrap());
+        let cpu = common::f32_hits(scene.cast(None, cpu_mode, rays).unwrap());
         let exact = scene.cast(None, exact_mode, rays).unwrap();
         for (way, list) in [("image", RayList::image(rays, w)), ("list", rays.into())] {
             let label = format!("seed {seed}, {origins}, {way}");
-            let on_gpu = f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
+            let on_gpu = common::f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
             let hit = on_gpu.id.iter().filter(|&&id| id >= 0).count();
             assert!(hit > 100, "{hit} rays hit ({label})");
             for k in 0..rays.len() {
@@ -165,12 +150,5 @@ fn ray_lists_agree(seed: u64) {
                 assert_eq!(hits.id(), exact.id(), "{label}, {mode} ids");
             }
         }
-    }
-}
-
-fn f32_hits(h: AnyHits) -> Hits<f32> {
-    match h {
-        AnyHits::F32(h) => h,
-        AnyHits::F64(_) => panic!("an f32 cast returns f32 hits"),
     }
 }

@@ -383,3 +383,38 @@ pub fn assert_same_bits<T: raycast::math::Real>(
     };
     assert!(bits(a) == bits(b), "{what}");
 }
+
+/// A pinhole camera's rays from `eye` looking down -z, `w` by `h` pixels, row-major, its image
+/// `span` wide at distance 1 (and 3/4 of that high).
+pub fn pinhole_rays(eye: [f64; 3], w: usize, h: usize, span: f64) -> Vec<raycast::rays::Ray> {
+    let mut rays = Vec::new();
+    for i in 0..h {
+        for j in 0..w {
+            let x = (j as f64 + 0.5) / w as f64 - 0.5;
+            let y = 0.5 - (i as f64 + 0.5) / h as f64;
+            rays.push(raycast::rays::Ray {
+                origin: eye,
+                direction: [span * x, 0.75 * span * y, -1.0],
+            });
+        }
+    }
+    rays
+}
+
+/// `rays`, each starting `by` times its direction further along itself: rays from as many
+/// origins.
+pub fn moved_along(rays: &[raycast::rays::Ray], by: f64) -> Vec<raycast::rays::Ray> {
+    let moved = |r: &raycast::rays::Ray| raycast::rays::Ray {
+        origin: std::array::from_fn(|a| r.origin[a] + by * r.direction[a]),
+        ..*r
+    };
+    rays.iter().map(moved).collect()
+}
+
+/// The hits of an f32 (or adaptive) cast.
+pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
+    match h {
+        raycast::rays::AnyHits::F32(h) => h,
+        raycast::rays::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
+    }
+}
