@@ -755,8 +755,9 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
     // The rays' one origin as one value rather than the butterflies' bounds of equal values:
     // the compiler then finds each plane's four products in interval_entry to be two (the
     // torus's list kernel took 0.91x the time).
-    packet.origin_lo = f32_below(listed_origin());
-    packet.origin_hi = f32_above(listed_origin());
+    let origin = listed_origin();
+    packet.origin_lo = f32_below(origin);
+    packet.origin_hi = f32_above(origin);
 #endif
     let loose = is_loose(packet);
     var cull = packet_cull(lane_cull);
