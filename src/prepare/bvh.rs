@@ -154,6 +154,12 @@ const TRAVERSAL_COST: f64 = 3.0;
 const SPHERE_TRAVERSAL_COST: f64 = 1.5;
 /// Nodes with more primitives are built with their two halves in parallel.
 const PARALLEL_ITEMS: usize = 4096;
+/// Trees over at most this many primitives of a kind search every axis for each node's split;
+/// larger ones only the axis the centroids spread widest on ([`Binning::candidates`]). A small
+/// tree builds in milliseconds either way, and the three axes' trees traced the 100 spheres
+/// of `benches/peers.sh` faster; the 518,400-triangle torus's builds in 0.71x to 0.74x the time
+/// with one axis and traces at 0.96x to 0.97x the rate.
+const ALL_AXES_ITEMS: usize = 1 << 16;
 
 /// One interior node: the boxes of its two children and where they are. 64 bytes, read in the
 /// kernel as four `vec4<u32>` (per ray) or eight `vec2<u32>` (packets). Offsets in bytes.
@@ -386,23 +392,26 @@ struct Binning {
 }
 
 impl Binning {
-    /// Bins along the axis the centroids `cb` spread widest on (the first of equals); `None`
-    /// where they do not spread. Binning all three axes built the torus's tree in 1.4x the
-    /// time and traced it only 1.03x as fast (the spheres 1.014x, the bunny 1.02x; `raycast
-    /// bench` of both trees in turn, 6 to 8 rounds, 2026-11-26): with few items a node's cost
-    /// is its split search, three axes' sweeps of the bins in f64.
-    fn over(cb: &Aabb, items: usize) -> Option<Binning> {
+    /// The binnings a node of `items` items whose centroids span `cb` takes its split from:
+    /// along every axis they spread on where `all_axes`, else along the one they spread widest
+    /// on (the first of equals); none where they do not spread. Binning all three axes built
+    /// the torus's tree in 1.4x the time and traced it only 1.03x as fast (the spheres 1.014x,
+    /// the bunny 1.02x; `raycast bench` of both trees in turn, 6 to 8 rounds, 2026-11-26): with
+    /// few items a node's cost is its split search, three axes' sweeps of the bins in f64.
+    fn candidates(cb: &Aabb, items: usize, all_axes: bool) -> impl Iterator<Item = Binning> {
         let used = items.clamp(2, BINS);
         let extent = [0, 1, 2].map(|k| cb.hi[k] - cb.lo[k]);
-        let axis = (0..3).fold(0, |w, k| if extent[k] > extent[w] { k } else { w });
-        // A multiplication per item instead of a division; a scale that overflows only piles
-        // items into the last bin, which the clamp in `bin` keeps.
-        (extent[axis] > 0.0).then(|| Binning {
-            used,
-            axis,
-            lo: cb.lo[axis],
-            scale: used as f32 / extent[axis],
-        })
+        let widest = (0..3).fold(0, |w, k| if extent[k] > extent[w] { k } else { w });
+        (0..3)
+            .filter(move |&axis| (all_axes || axis == widest) && extent[axis] > 0.0)
+            // A multiplication per item instead of a division; a scale that overflows only
+            // piles items into the last bin, which the clamp in `bin` keeps.
+            .map(move |axis| Binning {
+                used,
+                axis,
+                lo: cb.lo[axis],
+                scale: used as f32 / extent[axis],
+            })
     }
 
     /// Which bin an item's centroid falls in.
@@ -467,16 +476,23 @@ fn sah_cost(weight: f64, area: f64, traversal_cost: f64) -> f64 {
     traversal_cost + weight / area.max(f64::MIN_POSITIVE)
 }
 
+/// How a tree over one kind of primitive is built: what a node visit costs in primitive tests,
+/// and whether each node's split is searched along every axis ([`ALL_AXES_ITEMS`]).
+#[derive(Clone, Copy)]
+struct Policy {
+    traversal_cost: f64,
+    all_axes: bool,
+}
+
 /// Builds the subtree over `items` (which start at `start` in the whole list, and span
-/// `extent`) at `depth`, a node visit costing `traversal_cost` primitive tests. A split passes
-/// each side its extent, found while partitioning, so no node makes a pass over its items for
-/// its bounds.
+/// `extent`) at `depth`, as `policy` says. A split passes each side its extent, found while
+/// partitioning, so no node makes a pass over its items for its bounds.
 fn build_tree(
     items: &mut [Item],
     start: usize,
     depth: usize,
     extent: Extent,
-    traversal_cost: f64,
+    policy: Policy,
 ) -> (Aabb, Tree) {
     let bounds = extent.boxes;
     let n = items.len();
@@ -485,13 +501,16 @@ fn build_tree(
         return (bounds, leaf);
     }
     let area = bounds.half_area();
-    let split = Binning::over(&extent.centroids, n).and_then(|binning| {
-        let best = best_split_of_axis(&fill_bins(items, &binning), binning.used);
-        best.map(|(weight, bin)| (weight, binning, bin))
-    });
+    // The lightest split of any candidate axis (the first of equals).
+    let split = Binning::candidates(&extent.centroids, n, policy.all_axes)
+        .filter_map(|binning| {
+            let best = best_split_of_axis(&fill_bins(items, &binning), binning.used);
+            best.map(|(weight, bin)| (weight, binning, bin))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0));
     let (mid, sides) = match split {
         Some((weight, _, _))
-            if n <= MAX_LEAF && sah_cost(weight, area, traversal_cost) >= n as f64 =>
+            if n <= MAX_LEAF && sah_cost(weight, area, policy.traversal_cost) >= n as f64 =>
         {
             return (bounds, leaf);
         }
@@ -506,13 +525,13 @@ fn build_tree(
     let (left, right) = items.split_at_mut(mid);
     let (l, r) = if n >= PARALLEL_ITEMS {
         rayon::join(
-            || build_tree(left, start, depth + 1, sides[0], traversal_cost),
-            || build_tree(right, start + mid, depth + 1, sides[1], traversal_cost),
+            || build_tree(left, start, depth + 1, sides[0], policy),
+            || build_tree(right, start + mid, depth + 1, sides[1], policy),
         )
     } else {
         (
-            build_tree(left, start, depth + 1, sides[0], traversal_cost),
-            build_tree(right, start + mid, depth + 1, sides[1], traversal_cost),
+            build_tree(left, start, depth + 1, sides[0], policy),
+            build_tree(right, start + mid, depth + 1, sides[1], policy),
         )
     };
     (bounds, Tree::Inner(Box::new([l, r])))
@@ -521,7 +540,11 @@ fn build_tree(
 /// The tree over all `items` of one kind, if there are any.
 fn build_root(items: &mut [Item], traversal_cost: f64) -> Option<(Aabb, Tree)> {
     let extent = Extent::of(items);
-    (!items.is_empty()).then(|| build_tree(items, 0, 1, extent, traversal_cost))
+    let policy = Policy {
+        traversal_cost,
+        all_axes: items.len() <= ALL_AXES_ITEMS,
+    };
+    (!items.is_empty()).then(|| build_tree(items, 0, 1, extent, policy))
 }
 
 /// Moves the items for which `left` holds to the front; returns how many there are and the
