@@ -8,7 +8,7 @@
 #import count
 #endif
 #if USER_SHADE
-#import hooks
+#import shade
 #import user
 #endif
 
@@ -62,29 +62,14 @@ fn write_pixel(ray: Ray, hit: Hit, i: u32, j: u32, index: u32, write: bool) {
 #endif
 #endif
 #if USER_SHADE
-    let colour = shade(shade_hit(ray, hit, surface, i, j));
+    shading_pixel = vec2<u32>(j, i);
+    let colour = shade(shade_hit(ray, hit, surface));
     out_color[index] = pack4x8unorm(clamp(colour, vec4<f32>(0.0), vec4<f32>(1.0)));
+#if HOOK_RAYS
+    count_hook_rays();
+#endif
 #endif
 }
-
-#if USER_SHADE
-// The hook's view of pixel (i, j), in world coordinates and f32 whatever the kernel's
-// precision (shaders/hooks.wgsl). `surface` holds the normal and distance (zero on a miss).
-fn shade_hit(ray: Ray, hit: Hit, surface: vec4<real>, i: u32, j: u32) -> ShadeHit {
-    var h: ShadeHit;
-    h.id = select(hit.object, -1, hit.object < 0);
-    h.direction = vec3<f32>(normalize(ray.direction));
-    h.origin = vec3<f32>(params.origin + ray.origin * params.unit);
-    h.pixel = vec2<u32>(j, i);
-    h.resolution = vec2<u32>(params.nx, params.ny);
-    if (hit.object >= 0) {
-        h.position = vec3<f32>(params.origin + (ray.origin + hit.t * ray.direction) * params.unit);
-        h.normal = vec3<f32>(surface.xyz);
-        h.distance = f32(surface.w);
-    }
-    return h;
-}
-#endif
 
 #if PACKETS
 // Where invocation `local` of a workgroup covering 8x8 pixels (or an image's rays) falls in

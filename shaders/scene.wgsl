@@ -34,7 +34,14 @@ fn keep(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
 }
 
 fn nearest_hit(ray: Ray, min_t: real) -> Hit {
-    var best = Hit(T_FAR, -1, 0u, 0u);
+    return nearest_hit_before(ray, min_t, T_FAR);
+}
+
+// The nearest hit, searching no box that starts beyond `t_max` (shadow rays, shade.wgsl's
+// `occluded`): a hit found is the nearest one where the nearest is before t_max, and may be any
+// hit where none is.
+fn nearest_hit_before(ray: Ray, min_t: real, t_max: real) -> Hit {
+    var best = Hit(t_max, -1, 0u, 0u);
 #if CERTAINTY
     start_certainty(ray);
 #endif

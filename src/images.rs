@@ -32,6 +32,9 @@ pub struct Images<T> {
     pub focal_length: f64,
     /// RGBA, 8 bits a channel, from the user's shade hook (`--shader`), when one ran.
     pub color: Option<Vec<[u8; 4]>>,
+    /// The rays the shade hook cast beyond the camera's (`trace`, `occluded`), when it cast
+    /// any.
+    pub hook_rays: Option<u64>,
     /// How much of each pixel its samples covered, when the images were supersampled
     /// (`--spp`, [`crate::supersample::reduce`]); `None` for one ray per pixel.
     pub coverage: Option<Coverage>,
@@ -64,6 +67,7 @@ impl<T: Real> Images<T> {
             normal: vec![[T::ZERO; 3]; n],
             focal_length,
             color: None,
+            hook_rays: None,
             coverage: None,
         }
     }

@@ -106,6 +106,11 @@ enum Command {
         /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
         #[arg(long, value_name = "FILE")]
         shader: Option<PathBuf>,
+        /// Colour color.png by the course's ray tracer from the scene's materials and lights
+        /// (Blinn-Phong, hard shadows, mirror reflections): the shade hook
+        /// shaders/examples/raytrace.wgsl on the GPU, its mirror on the CPU (f32 or f64)
+        #[arg(long)]
+        lit: bool,
         /// After rendering, watch the scene file, its meshes, the shader and kernel files and render
         /// again when one changes (polled every 200 ms); errors are printed and watching goes
         /// on. Ctrl-C ends it.
@@ -139,6 +144,14 @@ enum Command {
         /// Exit with code 1 when a metric exceeds its bound, e.g. hit_mismatch=0,distance.rel_max=1e-5.
         #[arg(long, value_delimiter = ',', value_parser = compare::parse_bound)]
         fail_above: Vec<(String, f64)>,
+        /// Colour both sides' color.png by this shade hook (GPU sides) and compare them too
+        /// (color_error.png).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Light both sides by the course's ray tracer (the shipped hook on the GPU, its mirror
+        /// on the CPU) and compare their color.png too.
+        #[arg(long)]
+        lit: bool,
     },
     /// Render scenes in every mode and print a markdown table of each against a reference.
     Accuracy {
@@ -331,6 +344,7 @@ fn run(command: Command) -> Result<ExitCode> {
             kernel,
             outputs,
             shader,
+            lit,
             watch,
             band_rows,
             depth,
@@ -365,6 +379,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 spp,
                 band_rows,
                 shader,
+                lit,
                 kernel,
                 out_dir: output,
                 encoding,
@@ -382,6 +397,8 @@ fn run(command: Command) -> Result<ExitCode> {
             b_scene,
             output,
             fail_above,
+            shader,
+            lit,
         } => compare(&compare::Spec {
             scene,
             b_scene,
@@ -389,6 +406,8 @@ fn run(command: Command) -> Result<ExitCode> {
             modes: [a, b],
             out_dir: output,
             bounds: fail_above,
+            shader,
+            lit,
         }),
         Command::Accuracy {
             scenes,

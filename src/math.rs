@@ -13,6 +13,7 @@ pub trait Real:
     Copy
     + Debug
     + PartialOrd
+    + Default
     + Send
     + Sync
     + 'static
@@ -39,6 +40,9 @@ pub trait Real:
     fn is_finite(self) -> bool;
     fn min(self, other: Self) -> Self;
     fn max(self, other: Self) -> Self;
+    /// `self` to the power `e` (WGSL's `pow`).
+    fn powf(self, e: Self) -> Self;
+    fn floor(self) -> Self;
     /// Machine epsilon (WGSL's `EPS` in the generated precision module).
     const EPS: Self;
 }
@@ -83,6 +87,14 @@ macro_rules! impl_real {
             #[inline]
             fn max(self, other: Self) -> Self {
                 <$t>::max(self, other)
+            }
+            #[inline]
+            fn powf(self, e: Self) -> Self {
+                <$t>::powf(self, e)
+            }
+            #[inline]
+            fn floor(self) -> Self {
+                <$t>::floor(self)
             }
             const EPS: Self = <$t>::EPSILON;
         }
@@ -171,6 +183,10 @@ impl<T: Real> Vec3<T> {
     /// Component-wise absolute value.
     pub fn abs(self) -> Self {
         vec3(self.x.abs(), self.y.abs(), self.z.abs())
+    }
+    /// Component-wise product, WGSL's `a * b` of two vectors.
+    pub fn times(self, b: Self) -> Self {
+        vec3(self.x * b.x, self.y * b.y, self.z * b.z)
     }
 }
 

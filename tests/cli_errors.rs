@@ -248,7 +248,7 @@ fn a_lit_scene_renders_its_geometry_with_one_note() {
         notes[0],
         &[
             "scene.json",
-            "ignored",
+            "--lit",
             "1 light, 1 material, a material on 1 object",
         ],
     );

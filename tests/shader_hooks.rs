@@ -361,7 +361,7 @@ fn hooked_kernels_of_every_lane_count_agree() {
     let gpu = common::gpu();
     let base = gpu
         .scene_variant(&scene, raycast::math::Precision::F32, Robust)
-        .with_shade(hook.key)
+        .with_shade(hook.key, hook.traces)
         .with_outputs(Outputs::ALL);
     let render = |lane_rays_limit| {
         let variant = raycast::gpu::shader::Variant {

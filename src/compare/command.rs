@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 
-use super::{Comparison, compare, distance_error_picture, exceeded, mismatch_picture};
+use super::{
+    Comparison, color_error_picture, compare, distance_error_picture, exceeded, mismatch_picture,
+};
 use crate::error::Result;
 use crate::gpu::Gpu;
 use crate::output::{self, EncodedFile};
@@ -24,6 +26,11 @@ pub struct Spec {
     pub out_dir: Option<PathBuf>,
     /// Metric bounds (`--fail-above`).
     pub bounds: Vec<(String, f64)>,
+    /// A shade hook file colouring both sides' `color.png`, compared too (`--shader`).
+    pub shader: Option<PathBuf>,
+    /// Both sides lit by the course's ray tracer (`--lit`: the shipped hook on the GPU, its
+    /// mirror on the CPU).
+    pub lit: bool,
 }
 
 /// What a comparison found.
@@ -48,12 +55,30 @@ impl Spec {
         };
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
+        let request = render::Request {
+            shade: match (&self.shader, self.lit) {
+                (Some(_), true) => {
+                    return Err(crate::Error::Argument {
+                        option: "--lit".into(),
+                        message: "is the shade hook shaders/examples/raytrace.wgsl; give it or --shader, not both".into(),
+                    });
+                }
+                (_, true) => Some(crate::gpu::hooks::raytrace()?),
+                (Some(path), false) => Some(crate::gpu::hooks::load(path)?),
+                (None, false) => None,
+            },
+            ..render::Request::default()
+        };
+        for mode in self.modes {
+            render::check_request(mode, &request)?;
+        }
         if let Some(dir) = &self.out_dir {
             output::check_writable(dir)?;
         }
         let [mode_a, mode_b] = self.modes;
-        let (a, time_a) = render::timed(|| render::render(&scene_a, mode_a, gpu, true));
-        let (b, time_b) = render::timed(|| render::render(&scene_b, mode_b, gpu, true));
+        let render = |scene, mode| render::render_request(scene, mode, gpu, true, &request);
+        let (a, time_a) = render::timed(|| render(&scene_a, mode_a));
+        let (b, time_b) = render::timed(|| render(&scene_b, mode_b));
         let (a, b) = (a?, b?);
         let c = compare(&a, &b);
         let mut json = serde_json::json!({
@@ -70,7 +95,7 @@ impl Spec {
             fields.extend(report);
         }
         let written = match &self.out_dir {
-            Some(dir) => output::write_files(dir, &pictures(&c, &b))?,
+            Some(dir) => output::write_files(dir, &pictures(&c, &a, &b))?,
             None => Vec::new(),
         };
         Ok(Outcome {
@@ -81,18 +106,25 @@ impl Spec {
     }
 }
 
-/// `mismatch.png` over side b's normals, and `distance_error.png`.
-fn pictures(c: &Comparison, b: &AnyImages) -> [EncodedFile; 2] {
+/// `mismatch.png` over side b's normals, `distance_error.png`, and where both sides have a
+/// `color.png`, `color_error.png`.
+fn pictures(c: &Comparison, a: &AnyImages, b: &AnyImages) -> Vec<EncodedFile> {
     let base = match b {
         AnyImages::F32(i) => output::pictures(i).normal,
         AnyImages::F64(i) => output::pictures(i).normal,
     };
-    [
+    let mut pictures = vec![
         ("mismatch.png", mismatch_picture(c, &base)),
         ("distance_error.png", distance_error_picture(c)),
-    ]
-    .map(|(name, img)| EncodedFile {
-        name,
-        bytes: output::encode_png_rgb(&img),
-    })
+    ];
+    if let (Some(ca), Some(cb)) = (a.color(), b.color()) {
+        pictures.push(("color_error.png", color_error_picture(c, ca, cb)));
+    }
+    pictures
+        .into_iter()
+        .map(|(name, img)| EncodedFile {
+            name,
+            bytes: output::encode_png_rgb(&img),
+        })
+        .collect()
 }

@@ -11,7 +11,7 @@ use crate::math::{Precision, Real};
 use crate::render::AnyImages;
 
 pub use command::{Outcome, Spec};
-pub use pictures::{distance_error_picture, mismatch_picture};
+pub use pictures::{color_error_picture, distance_error_picture, mismatch_picture};
 
 /// What `raycast compare` prints (besides the modes and times).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -27,6 +27,46 @@ pub struct Report {
     pub distance: DistanceError,
     /// Angle between the two normals in degrees, over pixels where both hit the same object.
     pub normal_angle_deg: AngleError,
+    /// `color.png`'s RGB levels, where both sides have one (a shade hook's: `--lit`,
+    /// `--shader`); `None` (JSON null) otherwise.
+    pub color: Option<ColorError>,
+}
+
+/// How two `color.png`s differ, in 8-bit levels of R, G and B.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ColorError {
+    /// Share of pixels whose three levels are equal.
+    pub exact: f64,
+    /// Share of pixels with some level more than 2 apart.
+    pub beyond_2: f64,
+    /// Mean |a - b| over every level of every pixel.
+    pub mean_abs: f64,
+    /// Largest |a - b| of any level.
+    pub max: u8,
+}
+
+/// The largest difference of R, G and B levels between two RGBA pixels.
+pub fn level_difference(a: [u8; 4], b: [u8; 4]) -> u8 {
+    (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap_or(0)
+}
+
+/// [`ColorError`] of two colour images of one size.
+pub fn color_error(a: &[[u8; 4]], b: &[[u8; 4]]) -> ColorError {
+    let n = a.len().max(1) as f64;
+    let (mut exact, mut beyond, mut sum, mut largest) = (0usize, 0usize, 0u64, 0u8);
+    for (&pa, &pb) in a.iter().zip(b) {
+        let d = level_difference(pa, pb);
+        exact += usize::from(d == 0);
+        beyond += usize::from(d > 2);
+        largest = largest.max(d);
+        sum += (0..3).map(|c| pa[c].abs_diff(pb[c]) as u64).sum::<u64>();
+    }
+    ColorError {
+        exact: exact as f64 / n,
+        beyond_2: beyond as f64 / n,
+        mean_abs: sum as f64 / (3.0 * n),
+        max: largest,
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -74,6 +114,7 @@ pub struct Comparison {
 /// The fields a comparison needs, widened to f64, with the precision the values came in.
 struct Side<'a> {
     id: &'a [i32],
+    color: Option<&'a [[u8; 4]]>,
     distance: Vec<f64>,
     normal: Vec<[f64; 3]>,
     precision: Precision,
@@ -82,6 +123,7 @@ struct Side<'a> {
 fn side<T: Real>(images: &Images<T>) -> Side<'_> {
     Side {
         id: &images.id,
+        color: images.color.as_deref(),
         distance: images.distance.iter().map(|d| d.to_f64()).collect(),
         normal: images.normal.iter().map(|n| n.map(T::to_f64)).collect(),
         precision: T::PRECISION,
@@ -189,6 +231,7 @@ pub fn compare(a: &AnyImages, b: &AnyImages) -> Comparison {
             max: max(&angles),
             p99: percentile(&mut angles, 0.99),
         },
+        color: sa.color.zip(sb.color).map(|(a, b)| color_error(a, b)),
     };
     Comparison {
         width,
@@ -200,7 +243,7 @@ pub fn compare(a: &AnyImages, b: &AnyImages) -> Comparison {
 }
 
 /// The metric names `--fail-above` accepts, as dotted paths into the report's JSON.
-pub const METRICS: [&str; 9] = [
+pub const METRICS: [&str; 12] = [
     "hit_mismatch",
     "id_mismatch",
     "distance.abs_max",
@@ -210,6 +253,9 @@ pub const METRICS: [&str; 9] = [
     "distance.ulp_max",
     "normal_angle_deg.max",
     "normal_angle_deg.p99",
+    "color.beyond_2",
+    "color.mean_abs",
+    "color.max",
 ];
 
 /// The value of a metric (`None` when there was nothing to measure, e.g. no common hits).
@@ -226,6 +272,9 @@ pub fn metric(report: &Report, name: &str) -> Option<f64> {
         "distance.ulp_max" => d.ulp_max,
         "normal_angle_deg.max" => n.max,
         "normal_angle_deg.p99" => n.p99,
+        "color.beyond_2" => report.color.as_ref().map(|c| c.beyond_2),
+        "color.mean_abs" => report.color.as_ref().map(|c| c.mean_abs),
+        "color.max" => report.color.as_ref().map(|c| c.max as f64),
         _ => None,
     }
 }

@@ -124,6 +124,54 @@ pub fn distance_error_picture(c: &Comparison) -> RgbImage {
     img
 }
 
+/// Levels at which [`color_error_picture`]'s ramp tops out.
+const COLOR_RAMP_LEVELS: u8 = 16;
+
+/// Per pixel, the largest difference of `color.png`'s R, G and B levels between the sides
+/// (`a`, `b`, RGBA of the comparison's size): equal in grey, 1 to 16 levels and more from blue
+/// to red, with a labelled bar on the right.
+pub fn color_error_picture(c: &Comparison, a: &[[u8; 4]], b: &[[u8; 4]]) -> RgbImage {
+    let (w, h) = (c.width, c.height);
+    let top = LINE + 2;
+    let panel = 96;
+    let bar_h = h.max(10 * LINE);
+    let mut img = RgbImage::new((w + panel).max(360), top + bar_h);
+    draw_text(
+        &mut img,
+        2,
+        2,
+        "color.png: max |a-b| of R, G, B (levels)",
+        TEXT,
+    );
+    let scale = |d: u8| (d.min(COLOR_RAMP_LEVELS) - 1) as f64 / (COLOR_RAMP_LEVELS - 1) as f64;
+    for (k, (&pa, &pb)) in a.iter().zip(b).enumerate() {
+        let (x, y) = (k as u32 % w, k as u32 / w + top);
+        let d = super::level_difference(pa, pb);
+        img.put_pixel(x, y, if d == 0 { ZERO_ERROR } else { ramp(scale(d)) });
+    }
+    let (bar_x, bar_w) = (w + 8, 16);
+    let bar_len = bar_h - 2 * LINE;
+    for dy in 0..bar_len {
+        let color = ramp(1.0 - dy as f64 / (bar_len - 1).max(1) as f64);
+        for dx in 0..bar_w {
+            img.put_pixel(bar_x + dx, top + dy, color);
+        }
+    }
+    let label = |img: &mut RgbImage, y: u32, text: &str| {
+        draw_text(img, bar_x + bar_w + 4, y, text, TEXT);
+    };
+    label(&mut img, top, &format!(">={COLOR_RAMP_LEVELS}"));
+    label(&mut img, top + bar_len - 8, "1");
+    let swatch_y = top + bar_len + 4;
+    for dy in 0..8 {
+        for dx in 0..bar_w {
+            img.put_pixel(bar_x + dx, swatch_y + dy, ZERO_ERROR);
+        }
+    }
+    label(&mut img, swatch_y, "0");
+    img
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -29,8 +29,20 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
     min_t: T,
     prims: &Primitives<T>,
 ) -> Hit<T> {
+    nearest_hit_before::<T, ROBUST>(ray, min_t, t_far(), prims)
+}
+
+/// The nearest hit, searching no box that starts beyond `t_max` (shadow rays,
+/// [`super::shade`]'s `occluded`): the nearest one where it is before t_max, and may be any
+/// hit where none is.
+pub fn nearest_hit_before<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    t_max: T,
+    prims: &Primitives<T>,
+) -> Hit<T> {
     let mut best = Hit {
-        t: t_far(),
+        t: t_max,
         object: -1,
         kind: 0,
         index: 0,

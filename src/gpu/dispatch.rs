@@ -344,6 +344,10 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     buffers.push(("params".into(), &params_buffer));
     buffers.extend(list_buffer.iter().map(|(name, b)| (name.to_string(), b)));
     buffers.extend(outputs.named());
+    let mut hook_rays = variant.hook_rays.then(|| HookRayCounter::new(gpu));
+    if let Some(counter) = &hook_rays {
+        buffers.push(("hook_ray_count".into(), &counter.counter));
+    }
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("raycast"),
         layout: &kernel.pipeline.get_bind_group_layout(0),
@@ -462,7 +466,13 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             timer.resolve(&mut encoder);
         }
         outputs.copy_to_readback(&mut encoder, pixels);
+        if let Some(counter) = &hook_rays {
+            counter.copy_and_reset(&mut encoder);
+        }
         gpu.queue.submit([encoder.finish()]);
+        if let Some(counter) = &mut hook_rays {
+            counter.add(gpu)?;
+        }
         match (sink.as_mut(), hits.as_mut()) {
             (_, Some(hits)) => read_hits(
                 gpu,
@@ -493,6 +503,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     }
     stages.trace_s = clock.elapsed().as_secs_f64();
     stages.kernel_s = kernel_s;
+    stages.hook_rays = hook_rays.map(|c| c.total);
     let list_buffer = list_buffer.map(|(_, b)| b);
     gpu.keep_transient(outputs.into_buffers().chain(list_buffer).collect());
     Ok(Rendered {
@@ -551,7 +562,8 @@ pub fn upload<R: GpuReal>(
     prepared: &Prepared<R>,
     variant: &Variant,
 ) -> Result<Resident> {
-    let buffers = Layout::new(&prepared.primitives).upload(gpu, variant);
+    let mut buffers = Layout::new(&prepared.primitives).upload(gpu, variant);
+    buffers.extend(upload_hook_scene(gpu, prepared));
     gpu.device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
@@ -560,6 +572,74 @@ pub fn upload<R: GpuReal>(
         laid_out: layout_of(variant),
         device: gpu.identity().clone(),
     })
+}
+
+/// The scene's materials, lights and per-object values for shade hooks (shaders/hooks.wgsl):
+/// a few hundred bytes, uploaded with every scene so that resident buffers serve hooks too.
+fn upload_hook_scene<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>) -> Vec<(String, wgpu::Buffer)> {
+    let (materials, lights, objects) =
+        super::layout::hook_buffers(&prepared.lighting, prepared.objects);
+    vec![
+        (
+            "hook_materials".to_owned(),
+            storage_buffer(gpu, "hook_materials", &materials),
+        ),
+        (
+            "hook_lights".to_owned(),
+            storage_buffer(gpu, "hook_lights", &lights),
+        ),
+        (
+            "hook_objects".to_owned(),
+            storage_buffer(gpu, "hook_objects", &objects),
+        ),
+    ]
+}
+
+/// The counter of the rays a shade hook casts (`hook_ray_count`, shaders/shade.wgsl), read
+/// back and zeroed after every dispatch, so that its 32 bits need hold one dispatch's rays.
+struct HookRayCounter {
+    counter: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    total: u64,
+}
+
+impl HookRayCounter {
+    fn new(gpu: &Gpu) -> HookRayCounter {
+        HookRayCounter {
+            counter: gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("hook_ray_count"),
+                    contents: bytemuck::bytes_of(&0u32),
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST,
+                }),
+            readback: readback_buffer(gpu, 4),
+            total: 0,
+        }
+    }
+
+    /// Copies the dispatch's count for reading and zeroes the counter for the next.
+    fn copy_and_reset(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_buffer_to_buffer(&self.counter, 0, &self.readback, 0, 4);
+        encoder.clear_buffer(&self.counter, 0, None);
+    }
+
+    /// Adds the count copied by [`HookRayCounter::copy_and_reset`] to the total.
+    fn add(&mut self, gpu: &Gpu) -> Result<()> {
+        let slice = self.readback.slice(..);
+        map_buffers(gpu, &[slice], wgpu::MapMode::Read)?;
+        let count = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| Error::Device(format!("GPU ray count readback failed: {e}")))?;
+            u32::from_ne_bytes(view[..4].try_into().expect("4 bytes"))
+        };
+        self.readback.unmap();
+        self.total += count as u64;
+        Ok(())
+    }
 }
 
 /// `groups` workgroups for a list, laid out in rows of at most the device's limit per dimension.
@@ -1070,6 +1150,9 @@ pub struct Stages {
     pub trace_s: f64,
     /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
     pub kernel_s: Option<f64>,
+    /// The rays the shade hook cast (`trace`, `occluded`), where it casts any
+    /// ([`Variant::hook_rays`]).
+    pub hook_rays: Option<u64>,
 }
 
 /// A per-pixel output buffer of the kernel (shaders/bindings.wgsl).

@@ -35,8 +35,18 @@ use crate::math::Precision;
 pub const HOOK_FUNCTION: &str = "shade";
 /// The struct `shade` takes.
 pub const HOOK_INPUT: &str = "ShadeHit";
-/// `shaders/hooks.wgsl`: the declaration of [`HOOK_INPUT`], appended to the user's text.
+/// `shaders/hooks.wgsl`: the declaration of [`HOOK_INPUT`], of the scene's materials and lights
+/// and their accessors, appended to the user's text.
 pub const PRELUDE: &str = include_str!("../../shaders/hooks.wgsl");
+/// The functions that cast rays from a hook, which the kernel defines in shaders/shade.wgsl
+/// (`HOOK_RAYS`) from its own internals: declared here with empty bodies for checking a hook on
+/// its own, after [`PRELUDE`] (a test holds their signatures to the kernel's).
+const RAY_STUBS: &str = "\
+fn trace(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> ShadeHit { return ShadeHit(); }
+fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_min: f32, t_max: f32) -> bool { return false; }
+";
+/// The names of the functions in [`RAY_STUBS`].
+pub const RAY_FUNCTIONS: [&str; 2] = ["trace", "occluded"];
 
 /// A checked user shader.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,6 +55,27 @@ pub struct ShadeHook {
     pub file: PathBuf,
     pub source: Arc<str>,
     pub key: SourceKey,
+    /// `shade` casts rays of its own, directly or through the file's other functions
+    /// ([`RAY_FUNCTIONS`]): its kernel compiles them in ([`Variant::hook_rays`]).
+    pub traces: bool,
+}
+
+/// The course's ray tracer as a hook, as shipped (shaders/examples/raytrace.wgsl): what
+/// `--lit` runs, and the one hook the CPU reference mirrors (src/cpu/raytrace.rs).
+pub const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.wgsl");
+/// Where [`RAYTRACE`] lives, for messages.
+pub const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
+
+/// [`RAYTRACE`], checked.
+pub fn raytrace() -> Result<ShadeHook> {
+    check(RAYTRACE, Path::new(RAYTRACE_FILE))
+}
+
+impl ShadeHook {
+    /// Whether the CPU reference mirrors this hook: it is [`RAYTRACE`], text for text.
+    pub fn has_cpu_mirror(&self) -> bool {
+        &*self.source == RAYTRACE
+    }
 }
 
 /// Reads and [`check`]s the hook file at `path`.
@@ -67,6 +98,7 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
     }
     let prelude_start = text.len();
     text.push_str(PRELUDE);
+    text.push_str(RAY_STUBS);
     let in_user = |offset: usize| offset.min(source.len());
     let module = naga::front::wgsl::parse_str(&text).map_err(|e| {
         let spans: Vec<(usize, usize)> = e
@@ -77,7 +109,9 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
             .collect();
         let mut message = e.message().to_owned();
         if spans.iter().any(|&(at, _)| at >= prelude_start) {
-            message += &format!(" (`{HOOK_INPUT}` is declared for the hook: shaders/hooks.wgsl)");
+            message += &format!(
+                " (`{HOOK_INPUT}`, the scene's materials and lights and `trace` and `occluded` are declared for the hook: shaders/hooks.wgsl)"
+            );
         }
         let (offset, len) = spans
             .iter()
@@ -102,17 +136,67 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
     })?;
     // 2. The hook's signature and what a hook may not declare.
     check_signature(&module, &located)?;
-    check_declarations(&module, &located)?;
+    let casting = ray_casting_functions(&module);
+    check_declarations(&module, prelude_start, &casting, &located)?;
     // 3. Names the kernel uses.
     check_names(&module, &located)?;
     // 4. The kernel with the hook.
+    let traces = module
+        .functions
+        .iter()
+        .any(|(h, f)| f.name.as_deref() == Some(HOOK_FUNCTION) && casting.contains(&h));
     let (key, source) = register(source);
-    check_in_kernel(key, &source, file)?;
+    check_in_kernel(key, traces, &source, file)?;
     Ok(ShadeHook {
         file: file.to_owned(),
         source,
         key,
+        traces,
     })
+}
+
+/// The functions of `module` that cast rays: [`RAY_FUNCTIONS`] and every function that calls
+/// one of them, directly or not. (naga's arena holds a function after those it calls: WGSL
+/// has no recursion.)
+fn ray_casting_functions(module: &naga::Module) -> Vec<naga::Handle<naga::Function>> {
+    let mut casting = Vec::new();
+    for (handle, function) in module.functions.iter() {
+        let is_ray_function = function
+            .name
+            .as_deref()
+            .is_some_and(|n| RAY_FUNCTIONS.contains(&n));
+        let mut calls_one = false;
+        visit_calls(&function.body, &mut |callee| {
+            calls_one |= casting.contains(&callee)
+        });
+        if is_ray_function || calls_one {
+            casting.push(handle);
+        }
+    }
+    casting
+}
+
+/// Calls `each` with every function `block` calls, in nested blocks too.
+fn visit_calls(block: &naga::Block, each: &mut dyn FnMut(naga::Handle<naga::Function>)) {
+    use naga::Statement as S;
+    for statement in block.iter() {
+        match statement {
+            S::Call { function, .. } => each(*function),
+            S::Block(inner) => visit_calls(inner, each),
+            S::If { accept, reject, .. } => {
+                visit_calls(accept, each);
+                visit_calls(reject, each);
+            }
+            S::Switch { cases, .. } => cases.iter().for_each(|c| visit_calls(&c.body, each)),
+            S::Loop {
+                body, continuing, ..
+            } => {
+                visit_calls(body, each);
+                visit_calls(continuing, each);
+            }
+            _ => {}
+        }
+    }
 }
 
 type Locate<'a> = dyn Fn(usize, usize, String) -> Error + 'a;
@@ -194,9 +278,17 @@ fn type_name(module: &naga::Module, ty: naga::Handle<naga::Type>) -> String {
 }
 
 /// A hook is a function for the kernel to call: it declares no entry point, no resource
-/// (the kernel owns the bindings) and no pipeline override.
-fn check_declarations(module: &naga::Module, located: &Locate) -> Result<()> {
+/// (the kernel owns the bindings; the prelude's, from `prelude_start` on, are the kernel's) and
+/// no pipeline override. `casting`: the functions that cast rays.
+fn check_declarations(
+    module: &naga::Module,
+    prelude_start: usize,
+    casting: &[naga::Handle<naga::Function>],
+    located: &Locate,
+) -> Result<()> {
     if let Some(entry) = module.entry_points.first() {
+        let mut casts = false;
+        visit_calls(&entry.function.body, &mut |f| casts |= casting.contains(&f));
         // An entry point has no span of its own; its body's first statement is nearest.
         let offset = entry
             .function
@@ -205,16 +297,25 @@ fn check_declarations(module: &naga::Module, located: &Locate) -> Result<()> {
             .map(|(_, span)| *span)
             .find(|span| span.is_defined())
             .map_or((0, 0), span_range);
+        let what = match casts {
+            true => {
+                "an entry point that casts rays (`trace` and `occluded` are for `shade` and the functions it calls)"
+            }
+            false => "an entry point",
+        };
         return Err(located(
             offset.0,
             offset.1,
             format!(
-                "`{}` is an entry point: a hook file declares no @compute, @vertex or @fragment function (the kernel has its own)",
+                "`{}` is {what}: a hook file declares no @compute, @vertex or @fragment function (the kernel has its own)",
                 entry.name
             ),
         ));
     }
     for (handle, g) in module.global_variables.iter() {
+        if span_range(module.global_variables.get_span(handle)).0 >= prelude_start {
+            continue;
+        }
         let private = matches!(
             g.space,
             naga::AddressSpace::Private | naga::AddressSpace::WorkGroup
@@ -386,11 +487,23 @@ fn split_identifier(text: &str) -> (&str, &str) {
     text.split_at(end)
 }
 
-/// No global name of the hook's module is one of the kernel's.
+/// The names the prelude and the ray functions declare for the hook.
+fn hook_api_names() -> &'static Vec<String> {
+    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+    NAMES.get_or_init(|| {
+        top_level_names(&format!("{PRELUDE}{RAY_STUBS}"))
+            .into_iter()
+            .map(|(_, name)| name)
+            .collect()
+    })
+}
+
+/// No global name of the hook's module is one of the kernel's (those declared for the hook
+/// aside: declaring one again is naga's error).
 fn check_names(module: &naga::Module, located: &Locate) -> Result<()> {
     let kernel = kernel_names();
     for (what, name, span) in global_names(module) {
-        if what == "struct" && name == HOOK_INPUT {
+        if hook_api_names().contains(&name) {
             continue;
         }
         if let Some(theirs) = kernel.get(&name) {
@@ -409,8 +522,8 @@ fn check_names(module: &naga::Module, located: &Locate) -> Result<()> {
 
 /// The general kernel (f32 robust, every kind and output) with the hook registered under
 /// `key` validates; an error inside the hook's lines is reported at the user's line.
-fn check_in_kernel(key: SourceKey, source: &str, file: &Path) -> Result<()> {
-    let variant = Variant::new(Precision::F32, Algorithm::Robust).with_shade(key);
+fn check_in_kernel(key: SourceKey, traces: bool, source: &str, file: &Path) -> Result<()> {
+    let variant = Variant::new(Precision::F32, Algorithm::Robust).with_shade(key, traces);
     let kernel = shader::kernel_source(&variant)?;
     let start = hook_offset(&kernel, key).expect("the kernel includes the hook");
     let fail = |offset: usize, len: usize, message: String| {
@@ -450,18 +563,23 @@ mod tests {
     fn the_scanned_names_cover_every_variant() {
         let (placeholder, _) =
             register("fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(0.0); }\n");
+        let (tracing, _) = register(TRACING);
+        // The tracing hook's own helper.
+        let own = top_level_names(TRACING);
         let scanned = kernel_names();
         let mut wrong = std::collections::BTreeSet::new();
         for variant in shader::all_variants() {
             for variant in [
                 variant.with_outputs(Outputs::GEOMETRY),
-                variant.with_shade(placeholder),
+                variant.with_shade(placeholder, false),
+                variant.with_shade(tracing, true),
             ] {
                 let source = shader::kernel_source(&variant).unwrap();
                 let module = naga::front::wgsl::parse_str(&source).unwrap();
                 for (what, name, _) in global_names(&module) {
                     if name != HOOK_FUNCTION
                         && name != HOOK_INPUT
+                        && !own.iter().any(|(_, n)| *n == name)
                         && scanned.get(&name) != Some(&what)
                     {
                         wrong.insert(format!("{what} {name} (scanned: {:?})", scanned.get(&name)));
@@ -496,6 +614,11 @@ mod tests {
         assert_eq!(found, expected);
     }
 
+    /// A hook that casts rays through a function of its own.
+    const TRACING: &str = "fn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(vec3<f32>(f32(lit(hit))), 1.0);\n}\n\
+                           fn lit(hit: ShadeHit) -> bool {\n    let m = object_material(hit.id);\n    \
+                           return !occluded(hit.position, vec3<f32>(0.0, 1.0, 0.0), 1e-4, 1e30) && trace(hit.position, m.kd, 1e-4).id < 0;\n}\n";
+
     const GOOD: &str = "fn shade(hit: ShadeHit) -> vec4<f32> {\n    return vec4<f32>(hit.normal * 0.5 + 0.5, 1.0);\n}\n";
 
     fn err(source: &str) -> (usize, usize, String, String) {
@@ -525,7 +648,7 @@ mod tests {
         assert_ne!(a.key, c.key);
         // The kernel variants of the two differ, and each kernel holds its own source.
         let base = Variant::new(Precision::F32, Algorithm::Robust);
-        let (va, vc) = (base.with_shade(a.key), base.with_shade(c.key));
+        let (va, vc) = (base.with_shade(a.key, false), base.with_shade(c.key, false));
         assert_ne!(va, vc);
         assert!(shader::kernel_source(&va).unwrap().contains(GOOD));
         assert!(shader::kernel_source(&vc).unwrap().contains(&other));
@@ -546,7 +669,10 @@ mod tests {
             }
         }
         names.sort();
-        assert_eq!(names, ["checker", "fog", "toon"]);
+        assert_eq!(
+            names,
+            ["ambient-occlusion", "checker", "fog", "raytrace", "toon"]
+        );
     }
 
     /// The hook compiles into every plain variant: both precisions and algorithms, any outputs.
@@ -557,7 +683,7 @@ mod tests {
             if variant.certainty || variant.source != shader::Source::Camera {
                 continue;
             }
-            let variant = variant.with_shade(hook.key);
+            let variant = variant.with_shade(hook.key, hook.traces);
             assert!(variant.defines().contains(&"USER_SHADE"));
             let source = shader::kernel_source(&variant).unwrap();
             if let Err(e) = shader::validate(&source, format!("{variant:?}")) {

@@ -167,6 +167,113 @@ impl<R: GpuReal> From<&crate::cpu::types::Ray<R>> for GpuRay<R> {
     }
 }
 
+/// `struct Material` in shaders/hooks.wgsl (f32 whatever the kernel's precision, as hooks are).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub ka: [f32; 3],        // offset 0
+    pub phong_exponent: f32, // offset 12
+    pub kd: [f32; 3],        // offset 16
+    pub _pad0: f32,
+    pub ks: [f32; 3], // offset 32
+    pub _pad1: f32,
+    pub km: [f32; 3], // offset 48
+    pub _pad2: f32,
+} // size 64
+
+/// `struct Light` in shaders/hooks.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: [f32; 3],  // offset 0
+    pub kind: u32,           // offset 12: LIGHT_DIRECTIONAL 0, LIGHT_POINT 1
+    pub direction: [f32; 3], // offset 16
+    pub _pad0: f32,
+    pub color: [f32; 3], // offset 32
+    pub _pad1: f32,
+} // size 48
+
+/// `struct HookObject` in shaders/hooks.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuHookObject {
+    pub values: [f32; 4], // offset 0
+    pub material: i32,    // offset 16: -1 for none
+    pub _pad: [u32; 3],
+} // size 32
+
+/// The header of `struct HookLights` in shaders/hooks.wgsl: the count, then padding to the
+/// lights at offset 16.
+pub const HOOK_LIGHTS_HEADER: usize = 16;
+
+fn f32s(v: &crate::math::Vec3<f64>) -> [f32; 3] {
+    v.to_array().map(|x| x as f32)
+}
+
+impl From<&crate::scene::Material> for GpuMaterial {
+    fn from(m: &crate::scene::Material) -> Self {
+        GpuMaterial {
+            ka: f32s(&m.ka),
+            phong_exponent: m.phong_exponent as f32,
+            kd: f32s(&m.kd),
+            ks: f32s(&m.ks),
+            km: f32s(&m.km),
+            ..GpuMaterial::default()
+        }
+    }
+}
+
+impl From<&crate::scene::Light> for GpuLight {
+    fn from(l: &crate::scene::Light) -> Self {
+        match l {
+            crate::scene::Light::Directional { direction, color } => GpuLight {
+                kind: 0,
+                direction: f32s(direction),
+                color: f32s(color),
+                ..GpuLight::default()
+            },
+            crate::scene::Light::Point { position, color } => GpuLight {
+                position: f32s(position),
+                kind: 1,
+                color: f32s(color),
+                ..GpuLight::default()
+            },
+        }
+    }
+}
+
+/// The hook's view of `lighting` for a scene of `objects` objects: the buffers
+/// `hook_materials`, `hook_lights` (as bytes: the count, then the lights) and `hook_objects`
+/// of shaders/hooks.wgsl, each with at least one entry (a binding is never empty).
+pub fn hook_buffers(
+    lighting: &crate::scene::Lighting,
+    objects: usize,
+) -> (Vec<GpuMaterial>, Vec<u8>, Vec<GpuHookObject>) {
+    let mut materials: Vec<GpuMaterial> = lighting.materials.iter().map(Into::into).collect();
+    materials.resize(materials.len().max(1), GpuMaterial::default());
+    let mut lights: Vec<GpuLight> = lighting.lights.iter().map(Into::into).collect();
+    lights.resize(lights.len().max(1), GpuLight::default());
+    let mut light_bytes = vec![0u8; HOOK_LIGHTS_HEADER];
+    light_bytes[..4].copy_from_slice(&(lighting.lights.len() as u32).to_ne_bytes());
+    light_bytes.extend_from_slice(bytemuck::cast_slice(&lights));
+    let hook_objects = (0..objects.max(1))
+        .map(|k| GpuHookObject {
+            values: lighting
+                .object_values
+                .get(k)
+                .map_or([0.0; 4], |v| v.map(|x| x as f32)),
+            material: lighting
+                .object_materials
+                .get(k)
+                .copied()
+                .flatten()
+                .map_or(-1, |m| m as i32),
+            _pad: [0; 3],
+        })
+        .collect();
+    (materials, light_bytes, hook_objects)
+}
+
 /// The `projection` code of shaders/types.wgsl.
 pub fn projection_code(p: Projection) -> u32 {
     match p {
@@ -246,6 +353,39 @@ mod tests {
             "StoredRay",
             size_of::<GpuRay<R>>(),
             fields!(GpuRay<R>: origin, _pad0, direction, _pad1),
+        );
+    }
+
+    /// The hook's structs (shaders/hooks.wgsl, f32 in every kernel), from the prelude alone.
+    #[test]
+    fn hook_structs_match_naga_layout() {
+        let m = naga::front::wgsl::parse_str(crate::gpu::hooks::PRELUDE).unwrap();
+        macro_rules! fields {
+            ($t:ty: $($f:ident),*) => { &[$((stringify!($f), offset_of!($t, $f))),*] };
+        }
+        check(
+            &m,
+            "Material",
+            size_of::<GpuMaterial>(),
+            fields!(GpuMaterial: ka, phong_exponent, kd, ks, km),
+        );
+        check(
+            &m,
+            "Light",
+            size_of::<GpuLight>(),
+            fields!(GpuLight: position, kind, direction, color),
+        );
+        check(
+            &m,
+            "HookObject",
+            size_of::<GpuHookObject>(),
+            fields!(GpuHookObject: values, material),
+        );
+        check(
+            &m,
+            "HookLights",
+            HOOK_LIGHTS_HEADER + size_of::<GpuLight>(),
+            &[("count", 0), ("lights", HOOK_LIGHTS_HEADER)],
         );
     }
 

@@ -114,6 +114,7 @@ impl Gpu {
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
             outputs: crate::images::Outputs::GEOMETRY,
             shade: None,
+            hook_rays: false,
             uniform_prims: false,
             kernel: None,
         }

@@ -121,6 +121,11 @@ pub struct Variant {
     /// The user's shade hook compiled in (its source is registered in [`crate::gpu::hooks`] under this
     /// key), called for every pixel to write `out_color`.
     pub shade: Option<SourceKey>,
+    /// The shade hook casts rays of its own (`trace`, `occluded`: `HOOK_RAYS`,
+    /// shaders/shade.wgsl). Such a kernel traverses the BVH ray by ray, primary rays too: a
+    /// hook's rays go their own ways, and a packet's subgroup votes need every lane at the same
+    /// call.
+    pub hook_rays: bool,
     /// Spheres, planes and triangles in uniform buffers (`var<uniform>` fixed-size arrays of
     /// [`UNIFORM_BYTES`]) instead of storage buffers (`UNIFORM_PRIMS`). Only where they fit
     /// ([`UniformCapacity::fits`]) and in one chunk ([`Variant::uses_uniform_prims`]).
@@ -243,6 +248,7 @@ impl Variant {
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
             outputs: Outputs::GEOMETRY,
             shade: None,
+            hook_rays: false,
             uniform_prims: false,
             kernel: None,
         }
@@ -268,15 +274,17 @@ impl Variant {
         Variant {
             outputs: Outputs { color, ..outputs },
             shade: self.shade.filter(|_| color),
+            hook_rays: self.hook_rays && color,
             ..self
         }
     }
 
     /// This variant calling the shade hook registered under `key` for every pixel and writing
-    /// its colour.
-    pub fn with_shade(self, key: SourceKey) -> Variant {
+    /// its colour; `traces`: the hook casts rays ([`Variant::hook_rays`]).
+    pub fn with_shade(self, key: SourceKey, traces: bool) -> Variant {
         Variant {
             shade: Some(key),
+            hook_rays: traces,
             outputs: Outputs {
                 color: true,
                 ..self.outputs
@@ -295,7 +303,8 @@ impl Variant {
     /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
     /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
-    /// `USER_SHADE` (the shade hook is called and `out_color` written).
+    /// `USER_SHADE` (the shade hook is called and `out_color` written), `HOOK_RAYS` (and
+    /// casts rays of its own).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Precision::F64 {
@@ -361,6 +370,7 @@ impl Variant {
             (o.normal || shade, "NORMAL"),
             (o.distance || shade, "DISTANCE"),
             (shade, "USER_SHADE"),
+            (shade && self.hook_rays, "HOOK_RAYS"),
         ] {
             if present {
                 d.push(name);
@@ -399,7 +409,7 @@ impl Variant {
             Source::Rays => !self.count,
             Source::Pixels => false,
         };
-        self.packets && self.uses_bvh() && coherent
+        self.packets && self.uses_bvh() && coherent && !self.hook_rays
     }
 
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
@@ -468,6 +478,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ("scene", include_str!("../../shaders/scene.wgsl")),
     ("count", include_str!("../../shaders/count.wgsl")),
     ("hooks", include_str!("../../shaders/hooks.wgsl")),
+    ("shade", include_str!("../../shaders/shade.wgsl")),
     ("entry", include_str!("../../shaders/entry.wgsl")),
 ];
 
@@ -748,6 +759,7 @@ pub fn all_variants() -> Vec<Variant> {
                         bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
                         outputs: Outputs::GEOMETRY,
                         shade: None,
+                        hook_rays: false,
                         uniform_prims: false,
                         kernel: None,
                     };
@@ -1030,7 +1042,7 @@ mod tests {
         };
         for (variant, with_hook) in [
             (variant, false),
-            (variant.with_shade(hook.key), true),
+            (variant.with_shade(hook.key, hook.traces), true),
             (certainty, false),
             (
                 Variant {
@@ -1045,7 +1057,7 @@ mod tests {
             for (name, _) in MODULES {
                 let banner = format!("// ---- shaders/{name}.wgsl\n");
                 let expected = usize::from(match *name {
-                    "hooks" => with_hook,
+                    "hooks" | "shade" => with_hook,
                     "certainty" => variant.certainty,
                     "traverse" => variant.bvh,
                     "count" => variant.count,

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use crate::algorithm::Algorithm;
 use crate::cpu::types::{Frame, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
-use crate::scene::{Object, Scene};
+use crate::scene::{Lighting, Object, Scene};
 use bvh::{Accel, Bvh};
 
 /// A scene prepared for the kernel in precision `T`.
@@ -39,6 +39,10 @@ pub struct Prepared<T> {
     pub focal_length: f64,
     /// Seconds spent building the BVH and rounding the primitives.
     pub build_s: f64,
+    /// The scene's materials, lights and per-object values, for shade hooks (world
+    /// coordinates, f64), and how many objects the scene has.
+    pub lighting: Arc<Lighting>,
+    pub objects: usize,
 }
 
 impl<T: Real> Prepared<T> {
@@ -76,6 +80,8 @@ impl<T: Real> Prepared<T> {
             primitives,
             focal_length: scene.camera.focal_length,
             build_s: 0.0,
+            lighting: Arc::new(scene.lighting.clone()),
+            objects: scene.objects.len(),
         }
     }
 

@@ -40,6 +40,10 @@ pub struct Spec {
     pub band_rows: Option<u32>,
     /// A shade hook file colouring `color.png`.
     pub shader: Option<PathBuf>,
+    /// Colour `color.png` by the course's ray tracer, the shipped hook
+    /// shaders/examples/raytrace.wgsl on the GPU, its mirror src/cpu/raytrace.rs on the CPU
+    /// (`--lit`).
+    pub lit: bool,
     /// A complete kernel file run instead of the assembled one.
     pub kernel: Option<PathBuf>,
     /// The output folder, created if missing.
@@ -59,7 +63,10 @@ pub struct Summary {
     pub size: [u32; 2],
     pub mode: Mode,
     pub spp: Option<u32>,
+    /// The shade hook's file, or the shipped ray tracer's for `--lit`.
     pub shader: Option<PathBuf>,
+    /// The rays the shade hook cast beyond the camera's, when it cast any.
+    pub hook_rays: Option<u64>,
     /// The adapter, or "the CPU".
     pub device: String,
     pub elapsed: Duration,
@@ -100,6 +107,13 @@ impl Summary {
                 )
             }
         };
+        let traced = self.hook_rays.map(|rays| {
+            let camera = nx as u64 * ny as u64 * self.spp.unwrap_or(1) as u64;
+            format!(
+                "cast {camera} camera rays and {rays} from the shade hook ({:.2} a camera ray)",
+                rays as f64 / camera.max(1) as f64
+            )
+        });
         let recast = self.recast.map(|(fraction, on_gpu)| {
             let on = if on_gpu { "the GPU" } else { "the CPU" };
             format!("re-cast {:.3}% of pixels in f64 on {on}", 100.0 * fraction)
@@ -107,7 +121,10 @@ impl Summary {
         let wrote = |p: &PathBuf| format!("wrote {}", p.display());
         let emitted = self.emitted.iter().map(wrote);
         let written = self.written.iter().map(wrote);
-        let lines = std::iter::once(first).chain(emitted).chain(recast);
+        let lines = std::iter::once(first)
+            .chain(traced)
+            .chain(emitted)
+            .chain(recast);
         lines.chain(written).collect()
     }
 }
@@ -124,7 +141,7 @@ impl Spec {
             return self.mode;
         }
         let device = self.mode.device;
-        let single_kernel = self.shader.is_some()
+        let single_kernel = self.shaded()
             || self.kernel.is_some()
             || self.emit_shader.is_some()
             || self.band_rows.is_some()
@@ -170,8 +187,16 @@ impl Spec {
                 "the CPU reference runs no shader; use --device gpu",
             );
         }
-        check_kernels(self.mode, self.kernel.is_some(), self.shader.is_some())?;
-        if self.shader.is_some() {
+        if self.lit && self.shader.is_some() {
+            return refuse(
+                "--lit",
+                "is the shade hook shaders/examples/raytrace.wgsl; give it or --shader, not both",
+            );
+        }
+        // The CPU runs the course's ray tracer by its mirror, and no other hook.
+        let mirrored = self.lit && !gpu && self.mode.precision != Arithmetic::Adaptive;
+        check_kernels(self.mode, self.kernel.is_some(), self.shaded() && !mirrored)?;
+        if self.shaded() {
             if self.encoding.background.is_some() {
                 return refuse(
                     "--background",
@@ -200,6 +225,20 @@ impl Spec {
             );
         }
         Ok(())
+    }
+
+    /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
+    fn shaded(&self) -> bool {
+        self.shader.is_some() || self.lit
+    }
+
+    /// The shade hook: the file's, or the shipped ray tracer for `--lit`.
+    fn hook(&self) -> Result<Option<gpu::hooks::ShadeHook>> {
+        match (&self.shader, self.lit) {
+            (_, true) => gpu::hooks::raytrace().map(Some),
+            (Some(path), false) => gpu::hooks::load(path).map(Some),
+            (None, false) => Ok(None),
+        }
     }
 
     /// Whether the render can go in bands: a GPU kernel in f32 or f64, one sample per pixel,
@@ -233,6 +272,16 @@ impl Spec {
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;
+        if let Some(path) = &self.scene
+            && !self.shaded()
+            && !scene.lighting.is_empty()
+        {
+            eprintln!(
+                "note: {}: materials and lights ({}) light color.png with --lit",
+                path.display(),
+                scene.lighting.summary()
+            );
+        }
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
         self.resolved(huge).run_resolved(gpu, &scene, huge)
     }
@@ -240,7 +289,7 @@ impl Spec {
     fn run_resolved(&self, gpu: Option<&Gpu>, scene: &Scene, huge: bool) -> Result<Summary> {
         let request = Request {
             outputs: self.encoding.outputs,
-            shade: self.shader.as_deref().map(gpu::hooks::load).transpose()?,
+            shade: self.hook()?,
             kernel: self.kernel.as_deref().map(gpu::kernel::load).transpose()?,
         };
         let gpu = match (self.mode.device, gpu) {
@@ -263,7 +312,9 @@ impl Spec {
             size: [nx, ny],
             mode: self.mode,
             spp: self.spp,
-            shader: self.shader.clone(),
+            shader: (self.shader.clone())
+                .or_else(|| self.lit.then(|| gpu::hooks::RAYTRACE_FILE.into())),
+            hook_rays: None,
             device: gpu.map_or("the CPU".to_owned(), |g| g.info().name),
             elapsed: Duration::ZERO,
             bands: None,
@@ -284,6 +335,7 @@ impl Spec {
             _ => {
                 let (images, elapsed) = timed(|| self.render_whole(scene, gpu, &request));
                 let (images, recast) = images?;
+                summary.hook_rays = images.hook_rays();
                 summary.elapsed = elapsed;
                 summary.recast = recast;
                 summary.written = images.write(&self.out_dir, &self.encoding, &scene.camera)?;
@@ -377,6 +429,7 @@ mod tests {
             spp: None,
             band_rows: None,
             shader: None,
+            lit: false,
             kernel: None,
             out_dir: PathBuf::from("out"),
             encoding: Encoding::new(&[Format::Png], None).unwrap(),

@@ -60,6 +60,22 @@ impl AnyImages {
         }
     }
 
+    /// The shade hook's colours, where one ran.
+    pub fn color(&self) -> Option<&[[u8; 4]]> {
+        match self {
+            AnyImages::F32(i) => i.color.as_deref(),
+            AnyImages::F64(i) => i.color.as_deref(),
+        }
+    }
+
+    /// The rays the shade hook cast beyond the camera's, when it cast any.
+    pub fn hook_rays(&self) -> Option<u64> {
+        match self {
+            AnyImages::F32(i) => i.hook_rays,
+            AnyImages::F64(i) => i.hook_rays,
+        }
+    }
+
     /// The coverage of supersampled images.
     pub fn coverage(&self) -> Option<&Coverage> {
         match self {
@@ -115,7 +131,7 @@ impl Request {
             .scene_variant(scene, precision, mode.algorithm)
             .for_rays(scene.camera.pixel_count());
         if let Some(hook) = &self.shade {
-            variant = variant.with_shade(hook.key);
+            variant = variant.with_shade(hook.key, hook.traces);
         }
         let variant = variant.with_outputs(self.kernel_outputs());
         match &self.kernel {
@@ -222,26 +238,37 @@ fn dispatch(
                 }
             })
         }
-        Device::Cpu => Ok(match mode.precision {
-            Arithmetic::F32 => AnyImages::F32(cpu_with_progress(scene, mode.algorithm, progress)),
-            _ => AnyImages::F64(cpu_with_progress(scene, mode.algorithm, progress)),
-        })
-        .map(|images| (images, None)),
+        Device::Cpu => {
+            let lit = request.shade.is_some() && request.outputs.color;
+            Ok(match mode.precision {
+                Arithmetic::F32 => AnyImages::F32(cpu_render(scene, mode.algorithm, progress, lit)),
+                _ => AnyImages::F64(cpu_render(scene, mode.algorithm, progress, lit)),
+            })
+            .map(|images| (images, None))
+        }
     }
 }
 
 /// Refuses what `request` asks of a `mode` that cannot do it: a shade hook that colours
 /// `color.png` or a kernel file, other than on the GPU in f32 or f64.
 pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
-    let shades = request.shade.is_some() && request.outputs.color;
-    check_kernels(mode, request.kernel.is_some(), shades)
+    let shades = request.shade.as_ref().filter(|_| request.outputs.color);
+    // The CPU runs the course's ray tracer by its mirror, and no other hook.
+    let mirrored = mode.device == Device::Cpu
+        && mode.precision != Arithmetic::Adaptive
+        && shades.is_some_and(ShadeHook::has_cpu_mirror);
+    check_kernels(
+        mode,
+        request.kernel.is_some(),
+        shades.is_some() && !mirrored,
+    )
 }
 
 /// [`check_request`] for a request with a kernel file and a colouring shade hook or not.
 fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
     let refuse = |option: &str| {
         let message = if mode.device == Device::Cpu {
-            "the CPU reference runs no shader; use --device gpu"
+            "the CPU reference runs no shader but the course's ray tracer (--lit); use --device gpu"
         } else if option == "--kernel" {
             "runs with --precision f32 or f64 (adaptive precision runs two kernels)"
         } else {
@@ -272,7 +299,9 @@ pub fn on_gpu<R: GpuReal>(
 ) -> Result<(Images<R>, Stages)> {
     let prepared = gpu::prepare::<R>(scene, &variant)?;
     let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
-    Ok((r.images, r.stages))
+    let mut images = r.images;
+    images.hook_rays = r.stages.hook_rays;
+    Ok((images, r.stages))
 }
 
 /// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
@@ -342,6 +371,24 @@ pub fn render_streamed(
 
 /// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
 /// shows a progress bar of finished rows.
+/// The CPU reference's render, and with `lit` its colours by the mirror of the course's ray
+/// tracer ([`cpu::raytrace`], the only hook the CPU runs: [`check_request`]).
+fn cpu_render<T: crate::math::Real>(
+    scene: &Scene,
+    algorithm: Algorithm,
+    progress: bool,
+    lit: bool,
+) -> Images<T> {
+    let mut images = cpu_with_progress::<T>(scene, algorithm, progress);
+    if lit {
+        let (colours, rays) =
+            cpu::raytrace::render(&Prepared::<T>::new(scene, algorithm, Accel::Auto));
+        images.color = Some(colours);
+        images.hook_rays = Some(rays);
+    }
+    images
+}
+
 fn cpu_with_progress<T: crate::math::Real>(
     scene: &Scene,
     algorithm: Algorithm,

@@ -8,8 +8,8 @@ use serde::Deserialize;
 use glam::DVec3;
 
 use super::{
-    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, Object, Projection, Scene,
-    Triangle, camera,
+    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, OBJECT_VALUES, Object, Projection,
+    Scene, Triangle, camera,
 };
 use crate::error::{Error, Result};
 use crate::math::{Vec3, length, normalize};
@@ -104,6 +104,8 @@ enum ObjectFile {
         comment: Option<serde_json::Value>,
         #[serde(default)]
         material: Option<String>,
+        #[serde(default)]
+        values: Option<Vec<f64>>,
     },
     Plane {
         point: [f64; 3],
@@ -113,6 +115,8 @@ enum ObjectFile {
         comment: Option<serde_json::Value>,
         #[serde(default)]
         material: Option<String>,
+        #[serde(default)]
+        values: Option<Vec<f64>>,
     },
     Triangle {
         corners: [[f64; 3]; 3],
@@ -121,6 +125,8 @@ enum ObjectFile {
         comment: Option<serde_json::Value>,
         #[serde(default)]
         material: Option<String>,
+        #[serde(default)]
+        values: Option<Vec<f64>>,
     },
     /// The key names the format for the reader of the scene; the loader goes by the file's
     /// extension (`.obj`, `.ply`, anything else STL), as it always has.
@@ -133,6 +139,8 @@ enum ObjectFile {
         comment: Option<serde_json::Value>,
         #[serde(default)]
         material: Option<String>,
+        #[serde(default)]
+        values: Option<Vec<f64>>,
     },
 }
 
@@ -143,6 +151,15 @@ impl ObjectFile {
             | ObjectFile::Plane { material, .. }
             | ObjectFile::Triangle { material, .. }
             | ObjectFile::Soup { material, .. } => material.as_deref(),
+        }
+    }
+
+    fn values(&self) -> Option<&[f64]> {
+        match self {
+            ObjectFile::Sphere { values, .. }
+            | ObjectFile::Plane { values, .. }
+            | ObjectFile::Triangle { values, .. }
+            | ObjectFile::Soup { values, .. } => values.as_deref(),
         }
     }
 }
@@ -186,6 +203,7 @@ pub(super) fn mesh_scene(
         camera: camera(super::bounds(&objects))?,
         lighting: Lighting {
             object_materials: vec![None],
+            object_values: vec![[0.0; OBJECT_VALUES]],
             ..Lighting::default()
         },
         objects,
@@ -626,11 +644,44 @@ impl Checker<'_> {
                 }
             })
             .collect::<Result<Vec<_>>>()?;
+        let object_values = raw
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| self.object_values(&format!("objects[{i}].values"), o.values()))
+            .collect::<Result<Vec<_>>>()?;
         Ok(Lighting {
             materials,
             lights,
             object_materials,
+            object_values,
         })
+    }
+
+    /// An object's own `values` for shade hooks: 1 to [`OBJECT_VALUES`] finite numbers within
+    /// f32's range (hooks read them as f32), the rest 0; all 0 where none are given.
+    fn object_values(&self, field: &str, values: Option<&[f64]>) -> Result<[f64; OBJECT_VALUES]> {
+        let mut out = [0.0; OBJECT_VALUES];
+        let Some(values) = values else {
+            return Ok(out);
+        };
+        if values.is_empty() || values.len() > OBJECT_VALUES {
+            let message = format!(
+                "must hold 1 to {OBJECT_VALUES} numbers (got {})",
+                values.len()
+            );
+            return Err(self.fail(field, message));
+        }
+        for (k, &x) in values.iter().enumerate() {
+            let x = self.number(&format!("{field}[{k}]"), x)?;
+            if x.abs() > f32::MAX as f64 {
+                let message =
+                    format!("magnitude {x:e} exceeds f32's range, in which hooks read it");
+                return Err(self.fail(format!("{field}[{k}]"), message));
+            }
+            out[k] = x;
+        }
+        Ok(out)
     }
 
     /// Every coordinate finite and within [`MAX_MAGNITUDE`]; errors name `place` and the

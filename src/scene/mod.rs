@@ -99,7 +99,14 @@ pub struct Lighting {
     pub lights: Vec<Light>,
     /// Per object of [`Scene::objects`], the index in `materials` of the material it names.
     pub object_materials: Vec<Option<usize>>,
+    /// Per object of [`Scene::objects`], the numbers its `values` gives (zeros where it gives
+    /// none or fewer than [`OBJECT_VALUES`]): the user's own per-object data, which shade
+    /// hooks read as `object_values(id)` (shaders/hooks.wgsl).
+    pub object_values: Vec<[f64; OBJECT_VALUES]>,
 }
+
+/// How many numbers an object's `values` holds at most: a hook reads them as one `vec4<f32>`.
+pub const OBJECT_VALUES: usize = 4;
 
 impl Lighting {
     /// Whether the scene gives no material, light or object material at all.
@@ -107,6 +114,10 @@ impl Lighting {
         self.materials.is_empty()
             && self.lights.is_empty()
             && self.object_materials.iter().all(Option::is_none)
+            && self
+                .object_values
+                .iter()
+                .all(|v| *v == [0.0; OBJECT_VALUES])
     }
 
     /// What the scene gives, e.g. `2 lights, 5 materials, a material on 8 objects`.
@@ -160,8 +171,7 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 
 /// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
 /// that mesh alone, [`Scene::of_mesh`]), or without one the built-in default scene, with its
-/// resolution replaced by `size` where given (`--size`): the command line's loader, which notes
-/// on stderr, each time it loads such a scene, that its materials and lights are ignored.
+/// resolution replaced by `size` where given (`--size`): the command line's loader.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
     load_viewed(path, size, &CameraOverrides::default())
 }
@@ -180,15 +190,6 @@ pub fn load_viewed(
         Some(path) => Scene::load(path)?,
         None => Scene::default_scene(),
     };
-    if let Some(path) = path
-        && !scene.lighting.is_empty()
-    {
-        eprintln!(
-            "note: {}: materials and lights are ignored ({}): raycast renders ids, distances and normals",
-            path.display(),
-            scene.lighting.summary()
-        );
-    }
     if let Some(size) = size {
         scene.camera.resolution = size;
     }

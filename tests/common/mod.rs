@@ -59,7 +59,7 @@ pub fn gpu_outputs<R: GpuReal>(
 ) -> raycast::Result<Images<R>> {
     let mut variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
     if let Some(hook) = shade {
-        variant = variant.with_shade(hook.key);
+        variant = variant.with_shade(hook.key, hook.traces);
     }
     gpu_variant(gpu, scene, variant.with_outputs(outputs))
 }
