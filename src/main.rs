@@ -240,6 +240,14 @@ enum Command {
         /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
         accel: Vec<Accel>,
+        /// Run this shade hook in every frame (GPU modes); a hook that casts rays reports them
+        /// as secondary rays a second.
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Run the course's ray tracer in every frame (the shipped hook on the GPU, its mirror
+        /// on the CPU).
+        #[arg(long, conflicts_with = "shader")]
+        lit: bool,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -453,11 +461,19 @@ fn run(command: Command) -> Result<ExitCode> {
             json,
             mode,
             accel,
+            shader,
+            lit,
         } => {
+            let shade = match (lit, shader) {
+                (true, _) => Some(gpu::hooks::raytrace()?),
+                (false, Some(path)) => Some(gpu::hooks::load(&path)?),
+                (false, None) => None,
+            };
             let options = study::bench::Options {
                 runs: runs as usize,
                 modes: mode,
                 accels: accel,
+                shade,
             };
             study::bench::command(&scene, size, options, json, say_on)?;
             Ok(ExitCode::SUCCESS)

@@ -237,6 +237,63 @@ fn materials_and_lights_are_checked() {
 }
 
 #[test]
+fn bad_object_values() {
+    for (values, expected) in [
+        ("[]", &["objects[0].values", "1 to 4 numbers (got 0)"][..]),
+        ("[1,2,3,4,5]", &["objects[0].values", "(got 5)"]),
+        (
+            "[0,1e19]",
+            &["objects[0].values[1]", "exceeds the supported"],
+        ),
+        // serde names the object, not the field, inside a tagged enum.
+        ("[0,\"a\"]", &["objects[0]", "invalid type: string \"a\""]),
+        ("3", &["objects[0]", "invalid type: integer `3`"]),
+    ] {
+        let scene = edit(
+            r#""radius":0.5"#,
+            &format!(r#""radius":0.5,"values":{values}"#),
+        );
+        let message = run_err(&scene, &[]);
+        assert_has(&message, expected);
+    }
+}
+
+#[test]
+fn lit_is_refused_where_it_cannot_run() {
+    let case = Case::new(&lit(MATTE, LAMP, "matte"));
+    let toon = common::repo_path("shaders/examples/toon.wgsl");
+    for (args, expected) in [
+        (
+            &["--lit", "--shader", toon.to_str().unwrap()][..],
+            "error: --lit: is the shade hook shaders/examples/raytrace.wgsl",
+        ),
+        (
+            &["--lit", "--precision", "adaptive"],
+            "error: --lit: runs with --precision f32 or f64",
+        ),
+        (
+            &["--lit", "--outputs", "id"],
+            "error: --lit: the hook colours color.png",
+        ),
+        (&["--lit", "--background", "0,0,0"], "error: --background: "),
+        (
+            &["--shader", toon.to_str().unwrap(), "--device", "cpu"],
+            "error: --shader: the CPU reference runs no shader but the course's ray tracer (--lit)",
+        ),
+    ] {
+        let message = case.fail(args, &[]);
+        assert!(message.starts_with(expected), "{args:?}: {message}");
+        assert_no_files(&case.out);
+    }
+    // On the CPU it runs, by the mirror, and says how many rays it cast.
+    let output = case.run(&["--lit", "--device", "cpu"], &[]);
+    assert!(output.status.success(), "{output:?}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("camera rays and"), "{stdout}");
+    assert!(case.out.join("color.png").exists());
+}
+
+#[test]
 fn a_lit_scene_renders_its_geometry_with_one_note() {
     let case = Case::new(&lit(MATTE, LAMP, "matte"));
     let output = case.run(&[], &[]);

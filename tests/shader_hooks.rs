@@ -61,7 +61,7 @@ struct BadHook {
     message: &'static str,
 }
 
-const BAD_HOOKS: [BadHook; 3] = [
+const BAD_HOOKS: [BadHook; 6] = [
     // (a) A type error: an i32 where an f32 is declared; naga points at the `let`'s name.
     BadHook {
         name: "type-error.wgsl",
@@ -85,6 +85,50 @@ const BAD_HOOKS: [BadHook; 3] = [
         line: 3,
         column: 1,
         message: "`shade` must be `fn shade(hit: ShadeHit) -> vec4<f32>`, found `fn shade(ShadeHit) -> vec3<f32>`",
+    },
+    // (d) Recursion, as the course writes its ray tracer: WGSL has none.
+    BadHook {
+        name: "recursive.wgsl",
+        source: "fn shade(hit: ShadeHit) -> vec4<f32> {
+    return bounce(hit, 0u);
+}
+
+fn bounce(h: ShadeHit, depth: u32) -> vec4<f32> {
+    let next = trace(h.position, h.normal, 1e-4);
+    return bounce(next, depth + 1u);
+}
+",
+        line: 5,
+        column: 4,
+        message: "declaration of `bounce` is recursive (WGSL has no recursion: cast rays in a loop, as shaders/examples/raytrace.wgsl does)",
+    },
+    // (e) Rays cast from an entry point of the hook's own.
+    BadHook {
+        name: "entry.wgsl",
+        source: "fn shade(hit: ShadeHit) -> vec4<f32> {
+    return vec4<f32>(1.0);
+}
+
+@compute @workgroup_size(1)
+fn launch() {
+    let h = trace(vec3<f32>(0.0), vec3<f32>(1.0, 0.0, 0.0), 0.0);
+}
+",
+        line: 7,
+        column: 19,
+        message: "`launch` is an entry point that casts rays (`trace` and `occluded` are for `shade` and the functions it calls): a hook file declares no @compute, @vertex or @fragment function (the kernel has its own)",
+    },
+    // (f) `trace` with an argument missing.
+    BadHook {
+        name: "trace-arguments.wgsl",
+        source: "fn shade(hit: ShadeHit) -> vec4<f32> {
+    let h = trace(hit.position, hit.normal);
+    return vec4<f32>(h.normal, 1.0);
+}
+",
+        line: 2,
+        column: 13,
+        message: "Requires 3 arguments, but 2 are provided",
     },
 ];
 
@@ -128,7 +172,7 @@ fn bad_hooks_fail_with_file_line_and_column_in_render_and_check_shader() {
 #[test]
 fn a_valid_hook_passes_check_shader() {
     let dir = tempfile::tempdir().unwrap();
-    for example in ["fog", "checker", "toon"] {
+    for example in ["fog", "checker", "toon", "raytrace", "ambient-occlusion"] {
         let path = common::repo_path(&format!("shaders/examples/{example}.wgsl"));
         let o = raycast(&["check-shader", path.to_str().unwrap()]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -108,6 +108,9 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
             .map(span_range)
             .collect();
         let mut message = e.message().to_owned();
+        if message.ends_with("is recursive") {
+            message += " (WGSL has no recursion: cast rays in a loop, as shaders/examples/raytrace.wgsl does)";
+        }
         if spans.iter().any(|&(at, _)| at >= prelude_start) {
             message += &format!(
                 " (`{HOOK_INPUT}`, the scene's materials and lights and `trace` and `occluded` are declared for the hook: shaders/hooks.wgsl)"

@@ -193,8 +193,11 @@ impl Spec {
                 "is the shade hook shaders/examples/raytrace.wgsl; give it or --shader, not both",
             );
         }
+        if self.lit && self.mode.precision == Arithmetic::Adaptive {
+            return refuse("--lit", "runs with --precision f32 or f64, not adaptive");
+        }
         // The CPU runs the course's ray tracer by its mirror, and no other hook.
-        let mirrored = self.lit && !gpu && self.mode.precision != Arithmetic::Adaptive;
+        let mirrored = self.lit && !gpu;
         check_kernels(self.mode, self.kernel.is_some(), self.shaded() && !mirrored)?;
         if self.shaded() {
             if self.encoding.background.is_some() {
@@ -205,7 +208,7 @@ impl Spec {
             }
             if !self.encoding.outputs.color {
                 return refuse(
-                    "--shader",
+                    if self.lit { "--lit" } else { "--shader" },
                     "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
                 );
             }

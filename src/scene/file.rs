@@ -658,8 +658,9 @@ impl Checker<'_> {
         })
     }
 
-    /// An object's own `values` for shade hooks: 1 to [`OBJECT_VALUES`] finite numbers within
-    /// f32's range (hooks read them as f32), the rest 0; all 0 where none are given.
+    /// An object's own `values` for shade hooks: 1 to [`OBJECT_VALUES`] numbers, checked as
+    /// every number of a scene (within [`MAX_MAGNITUDE`], so inside f32's range, in which hooks
+    /// read them), the rest 0; all 0 where none are given.
     fn object_values(&self, field: &str, values: Option<&[f64]>) -> Result<[f64; OBJECT_VALUES]> {
         let mut out = [0.0; OBJECT_VALUES];
         let Some(values) = values else {
@@ -673,13 +674,7 @@ impl Checker<'_> {
             return Err(self.fail(field, message));
         }
         for (k, &x) in values.iter().enumerate() {
-            let x = self.number(&format!("{field}[{k}]"), x)?;
-            if x.abs() > f32::MAX as f64 {
-                let message =
-                    format!("magnitude {x:e} exceeds f32's range, in which hooks read it");
-                return Err(self.fail(format!("{field}[{k}]"), message));
-            }
-            out[k] = x;
+            out[k] = self.number(&format!("{field}[{k}]"), x)?;
         }
         Ok(out)
     }

@@ -11,6 +11,10 @@
 //! - CPU modes time [`Prepared::new`] (the BVH build and the layout, `build_s`) apart from
 //!   [`cpu::render_prepared`] on it (`trace_s`); nothing is uploaded.
 //!
+//! With a shade hook (`--shader`, `--lit`) every frame also colours `color.png`; a hook that
+//! casts rays reports them too, as secondary rays a second (`secondary_mrays_per_s`, over the
+//! same time as the primary rays).
+//!
 //! Adaptive precision runs two passes whose stages do not add up to one frame, and is not
 //! measured here (`raycast tradeoff` times it as a whole).
 
@@ -24,6 +28,7 @@ use super::{Stream, Table, format_seconds, median, plural};
 use crate::algorithm::Algorithm;
 use crate::cpu;
 use crate::error::{Error, Result};
+use crate::gpu::hooks::ShadeHook;
 use crate::gpu::{self, Gpu, layout::GpuTriangle};
 use crate::images::{Images, MISS};
 use crate::math::{Precision, Real};
@@ -52,6 +57,8 @@ pub struct Options {
     pub runs: usize,
     pub modes: Vec<Mode>,
     pub accels: Vec<Accel>,
+    /// A shade hook every frame runs (GPU modes; on the CPU only the ray tracer's mirror).
+    pub shade: Option<ShadeHook>,
 }
 
 impl Default for Options {
@@ -61,6 +68,7 @@ impl Default for Options {
             runs: DEFAULT_RUNS,
             modes: vec![DEFAULT_MODE],
             accels: vec![Accel::Auto],
+            shade: None,
         }
     }
 }
@@ -101,7 +109,19 @@ impl Options {
                 ),
             });
         }
+        let request = self.request();
+        for &mode in &self.modes {
+            render::check_request(mode, &request)?;
+        }
         Ok(())
+    }
+
+    /// What every frame renders: every output, with the hook.
+    fn request(&self) -> render::Request {
+        render::Request {
+            shade: self.shade.clone(),
+            ..render::Request::default()
+        }
     }
 
     /// Whether some configuration runs on the GPU.
@@ -194,6 +214,10 @@ pub struct Row {
     pub size: [u32; 2],
     /// Primary rays per frame: one per pixel.
     pub rays: u64,
+    /// The shade hook, if any (its file).
+    pub hook: Option<String>,
+    /// Rays the hook cast per frame (the last run's), where it casts any.
+    pub secondary_rays: Option<u64>,
     pub triangles: usize,
     pub spheres: usize,
     pub planes: usize,
@@ -219,6 +243,9 @@ pub struct Row {
     pub mrays_per_s: f64,
     /// Million rays per second of wall time: `rays / trace_s`.
     pub mrays_per_s_wall: f64,
+    /// Million secondary rays per second: `secondary_rays` over the time `mrays_per_s` divides
+    /// by (the frame's, which casts both).
+    pub secondary_mrays_per_s: Option<f64>,
     /// `"gpu_timestamps"` or `"wall"`: what `mrays_per_s` divides by.
     pub mrays_from: &'static str,
     /// Fraction of rays that hit something (the last run's frame).
@@ -248,10 +275,18 @@ struct Run {
     trace_s: f64,
     kernel_s: Option<f64>,
     hits: usize,
+    hook_rays: Option<u64>,
 }
 
-/// One frame in `mode` (never adaptive) with `accel`, its stages timed apart.
-fn run_once(scene: &Scene, mode: Mode, accel: Accel, gpu: Option<&Gpu>) -> Result<Run> {
+/// One frame in `mode` (never adaptive) with `accel` and `request`'s hook, its stages timed
+/// apart.
+fn run_once(
+    scene: &Scene,
+    mode: Mode,
+    accel: Accel,
+    gpu: Option<&Gpu>,
+    request: &render::Request,
+) -> Result<Run> {
     match (mode.device, mode.precision) {
         (Device::Gpu, precision) => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
@@ -259,10 +294,14 @@ fn run_once(scene: &Scene, mode: Mode, accel: Accel, gpu: Option<&Gpu>) -> Resul
                 Arithmetic::F64 => Precision::F64,
                 _ => Precision::F32,
             };
-            let variant = gpu::shader::Variant {
+            let mut variant = gpu::shader::Variant {
                 bvh: accel.uses_bvh(scene),
                 ..gpu.scene_variant(scene, precision, mode.algorithm)
             };
+            if let Some(hook) = &request.shade {
+                variant = variant.with_shade(hook.key, hook.traces);
+            }
+            let variant = variant.with_outputs(request.kernel_outputs());
             let (hits, stages) = match precision {
                 Precision::F32 => {
                     let (images, stages) = crate::render::on_gpu::<f32>(gpu, scene, variant, true)?;
@@ -280,24 +319,34 @@ fn run_once(scene: &Scene, mode: Mode, accel: Accel, gpu: Option<&Gpu>) -> Resul
                 trace_s: stages.trace_s,
                 kernel_s: stages.kernel_s,
                 hits,
+                hook_rays: stages.hook_rays,
             })
         }
-        (Device::Cpu, Arithmetic::F32) => Ok(cpu_once::<f32>(scene, mode.algorithm, accel)),
-        (Device::Cpu, _) => Ok(cpu_once::<f64>(scene, mode.algorithm, accel)),
+        (Device::Cpu, precision) => {
+            // check_request lets only the ray tracer's mirror through.
+            let lit = request.shade.is_some();
+            Ok(match precision {
+                Arithmetic::F32 => cpu_once::<f32>(scene, mode.algorithm, accel, lit),
+                _ => cpu_once::<f64>(scene, mode.algorithm, accel, lit),
+            })
+        }
     }
 }
 
-fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Run {
+/// One CPU frame, and with `lit` its colours by the ray tracer's mirror in the same time.
+fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel, lit: bool) -> Run {
     let start = Instant::now();
     let prepared = Prepared::<T>::new(scene, algorithm, accel);
     let build_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let images = cpu::render_prepared(&prepared, &AtomicU32::new(0));
+    let hook_rays = lit.then(|| cpu::raytrace::render(&prepared).1);
     let trace_s = start.elapsed().as_secs_f64();
     Run {
         build_s,
         trace_s,
         hits: hits(&images),
+        hook_rays,
         ..Run::default()
     }
 }
@@ -313,15 +362,16 @@ pub fn measure(
     (mode, accel): (Mode, Accel),
     runs: usize,
     gpu: Option<&Gpu>,
+    request: &render::Request,
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
     let scene = &loaded.scene;
     reset_peak_rss();
-    let warm_up = run_once(scene, mode, accel, gpu)?;
+    let warm_up = run_once(scene, mode, accel, gpu, request)?;
     tick();
     let mut timed = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
-        timed.push(run_once(scene, mode, accel, gpu)?);
+        timed.push(run_once(scene, mode, accel, gpu, request)?);
         tick();
     }
     let peak_rss_mb = render::peak_rss_mib();
@@ -339,10 +389,11 @@ pub fn measure(
 
     let rays = scene.camera.pixel_count();
     let mrays = |s: f64| rays as f64 / s * 1e-6;
-    let (mrays_per_s, mrays_from) = match trace_gpu_s {
-        Some(s) if s > 0.0 => (mrays(s), "gpu_timestamps"),
-        _ => (mrays(trace_s), "wall"),
+    let (frame_s, mrays_from) = match trace_gpu_s {
+        Some(s) if s > 0.0 => (s, "gpu_timestamps"),
+        _ => (trace_s, "wall"),
     };
+    let mrays_per_s = mrays(frame_s);
     let counts = Counts::of(scene);
     let uses_bvh = accel.uses_bvh(scene) && (counts.spheres + counts.triangles) > 0;
     // Built again outside the timed runs, to count what the render held.
@@ -355,6 +406,7 @@ pub fn measure(
     };
     let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);
     let last = timed.last().expect("at least one run");
+    let secondary_rays = last.hook_rays;
     Ok(Row {
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
@@ -362,6 +414,8 @@ pub fn measure(
         bvh: uses_bvh,
         size: scene.camera.resolution,
         rays,
+        hook: (request.shade.as_ref()).map(|h| h.file.display().to_string()),
+        secondary_rays,
         triangles: counts.triangles,
         spheres: counts.spheres,
         planes: counts.planes,
@@ -374,6 +428,7 @@ pub fn measure(
         trace_gpu_s,
         mrays_per_s,
         mrays_per_s_wall: mrays(trace_s),
+        secondary_mrays_per_s: secondary_rays.map(|n| n as f64 / frame_s * 1e-6),
         mrays_from,
         hit_fraction: last.hits as f64 / rays.max(1) as f64,
         peak_rss_mb,
@@ -409,7 +464,10 @@ pub fn run(
     let mut rows = Vec::with_capacity(configurations.len());
     for config in configurations {
         bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
-        let row = measure(loaded, config, options.runs, gpu, &mut || bar.inc(1))?;
+        let request = options.request();
+        let row = measure(loaded, config, options.runs, gpu, &request, &mut || {
+            bar.inc(1)
+        })?;
         bar.suspend(|| on_row(&row));
         rows.push(row);
     }
@@ -473,11 +531,21 @@ pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<Stri
         nx as u64 * ny as u64,
         plural(options.runs, "run")
     ));
+    if let Some(hook) = &options.shade {
+        lines.push(format!(
+            "shade hook: {}{}",
+            hook.file.display(),
+            match hook.traces {
+                true => ", which casts rays: secondary Mrays/s over the same frame time",
+                false => "",
+            }
+        ));
+    }
     lines
 }
 
 /// Column headings of [`to_table`].
-pub const COLUMNS: [&str; 11] = [
+pub const COLUMNS: [&str; 13] = [
     "mode",
     "accel",
     "build s",
@@ -486,6 +554,8 @@ pub const COLUMNS: [&str; 11] = [
     "trace GPU s",
     "Mrays/s",
     "Mrays/s wall",
+    "secondary rays",
+    "secondary Mrays/s",
     "hit %",
     "peak RSS MiB",
     "B/triangle",
@@ -510,6 +580,8 @@ pub fn to_table(rows: &[Row]) -> String {
             seconds(r.trace_gpu_s),
             format!("{:.2}", r.mrays_per_s),
             format!("{:.2}", r.mrays_per_s_wall),
+            r.secondary_rays.map_or("-".into(), |n| n.to_string()),
+            (r.secondary_mrays_per_s).map_or("-".into(), |m| format!("{m:.2}")),
             format!("{:.1}", 100.0 * r.hit_fraction),
             r.peak_rss_mb.map_or("-".into(), |m| format!("{m:.0}")),
             r.bytes_per_triangle
@@ -561,6 +633,7 @@ mod tests {
             runs: 1,
             modes: vec!["gpu".parse().unwrap(), "cpu:f32".parse().unwrap()],
             accels: vec![Accel::Bvh, Accel::BruteForce],
+            shade: None,
         };
         let c: Vec<String> = options
             .configurations()
@@ -591,6 +664,22 @@ mod tests {
         };
         assert!(adaptive.check().is_err());
         assert!(Options::default().check().is_ok());
+        // The CPU runs the ray tracer's mirror and no other hook.
+        let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
+        let other = crate::gpu::hooks::check(source, Path::new("other.wgsl")).unwrap();
+        let cpu = |shade: ShadeHook| Options {
+            modes: vec!["cpu:f32".parse().unwrap()],
+            shade: Some(shade),
+            ..Options::default()
+        };
+        assert!(
+            cpu(other)
+                .check()
+                .unwrap_err()
+                .to_string()
+                .starts_with("--shader")
+        );
+        assert!(cpu(crate::gpu::hooks::raytrace().unwrap()).check().is_ok());
     }
 
     #[test]
