@@ -10,13 +10,15 @@ use raycast::Algorithm;
 use raycast::prepare::bvh::Bvh;
 
 /// Every key of a `--json` line, in order.
-const KEYS: [&str; 26] = [
+const KEYS: [&str; 29] = [
     "scene",
     "mode",
     "accel",
     "bvh",
     "size",
     "rays",
+    "hook",
+    "secondary_rays",
     "triangles",
     "spheres",
     "planes",
@@ -29,6 +31,7 @@ const KEYS: [&str; 26] = [
     "trace_gpu_s",
     "mrays_per_s",
     "mrays_per_s_wall",
+    "secondary_mrays_per_s",
     "mrays_from",
     "hit_fraction",
     "peak_rss_mb",
@@ -127,6 +130,9 @@ fn json_lines_per_configuration_with_consistent_numbers() {
         assert!(number(row, "peak_rss_mb") > 1.0);
         assert!(!row["adapter"].as_str().unwrap().is_empty());
         assert!(!row["driver"].as_str().unwrap().is_empty());
+        for key in ["hook", "secondary_rays", "secondary_mrays_per_s"] {
+            assert!(row[key].is_null(), "no hook, no {key}: {row}");
+        }
 
         // The documented formula: (T * 40 + 4 * (S + P + T) + Bvh::bytes()) / T in f32 on the GPU.
         let (t, s, p) = (1000.0, 0.0, number(row, "planes"));
@@ -142,6 +148,51 @@ fn json_lines_per_configuration_with_consistent_numbers() {
     }
     let load: Vec<f64> = rows.iter().map(|r| number(r, "load_s")).collect();
     assert_eq!(load[0], load[1], "the scene is loaded once");
+}
+
+/// With the course's ray tracer every frame casts secondary rays, reported over the frame's
+/// time; the GPU and the CPU mirror count the same rays.
+#[test]
+fn a_lit_frame_reports_its_secondary_rays() {
+    let scene = repo_path("scenes/ray-tracing/sphere-packing.json");
+    let out = bench(&[
+        scene.to_str().unwrap(),
+        "--size",
+        "64x36",
+        "--runs",
+        "1",
+        "--json",
+        "--lit",
+        "--mode",
+        "gpu:f32,cpu:f32",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let rows: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        assert_eq!(row["hook"], "shaders/examples/raytrace.wgsl", "{row}");
+        let secondary = number(row, "secondary_rays");
+        // At least a shadow ray to each of its two lights from every pixel: the plane fills
+        // the background.
+        assert!(secondary >= 2.0 * 64.0 * 36.0, "{row}");
+        let seconds = match row["mrays_from"].as_str() {
+            Some("gpu_timestamps") => number(row, "trace_gpu_s"),
+            _ => number(row, "trace_s"),
+        };
+        let expected = secondary / seconds * 1e-6;
+        let got = number(row, "secondary_mrays_per_s");
+        assert!((got - expected).abs() <= 1e-9 * expected, "{row}");
+    }
+    let counts: Vec<f64> = rows.iter().map(|r| number(r, "secondary_rays")).collect();
+    assert!(
+        (counts[0] - counts[1]).abs() <= 1e-4 * counts[1],
+        "{counts:?}"
+    );
 }
 
 #[test]

@@ -285,12 +285,24 @@ fn lit_is_refused_where_it_cannot_run() {
         assert!(message.starts_with(expected), "{args:?}: {message}");
         assert_no_files(&case.out);
     }
-    // On the CPU it runs, by the mirror, and says how many rays it cast.
-    let output = case.run(&["--lit", "--device", "cpu"], &[]);
-    assert!(output.status.success(), "{output:?}");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(stdout.contains("camera rays and"), "{stdout}");
-    assert!(case.out.join("color.png").exists());
+    // It runs on the CPU, by the mirror, on the GPU whole and in bands, and says how many rays
+    // it cast: the same in each.
+    let mut counts = Vec::new();
+    for args in [
+        &["--lit", "--device", "cpu", "--precision", "f32"][..],
+        &["--lit", "--precision", "f32"],
+        &["--lit", "--precision", "f32", "--band-rows", "5"],
+    ] {
+        let output = case.run(args, &[]);
+        assert!(output.status.success(), "{args:?}: {output:?}");
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let line = (stdout.lines())
+            .find(|l| l.starts_with("cast 576 camera rays and "))
+            .unwrap_or_else(|| panic!("{args:?}: {stdout}"));
+        counts.push(line.split(' ').nth(5).unwrap().to_owned());
+        assert!(case.out.join("color.png").exists());
+    }
+    assert!(counts.iter().all(|c| *c == counts[0]), "{counts:?}");
 }
 
 #[test]

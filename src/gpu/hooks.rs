@@ -657,6 +657,32 @@ mod tests {
         assert!(shader::kernel_source(&vc).unwrap().contains(&other));
     }
 
+    /// The stubs a hook is checked with declare `trace` and `occluded` as the kernels of both
+    /// precisions define them (shaders/shade.wgsl).
+    #[test]
+    fn ray_stubs_have_the_kernels_signatures() {
+        let hook = check(TRACING, Path::new("tracing.wgsl")).unwrap();
+        assert!(hook.traces);
+        let signature = |m: &naga::Module, name: &str| {
+            let (_, f) = (m.functions.iter())
+                .find(|(_, f)| f.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("no `{name}`"));
+            let arguments: Vec<(Option<String>, String)> = (f.arguments.iter())
+                .map(|a| (a.name.clone(), type_name(m, a.ty)))
+                .collect();
+            (arguments, f.result.as_ref().map(|r| type_name(m, r.ty)))
+        };
+        let stubs = naga::front::wgsl::parse_str(&format!("{PRELUDE}{RAY_STUBS}")).unwrap();
+        for precision in [Precision::F32, Precision::F64] {
+            let variant = Variant::new(precision, Algorithm::Robust).with_shade(hook.key, true);
+            let source = shader::kernel_source(&variant).unwrap();
+            let kernel = naga::front::wgsl::parse_str(&source).unwrap();
+            for name in RAY_FUNCTIONS {
+                assert_eq!(signature(&kernel, name), signature(&stubs, name), "{name}");
+            }
+        }
+    }
+
     /// Every example in shaders/examples/ passes the checks (naga only, no adapter).
     #[test]
     fn every_example_validates() {

@@ -330,7 +330,9 @@ impl Spec {
             Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
                 let rows = self.band_rows.unwrap_or(band_rows(nx));
                 let (written, elapsed) = timed(|| self.render_bands(g, scene, &request, rows));
-                summary.written = written?;
+                let (written, hook_rays) = written?;
+                summary.written = written;
+                summary.hook_rays = hook_rays;
                 summary.elapsed = elapsed;
                 summary.bands = Some(rows);
                 summary.peak_mib = super::peak_rss_mib();
@@ -353,17 +355,18 @@ impl Spec {
         Ok(summary)
     }
 
-    /// Renders and writes the image in bands of at most `rows` rows; returns the files.
+    /// Renders and writes the image in bands of at most `rows` rows; returns the files, and
+    /// the rays the shade hook cast where it casts any.
     fn render_bands(
         &self,
         gpu: &Gpu,
         scene: &Scene,
         request: &Request,
         rows: u32,
-    ) -> Result<Vec<PathBuf>> {
+    ) -> Result<(Vec<PathBuf>, Option<u64>)> {
         let mut writer =
             output::stream::BandWriter::new(&self.out_dir, &self.encoding, &scene.camera)?;
-        render_streamed(
+        let hook_rays = render_streamed(
             scene,
             self.mode,
             gpu,
@@ -374,7 +377,7 @@ impl Spec {
                 AnyImages::F64(i) => writer.write_band(&i),
             },
         )?;
-        writer.finish()
+        Ok((writer.finish()?, hook_rays))
     }
 
     /// The whole image, supersampled with `spp`, and for plain adaptive precision the

@@ -331,7 +331,7 @@ pub fn can_stream(mode: Mode) -> bool {
 
 /// Renders `scene` on the GPU in bands of at most `max_rows` rows, handing each band to
 /// `sink` from the top as soon as it is read back (see [`gpu::Job::sink`]). Only for
-/// modes where [`can_stream`] holds.
+/// modes where [`can_stream`] holds. Returns the rays the shade hook cast, where it casts any.
 pub fn render_streamed(
     scene: &Scene,
     mode: Mode,
@@ -339,7 +339,7 @@ pub fn render_streamed(
     request: &Request,
     max_rows: u32,
     sink: &mut dyn FnMut(AnyImages) -> Result<()>,
-) -> Result<()> {
+) -> Result<Option<u64>> {
     if !can_stream(mode) {
         return Err(Error::Argument {
             option: "mode".into(),
@@ -353,11 +353,11 @@ pub fn render_streamed(
         variant: Variant,
         max_rows: u32,
         sink: &mut dyn FnMut(Images<R>) -> Result<()>,
-    ) -> Result<()> {
+    ) -> Result<Option<u64>> {
         let prepared = gpu::prepare::<R>(scene, &variant)?;
         let mut each = |_, band| sink(band);
         let job = Job::new(variant).rows(max_rows).timed(true).sink(&mut each);
-        gpu::run(gpu, &prepared, job).map(|_| ())
+        gpu::run(gpu, &prepared, job).map(|r| r.stages.hook_rays)
     }
     match mode.precision {
         Arithmetic::F32 => bands::<f32>(gpu, scene, variant, max_rows, &mut |b| {
@@ -369,8 +369,6 @@ pub fn render_streamed(
     }
 }
 
-/// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
-/// shows a progress bar of finished rows.
 /// The CPU reference's render, and with `lit` its colours by the mirror of the course's ray
 /// tracer ([`cpu::raytrace`], the only hook the CPU runs: [`check_request`]).
 fn cpu_render<T: crate::math::Real>(
@@ -389,6 +387,8 @@ fn cpu_render<T: crate::math::Real>(
     images
 }
 
+/// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
+/// shows a progress bar of finished rows.
 fn cpu_with_progress<T: crate::math::Real>(
     scene: &Scene,
     algorithm: Algorithm,
