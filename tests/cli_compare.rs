@@ -130,3 +130,85 @@ fn fail_above_exits_1_exactly_when_a_bound_is_crossed() {
     assert_eq!(unknown.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("unknown metric `speed`"));
 }
+
+/// With a hook on both sides their `color.png`s are compared too: the planted square, red on
+/// black, is 12 pixels 255 levels off in red only, and `color_error.png` marks exactly them.
+/// Without a hook there is nothing to compare (`color` is null).
+#[test]
+fn colours_are_compared_when_a_hook_colours_both_sides() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = write_scenes(dir.path());
+    let hook = dir.path().join("ids.wgsl");
+    std::fs::write(
+        &hook,
+        "fn shade(hit: ShadeHit) -> vec4<f32> {\n\
+         \x20   if (hit.id < 0) { return vec4<f32>(0.0, 0.0, 0.0, 1.0); }\n\
+         \x20   if (hit.id == 0) { return vec4<f32>(1.0); }\n\
+         \x20   return vec4<f32>(1.0, 0.0, 0.0, 1.0);\n\
+         }\n",
+    )
+    .unwrap();
+    let pics = dir.path().join("pics");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "compare",
+            a.to_str().unwrap(),
+            "--b-scene",
+            b.to_str().unwrap(),
+            "--a",
+            "gpu:f32",
+            "--b",
+            "gpu:f64",
+        ];
+        args.extend(extra);
+        raycast(&args)
+    };
+    let out = run(&[
+        "--shader",
+        hook.to_str().unwrap(),
+        "-o",
+        pics.to_str().unwrap(),
+        "--fail-above",
+        "color.max=255,color.beyond_2=0.01",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c = &report(&out)["color"];
+    assert_eq!(c["max"], 255, "{c}");
+    assert_eq!(c["beyond_2"].as_f64().unwrap(), 12.0 / 1200.0, "{c}");
+    assert_eq!(c["exact"].as_f64().unwrap(), 1188.0 / 1200.0, "{c}");
+    assert_eq!(
+        c["mean_abs"].as_f64().unwrap(),
+        12.0 * 255.0 / 3600.0,
+        "{c}"
+    );
+    let picture = image::open(pics.join("color_error.png"))
+        .unwrap()
+        .into_rgb8();
+    let grey = picture.get_pixel(0, 14).0;
+    let marked: Vec<(u32, u32)> = (0..30)
+        .flat_map(|y| (0..40).map(move |x| (x, y)))
+        .filter(|&(x, y)| picture.get_pixel(x, y + 14).0 != grey)
+        .collect();
+    let expected: Vec<(u32, u32)> = (11..14)
+        .flat_map(|y| (14..18).map(move |x| (x, y)))
+        .collect();
+    assert_eq!(marked, expected);
+    // A bound on a colour metric gates like any other.
+    assert_eq!(
+        run(&[
+            "--shader",
+            hook.to_str().unwrap(),
+            "--fail-above",
+            "color.max=254"
+        ])
+        .status
+        .code(),
+        Some(1)
+    );
+    assert!(report(&run(&[]))["color"].is_null());
+}

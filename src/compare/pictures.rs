@@ -76,6 +76,60 @@ fn decades(errors: &[Option<f64>]) -> (i32, i32) {
     (lo, hi.max(lo + 1))
 }
 
+/// A heatmap of a comparison's `w x h` pixels under a title, with a colour bar of [`ramp`] on
+/// the right (its top the ramp's top) and below the bar a grey swatch for "no error".
+struct Heatmap {
+    img: RgbImage,
+    /// Where the pixels start, below the title.
+    top: u32,
+    bar_x: u32,
+    bar_w: u32,
+    bar_len: u32,
+}
+
+impl Heatmap {
+    fn new(w: u32, h: u32, title: &str) -> Heatmap {
+        let top = LINE + 2;
+        let panel = 96;
+        let bar_h = h.max(10 * LINE);
+        let mut img = RgbImage::new((w + panel).max(360), top + bar_h);
+        draw_text(&mut img, 2, 2, title, TEXT);
+        let (bar_x, bar_w, bar_len) = (w + 8, 16, bar_h - 2 * LINE);
+        for dy in 0..bar_len {
+            let color = ramp(1.0 - dy as f64 / (bar_len - 1).max(1) as f64);
+            for dx in 0..bar_w {
+                img.put_pixel(bar_x + dx, top + dy, color);
+            }
+        }
+        let swatch_y = top + bar_len + 4;
+        for dy in 0..8 {
+            for dx in 0..bar_w {
+                img.put_pixel(bar_x + dx, swatch_y + dy, ZERO_ERROR);
+            }
+        }
+        let mut map = Heatmap {
+            img,
+            top,
+            bar_x,
+            bar_w,
+            bar_len,
+        };
+        map.label(swatch_y, "0");
+        map
+    }
+
+    /// Pixel `k` of a `w`-wide image in `color`.
+    fn put(&mut self, k: usize, w: u32, color: Rgb<u8>) {
+        let (x, y) = (k as u32 % w, k as u32 / w + self.top);
+        self.img.put_pixel(x, y, color);
+    }
+
+    /// `text` beside the bar at height `y`.
+    fn label(&mut self, y: u32, text: &str) {
+        draw_text(&mut self.img, self.bar_x + self.bar_w + 4, y, text, TEXT);
+    }
+}
+
 /// Relative distance error |a - b| / |b| per pixel on a log colour scale, exact agreement in
 /// grey, pixels not hit by both on the same object in black; a colour bar with its decades on
 /// the right.
@@ -83,45 +137,28 @@ pub fn distance_error_picture(c: &Comparison) -> RgbImage {
     let (w, h) = (c.width, c.height);
     let (lo, hi) = decades(&c.rel_error);
     let span = (hi - lo) as f64;
-    let top = LINE + 2;
-    let panel = 96;
-    let bar_h = h.max(10 * LINE);
-    let mut img = RgbImage::new((w + panel).max(360), top + bar_h);
-    draw_text(&mut img, 2, 2, "relative distance error |a-b|/|b|", TEXT);
+    let mut map = Heatmap::new(w, h, "relative distance error |a-b|/|b|");
     for (k, e) in c.rel_error.iter().enumerate() {
-        let (x, y) = (k as u32 % w, k as u32 / w + top);
         let color = match e {
             None => Rgb([0, 0, 0]),
             Some(e) if *e == 0.0 => ZERO_ERROR,
             Some(e) => ramp((e.log10() - lo as f64) / span),
         };
-        img.put_pixel(x, y, color);
+        map.put(k, w, color);
     }
-    // The bar: hi at the top, lo at the bottom, leaving room for the "0" swatch below it.
-    let (bar_x, bar_w) = (w + 8, 16);
-    let bar_len = bar_h - 2 * LINE;
-    for dy in 0..bar_len {
-        let color = ramp(1.0 - dy as f64 / (bar_len - 1).max(1) as f64);
-        for dx in 0..bar_w {
-            img.put_pixel(bar_x + dx, top + dy, color);
-        }
-    }
+    // The decades: hi at the top of the bar, lo at its bottom.
+    let (top, bar_len) = (map.top, map.bar_len);
     let step = ((hi - lo) as u32).div_ceil(bar_len / LINE).max(1) as i32;
     let mut d = hi;
     while d >= lo {
         let y = top + ((hi - d) as f64 / span * (bar_len - 1) as f64) as u32;
-        let y = y.saturating_sub(4).min(top + bar_len - 8);
-        draw_text(&mut img, bar_x + bar_w + 4, y, &format!("1e{d}"), TEXT);
+        map.label(
+            y.saturating_sub(4).min(top + bar_len - 8),
+            &format!("1e{d}"),
+        );
         d -= step;
     }
-    let swatch_y = top + bar_len + 4;
-    for dy in 0..8 {
-        for dx in 0..bar_w {
-            img.put_pixel(bar_x + dx, swatch_y + dy, ZERO_ERROR);
-        }
-    }
-    draw_text(&mut img, bar_x + bar_w + 4, swatch_y, "0", TEXT);
-    img
+    map.img
 }
 
 /// Levels at which [`color_error_picture`]'s ramp tops out.
@@ -132,44 +169,16 @@ const COLOR_RAMP_LEVELS: u8 = 16;
 /// to red, with a labelled bar on the right.
 pub fn color_error_picture(c: &Comparison, a: &[[u8; 4]], b: &[[u8; 4]]) -> RgbImage {
     let (w, h) = (c.width, c.height);
-    let top = LINE + 2;
-    let panel = 96;
-    let bar_h = h.max(10 * LINE);
-    let mut img = RgbImage::new((w + panel).max(360), top + bar_h);
-    draw_text(
-        &mut img,
-        2,
-        2,
-        "color.png: max |a-b| of R, G, B (levels)",
-        TEXT,
-    );
+    let mut map = Heatmap::new(w, h, "color.png: max |a-b| of R, G, B (levels)");
     let scale = |d: u8| (d.min(COLOR_RAMP_LEVELS) - 1) as f64 / (COLOR_RAMP_LEVELS - 1) as f64;
     for (k, (&pa, &pb)) in a.iter().zip(b).enumerate() {
-        let (x, y) = (k as u32 % w, k as u32 / w + top);
         let d = super::level_difference(pa, pb);
-        img.put_pixel(x, y, if d == 0 { ZERO_ERROR } else { ramp(scale(d)) });
+        map.put(k, w, if d == 0 { ZERO_ERROR } else { ramp(scale(d)) });
     }
-    let (bar_x, bar_w) = (w + 8, 16);
-    let bar_len = bar_h - 2 * LINE;
-    for dy in 0..bar_len {
-        let color = ramp(1.0 - dy as f64 / (bar_len - 1).max(1) as f64);
-        for dx in 0..bar_w {
-            img.put_pixel(bar_x + dx, top + dy, color);
-        }
-    }
-    let label = |img: &mut RgbImage, y: u32, text: &str| {
-        draw_text(img, bar_x + bar_w + 4, y, text, TEXT);
-    };
-    label(&mut img, top, &format!(">={COLOR_RAMP_LEVELS}"));
-    label(&mut img, top + bar_len - 8, "1");
-    let swatch_y = top + bar_len + 4;
-    for dy in 0..8 {
-        for dx in 0..bar_w {
-            img.put_pixel(bar_x + dx, swatch_y + dy, ZERO_ERROR);
-        }
-    }
-    label(&mut img, swatch_y, "0");
-    img
+    let (top, bar_len) = (map.top, map.bar_len);
+    map.label(top, &format!(">={COLOR_RAMP_LEVELS}"));
+    map.label(top + bar_len - 8, "1");
+    map.img
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! reflections to five bounces), written against [`super::shade`]. In f64 it is the model's
 //! truth, which reproduces the instructor's render of sphere-and-plane byte for byte.
 
-use super::shade::{LIGHT_POINT, Material, ShadeHit, Shading, leave, splat};
+use super::shade::{LIGHT_POINT, Material, ShadeHit, Shading, leave};
 use crate::math::{Real, Vec3, dot, length, normalize};
 
 /// `RAYTRACE_EPSILON`.
@@ -18,7 +18,7 @@ pub fn shade<T: Real, const ROBUST: bool>(
     s: &mut Shading<'_, T, ROBUST>,
     hit: ShadeHit<T>,
 ) -> [T; 4] {
-    let zero = splat(T::ZERO);
+    let zero = Vec3::splat(T::ZERO);
     let mut own = [zero; RAYTRACE_HITS];
     let mut mirror = [zero; RAYTRACE_HITS];
     let mut hits = 0;

@@ -8,7 +8,7 @@
 use super::camera::camera_ray;
 use super::scene::{Hit, hit_normal, nearest_hit, nearest_hit_before};
 use super::types::{Ray, t_far};
-use crate::math::{Real, Vec3, dot, length, normalize, vec3};
+use crate::math::{Real, Vec3, dot, length, normalize};
 use crate::prepare::Prepared;
 
 /// `struct ShadeHit` of shaders/hooks.wgsl.
@@ -104,8 +104,7 @@ impl<T: Real> HookScene<T> {
                 .collect(),
             objects: (0..objects)
                 .map(|k| {
-                    let material = lighting.object_materials.get(k).copied().flatten();
-                    let values = lighting.object_values.get(k).copied().unwrap_or_default();
+                    let (material, values) = lighting.object_data(k);
                     (material, values.map(T::from_f64))
                 })
                 .collect(),
@@ -270,9 +269,4 @@ pub fn pack_unorm<T: Real>(colour: [T; 4]) -> [u8; 4] {
         let c = c.max(T::ZERO).min(T::ONE);
         (T::HALF + T::from_f64(255.0) * c).floor().to_f64() as u8
     })
-}
-
-/// A vector of three equal components, `vec3<T>(s)`.
-pub fn splat<T: Real>(s: T) -> Vec3<T> {
-    vec3(s, s, s)
 }

@@ -257,18 +257,13 @@ pub fn hook_buffers(
     light_bytes[..4].copy_from_slice(&(lighting.lights.len() as u32).to_ne_bytes());
     light_bytes.extend_from_slice(bytemuck::cast_slice(&lights));
     let hook_objects = (0..objects.max(1))
-        .map(|k| GpuHookObject {
-            values: lighting
-                .object_values
-                .get(k)
-                .map_or([0.0; 4], |v| v.map(|x| x as f32)),
-            material: lighting
-                .object_materials
-                .get(k)
-                .copied()
-                .flatten()
-                .map_or(-1, |m| m as i32),
-            _pad: [0; 3],
+        .map(|k| {
+            let (material, values) = lighting.object_data(k);
+            GpuHookObject {
+                values: values.map(|x| x as f32),
+                material: material.map_or(-1, |m| m as i32),
+                _pad: [0; 3],
+            }
         })
         .collect();
     (materials, light_bytes, hook_objects)

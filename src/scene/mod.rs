@@ -120,6 +120,15 @@ impl Lighting {
                 .all(|v| *v == [0.0; OBJECT_VALUES])
     }
 
+    /// Object `k`'s material (its index in `materials`) and values, as hooks read them: none
+    /// and zeros beyond the lists (a scene built in code may leave them empty).
+    pub fn object_data(&self, k: usize) -> (Option<usize>, [f64; OBJECT_VALUES]) {
+        (
+            self.object_materials.get(k).copied().flatten(),
+            self.object_values.get(k).copied().unwrap_or_default(),
+        )
+    }
+
     /// What the scene gives, e.g. `2 lights, 5 materials, a material on 8 objects`.
     pub fn summary(&self) -> String {
         let plural = |n: usize, what: &str| match n {
