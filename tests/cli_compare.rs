@@ -28,6 +28,38 @@ fn write_scenes(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     (a, b)
 }
 
+/// The planted square's pixels, (x, y), row by row.
+fn square_pixels() -> Vec<(u32, u32)> {
+    (11..14)
+        .flat_map(|y| (14..18).map(move |x| (x, y)))
+        .collect()
+}
+
+/// The pixels (x, y), row by row, of the 40x30 render drawn `top` rows down `picture` whose
+/// colour `is` picks.
+fn marked(picture: &image::RgbImage, top: u32, is: impl Fn([u8; 3]) -> bool) -> Vec<(u32, u32)> {
+    (0..30)
+        .flat_map(|y| (0..40).map(move |x| (x, y)))
+        .filter(|&(x, y)| is(picture.get_pixel(x, y + top).0))
+        .collect()
+}
+
+/// `raycast compare A --b-scene B --a MODE_A --b MODE_B EXTRA...`.
+fn compare(a: &Path, b: &Path, [mode_a, mode_b]: [&str; 2], extra: &[&str]) -> Output {
+    let mut args = vec![
+        "compare",
+        a.to_str().unwrap(),
+        "--b-scene",
+        b.to_str().unwrap(),
+        "--a",
+        mode_a,
+        "--b",
+        mode_b,
+    ];
+    args.extend(extra);
+    raycast(&args)
+}
+
 fn raycast(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_raycast"))
         .args(args)
@@ -49,18 +81,12 @@ fn planted_square_is_counted_exactly_and_drawn() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = write_scenes(dir.path());
     let pics = dir.path().join("pics");
-    let out = raycast(&[
-        "compare",
-        a.to_str().unwrap(),
-        "--b-scene",
-        b.to_str().unwrap(),
-        "--a",
-        "gpu:f32",
-        "--b",
-        "cpu:f64",
-        "-o",
-        pics.to_str().unwrap(),
-    ]);
+    let out = compare(
+        &a,
+        &b,
+        ["gpu:f32", "cpu:f64"],
+        &["-o", pics.to_str().unwrap()],
+    );
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -79,16 +105,8 @@ fn planted_square_is_counted_exactly_and_drawn() {
     assert!(rel > 0.0 && rel < 1e-5, "{rel}");
 
     let mask = image::open(pics.join("mismatch.png")).unwrap().into_rgb8();
-    let magenta = (0..30)
-        .flat_map(|y| (0..40).map(move |x| (x, y)))
-        .filter(|&(x, y)| mask.get_pixel(x, y).0 == [255, 0, 255])
-        .collect::<Vec<_>>();
-    let expected: Vec<(u32, u32)> = (11..14)
-        .flat_map(|y| (14..18).map(move |x| (x, y)))
-        .collect();
-    let mut magenta = magenta;
-    magenta.sort_by_key(|&(x, y)| (y, x));
-    assert_eq!(magenta, expected);
+    let magenta = marked(&mask, 0, |p| p == [255, 0, 255]);
+    assert_eq!(magenta, square_pixels());
     assert!(pics.join("distance_error.png").exists());
 }
 
@@ -96,20 +114,7 @@ fn planted_square_is_counted_exactly_and_drawn() {
 fn fail_above_exits_1_exactly_when_a_bound_is_crossed() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = write_scenes(dir.path());
-    let run = |bound: &str| {
-        raycast(&[
-            "compare",
-            a.to_str().unwrap(),
-            "--b-scene",
-            b.to_str().unwrap(),
-            "--a",
-            "cpu:f64",
-            "--b",
-            "cpu:f64",
-            "--fail-above",
-            bound,
-        ])
-    };
+    let run = |bound: &str| compare(&a, &b, ["cpu:f64", "cpu:f64"], &["--fail-above", bound]);
     assert_eq!(run("hit_mismatch=12").status.code(), Some(0));
     let crossed = run("hit_mismatch=11");
     assert_eq!(crossed.status.code(), Some(1));
@@ -149,20 +154,7 @@ fn colours_are_compared_when_a_hook_colours_both_sides() {
     )
     .unwrap();
     let pics = dir.path().join("pics");
-    let run = |extra: &[&str]| {
-        let mut args = vec![
-            "compare",
-            a.to_str().unwrap(),
-            "--b-scene",
-            b.to_str().unwrap(),
-            "--a",
-            "gpu:f32",
-            "--b",
-            "gpu:f64",
-        ];
-        args.extend(extra);
-        raycast(&args)
-    };
+    let run = |extra: &[&str]| compare(&a, &b, ["gpu:f32", "gpu:f64"], extra);
     let out = run(&[
         "--shader",
         hook.to_str().unwrap(),
@@ -189,15 +181,9 @@ fn colours_are_compared_when_a_hook_colours_both_sides() {
     let picture = image::open(pics.join("color_error.png"))
         .unwrap()
         .into_rgb8();
+    // Below a title line, equal pixels in grey.
     let grey = picture.get_pixel(0, 14).0;
-    let marked: Vec<(u32, u32)> = (0..30)
-        .flat_map(|y| (0..40).map(move |x| (x, y)))
-        .filter(|&(x, y)| picture.get_pixel(x, y + 14).0 != grey)
-        .collect();
-    let expected: Vec<(u32, u32)> = (11..14)
-        .flat_map(|y| (14..18).map(move |x| (x, y)))
-        .collect();
-    assert_eq!(marked, expected);
+    assert_eq!(marked(&picture, 14, |p| p != grey), square_pixels());
     // A bound on a colour metric gates like any other.
     assert_eq!(
         run(&[
