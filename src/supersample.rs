@@ -97,6 +97,7 @@ pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Images<T> {
         })
         .collect();
     let mut out = Images::new_miss(w, h, fine.focal_length);
+    out.hook_rays = fine.hook_rays;
     let mut coverage = Coverage {
         spp: s * s,
         hits: Vec::with_capacity(pixels.len()),

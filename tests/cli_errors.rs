@@ -303,6 +303,15 @@ fn lit_is_refused_where_it_cannot_run() {
         assert!(case.out.join("color.png").exists());
     }
     assert!(counts.iter().all(|c| *c == counts[0]), "{counts:?}");
+    // Supersampled, every sample's rays count.
+    let output = case.run(&["--lit", "--precision", "f32", "--spp", "4"], &[]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("cast 2304 camera rays and ")),
+        "{stdout}"
+    );
 }
 
 #[test]
