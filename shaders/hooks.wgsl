@@ -16,6 +16,8 @@
 //         fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_min: f32, t_max: f32) -> bool
 //     whether anything is hit with t_min <= t < t_max (shadow rays). t counts in units of
 //     `direction`'s length. They are compiled into the kernel only when the hook calls them.
+//     Cast a ray leaving a surface from `leave(hit, direction)` (below), not from
+//     `hit.position`, which rounding may put on the surface's far side.
 //
 // This file is also the prelude the user's file is checked with on its own (appended after the
 // user's text, so naga's line:column are the user's): keep it free of #import and #if, and in
