@@ -107,8 +107,8 @@ fn the_cpu_reference_in_f64_reproduces_the_instructors_render() {
 }
 
 /// The GPU's f32 render and its CPU mirror in f32 run the same arithmetic; only the
-/// driver's `pow`, `normalize` and `sqrt` may differ in the last bits, which moves a pixel by a
-/// level where it lands on a level's edge.
+/// driver's built-ins, `pow` above all (lavapipe approximates `exp2(y log2 x)`), may differ in
+/// the last bits, which moves a pixel by a level where it lands on a level's edge.
 #[test]
 fn the_gpu_in_f32_agrees_with_its_cpu_mirror() {
     let hook = hooks::raytrace().unwrap();
