@@ -11,7 +11,8 @@ switching is one import::
 
 Beyond Open3D: spheres and planes (``add_sphere``, ``add_plane``), ``precision="f32" | "f64" |
 "adaptive"`` and ``device="gpu" | "cpu"`` on every cast, scene files (``raycast.load``) and
-their camera renders (``render``), and ``raycast.info()`` for the adapter.
+their camera renders (``render``, lit by the course's ray tracer with ``lit=True`` or coloured
+by a shade hook file with ``shader=``), and ``raycast.info()`` for the adapter.
 
 Rays are rows of ``origin, direction`` (shape ``(..., 6)``, any float dtype and layout:
 float32 and float64 are read as they are when C-contiguous, others converted once to float64);
@@ -173,18 +174,35 @@ class RaycastingScene:
         counts = self._scene.count(flat, precision, device)
         return counts.view(np.int32).reshape(shape)
 
-    def render(self, precision: str = "f32", device: str = "gpu") -> Dict[str, np.ndarray]:
+    def render(
+        self,
+        precision: str = "f32",
+        device: str = "gpu",
+        lit: bool = False,
+        shader: Optional[Union[str, os.PathLike]] = None,
+    ) -> Dict[str, Any]:
         """The scene file's camera rendered (scenes from ``raycast.load``): ``id`` (int32,
         -1 on a miss), ``distance`` (inf on a miss) and ``normal`` (..., 3) images, rows from
-        the top, as the command line's npy files hold them."""
+        the top, as the command line's npy files hold them.
+
+        With ``lit=True`` (the course's ray tracer from the scene's materials and lights, the
+        hook shaders/examples/raytrace.wgsl on the GPU, its mirror on the CPU) or a shade hook
+        file ``shader`` (GPU), also ``color`` (uint8 RGBA, (..., 4)) and ``hook_rays``, the
+        rays the hook cast (None where it casts none)."""
         _options(precision, device)
-        out = self._scene.render(precision, device)
+        out = self._scene.render(
+            precision, device, lit, None if shader is None else os.fspath(shader)
+        )
         shape = (out["height"], out["width"])
-        return {
+        images = {
             "id": out["id"].reshape(shape),
             "distance": out["distance"].reshape(shape),
             "normal": out["normal"].reshape(shape + (3,)),
         }
+        if "color" in out:
+            images["color"] = out["color"].reshape(shape + (4,))
+            images["hook_rays"] = out["hook_rays"]
+        return images
 
     @staticmethod
     def create_rays_pinhole(*args: Any, **kwargs: Any) -> np.ndarray:

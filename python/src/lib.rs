@@ -201,19 +201,41 @@ impl Scene {
     }
 
     /// Renders the scene's camera: id, distance and normal images as flat arrays and the
-    /// image size.
+    /// image size; with `lit` (the course's ray tracer) or a shade hook file `shader`, also the
+    /// colours and the rays the hook cast.
+    #[pyo3(signature = (precision, device, lit=false, shader=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         precision: &str,
         device: &str,
+        lit: bool,
+        shader: Option<std::path::PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let (mode, gpu) = mode(device, precision)?;
+        let shade = match (lit, shader) {
+            (true, Some(_)) => {
+                return Err(PyValueError::new_err(
+                    "lit: is the shade hook shaders/examples/raytrace.wgsl; give it or shader, not both",
+                ));
+            }
+            (true, None) => Some(raycast::gpu::hooks::raytrace().map_err(to_py)?),
+            (false, Some(path)) => Some(raycast::gpu::hooks::load(&path).map_err(to_py)?),
+            (false, None) => None,
+        };
+        let request = raycast::render::Request {
+            shade,
+            ..raycast::render::Request::default()
+        };
         let scene = self.inner.scene();
         let images = py
-            .detach(|| raycast::render::render(scene, mode, gpu, false))
+            .detach(|| raycast::render::render_request(scene, mode, gpu, false, &request))
             .map_err(to_py)?;
         let d = PyDict::new(py);
+        if let Some(color) = images.color() {
+            d.set_item("color", PyArray1::from_vec(py, flat(color.to_vec())))?;
+            d.set_item("hook_rays", images.hook_rays())?;
+        }
         let (w, h) = (scene.camera.resolution[0], scene.camera.resolution[1]);
         d.set_item("width", w)?;
         d.set_item("height", h)?;

@@ -191,6 +191,31 @@ def test_load_and_render_a_scene_file():
     assert 0.01 < np.mean(bunny) < 0.5
 
 
+def test_a_lit_render_of_a_scene_file():
+    scene = raycast.load(ROOT / "scenes" / "ray-tracing" / "sphere-and-plane.json")
+    gpu = scene.render(precision="f32", device="gpu", lit=True)
+    cpu = scene.render(precision="f32", device="cpu", lit=True)
+    h, w = gpu["id"].shape
+    assert gpu["color"].shape == (h, w, 4) and gpu["color"].dtype == np.uint8
+    # The GPU's f32 and its CPU mirror: the same colours but for a few pixels, by a level.
+    differ = np.any(gpu["color"] != cpu["color"], axis=2)
+    assert np.mean(differ) <= 1e-4
+    assert np.abs(gpu["color"].astype(int) - cpu["color"]).max() <= 1
+    # A shadow ray to each of the two lights from every hit at least; the plane fills the
+    # lower half, the sky the upper half.
+    hits = np.count_nonzero(gpu["id"] >= 0)
+    assert gpu["hook_rays"] >= 2 * hits
+    assert abs(gpu["hook_rays"] - cpu["hook_rays"]) <= 1e-4 * cpu["hook_rays"]
+    # The same hook given as a file gives the same picture; a plain render has no colour.
+    hook = ROOT / "shaders" / "examples" / "raytrace.wgsl"
+    np.testing.assert_array_equal(scene.render(shader=hook)["color"], gpu["color"])
+    assert "color" not in scene.render()
+    with pytest.raises(ValueError, match="not both"):
+        scene.render(lit=True, shader=hook)
+    with pytest.raises(ValueError, match="the CPU reference runs no shader"):
+        scene.render(device="cpu", shader=ROOT / "shaders" / "examples" / "toon.wgsl")
+
+
 def test_bad_input_raises_naming_the_argument():
     scene = raycast.RaycastingScene()
     v, t = unit_square()
