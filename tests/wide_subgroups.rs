@@ -5,7 +5,8 @@
 //! lanes. With `LP_NATIVE_VECTOR_WIDTH=512` lavapipe's subgroups are 16 invocations, so this
 //! test runs itself again in a child process with it set (Mesa reads it when it starts) and
 //! checks there that those kernels give the CPU reference's answers: camera renders bit for bit
-//! in f32, ids in f64 and adaptive precision, ray lists from one origin and from many. Its
+//! in f32, ids in f64 and adaptive precision, ray lists from one origin and from many, and a
+//! hook that casts rays against its CPU mirror. Its
 //! device is opened as on a discrete GPU, without host-mapped buffers: rays, images and hits go
 //! through staging buffers.
 
@@ -62,6 +63,7 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
     for seed in [2, 3] {
         ray_lists_agree(seed);
     }
+    lit_renders_agree();
 }
 
 /// lavapipe opened with the features raycast asks of any GPU, not the host-mapped buffers it
@@ -116,6 +118,31 @@ fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
     let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Precision::F64, true)).unwrap();
     let cpu64 = cpu::render_with::<f64>(scene, algorithm, Accel::Bvh);
     assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
+}
+
+/// The course's ray tracer (a hook that casts rays, its kernel per ray, its colours and ray
+/// count through staging buffers) against its CPU mirror, in f32 and over several dispatches:
+/// the same colours but where `pow` lands a pixel on a level's edge, the same rays.
+fn lit_renders_agree() {
+    let gpu = discrete_like();
+    let hook = raycast::gpu::hooks::raytrace().unwrap();
+    let path = common::repo_path("scenes/ray-tracing/bunny.json");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.camera.resolution = [160, 90];
+    let variant = gpu
+        .scene_variant(&scene, Precision::F32, Robust)
+        .with_shade(hook.key, hook.traces)
+        .with_outputs(raycast::images::Outputs::ALL);
+    let lit = common::gpu_tiles::<f32>(gpu, &scene, variant, 16).unwrap();
+    let prepared = raycast::prepare::Prepared::<f32>::new(&scene, Robust, Accel::Auto);
+    let (colours, rays) = cpu::raytrace::render(&prepared);
+    let e = raycast::compare::color_error(lit.color.as_deref().unwrap(), &colours);
+    assert!(e.exact >= 0.999 && e.max <= 1, "lit bunny: {e:?}");
+    let gpu_rays = lit.hook_rays.unwrap_or_else(|| panic!("a count"));
+    assert!(
+        gpu_rays.abs_diff(rays) as f64 <= 1e-4 * rays as f64,
+        "{gpu_rays} against {rays}"
+    );
 }
 
 /// A pinhole camera's rays (one origin: `LIST_ORIGIN`), the same rays each moved a little along

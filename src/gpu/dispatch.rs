@@ -504,6 +504,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
     stages.trace_s = clock.elapsed().as_secs_f64();
     stages.kernel_s = kernel_s;
     stages.hook_rays = hook_rays.map(|c| c.total);
+    images.hook_rays = stages.hook_rays;
     let list_buffer = list_buffer.map(|(_, b)| b);
     gpu.keep_transient(outputs.into_buffers().chain(list_buffer).collect());
     Ok(Rendered {

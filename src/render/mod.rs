@@ -299,9 +299,7 @@ pub fn on_gpu<R: GpuReal>(
 ) -> Result<(Images<R>, Stages)> {
     let prepared = gpu::prepare::<R>(scene, &variant)?;
     let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
-    let mut images = r.images;
-    images.hook_rays = r.stages.hook_rays;
-    Ok((images, r.stages))
+    Ok((r.images, r.stages))
 }
 
 /// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
