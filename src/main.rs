@@ -464,11 +464,7 @@ fn run(command: Command) -> Result<ExitCode> {
             shader,
             lit,
         } => {
-            let shade = match (lit, shader) {
-                (true, _) => Some(gpu::hooks::raytrace()?),
-                (false, Some(path)) => Some(gpu::hooks::load(&path)?),
-                (false, None) => None,
-            };
+            let shade = gpu::hooks::requested(lit, shader.as_deref())?;
             let options = study::bench::Options {
                 runs: runs as usize,
                 modes: mode,

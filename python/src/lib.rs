@@ -213,16 +213,7 @@ impl Scene {
         shader: Option<std::path::PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let (mode, gpu) = mode(device, precision)?;
-        let shade = match (lit, shader) {
-            (true, Some(_)) => {
-                return Err(PyValueError::new_err(
-                    "lit: is the shade hook shaders/examples/raytrace.wgsl; give it or shader, not both",
-                ));
-            }
-            (true, None) => Some(raycast::gpu::hooks::raytrace().map_err(to_py)?),
-            (false, Some(path)) => Some(raycast::gpu::hooks::load(&path).map_err(to_py)?),
-            (false, None) => None,
-        };
+        let shade = raycast::gpu::hooks::requested(lit, shader.as_deref()).map_err(to_py)?;
         let request = raycast::render::Request {
             shade,
             ..raycast::render::Request::default()

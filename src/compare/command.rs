@@ -56,17 +56,7 @@ impl Spec {
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
         let request = render::Request {
-            shade: match (&self.shader, self.lit) {
-                (Some(_), true) => {
-                    return Err(crate::Error::Argument {
-                        option: "--lit".into(),
-                        message: "is the shade hook shaders/examples/raytrace.wgsl; give it or --shader, not both".into(),
-                    });
-                }
-                (_, true) => Some(crate::gpu::hooks::raytrace()?),
-                (Some(path), false) => Some(crate::gpu::hooks::load(path)?),
-                (None, false) => None,
-            },
+            shade: crate::gpu::hooks::requested(self.lit, self.shader.as_deref())?,
             ..render::Request::default()
         };
         for mode in self.modes {

@@ -521,8 +521,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
 pub struct Resident {
     /// By the kernel's names (shaders/bindings.wgsl).
     buffers: Vec<(String, wgpu::Buffer)>,
-    /// How they are laid out: `(chunks, chunk_bits, uniform)` of the variant.
-    laid_out: (u8, u8, bool),
+    /// How they are laid out: `(chunks, chunk_bits, uniform, hooked)` of the variant.
+    laid_out: (u8, u8, bool, bool),
     /// The device's identity ([`Gpu`]).
     device: std::sync::Arc<()>,
 }
@@ -549,11 +549,14 @@ impl Resident {
     }
 }
 
-fn layout_of(variant: &Variant) -> (u8, u8, bool) {
+/// What decides the scene's buffers: the primitives' chunks and binding kind, and whether a
+/// shade hook reads the scene's materials and lights.
+fn layout_of(variant: &Variant) -> (u8, u8, bool, bool) {
     (
         variant.chunks,
         variant.chunk_bits,
         variant.uses_uniform_prims(),
+        variant.shade.is_some(),
     )
 }
 
@@ -564,7 +567,9 @@ pub fn upload<R: GpuReal>(
     variant: &Variant,
 ) -> Result<Resident> {
     let mut buffers = Layout::new(&prepared.primitives).upload(gpu, variant);
-    buffers.extend(upload_hook_scene(gpu, prepared));
+    if variant.shade.is_some() {
+        buffers.extend(upload_hook_scene(gpu, prepared));
+    }
     gpu.device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
@@ -575,8 +580,8 @@ pub fn upload<R: GpuReal>(
     })
 }
 
-/// The scene's materials, lights and per-object values for shade hooks (shaders/hooks.wgsl):
-/// a few hundred bytes, uploaded with every scene so that resident buffers serve hooks too.
+/// The scene's materials, lights and per-object values for shade hooks (shaders/hooks.wgsl),
+/// uploaded for kernels with a hook.
 fn upload_hook_scene<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>) -> Vec<(String, wgpu::Buffer)> {
     let (materials, lights, objects) =
         super::layout::hook_buffers(&prepared.lighting, prepared.objects);

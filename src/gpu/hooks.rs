@@ -71,6 +71,25 @@ pub fn raytrace() -> Result<ShadeHook> {
     check(RAYTRACE, Path::new(RAYTRACE_FILE))
 }
 
+/// The hook a command asks for: `--lit` ([`raytrace`]) or `--shader FILE` ([`load`]), or none;
+/// both at once is [`lit_and_shader`]'s error.
+pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
+    match (lit, shader) {
+        (true, Some(_)) => Err(lit_and_shader()),
+        (true, None) => raytrace().map(Some),
+        (false, Some(path)) => load(path).map(Some),
+        (false, None) => Ok(None),
+    }
+}
+
+/// The error of `--lit` given with `--shader`.
+pub fn lit_and_shader() -> Error {
+    Error::Argument {
+        option: "--lit".into(),
+        message: format!("is the shade hook {RAYTRACE_FILE}; give it or --shader, not both"),
+    }
+}
+
 impl ShadeHook {
     /// Whether the CPU reference mirrors this hook: it is [`RAYTRACE`], text for text.
     pub fn has_cpu_mirror(&self) -> bool {
@@ -138,16 +157,13 @@ pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
         located(in_user(offset), len, error_chain(&e))
     })?;
     // 2. The hook's signature and what a hook may not declare.
-    check_signature(&module, &located)?;
+    let shade = check_signature(&module, &located)?;
     let casting = ray_casting_functions(&module);
     check_declarations(&module, prelude_start, &casting, &located)?;
     // 3. Names the kernel uses.
     check_names(&module, &located)?;
     // 4. The kernel with the hook.
-    let traces = module
-        .functions
-        .iter()
-        .any(|(h, f)| f.name.as_deref() == Some(HOOK_FUNCTION) && casting.contains(&h));
+    let traces = casting.contains(&shade);
     let (key, source) = register(source);
     check_in_kernel(key, traces, &source, file)?;
     Ok(ShadeHook {
@@ -204,8 +220,11 @@ fn visit_calls(block: &naga::Block, each: &mut dyn FnMut(naga::Handle<naga::Func
 
 type Locate<'a> = dyn Fn(usize, usize, String) -> Error + 'a;
 
-/// `shade` exists, takes exactly one `ShadeHit` and returns `vec4<f32>`.
-fn check_signature(module: &naga::Module, located: &Locate) -> Result<()> {
+/// `shade` exists, takes exactly one `ShadeHit` and returns `vec4<f32>`; its handle.
+fn check_signature(
+    module: &naga::Module,
+    located: &Locate,
+) -> Result<naga::Handle<naga::Function>> {
     let wanted = format!("fn {HOOK_FUNCTION}(hit: {HOOK_INPUT}) -> vec4<f32>");
     let Some((handle, function)) = module
         .functions
@@ -229,7 +248,7 @@ fn check_signature(module: &naga::Module, located: &Locate) -> Result<()> {
             }
     });
     if argument_ok && result_ok {
-        return Ok(());
+        return Ok(handle);
     }
     let arguments: Vec<String> = function
         .arguments

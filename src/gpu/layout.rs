@@ -206,18 +206,14 @@ pub struct GpuHookObject {
 /// lights at offset 16.
 pub const HOOK_LIGHTS_HEADER: usize = 16;
 
-fn f32s(v: &crate::math::Vec3<f64>) -> [f32; 3] {
-    v.to_array().map(|x| x as f32)
-}
-
 impl From<&crate::scene::Material> for GpuMaterial {
     fn from(m: &crate::scene::Material) -> Self {
         GpuMaterial {
-            ka: f32s(&m.ka),
+            ka: m.ka.cast::<f32>().to_array(),
             phong_exponent: m.phong_exponent as f32,
-            kd: f32s(&m.kd),
-            ks: f32s(&m.ks),
-            km: f32s(&m.km),
+            kd: m.kd.cast::<f32>().to_array(),
+            ks: m.ks.cast::<f32>().to_array(),
+            km: m.km.cast::<f32>().to_array(),
             ..GpuMaterial::default()
         }
     }
@@ -228,14 +224,14 @@ impl From<&crate::scene::Light> for GpuLight {
         match l {
             crate::scene::Light::Directional { direction, color } => GpuLight {
                 kind: 0,
-                direction: f32s(direction),
-                color: f32s(color),
+                direction: direction.cast::<f32>().to_array(),
+                color: color.cast::<f32>().to_array(),
                 ..GpuLight::default()
             },
             crate::scene::Light::Point { position, color } => GpuLight {
-                position: f32s(position),
+                position: position.cast::<f32>().to_array(),
                 kind: 1,
-                color: f32s(color),
+                color: color.cast::<f32>().to_array(),
                 ..GpuLight::default()
             },
         }

@@ -188,10 +188,7 @@ impl Spec {
             );
         }
         if self.lit && self.shader.is_some() {
-            return refuse(
-                "--lit",
-                "is the shade hook shaders/examples/raytrace.wgsl; give it or --shader, not both",
-            );
+            return Err(gpu::hooks::lit_and_shader());
         }
         if self.lit && self.mode.precision == Arithmetic::Adaptive {
             return refuse("--lit", "runs with --precision f32 or f64, not adaptive");
@@ -233,15 +230,6 @@ impl Spec {
     /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
     fn shaded(&self) -> bool {
         self.shader.is_some() || self.lit
-    }
-
-    /// The shade hook: the file's, or the shipped ray tracer for `--lit`.
-    fn hook(&self) -> Result<Option<gpu::hooks::ShadeHook>> {
-        match (&self.shader, self.lit) {
-            (_, true) => gpu::hooks::raytrace().map(Some),
-            (Some(path), false) => gpu::hooks::load(path).map(Some),
-            (None, false) => Ok(None),
-        }
     }
 
     /// Whether the render can go in bands: a GPU kernel in f32 or f64, one sample per pixel,
@@ -292,7 +280,7 @@ impl Spec {
     fn run_resolved(&self, gpu: Option<&Gpu>, scene: &Scene, huge: bool) -> Result<Summary> {
         let request = Request {
             outputs: self.encoding.outputs,
-            shade: self.hook()?,
+            shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
             kernel: self.kernel.as_deref().map(gpu::kernel::load).transpose()?,
         };
         let gpu = match (self.mode.device, gpu) {

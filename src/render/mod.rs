@@ -375,33 +375,27 @@ fn cpu_render<T: crate::math::Real>(
     progress: bool,
     lit: bool,
 ) -> Images<T> {
-    let mut images = cpu_with_progress::<T>(scene, algorithm, progress);
+    let prepared = Prepared::<T>::new(scene, algorithm, Accel::Auto);
+    let mut images = cpu_with_progress(&prepared, progress);
     if lit {
-        let (colours, rays) =
-            cpu::raytrace::render(&Prepared::<T>::new(scene, algorithm, Accel::Auto));
+        let (colours, rays) = cpu::raytrace::render(&prepared);
         images.color = Some(colours);
         images.hook_rays = Some(rays);
     }
     images
 }
 
-/// Runs the CPU reference; if it is still running after a second and stderr is a terminal,
-/// shows a progress bar of finished rows.
-fn cpu_with_progress<T: crate::math::Real>(
-    scene: &Scene,
-    algorithm: Algorithm,
-    progress: bool,
-) -> Images<T> {
+/// Runs the CPU reference on `prepared`; if it is still running after a second and stderr is a
+/// terminal, shows a progress bar of finished rows.
+fn cpu_with_progress<T: crate::math::Real>(prepared: &Prepared<T>, progress: bool) -> Images<T> {
     use std::io::IsTerminal;
-    if !progress || !std::io::stderr().is_terminal() {
-        return cpu::render(scene, algorithm);
-    }
-    let rows = scene.camera.resolution[1];
     let done = AtomicU32::new(0);
+    if !progress || !std::io::stderr().is_terminal() {
+        return cpu::render_prepared(prepared, &done);
+    }
+    let rows = prepared.frame.ny;
     std::thread::scope(|s| {
-        let worker = s.spawn(|| {
-            cpu::render_prepared::<T>(&Prepared::new(scene, algorithm, Accel::Auto), &done)
-        });
+        let worker = s.spawn(|| cpu::render_prepared(prepared, &done));
         let start = Instant::now();
         let mut bar: Option<indicatif::ProgressBar> = None;
         while !worker.is_finished() {
