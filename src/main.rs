@@ -251,6 +251,20 @@ enum Command {
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
+    /// Render a built-in suite on this adapter and check each result against the CPU
+    /// reference: one line per check, then a summary; exit 1 when a check fails.
+    Selftest {
+        /// Print one JSON object per check, then one with the adapter and the summary, and
+        /// nothing else on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Comma-separated parts of check names: run only the checks whose name contains one.
+        #[arg(long, value_delimiter = ',', value_name = "NAMES")]
+        only: Vec<String>,
+        /// Make this check's GPU result wrong in one pixel or ray, to see the check fail.
+        #[arg(long, value_name = "CHECK")]
+        plant: Option<String>,
+    },
 }
 
 /// Exit code after SIGINT, SIGTERM or SIGHUP: 128 + SIGINT, as shells report an interrupt.
@@ -479,7 +493,42 @@ fn run(command: Command) -> Result<ExitCode> {
             say(gpu::describe(&gpu).trim_end());
             Ok(ExitCode::SUCCESS)
         }
+        Command::Selftest { json, only, plant } => {
+            selftest(&study::selftest::Options { only, plant }, json)
+        }
     }
+}
+
+/// `raycast selftest`: the checks as they end, then the adapter and the summary.
+fn selftest(options: &study::selftest::Options, json: bool) -> Result<ExitCode> {
+    use study::selftest;
+    let gpu = Gpu::new()?;
+    // Refused before the adapter's lines are printed: a bad --only or --plant prints nothing.
+    selftest::check_options(&gpu, options)?;
+    let adapter = selftest::Adapter::probe(&gpu)?;
+    if !json {
+        adapter.lines.iter().for_each(say);
+    }
+    let mut on_check = |check: &selftest::Check| match json {
+        true => say(serde_json::to_string(check).expect("a check serialises")),
+        false => say(check.line()),
+    };
+    let report = selftest::run(&gpu, &adapter, options, &mut on_check)?;
+    if json {
+        let summary = serde_json::json!({
+            "summary": {
+                "adapter": adapter.lines,
+                "passed": report.count(selftest::Outcome::Pass),
+                "failed": report.count(selftest::Outcome::Fail),
+                "skipped": report.count(selftest::Outcome::Skip),
+                "seconds": report.seconds,
+            }
+        });
+        say(summary);
+    } else {
+        say(report.summary());
+    }
+    Ok(ExitCode::from(u8::from(!report.passed())))
 }
 
 /// Renders once, or with `watch` again whenever a file it reads changes, for ever.

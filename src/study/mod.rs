@@ -4,7 +4,9 @@
 //! - [`accuracy`] (`raycast accuracy`): every mode against a reference mode, scene by scene;
 //! - [`tradeoff`] (`raycast tradeoff`): the time of a frame against its error, for every mode;
 //! - [`specialize`] (`raycast specializations`): what each specialisation of the kernel is worth;
-//! - [`bench`](mod@bench) (`raycast bench`): where the time of a frame goes, stage by stage.
+//! - [`bench`](mod@bench) (`raycast bench`): where the time of a frame goes, stage by stage;
+//! - [`selftest`] (`raycast selftest`): a built-in suite checked against the CPU reference on
+//!   the chosen adapter.
 //!
 //! (`raycast compare`, two renders pixel by pixel, is [`crate::compare`]: the studies build on
 //! it.) What they share is here: [`median`], the [`Provenance`] a document opens with, the
@@ -13,6 +15,7 @@
 
 pub mod accuracy;
 pub mod bench;
+pub mod selftest;
 pub mod specialize;
 pub mod tradeoff;
 
