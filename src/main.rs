@@ -248,6 +248,25 @@ enum Command {
         /// on the CPU).
         #[arg(long, conflicts_with = "shader")]
         lit: bool,
+        /// Cast this many incoherent rays at the scene's geometry instead of the camera's:
+        /// origins uniform in a cube 4/3 the size of its bounds, directions uniform.
+        #[arg(long, value_name = "N")]
+        rays: Option<usize>,
+    },
+    /// Write a benchmark scene: `torus` (the peers' displaced torus, 518,400 triangles, in a
+    /// binary PLY beside the scene file) or `spheres` (100 spheres), seen by the peers' camera.
+    Workload {
+        /// torus or spheres.
+        name: String,
+        /// Output folder (created if missing).
+        #[arg(short, long, default_value = ".")]
+        output: PathBuf,
+        /// Image size in pixels.
+        #[arg(long, value_parser = scene::parse_size, default_value = "1920x1080")]
+        size: [u32; 2],
+        /// The torus's triangles, about (a grid twice as long around as across).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
+        triangles: Option<u64>,
     },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
@@ -477,6 +496,7 @@ fn run(command: Command) -> Result<ExitCode> {
             accel,
             shader,
             lit,
+            rays,
         } => {
             let shade = gpu::hooks::requested(lit, shader.as_deref())?;
             let options = study::bench::Options {
@@ -484,6 +504,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 modes: mode,
                 accels: accel,
                 shade,
+                rays,
             };
             study::bench::command(&scene, size, options, json, say_on)?;
             Ok(ExitCode::SUCCESS)
@@ -491,6 +512,17 @@ fn run(command: Command) -> Result<ExitCode> {
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu::describe(&gpu).trim_end());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Workload {
+            name,
+            output,
+            size,
+            triangles,
+        } => {
+            let triangles = triangles.map(|n| n as usize);
+            let path = study::workload::write(&name, &output, size, triangles)?;
+            say(format!("wrote {}", path.display()));
             Ok(ExitCode::SUCCESS)
         }
         Command::Selftest { json, only, plant } => {

@@ -253,3 +253,110 @@ fn adaptive_precision_is_rejected() {
     let line = fails(&[scene.to_str().unwrap(), "--mode", "gpu:adaptive"]);
     assert!(line.starts_with("error: --mode: "), "{line}");
 }
+
+/// `--rays N`: N incoherent rays cast as a list, on the GPU and the CPU, each row's hits those
+/// of the same rays cast here.
+#[test]
+fn incoherent_rays_are_cast_as_a_list() {
+    let path = repo_path("scenes/course/bunny.json");
+    let out = bench(&[
+        path.to_str().unwrap(),
+        "--rays",
+        "5000",
+        "--runs",
+        "1",
+        "--json",
+        "--mode",
+        "gpu:f32,cpu:f64",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let scene = raycast::Scene::load(&path).unwrap();
+    let rays = raycast::study::bench::incoherent_rays(&scene, 5000);
+    let lists = raycast::rays::RayScene::from_scene(scene);
+    let hits = lists
+        .cast(None, "cpu:f64".parse().unwrap(), &rays[..])
+        .unwrap();
+    let hit = hits.id().iter().filter(|&&id| id >= 0).count() as f64 / 5000.0;
+    assert!(hit > 0.1, "the rays see the room: {hit}");
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        assert_eq!(row["rays"], 5000);
+        assert_eq!(row["size"], serde_json::json!([5000, 1]));
+        assert_eq!(row["mrays_from"], "wall");
+        assert!(row["trace_gpu_s"].is_null());
+        assert_eq!(number(row, "hit_fraction"), hit, "{}", row["mode"]);
+    }
+}
+
+#[test]
+fn ray_lists_refuse_hooks_accelerations_and_no_rays() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let scene = scene.to_str().unwrap();
+    for extra in [
+        &["--rays", "0"][..],
+        &["--rays", "10", "--lit"][..],
+        &["--rays", "10", "--accel", "bvh"][..],
+    ] {
+        let line = fails(&[&[scene][..], extra].concat());
+        assert!(line.starts_with("error: --rays: "), "{extra:?}: {line}");
+    }
+}
+
+/// `raycast workload`: the peers' torus (its size by `--triangles`) and spheres as scene files
+/// that load, with the peers' camera; an unknown name writes nothing.
+#[test]
+fn workloads_are_scene_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let workload = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .arg("workload")
+            .args(args)
+            .arg("-o")
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    for args in [
+        &["torus", "--triangles", "5000", "--size", "64x36"][..],
+        &["spheres"],
+        &["lit-bunny"],
+    ] {
+        let out = workload(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let torus = raycast::Scene::load(&dir.path().join("torus.json")).unwrap();
+    let [nu, nv] = raycast::study::workload::torus_grid(5000);
+    assert_eq!(torus.triangle_count(), 2 * nu * nv);
+    assert_eq!(torus.camera.resolution, [64, 36]);
+    let spheres = raycast::Scene::load(&dir.path().join("spheres.json")).unwrap();
+    assert_eq!(spheres.primitive_counts(), [100, 0, 0]);
+    assert_eq!(spheres.camera.resolution, [1920, 1080]);
+    let lit = raycast::Scene::load(&dir.path().join("bunny.json")).unwrap();
+    assert_eq!(
+        lit,
+        raycast::Scene::load(&repo_path("scenes/ray-tracing/bunny.json")).unwrap()
+    );
+
+    let empty = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["workload", "cube", "-o"])
+        .arg(empty.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
+    assert_eq!(common::file_names(empty.path()), Vec::<String>::new());
+}

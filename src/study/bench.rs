@@ -59,6 +59,8 @@ pub struct Options {
     pub accels: Vec<Accel>,
     /// A shade hook every frame runs (GPU modes; on the CPU only the ray tracer's mirror).
     pub shade: Option<ShadeHook>,
+    /// Cast this many incoherent rays ([`incoherent_rays`]) instead of the camera's.
+    pub rays: Option<usize>,
 }
 
 impl Default for Options {
@@ -69,6 +71,7 @@ impl Default for Options {
             modes: vec![DEFAULT_MODE],
             accels: vec![Accel::Auto],
             shade: None,
+            rays: None,
         }
     }
 }
@@ -113,7 +116,21 @@ impl Options {
         for &mode in &self.modes {
             render::check_request(mode, &request)?;
         }
-        Ok(())
+        match self.rays {
+            Some(0) => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "at least one ray is needed".into(),
+            }),
+            Some(_) if self.shade.is_some() => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list has no shade hook; leave out --shader and --lit".into(),
+            }),
+            Some(_) if self.accels != [Accel::Auto] => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list chooses its own acceleration; leave out --accel".into(),
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// What every frame renders: every output, with the hook.
@@ -440,6 +457,80 @@ pub fn measure(
     })
 }
 
+/// `n` incoherent rays about `scene`'s geometry: origins uniform in a cube about the centre of
+/// its bounds, 4/3 of their largest extent across (the peers' torus: [-2, 2]^3), directions
+/// uniform on the sphere (seed 1).
+pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<crate::rays::Ray> {
+    let (lo, hi) = crate::scene::bounds(&scene.objects).unwrap_or_default();
+    let centre = (lo + hi) / 2.0;
+    let half = (hi - lo).max_element() / 2.0 * 4.0 / 3.0;
+    let mut rays = super::selftest::scenes::incoherent_rays(n, half.max(1e-30), 1);
+    for ray in &mut rays {
+        ray.origin = std::array::from_fn(|a| ray.origin[a] + centre[a]);
+    }
+    rays
+}
+
+/// Measures `n` incoherent rays cast at `loaded` in `mode` through [`RayScene::cast`]: one
+/// warm-up cast (which builds, uploads and compiles), then `runs` timed ones, wall time.
+fn measure_rays(
+    loaded: &Loaded,
+    mode: Mode,
+    n: usize,
+    runs: usize,
+    gpu: Option<&Gpu>,
+    tick: &mut dyn FnMut(),
+) -> Result<Row> {
+    let rays = incoherent_rays(&loaded.scene, n);
+    let scene = crate::rays::RayScene::from_scene(loaded.scene.clone());
+    let gpu = gpu.filter(|_| mode.device == Device::Gpu);
+    reset_peak_rss();
+    let warm_up = scene.cast(gpu, mode, &rays[..])?;
+    tick();
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs.max(1) {
+        let (cast, time) = render::timed(|| scene.cast(gpu, mode, &rays[..]));
+        cast?;
+        times.push(time.as_secs_f64());
+        tick();
+    }
+    let trace_s = median(&times);
+    let counts = Counts::of(&loaded.scene);
+    let hits = warm_up.id().iter().filter(|&&id| id != MISS).count();
+    let info = gpu.map(Gpu::info);
+    Ok(Row {
+        scene: loaded.path.display().to_string(),
+        mode: mode.to_string(),
+        accel: accel_name(Accel::Auto).to_owned(),
+        bvh: Accel::Auto.uses_bvh(&loaded.scene),
+        size: [n.min(u32::MAX as usize) as u32, 1],
+        rays: n as u64,
+        hook: None,
+        secondary_rays: None,
+        triangles: counts.triangles,
+        spheres: counts.spheres,
+        planes: counts.planes,
+        runs: times.len(),
+        load_s: loaded.load_s,
+        build_s: 0.0,
+        compile_s: None,
+        upload_s: None,
+        trace_s,
+        trace_gpu_s: None,
+        mrays_per_s: n as f64 / trace_s * 1e-6,
+        mrays_per_s_wall: n as f64 / trace_s * 1e-6,
+        secondary_mrays_per_s: None,
+        mrays_from: "wall",
+        hit_fraction: hits as f64 / n as f64,
+        peak_rss_mb: render::peak_rss_mib(),
+        bytes_per_triangle: None,
+        bvh_nodes: None,
+        adapter: info.as_ref().map(|i| i.name.clone()),
+        driver: info.map(|i| i.driver_info),
+        cpu: cpu_model(),
+    })
+}
+
 /// Measures every configuration of `options` in turn, calling `on_row` as each is done. With
 /// `progress`, a progress bar over the frames is drawn on stderr when it is a terminal (and
 /// hidden while `on_row` runs).
@@ -465,9 +556,11 @@ pub fn run(
     for config in configurations {
         bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
         let request = options.request();
-        let row = measure(loaded, config, options.runs, gpu, &request, &mut || {
-            bar.inc(1)
-        })?;
+        let mut tick = || bar.inc(1);
+        let row = match options.rays {
+            Some(n) => measure_rays(loaded, config.0, n, options.runs, gpu, &mut tick)?,
+            None => measure(loaded, config, options.runs, gpu, &request, &mut tick)?,
+        };
         bar.suspend(|| on_row(&row));
         rows.push(row);
     }

@@ -18,6 +18,7 @@ pub mod bench;
 pub mod selftest;
 pub mod specialize;
 pub mod tradeoff;
+pub mod workload;
 
 use std::path::{Path, PathBuf};
 

@@ -86,7 +86,8 @@ pub const TRANSLATED: [&str; 4] = [
     "translated-1e6-binary-ply",
 ];
 
-fn file(path: &str) -> Result<&'static [u8]> {
+/// The built-in file of the repository path `path`.
+pub fn file(path: &str) -> Result<&'static [u8]> {
     FILES
         .iter()
         .find(|f| f.path == path)

@@ -1,0 +1,246 @@
+#!/usr/bin/env bash
+# Checks and measures a raycast binary on this machine's GPU (or lavapipe): `raycast info`,
+# `raycast selftest`, and the benchmarks that matter, into report.md and report.json.
+# Needs only the binary (no Rust toolchain), bash, coreutils and python3 (standard library,
+# for the report); the Vulkan loader is brought along where the system lacks one.
+#
+# On the machine that builds (bundles the script, a stripped binary and the Vulkan loader):
+#   scripts/gpu-check.sh --pack DIR [BINARY]        (BINARY: default target/release/raycast)
+# On the machine with the GPU:
+#   DIR/gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench peer_bench.py] DIR/raycast
+#
+#   --quick       small sizes (lavapipe, CI): 640x360, a 200,000-triangle big mesh, 100,000
+#                 incoherent rays; default 3840x2160, 5,000,000 triangles, 2,000,000 rays
+#   --out OUT     where the report goes (default ./gpu-check); raw outputs under OUT/raw
+#   --runs N      timed runs per measurement, after one warm-up (default 5; --quick 1)
+#   --peer-bench  ../shared/bench/peer_bench.py: where python3 imports mitsuba, drjit and numpy,
+#                 Mitsuba 3's cuda_ad_rgb ray_intersect on the same torus and rays
+# Exit status: 0 when the self-test passed and every step ran, 1 otherwise; 2 on bad usage.
+set -uo pipefail
+
+say() { printf '%s\n' "$*" >&2; }
+usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench FILE] BINARY | --pack DIR [BINARY]"; exit 2; }
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+
+# --- packing -------------------------------------------------------------------------------
+pack() { # DIR [BINARY]
+    local dir=$1 binary=${2:-$here/../target/release/raycast}
+    [[ -x $binary ]] || { say "gpu-check: no binary at $binary (cargo build --release)"; exit 2; }
+    mkdir -p "$dir/lib" || exit 2
+    cp "${BASH_SOURCE[0]}" "$dir/gpu-check.sh" && cp "$binary" "$dir/raycast" || exit 2
+    if command -v strip >/dev/null; then strip "$dir/raycast"; else say "gpu-check: no strip; the binary keeps its symbols"; fi
+    local loader
+    loader=$(ldconfig -p 2>/dev/null | awk '/libvulkan\.so\.1 .*x86-64|libvulkan\.so\.1 /{print $NF; exit}')
+    if [[ -n $loader ]]; then
+        cp -L "$loader" "$dir/lib/libvulkan.so.1"
+    else
+        say "gpu-check: this machine has no Vulkan loader to bring; $dir/lib stays empty"
+    fi
+    say "packed $dir: $(du -sh "$dir" | cut -f1) (gpu-check.sh, raycast, lib/)"
+}
+
+quick=0 out=gpu-check runs="" peer_bench="" binary=""
+while [[ $# -gt 0 ]]; do
+    case $1 in
+        --pack) [[ $# -ge 2 ]] || usage; pack "$2" "${3:-}"; exit 0 ;;
+        --quick) quick=1 ;;
+        --out) [[ $# -ge 2 ]] || usage; out=$2; shift ;;
+        --runs) [[ $# -ge 2 && $2 =~ ^[1-9][0-9]*$ ]] || usage; runs=$2; shift ;;
+        --peer-bench) [[ $# -ge 2 ]] || usage; peer_bench=$2; shift ;;
+        -*) usage ;;
+        *) [[ -z $binary ]] || usage; binary=$1 ;;
+    esac
+    shift
+done
+[[ -n $binary ]] || usage
+[[ -x $binary ]] || { say "gpu-check: $binary is not an executable"; exit 2; }
+command -v python3 >/dev/null || { say "gpu-check: python3 is needed to write the report"; exit 2; }
+binary=$(cd "$(dirname "$binary")" && pwd)/$(basename "$binary")
+if [[ $quick == 1 ]]; then
+    size=640x360 big=200000 rays=100000 runs=${runs:-1}
+else
+    size=3840x2160 big=5000000 rays=2000000 runs=${runs:-5}
+fi
+raw=$out/raw
+mkdir -p "$raw" || exit 2
+rm -f "$raw"/*
+
+# --- the Vulkan loader and driver ----------------------------------------------------------
+export NODEVICE_SELECT=1
+if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; then
+    for lib in "$(dirname "$binary")/lib" "$here/lib"; do
+        if [[ -e $lib/libvulkan.so.1 ]]; then
+            export LD_LIBRARY_PATH=$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+            say "gpu-check: using the Vulkan loader in $lib"
+            break
+        fi
+    done
+fi
+if ! compgen -G '/usr/share/vulkan/icd.d/*.json' >/dev/null && ! compgen -G '/etc/vulkan/icd.d/*.json' >/dev/null &&
+    [[ -z ${VK_DRIVER_FILES:-} && -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]]; then
+    # Containers that mount the NVIDIA driver keep its ICD outside the loader's search path.
+    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+    say "gpu-check: using the NVIDIA driver's ICD, $VK_DRIVER_FILES"
+fi
+
+failed=()
+step() { # NAME OUTFILE COMMAND...: runs a step, its stdout into OUTFILE, stderr into OUTFILE.err
+    local name=$1 file=$2; shift 2
+    say "== $name"
+    local start=$SECONDS
+    "$@" >"$file" 2>"$file.err"
+    local rc=$?
+    echo "$name $rc $((SECONDS - start))" >>"$raw/steps.txt"
+    [[ $rc == 0 ]] || { failed+=("$name"); say "gpu-check: $name failed (exit $rc): $(tail -n 1 "$file.err")"; }
+    return $rc
+}
+
+rc_total=0
+step info "$raw/info.txt" "$binary" info || { say "gpu-check: no adapter; see $raw/info.txt.err"; rc_total=1; }
+step selftest "$raw/selftest.txt" "$binary" selftest
+
+# --- workloads ------------------------------------------------------------------------------
+work=$out/work
+mkdir -p "$work/torus" "$work/big" "$work/lit"
+step workloads "$raw/workloads.txt" bash -c '
+    "$0" workload torus -o "$1/torus" --size "$3" &&
+    "$0" workload spheres -o "$1/torus" --size "$3" &&
+    "$0" workload torus -o "$1/big" --size "$3" --triangles "$2" &&
+    "$0" workload lit-bunny -o "$1/lit"' "$binary" "$work" "$big" "$size"
+
+bench() { # NAME ARGS...
+    local name=$1; shift
+    step "bench-$name" "$raw/bench-$name.jsonl" "$binary" bench --json --runs "$runs" "$@"
+}
+bench torus "$work/torus/torus.json" --mode gpu:f32,gpu:f64
+bench big "$work/big/torus.json"
+bench spheres "$work/torus/spheres.json"
+bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
+bench lit "$work/lit/bunny.json" --lit
+
+# Adaptive precision is two passes (bench times single frames): whole renders, wall time,
+# f32 and adaptive in turn, each round alternating which goes first.
+adaptive_times() {
+    local rounds=$((runs < 3 ? 3 : runs)) k mode t0
+    for ((k = 0; k < rounds; k++)); do
+        for mode in $( ((k % 2)) && echo "adaptive f32" || echo "f32 adaptive"); do
+            t0=$(date +%s.%N)
+            "$binary" render "$work/torus/torus.json" --size "$size" --precision "$mode" \
+                --outputs id --format npy -o "$work/render-$mode" >/dev/null || return 1
+            echo "$mode $(date +%s.%N) $t0"
+        done
+    done
+}
+step adaptive "$raw/adaptive.txt" adaptive_times
+
+if [[ -n $peer_bench ]]; then
+    if python3 -c 'import mitsuba, drjit, numpy' 2>/dev/null; then
+        peer() {
+            python3 "$peer_bench" --make-torus "$work/peer-torus.obj" >/dev/null &&
+                sed -e 's/"ply": "torus.ply"/"obj": "peer-torus.obj"/' "$work/torus/torus.json" >"$work/peer-torus.json" &&
+                "$binary" bench "$work/peer-torus.json" --json --runs "$runs" >"$raw/bench-peer-torus.jsonl" &&
+                python3 "$peer_bench" "$work/peer-torus.obj" --width "${size%x*}" --height "${size#*x}" \
+                    --peers mitsuba_cuda --workloads mesh,spheres --repeats "$runs" --wait-idle 0 \
+                    --out "$work/peers"
+        }
+        step mitsuba "$raw/mitsuba.jsonl" peer
+    else
+        say "gpu-check: python3 cannot import mitsuba, drjit and numpy: no Mitsuba figures"
+        echo "mitsuba: python3 cannot import mitsuba, drjit and numpy" >"$raw/mitsuba.skipped"
+    fi
+fi
+
+# --- the report -----------------------------------------------------------------------------
+python3 - "$out" "$binary" "$size" "$runs" <<'EOF'
+import datetime, json, os, platform, statistics, sys
+
+out, binary, size, runs = sys.argv[1:5]
+raw = os.path.join(out, "raw")
+
+def text(name):
+    try:
+        return open(os.path.join(raw, name)).read()
+    except OSError:
+        return ""
+
+def rows(name):
+    return [json.loads(l) for l in text(name).splitlines() if l.startswith("{")]
+
+steps = [l.split() for l in text("steps.txt").splitlines()]
+selftest = text("selftest.txt").splitlines()
+summary = next((l for l in reversed(selftest) if l.startswith("selftest:")), "selftest: no summary")
+bench = {name: rows("bench-%s.jsonl" % name)
+         for name in ("torus", "big", "spheres", "incoherent", "lit", "peer-torus")}
+adaptive = {"f32": [], "adaptive": []}
+for line in text("adaptive.txt").splitlines():
+    mode, end, start = line.split()
+    adaptive[mode].append(float(end) - float(start))
+medians = {m: statistics.median(t) for m, t in adaptive.items() if t}
+peers = [json.loads(l) for l in text("mitsuba.jsonl").splitlines() if l.startswith('{"peer"')]
+
+def by_mode(name, mode):
+    return next((r for r in bench[name] if r["mode"] == mode), None)
+
+f32, f64 = by_mode("torus", "gpu:f32:robust"), by_mode("torus", "gpu:f64:robust")
+report = {
+    "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    "host": platform.node(), "binary": binary, "size": size, "runs": int(runs),
+    "info": text("info.txt").splitlines(), "selftest": {"lines": selftest, "summary": summary},
+    "steps": {s[0]: {"exit": int(s[1]), "seconds": int(s[2])} for s in steps},
+    "bench": bench, "adaptive_render_s": medians, "mitsuba": peers,
+    "cost": {
+        "f64_over_f32_kernel": f64["trace_gpu_s"] / f32["trace_gpu_s"]
+            if f32 and f64 and f32["trace_gpu_s"] and f64["trace_gpu_s"] else None,
+        "adaptive_over_f32_render": medians["adaptive"] / medians["f32"]
+            if len(medians) == 2 else None,
+    },
+}
+json.dump(report, open(os.path.join(out, "report.json"), "w"), indent=1)
+
+def fmt(x, spec):
+    return "-" if x is None else format(x, spec)
+
+md = ["# raycast gpu-check, %s" % report["date"], "",
+      "`%s` on %s, %s, %s run%s after a warm-up." % (os.path.basename(binary), report["host"],
+                                                   size, runs, "" if runs == "1" else "s"), "",
+      "## raycast info", "", "```", *report["info"], "```", "",
+      "## raycast selftest", "", "```", *selftest, "```", "",
+      "## Benchmarks", "",
+      "| workload | mode | rays | Grays/s | kernel ms | wall ms | secondary Grays/s | hit % |",
+      "|---|---|---:|---:|---:|---:|---:|---:|"]
+names = {"torus": "torus, %s triangles", "big": "big torus, %s triangles",
+         "spheres": "100 spheres", "incoherent": "incoherent rays, torus (%s triangles)",
+         "lit": "lit course bunny (--lit)", "peer-torus": "peers' torus.obj, %s triangles"}
+for name, rs in bench.items():
+    for r in rs:
+        what = names[name] % format(r["triangles"], ",") if "%s" in names[name] else names[name]
+        secondary = r.get("secondary_mrays_per_s")
+        md.append("| %s | %s | %s | %s | %s | %s | %s | %.1f |" % (
+            what, r["mode"], format(r["rays"], ","), fmt(r["mrays_per_s"] / 1e3, ".3g"),
+            fmt(r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3, ".2f"), fmt(r["trace_s"] * 1e3, ".2f"),
+            fmt(secondary and secondary / 1e3, ".3g"), 100 * r["hit_fraction"]))
+md += ["", "Grays/s from GPU timestamps where the device has them (kernel time), else wall time "
+       "(incoherent rays: wall time of the cast, upload and readback included).", "",
+       "Cost against f32: f64 kernel %s x (torus); adaptive whole render %s x (torus, %s, "
+       "medians of %d and %d renders)." % (
+           fmt(report["cost"]["f64_over_f32_kernel"], ".2f"),
+           fmt(report["cost"]["adaptive_over_f32_render"], ".2f"), size,
+           len(adaptive["adaptive"]), len(adaptive["f32"]))]
+if peers:
+    md += ["", "## Mitsuba 3 (peer_bench.py)", "", "| peer | workload | build s | trace s | Grays/s |",
+           "|---|---|---:|---:|---:|"]
+    md += ["| %s %s | %s | %s | %s | %.3g |" % (p["peer"], p.get("version", ""), p["workload"],
+           p["build_s"], p["trace_s"], p["mrays_per_s"] / 1e3) for p in peers
+           if "error" not in p and "mrays_per_s" in p]
+    md += ["| %s | %s | error: %s | | |" % (p["peer"], p["workload"], p["error"][:80])
+           for p in peers if "error" in p]
+failed = [s[0] for s in steps if s[1] != "0"]
+md += ["", "Steps: " + ", ".join("%s %s s%s" % (s[0], s[2], "" if s[1] == "0" else " (FAILED, exit %s)" % s[1])
+                                for s in steps), ""]
+open(os.path.join(out, "report.md"), "w").write("\n".join(md))
+print(summary)
+print("failed steps: " + (", ".join(failed) or "none"))
+EOF
+[[ ${#failed[@]} == 0 && $rc_total == 0 ]] || { say "gpu-check: failed: ${failed[*]}"; exit 1; }
+say "gpu-check: wrote $out/report.md and $out/report.json"
