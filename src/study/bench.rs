@@ -726,7 +726,7 @@ mod tests {
             runs: 1,
             modes: vec!["gpu".parse().unwrap(), "cpu:f32".parse().unwrap()],
             accels: vec![Accel::Bvh, Accel::BruteForce],
-            shade: None,
+            ..Options::default()
         };
         let c: Vec<String> = options
             .configurations()
