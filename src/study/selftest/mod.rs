@@ -168,7 +168,7 @@ struct Ctx<'a> {
     rule: F32Rule,
 }
 
-type Body<'a> = Box<dyn FnOnce(&Ctx, bool) -> Result<Verdict> + Send + 'a>;
+type Body<'a> = Box<dyn FnOnce(&Ctx, bool) -> Result<Verdict> + 'a>;
 
 /// A check to run: its body gets whether to plant a wrong result.
 struct Planned<'a> {
@@ -180,7 +180,7 @@ struct Planned<'a> {
 fn planned<'a>(
     name: impl Into<String>,
     mode: impl Into<String>,
-    body: impl FnOnce(&Ctx, bool) -> Result<Verdict> + Send + 'a,
+    body: impl FnOnce(&Ctx, bool) -> Result<Verdict> + 'a,
 ) -> Planned<'a> {
     Planned {
         name: name.into(),
@@ -280,38 +280,13 @@ pub fn run(
         gpu,
         rule: adapter.rule,
     };
-    let count = checks.len();
-    let queue = std::sync::Mutex::new(checks.into_iter().enumerate());
-    let (sender, results) = std::sync::mpsc::channel();
-    // Checks run side by side, so that the kernels they need compile on every core (on
-    // lavapipe compilation is most of the time); their lines come out in order.
-    let workers = std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 8));
-    let mut done: Vec<Option<Check>> = vec![None; count];
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            let (queue, sender, ctx) = (&queue, sender.clone(), &ctx);
-            scope.spawn(move || {
-                loop {
-                    let next = queue.lock().expect("selftest queue").next();
-                    let Some((k, p)) = next else { break };
-                    let planted = options.plant.as_deref() == Some(p.name.as_str());
-                    if sender.send((k, perform(ctx, p, planted))).is_err() {
-                        break;
-                    }
-                }
-            });
-        }
-        drop(sender);
-        let mut printed = 0;
-        for (k, check) in results {
-            done[k] = Some(check);
-            while let Some(Some(check)) = done.get(printed) {
-                on_check(check);
-                printed += 1;
-            }
-        }
-    });
-    let done: Vec<Check> = done.into_iter().flatten().collect();
+    let mut done = Vec::with_capacity(checks.len());
+    for p in checks {
+        let planted = options.plant.as_deref() == Some(p.name.as_str());
+        let check = perform(&ctx, p, planted);
+        on_check(&check);
+        done.push(check);
+    }
     Ok(Report {
         checks: done,
         seconds: start.elapsed().as_secs_f64(),
