@@ -9,12 +9,38 @@ use std::process::Command;
 use raycast::study::selftest::{self, Adapter, Check, F32Rule, Options, Outcome};
 
 fn run(options: &Options) -> selftest::Report {
-    let gpu = common::gpu();
-    let adapter = Adapter::probe(gpu).unwrap();
-    selftest::run(gpu, &adapter, options, &mut |c: &Check| {
-        println!("{}", c.line())
-    })
-    .unwrap()
+    run_as(&Adapter::probe(common::gpu()).unwrap(), options)
+}
+
+fn run_as(adapter: &Adapter, options: &Options) -> selftest::Report {
+    let print = &mut |c: &Check| println!("{}", c.line());
+    selftest::run(common::gpu(), adapter, options, print).unwrap()
+}
+
+/// lavapipe judged as a driver that fuses would be: its unfused f32 meets the bounds too, and
+/// one wrong pixel still fails the checks whose bounds allow none (ray lists and the lit
+/// render allow 0.1% and 0.5% there: one wrong ray or pixel is within them).
+#[test]
+fn the_bounds_for_fusing_drivers_hold_and_catch_a_planted_fault() {
+    let adapter = Adapter {
+        rule: F32Rule::Bounded,
+        ..Adapter::probe(common::gpu()).unwrap()
+    };
+    let report = run_as(&adapter, &Options::default());
+    assert!(report.passed(), "{}", report.summary());
+    for name in [
+        "random-0/f32/packets",
+        "streaming/random-2",
+        "extremes/dyadic-base/f32",
+    ] {
+        let options = Options {
+            only: vec![name.into()],
+            plant: Some(name.into()),
+        };
+        let report = run_as(&adapter, &options);
+        let summary = report.summary();
+        assert!(summary.ends_with(&format!("FAILED: {name}")), "{summary}");
+    }
 }
 
 #[test]
