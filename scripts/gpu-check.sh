@@ -4,8 +4,11 @@
 # Needs only the binary (no Rust toolchain), bash, coreutils and python3 (standard library,
 # for the report); the Vulkan loader is brought along where the system lacks one.
 #
-# On the machine that builds (bundles the script, a stripped binary and the Vulkan loader):
-#   scripts/gpu-check.sh --pack DIR [BINARY]        (BINARY: default target/release/raycast)
+# On the machine that builds (bundles the script, a stripped binary and the Vulkan loader; with
+# --mitsuba also peer_bench.py and Mitsuba 3's wheels for that python, trimmed to cuda_ad_rgb
+# by scripts/trim-mitsuba.py: about 35 MB, PyPI needed):
+#   scripts/gpu-check.sh --pack DIR [--mitsuba [--python 3.12]] [BINARY]
+#                                              (BINARY: default target/release/raycast)
 # On the machine with the GPU:
 #   DIR/gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench peer_bench.py] DIR/raycast
 #
@@ -13,37 +16,51 @@
 #                 incoherent rays; default 3840x2160, 5,000,000 triangles, 2,000,000 rays
 #   --out OUT     where the report goes (default ./gpu-check); raw outputs under OUT/raw
 #   --runs N      timed runs per measurement, after one warm-up (default 5; --quick 1)
-#   --peer-bench  ../shared/bench/peer_bench.py: where python3 imports mitsuba, drjit and numpy,
+#   --peer-bench  ../shared/bench/peer_bench.py (default: DIR/peer_bench.py where packed):
+#                 where python3 imports mitsuba, drjit and numpy (or DIR/wheels has them),
 #                 Mitsuba 3's cuda_ad_rgb ray_intersect on the same torus and rays
 # Exit status: 0 when the self-test passed and every step ran, 1 otherwise; 2 on bad usage.
 set -uo pipefail
 
 say() { printf '%s\n' "$*" >&2; }
-usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench FILE] BINARY | --pack DIR [BINARY]"; exit 2; }
+usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench FILE] BINARY | --pack DIR [--mitsuba [--python X.Y]] [BINARY]"; exit 2; }
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
 # --- packing -------------------------------------------------------------------------------
-pack() { # DIR [BINARY]
-    local dir=$1 binary=${2:-$here/../target/release/raycast}
+pack() { # DIR BINARY MITSUBA PYTHON_VERSION
+    local dir=$1 binary=${2:-$here/../target/release/raycast} mitsuba=$3 python=$4
     [[ -x $binary ]] || { say "gpu-check: no binary at $binary (cargo build --release)"; exit 2; }
     mkdir -p "$dir/lib" || exit 2
     cp "${BASH_SOURCE[0]}" "$dir/gpu-check.sh" && cp "$binary" "$dir/raycast" || exit 2
     if command -v strip >/dev/null; then strip "$dir/raycast"; else say "gpu-check: no strip; the binary keeps its symbols"; fi
     local loader
-    loader=$(ldconfig -p 2>/dev/null | awk '/libvulkan\.so\.1 .*x86-64|libvulkan\.so\.1 /{print $NF; exit}')
+    loader=$(ldconfig -p 2>/dev/null | awk '/libvulkan\.so\.1 /{print $NF; exit}')
     if [[ -n $loader ]]; then
         cp -L "$loader" "$dir/lib/libvulkan.so.1"
     else
         say "gpu-check: this machine has no Vulkan loader to bring; $dir/lib stays empty"
     fi
-    say "packed $dir: $(du -sh "$dir" | cut -f1) (gpu-check.sh, raycast, lib/)"
+    if [[ $mitsuba == 1 ]]; then
+        local peers=${PEER_BENCH_DIR:-$here/../../shared/bench} raw=$dir/wheels.download
+        [[ -f $peers/peer_bench.py ]] || { say "gpu-check: no peer_bench.py in $peers (set PEER_BENCH_DIR)"; exit 2; }
+        cp "$peers/peer_bench.py" "$dir/" || exit 2
+        python3 -m pip download --quiet --no-deps --only-binary=:all: --python-version "$python" \
+            --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 \
+            -d "$raw" mitsuba==3.9.1 drjit==1.5.0 || { say "gpu-check: cannot download Mitsuba's wheels"; exit 2; }
+        mkdir -p "$dir/wheels" && mv "$raw"/drjit-*.whl "$dir/wheels/" &&
+            python3 "$here/trim-mitsuba.py" "$raw"/mitsuba-*.whl "$dir/wheels" cuda_ad_rgb >&2 &&
+            rm -r "$raw" || exit 2
+    fi
+    say "packed $dir: $(du -sh "$dir" | cut -f1)"
 }
 
-quick=0 out=gpu-check runs="" peer_bench="" binary=""
+quick=0 out=gpu-check runs="" peer_bench="" binary="" pack_dir="" mitsuba=0 python=3.12
 while [[ $# -gt 0 ]]; do
     case $1 in
-        --pack) [[ $# -ge 2 ]] || usage; pack "$2" "${3:-}"; exit 0 ;;
+        --pack) [[ $# -ge 2 ]] || usage; pack_dir=$2; shift ;;
+        --mitsuba) mitsuba=1 ;;
+        --python) [[ $# -ge 2 && $2 =~ ^3\.[0-9]+$ ]] || usage; python=$2; shift ;;
         --quick) quick=1 ;;
         --out) [[ $# -ge 2 ]] || usage; out=$2; shift ;;
         --runs) [[ $# -ge 2 && $2 =~ ^[1-9][0-9]*$ ]] || usage; runs=$2; shift ;;
@@ -53,6 +70,10 @@ while [[ $# -gt 0 ]]; do
     esac
     shift
 done
+if [[ -n $pack_dir ]]; then
+    pack "$pack_dir" "$binary" "$mitsuba" "$python"
+    exit 0
+fi
 [[ -n $binary ]] || usage
 [[ -x $binary ]] || { say "gpu-check: $binary is not an executable"; exit 2; }
 command -v python3 >/dev/null || { say "gpu-check: python3 is needed to write the report"; exit 2; }
@@ -134,7 +155,12 @@ adaptive_times() {
 }
 step adaptive "$raw/adaptive.txt" adaptive_times
 
+[[ -z $peer_bench && -f $here/peer_bench.py ]] && peer_bench=$here/peer_bench.py
 if [[ -n $peer_bench ]]; then
+    if ! python3 -c 'import mitsuba, drjit' 2>/dev/null && compgen -G "$here/wheels/*.whl" >/dev/null; then
+        python3 -m pip install --quiet --no-index --no-deps --no-compile --target "$work/site" "$here"/wheels/*.whl &&
+            export PYTHONPATH=$work/site${PYTHONPATH:+:$PYTHONPATH}
+    fi
     if python3 -c 'import mitsuba, drjit, numpy' 2>/dev/null; then
         peer() {
             python3 "$peer_bench" --make-torus "$work/peer-torus.obj" >/dev/null &&
