@@ -53,3 +53,47 @@ fn robust_f32_without_f64_still_renders_the_course_bunny() {
         "{differing} pixels differ"
     );
 }
+
+/// `raycast selftest` on a device without f64 shaders and subgroups (as Metal, or a consumer GPU
+/// without f64): what needs them is skipped, saying why, and everything else passes.
+#[test]
+fn selftest_skips_what_needs_f64_or_subgroups_and_passes_the_rest() {
+    use raycast::study::selftest::{self, Adapter, Options, Outcome};
+    let gpu = gpu_without_f64();
+    let parts = [
+        "course/triangle",
+        "random-0/",
+        "extremes/scaled-2e40",
+        "rays/incoherent/",
+        "packets/wide",
+    ];
+    let options = Options {
+        only: parts.iter().map(|p| p.to_string()).collect(),
+        plant: None,
+    };
+    let adapter = Adapter::probe(&gpu).unwrap();
+    let report =
+        selftest::run(&gpu, &adapter, &options, &mut |c| println!("{}", c.line())).unwrap();
+    assert!(report.passed(), "{}", report.summary());
+    let skipped: Vec<&str> = (report.checks.iter())
+        .filter(|c| c.result == Outcome::Skip)
+        .map(|c| c.name.as_str())
+        .collect();
+    let expected = [
+        "random-0/f32/packets",
+        "random-0/f64",
+        "packets/wide",
+        "rays/incoherent/f64",
+    ];
+    assert_eq!(skipped, expected);
+    let scaled = report
+        .checks
+        .iter()
+        .find(|c| c.name == "extremes/scaled-2e40");
+    assert!(
+        scaled
+            .unwrap()
+            .measured
+            .ends_with("(f64 skipped: no SHADER_F64)")
+    );
+}

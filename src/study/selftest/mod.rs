@@ -8,10 +8,10 @@
 //! packet traversal the adapter's subgroups select; a mesh split over several storage bindings
 //! rendered in tiles.
 //!
-//! f32 results are held to the adapter: where the fusion probe ([`crate::gpu::probe`]) finds
-//! `a*b - c*d` unfused, the GPU must equal CPU f32 bit for bit ([`F32Rule::Exact`]); where the
-//! driver fuses, it must agree with CPU f64 on every pixel whose margin is certain, and its
-//! distances stay within a stated bound ([`F32Rule::Bounded`]).
+//! f32 results are held to CPU f64 on every pixel whose margin is certain, distances within a
+//! stated bound ([`F32Rule::Bounded`]); where the fusion probe ([`crate::gpu::probe`]) finds
+//! `a*b - c*d` unfused and the adapter has f64 shaders (for the f64 rechecks the CPU mirror
+//! makes), also to CPU f32 bit for bit ([`F32Rule::Exact`]).
 
 pub mod data;
 pub mod scenes;
@@ -96,10 +96,11 @@ impl Check {
 /// How the GPU's f32 results are judged on this adapter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum F32Rule {
-    /// No fusion: every f32 result equals CPU f32's bit for bit.
+    /// No fusion, and f64 shaders for the f64 rechecks the CPU mirror makes: every f32 result
+    /// equals CPU f32's bit for bit.
     Exact,
-    /// The driver contracts `a*b - c*d`: hit/miss and id as CPU f64 wherever the pixel's margin
-    /// is certain, distances within [`F32_DISTANCE_BOUND`].
+    /// The driver contracts `a*b - c*d`, or has no f64 shaders: hit/miss and id as CPU f64
+    /// wherever the pixel's margin is certain, distances within [`F32_DISTANCE_BOUND`].
     Bounded,
 }
 
@@ -172,6 +173,30 @@ struct Ctx<'a> {
     rule: F32Rule,
 }
 
+impl Ctx<'_> {
+    /// Whether the adapter runs f64 kernels (`SHADER_F64`).
+    fn has_f64(&self) -> bool {
+        (self.gpu.device.features()).contains(wgpu::Features::SHADER_F64)
+    }
+
+    /// `mode` runs here: not f64 on an adapter without f64 kernels (adaptive precision re-casts
+    /// on the CPU there).
+    fn runs(&self, mode: Mode) -> bool {
+        mode.precision != Arithmetic::F64 || self.has_f64()
+    }
+
+    /// What a check of several modes says when it left f64 out.
+    fn f64_skipped(&self) -> &'static str {
+        match self.has_f64() {
+            true => "",
+            false => " (f64 skipped: no SHADER_F64)",
+        }
+    }
+}
+
+/// Why an f64 check is skipped.
+const NO_F64: &str = "the adapter has no f64 shaders (SHADER_F64)";
+
 type Body<'a> = Box<dyn FnOnce(&Ctx, bool) -> Result<Verdict> + 'a>;
 
 /// A check to run: its body gets whether to plant a wrong result.
@@ -205,13 +230,15 @@ impl Adapter {
     /// Probes `gpu` for fusion ([`crate::gpu::probe`]) and describes it.
     pub fn probe(gpu: &Gpu) -> Result<Adapter> {
         let fusion = gpu::probe::fusion_probe(gpu)?;
-        let rule = if fusion.unfused == fusion.samples {
+        let f64_support = gpu.device.features().contains(wgpu::Features::SHADER_F64);
+        // Without f64 shaders the robust f32 kernel leaves out the f64 rechecks (edge signs,
+        // a triangle's t) that the CPU mirror always makes.
+        let rule = if fusion.unfused == fusion.samples && f64_support {
             F32Rule::Exact
         } else {
             F32Rule::Bounded
         };
         let info = gpu.info();
-        let f64_support = gpu.device.features().contains(wgpu::Features::SHADER_F64);
         let subgroups = if gpu.has_packet_subgroups() {
             format!(
                 "{}-{} lanes",
@@ -220,9 +247,12 @@ impl Adapter {
         } else {
             "none used".into()
         };
-        let judged = match rule {
-            F32Rule::Exact => "f32 is held to CPU f32 bit for bit",
-            F32Rule::Bounded => "f32 is held to CPU f64 within stated bounds",
+        let judged = match (rule, f64_support) {
+            (F32Rule::Exact, _) => "f32 is held to CPU f32 bit for bit",
+            (F32Rule::Bounded, true) => "f32 is held to CPU f64 within stated bounds",
+            (F32Rule::Bounded, false) => {
+                "f32 is held to CPU f64 within stated bounds (without f64 shaders the kernel leaves out the CPU mirror's f64 rechecks)"
+            }
         };
         let lines = vec![
             format!(
@@ -613,6 +643,9 @@ fn ids_as_cpu_f64(
     precision: Arithmetic,
     planted: bool,
 ) -> Result<Verdict> {
+    if !ctx.runs(gpu_mode(precision, Robust)) {
+        return Ok(Verdict::skip(NO_F64));
+    }
     let mut images = render::render(scene, gpu_mode(precision, Robust), Some(ctx.gpu), false)?;
     if planted {
         plant_any(&mut images);
@@ -694,7 +727,7 @@ fn scaled(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
     let scene = data::extreme(name)?;
     let scale = data::scale_of(name)?;
     let mut failures = Vec::new();
-    for mode in INVARIANT_MODES {
+    for mode in INVARIANT_MODES.into_iter().filter(|&m| ctx.runs(m)) {
         let [(base_id, base_d, base_n), (id, d, n)] = render_pair(ctx, &scene, mode, planted)?;
         let ids = (0..id.len()).filter(|&k| id[k] != base_id[k]).count();
         let hit = |k: &usize| id[*k] != MISS && id[*k] == base_id[*k];
@@ -715,7 +748,7 @@ fn scaled(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
     let measured = match failures.is_empty() {
         true => format!("the base's ids and normals, distances x 2^{}", scale.log2()),
         false => format!("differ from the base: {}", failures.join("; ")),
-    };
+    } + ctx.f64_skipped();
     Ok(Verdict::new(
         measured,
         "0 px differ (exact)",
@@ -728,7 +761,7 @@ fn scaled(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
 fn translated(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
     let scene = data::extreme(name)?;
     let (mut ids, mut worst) = (Vec::new(), 0.0f64);
-    for mode in &INVARIANT_MODES[..3] {
+    for mode in INVARIANT_MODES[..3].iter().filter(|&&m| ctx.runs(m)) {
         let [(base_id, base_d, _), (id, d, _)] = render_pair(ctx, &scene, *mode, planted)?;
         let differ = (0..id.len()).filter(|&k| id[k] != base_id[k]).count();
         if differ > 0 {
@@ -743,7 +776,10 @@ fn translated(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
         false => format!("ids differ ({})", ids.join("; ")),
     };
     Ok(Verdict::new(
-        format!("{id_text}; distance within {worst:.1e} of the base's"),
+        format!(
+            "{id_text}; distance within {worst:.1e} of the base's{}",
+            ctx.f64_skipped()
+        ),
         format!("0 ids differ; distance within {TRANSLATION_BOUND:.0e}"),
         ids.is_empty() && worst <= TRANSLATION_BOUND,
     ))
@@ -802,6 +838,9 @@ fn f32_hits(hits: AnyHits) -> Result<Hits<f32>> {
 /// or CPU f64's ids but for [`F32_RAY_ID_BOUND`] of the rays), f64 and adaptive with CPU
 /// f64's ids.
 fn ray_list(ctx: &Ctx, kind: RayKind, precision: Arithmetic, planted: bool) -> Result<Verdict> {
+    if !ctx.runs(gpu_mode(precision, Robust)) {
+        return Ok(Verdict::skip(NO_F64));
+    }
     let scene = random(2);
     let rays = kind.rays(scene.camera.eye.to_array());
     let scene = RayScene::from_scene(scene);
@@ -957,15 +996,17 @@ fn wide_path_skipped<'a>(gpu: &Gpu) -> Option<Planned<'a>> {
     if general.packets && !general.eight_lanes {
         return None;
     }
-    let lanes = gpu.info().subgroup_max_size;
+    let why = match general.packets {
+        true => format!(
+            "needs subgroups wider than 8 lanes; this adapter's are {}",
+            gpu.info().subgroup_max_size
+        ),
+        false => "needs subgroups, which this device does not offer".to_owned(),
+    };
     Some(planned(
         "packets/wide",
         "gpu:f32:robust, bvh",
-        move |_, _| {
-            Ok(Verdict::skip(format!(
-                "needs subgroups wider than 8 lanes; this adapter's are {lanes}"
-            )))
-        },
+        move |_, _| Ok(Verdict::skip(why)),
     ))
 }
 
