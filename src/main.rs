@@ -249,9 +249,10 @@ enum Command {
         #[arg(long, conflicts_with = "shader")]
         lit: bool,
         /// Cast this many incoherent rays at the scene's geometry instead of the camera's:
-        /// origins uniform in a cube 4/3 the size of its bounds, directions uniform.
-        #[arg(long, value_name = "N")]
-        rays: Option<usize>,
+        /// origins uniform in a cube 4/3 the size of its bounds, directions uniform (at most
+        /// 67,108,864).
+        #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = clap::value_parser!(u64).range(1..=study::bench::MAX_RAYS as u64))]
+        rays: Option<u64>,
     },
     /// Write a benchmark scene: `torus` (the peers' displaced torus, 518,400 triangles, in a
     /// binary PLY beside the scene file) or `spheres` (100 spheres), seen by the peers' camera.
@@ -504,7 +505,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 modes: mode,
                 accels: accel,
                 shade,
-                rays,
+                rays: rays.map(|n| n as usize),
             };
             study::bench::command(&scene, size, options, json, say_on)?;
             Ok(ExitCode::SUCCESS)

@@ -298,17 +298,32 @@ fn incoherent_rays_are_cast_as_a_list() {
 }
 
 #[test]
-fn ray_lists_refuse_hooks_accelerations_and_no_rays() {
+fn ray_lists_refuse_hooks_accelerations_and_counts_out_of_range() {
     let scene = repo_path("scenes/course/bunny.json");
     let scene = scene.to_str().unwrap();
     for extra in [
-        &["--rays", "0"][..],
         &["--rays", "10", "--lit"][..],
         &["--rays", "10", "--accel", "bvh"][..],
     ] {
         let line = fails(&[&[scene][..], extra].concat());
         assert!(line.starts_with("error: --rays: "), "{extra:?}: {line}");
     }
+    for n in ["0", "-3", "67108865"] {
+        let line = fails(&[scene, "--rays", n]);
+        assert!(
+            line.starts_with(&format!("error: invalid value '{n}' for '--rays")),
+            "{line}"
+        );
+    }
+}
+
+/// bench renders frames whole: a size beyond what a render would stream in bands is refused
+/// before anything is printed, rather than run out of memory.
+#[test]
+fn frames_too_large_to_render_whole_are_refused() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let line = fails(&[scene.to_str().unwrap(), "--size", "8192x4097"]);
+    assert!(line.starts_with("error: --size: 8192x4097: "), "{line}");
 }
 
 /// `raycast workload`: the peers' torus (its size by `--triangles`) and spheres as scene files

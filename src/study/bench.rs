@@ -47,6 +47,9 @@ pub const DEFAULT_MODE: Mode = Mode {
     algorithm: Algorithm::Robust,
 };
 
+/// The most rays `--rays` casts: their list and hits fit a few GiB.
+pub const MAX_RAYS: usize = 1 << 26;
+
 /// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
 const OBJECT_ID_BYTES: usize = 4;
 
@@ -117,9 +120,9 @@ impl Options {
             render::check_request(mode, &request)?;
         }
         match self.rays {
-            Some(0) => Err(Error::Argument {
+            Some(n) if n == 0 || n > MAX_RAYS => Err(Error::Argument {
                 option: "--rays".into(),
-                message: "at least one ray is needed".into(),
+                message: format!("{n} rays: from 1 to {MAX_RAYS}"),
             }),
             Some(_) if self.shade.is_some() => Err(Error::Argument {
                 option: "--rays".into(),
@@ -542,6 +545,7 @@ pub fn run(
     mut on_row: impl FnMut(&Row),
 ) -> Result<Vec<Row>> {
     options.check()?;
+    check_size(loaded, options)?;
     if options.needs_gpu() && gpu.is_none() {
         return Err(Error::Device("a GPU mode needs a device".into()));
     }
@@ -566,6 +570,23 @@ pub fn run(
     }
     bar.finish_and_clear();
     Ok(rows)
+}
+
+/// A frame is rendered whole (bench times whole frames, not bands): at most
+/// [`render::STREAM_PIXELS`] pixels.
+fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
+    let pixels = loaded.scene.camera.pixel_count();
+    if options.rays.is_none() && pixels > render::STREAM_PIXELS {
+        let [w, h] = loaded.scene.camera.resolution;
+        return Err(Error::Argument {
+            option: "--size".into(),
+            message: format!(
+                "{w}x{h}: bench renders each frame whole, of at most {} pixels; give a smaller --size",
+                render::STREAM_PIXELS
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// `auto`, `bvh` or `brute-force`, as `--accel` spells it.
@@ -696,6 +717,7 @@ pub fn command(
 ) -> Result<()> {
     options.check()?;
     let loaded = load(scene, size)?;
+    check_size(&loaded, &options)?;
     let gpu = render::gpu_for(&options.modes)?;
     if !json {
         for line in header(&loaded, &options, gpu.as_ref()) {
@@ -757,6 +779,13 @@ mod tests {
         };
         assert!(adaptive.check().is_err());
         assert!(Options::default().check().is_ok());
+        for rays in [0, MAX_RAYS + 1] {
+            let list = Options {
+                rays: Some(rays),
+                ..Options::default()
+            };
+            assert!(list.check().unwrap_err().to_string().starts_with("--rays"));
+        }
         // The CPU runs the ray tracer's mirror and no other hook.
         let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
         let other = crate::gpu::hooks::check(source, Path::new("other.wgsl")).unwrap();

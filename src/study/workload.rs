@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use super::selftest::scenes::Rng;
 use crate::error::{Error, Result};
-use crate::output::{EncodedFile, write_files};
+use crate::output::{EncodedFile, check_writable, write_files};
 
 /// The peers' torus: `nu` around the axis, `nv` around the tube.
 pub const TORUS_GRID: [usize; 2] = [720, 360];
@@ -174,7 +174,7 @@ pub fn write(
             });
         }
     };
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, format!("cannot create: {e}")))?;
+    check_writable(dir)?;
     let written = write_files(dir, &files)?;
     Ok(written.last().expect("a scene file").clone())
 }
