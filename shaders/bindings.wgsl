@@ -22,17 +22,10 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
-// Small primitive sets may be in uniform buffers instead (UNIFORM_PRIMS): fixed-size arrays of
-// as many as fit 64 KiB (UNIFORM_* from the precision module); the structs' sizes are multiples
-// of 16 bytes, as uniform arrays need.
 #if SPHERES
 // Spheres as vec4s (Sphere's layout: the centre in xyz, the radius in w), so that a subgroup can
 // load one a component per lane (shared_sphere in traverse.wgsl).
-#if UNIFORM_PRIMS
-@group(0) @binding(1) var<uniform> spheres: array<vec4<real>, UNIFORM_SPHERES>;
-#else
 @group(0) @binding(1) var<storage, read> spheres: array<vec4<real>>;
-#endif
 
 // Sphere k.
 fn sphere_at(k: u32) -> Sphere {
@@ -41,11 +34,7 @@ fn sphere_at(k: u32) -> Sphere {
 }
 #endif
 #if PLANES
-#if UNIFORM_PRIMS
-@group(0) @binding(2) var<uniform> planes: array<Plane, UNIFORM_PLANES>;
-#else
 @group(0) @binding(2) var<storage, read> planes: array<Plane>;
-#endif
 #endif
 #if TRIANGLES
 // Triangles are stored packed, 9 reals and one of padding each (StoredTriangle's layout, 40
@@ -54,17 +43,6 @@ fn sphere_at(k: u32) -> Sphere {
 // reals are two loops (a subgroup loads a triangle a pair per lane: shared_triangle). Meshes
 // larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles (CHUNK_BITS
 // from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
-#if UNIFORM_PRIMS
-// The same packed reals in vec4s: arrays in uniform buffers have a stride of 16 bytes.
-@group(0) @binding(3) var<uniform> triangles: array<vec4<real>, UNIFORM_TRIANGLE_VEC4S>;
-
-// Pair p (0 to 4) of triangle k's reals: real w is corner w / 3, coordinate w % 3.
-fn triangle_pair(k: u32, p: u32) -> vec2<real> {
-    let i = 10u * k + 2u * p;
-    let v = triangles[i >> 2u];
-    return select(v.zw, v.xy, (i & 3u) == 0u);
-}
-#else
 @group(0) @binding(3) var<storage, read> triangles: array<vec2<real>>;
 #if CHUNKS_2
 @group(0) @binding(11) var<storage, read> triangles_2: array<vec2<real>>;
@@ -103,7 +81,6 @@ fn triangle_pair(k: u32, p: u32) -> vec2<real> {
     return triangles[5u * k + p];
 #endif
 }
-#endif
 
 // The triangle whose reals are the pairs p0 to p4 (the fifth's second is padding).
 fn triangle_of_pairs(p0: vec2<real>, p1: vec2<real>, p2: vec2<real>, p3: vec2<real>, p4: vec2<real>) -> Triangle {

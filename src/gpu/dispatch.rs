@@ -521,8 +521,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
 pub struct Resident {
     /// By the kernel's names (shaders/bindings.wgsl).
     buffers: Vec<(String, wgpu::Buffer)>,
-    /// How they are laid out: `(chunks, chunk_bits, uniform, hooked)` of the variant.
-    laid_out: (u8, u8, bool, bool),
+    /// How they are laid out: `(chunks, chunk_bits, hooked)` of the variant.
+    laid_out: (u8, u8, bool),
     /// The device's identity ([`Gpu`]).
     device: std::sync::Arc<()>,
 }
@@ -549,15 +549,10 @@ impl Resident {
     }
 }
 
-/// What decides the scene's buffers: the primitives' chunks and binding kind, and whether a
-/// shade hook reads the scene's materials and lights.
-fn layout_of(variant: &Variant) -> (u8, u8, bool, bool) {
-    (
-        variant.chunks,
-        variant.chunk_bits,
-        variant.uses_uniform_prims(),
-        variant.shade.is_some(),
-    )
+/// What decides the scene's buffers: the primitives' chunks, and whether a shade hook reads
+/// the scene's materials and lights.
+fn layout_of(variant: &Variant) -> (u8, u8, bool) {
+    (variant.chunks, variant.chunk_bits, variant.shade.is_some())
 }
 
 /// `prepared`'s primitives and BVH uploaded to `gpu`, laid out for `variant`.
@@ -760,19 +755,9 @@ impl<'a, R: GpuReal> Layout<'a, R> {
     /// planes, triangles and object ids, and the BVH's nodes and primitive order; triangles
     /// and nodes in `variant.chunks` buffers each (`triangles`, `triangles_2`, ...).
     fn upload(&self, gpu: &Gpu, variant: &Variant) -> Vec<(String, wgpu::Buffer)> {
-        // With UNIFORM_PRIMS, spheres, planes and triangles are uniform buffers (one chunk).
-        let (spheres, planes, triangles) = match variant.uses_uniform_prims() {
-            true => (
-                uniform_buffer(gpu, "spheres", &self.spheres),
-                uniform_buffer(gpu, "planes", &self.planes),
-                vec![uniform_buffer(gpu, "triangles", &self.triangles)],
-            ),
-            false => (
-                storage_buffer(gpu, "spheres", &self.spheres),
-                storage_buffer(gpu, "planes", &self.planes),
-                chunked_upload(gpu, "triangles", &self.triangles, variant),
-            ),
-        };
+        let spheres = storage_buffer(gpu, "spheres", &self.spheres);
+        let planes = storage_buffer(gpu, "planes", &self.planes);
+        let triangles = chunked_upload(gpu, "triangles", &self.triangles, variant);
         let mut named = vec![
             ("spheres".to_owned(), spheres),
             ("planes".to_owned(), planes),
@@ -859,8 +844,7 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     let shader_module = match variant.is_ours() {
         // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
         // bounds: the traversal's stacks hold at least the tree's depth in entries, one waiting
-        // node per level at most (`with_stack_for` in `specialised`; tests check it), and the
-        // uniform primitive arrays are indexed by the host's own counts and leaves. Its loops
+        // node per level at most (`with_stack_for` in `specialised`; tests check it). Its loops
         // end (the traversal visits each node at most once), and it divides only by nonzero
         // values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {
@@ -916,21 +900,6 @@ fn check_limits<R: GpuReal>(
                 max_width.min(limits.max_storage_buffer_binding_size / surface_bytes(R::PRECISION))
             ),
         });
-    }
-    let capacity = shader::UniformCapacity::of(R::PRECISION);
-    let counts = [
-        (p.spheres.len(), capacity.spheres),
-        (p.planes.len(), capacity.planes),
-        (p.triangles.len(), capacity.triangles),
-    ];
-    if variant.uses_uniform_prims() && counts.iter().any(|&(n, cap)| n > cap as usize) {
-        return Err(Error::Device(format!(
-            "{} spheres, {} planes and {} triangles do not fit uniform buffers of {} bytes (at most {capacity:?})",
-            counts[0].0,
-            counts[1].0,
-            counts[2].0,
-            shader::UNIFORM_BYTES
-        )));
     }
     let chunk = 1u64 << variant.chunk_bits;
     let needed = (p.triangles.len().max(nodes) as u64).div_ceil(chunk);
@@ -1018,22 +987,6 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
             label: Some(label),
             contents: bytemuck::cast_slice(items),
             usage: wgpu::BufferUsages::STORAGE,
-        })
-}
-
-/// A uniform buffer holding `items` zero-padded to [`shader::UNIFORM_BYTES`]: at least the
-/// size of the fixed-size array the kernel declares (UNIFORM_PRIMS), which wgpu requires.
-fn uniform_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
-    // Every uniform array is declared at most UNIFORM_BYTES long (triangles' packed reals
-    // round up to whole vec4s, so may be a little longer than their triangles).
-    let mut bytes = vec![0u8; shader::UNIFORM_BYTES as usize];
-    let data: &[u8] = bytemuck::cast_slice(items);
-    bytes[..data.len()].copy_from_slice(data);
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: &bytes,
-            usage: wgpu::BufferUsages::UNIFORM,
         })
 }
 

@@ -56,8 +56,7 @@ pub struct Gpu {
 
 impl Gpu {
     /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
-    /// pays ([`crate::prepare::bvh::worth_it`]), and the primitives in uniform buffers where they fit
-    /// if [`shader::UNIFORM_BY_DEFAULT`].
+    /// pays ([`crate::prepare::bvh::worth_it`]).
     pub fn scene_variant(
         &self,
         scene: &crate::scene::Scene,
@@ -72,20 +71,8 @@ impl Gpu {
                 && scene.camera.projection == crate::scene::Projection::Perspective,
             bvh: crate::prepare::bvh::worth_it(scene),
             chunks: shader::chunks_for(scene, general.chunk_bits),
-            uniform_prims: shader::UNIFORM_BY_DEFAULT && self.uniform_fits(scene, precision),
             ..general.with_kinds(shader::Kinds::of_scene(scene))
         }
-    }
-
-    /// Whether `scene`'s spheres, planes and triangles fit uniform buffers on this device
-    /// ([`shader::UniformCapacity`]).
-    pub fn uniform_fits(
-        &self,
-        scene: &crate::scene::Scene,
-        precision: crate::math::Precision,
-    ) -> bool {
-        let limit = self.device.limits().max_uniform_buffer_binding_size;
-        limit >= shader::UNIFORM_BYTES && shader::UniformCapacity::of(precision).fits(scene)
     }
 
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
@@ -115,7 +102,6 @@ impl Gpu {
             outputs: crate::images::Outputs::GEOMETRY,
             shade: None,
             hook_rays: false,
-            uniform_prims: false,
             kernel: None,
         }
     }

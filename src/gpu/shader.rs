@@ -126,12 +126,6 @@ pub struct Variant {
     /// hook's rays go their own ways, and a packet's subgroup votes need every lane at the same
     /// call.
     pub hook_rays: bool,
-    /// Spheres, planes and triangles in uniform buffers (`var<uniform>` fixed-size arrays of
-    /// [`UNIFORM_BYTES`]) instead of storage buffers (`UNIFORM_PRIMS`). Only where they fit
-    /// ([`UniformCapacity::fits`]) and in one chunk ([`Variant::uses_uniform_prims`]).
-    /// [`super::Gpu::scene_variant`] leaves it off: not faster on lavapipe (Mesa 25), see
-    /// [`UNIFORM_BY_DEFAULT`].
-    pub uniform_prims: bool,
     /// A complete kernel from the user (`render --kernel FILE`, [`super::kernel`]) runs instead
     /// of the assembled one: its source is registered under this key, and the rest of the
     /// variant says what the host binds and reads back for it.
@@ -146,62 +140,6 @@ pub const FOUR_LANE_RAYS: u64 = 2_000_000;
 /// Renders of at least this many rays cast eight rays a lane ([`Variant::for_rays`]): 3840x2160
 /// and more.
 pub const EIGHT_LANE_RAYS: u64 = 8_000_000;
-
-/// Bytes of each uniform binding of the primitives: 64 KiB, WebGPU's default
-/// `maxUniformBufferBindingSize` (lavapipe allows the same).
-pub const UNIFORM_BYTES: u64 = 64 << 10;
-
-/// Whether [`super::Gpu::scene_variant`] puts primitives that fit into uniform buffers. Off:
-/// on lavapipe (Mesa 25.0.7, 2 cores) uniform buffers were no faster than storage buffers on
-/// any course scene in two runs of `raycast specializations` (0.78x to 1.04x, geometric means
-/// 0.88x and 1.01x), unlike the 1.6x reported on Mesa 22.3. A third run, with triangles packed
-/// (docs/specializations.md, rows "uniform memory"), gave 0.97x to 1.23x, geometric mean
-/// 1.06x: not enough, from one run, to switch it on; to measure again.
-pub const UNIFORM_BY_DEFAULT: bool = false;
-
-/// How many spheres, planes and triangles a uniform binding of [`UNIFORM_BYTES`] holds: the
-/// lengths of the fixed-size arrays `UNIFORM_PRIMS` declares.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct UniformCapacity {
-    pub spheres: u32,
-    pub planes: u32,
-    pub triangles: u32,
-}
-
-impl UniformCapacity {
-    pub fn of(precision: Precision) -> UniformCapacity {
-        use super::layout::{GpuPlane, GpuSphere, GpuTriangle};
-        fn fit<T>() -> u32 {
-            (UNIFORM_BYTES / size_of::<T>() as u64) as u32
-        }
-        match precision {
-            Precision::F32 => UniformCapacity {
-                spheres: fit::<GpuSphere<f32>>(),
-                planes: fit::<GpuPlane<f32>>(),
-                triangles: fit::<GpuTriangle<f32>>(),
-            },
-            Precision::F64 => UniformCapacity {
-                spheres: fit::<GpuSphere<f64>>(),
-                planes: fit::<GpuPlane<f64>>(),
-                triangles: fit::<GpuTriangle<f64>>(),
-            },
-        }
-    }
-
-    /// The length of the uniform triangle array: vec4s holding the packed reals (10 per
-    /// triangle, `StoredTriangle`) of [`UniformCapacity::triangles`].
-    pub fn triangle_vec4s(&self) -> u32 {
-        (10 * self.triangles).div_ceil(4)
-    }
-
-    /// Whether `scene`'s spheres, planes and triangles each fit.
-    pub fn fits(&self, scene: &crate::scene::Scene) -> bool {
-        let [spheres, planes, triangles] = scene.primitive_counts();
-        spheres <= self.spheres as usize
-            && planes <= self.planes as usize
-            && triangles <= self.triangles as usize
-    }
-}
 
 /// The most chunks a kernel binds for triangles, and for nodes.
 pub const MAX_CHUNKS: u8 = 4;
@@ -249,7 +187,6 @@ impl Variant {
             outputs: Outputs::GEOMETRY,
             shade: None,
             hook_rays: false,
-            uniform_prims: false,
             kernel: None,
         }
     }
@@ -300,8 +237,7 @@ impl Variant {
     /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
     /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
     /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
-    /// `UNIFORM_PRIMS` (spheres, planes and triangles in uniform buffers), and for
-    /// the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
+    /// and for the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
     /// `USER_SHADE` (the shade hook is called and `out_color` written), `HOOK_RAYS` (and
     /// casts rays of its own).
@@ -337,9 +273,6 @@ impl Variant {
             if self.chunks >= k {
                 d.push(name);
             }
-        }
-        if self.uses_uniform_prims() {
-            d.push("UNIFORM_PRIMS");
         }
         if self.uses_bvh() {
             d.push("BVH");
@@ -457,12 +390,6 @@ impl Variant {
             false => limited,
         }
     }
-
-    /// Whether the primitives are in uniform buffers: asked for, and in one chunk (a mesh split
-    /// over several storage bindings is far beyond a uniform binding anyway).
-    pub fn uses_uniform_prims(&self) -> bool {
-        self.uniform_prims && self.chunks == 1
-    }
 }
 
 pub const MODULES: &[(&str, &str)] = &[
@@ -503,7 +430,7 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
             Precision::F32 => (f32::EPSILON as f64, 16.0 * f32::EPSILON as f64),
             Precision::F64 => (f64::EPSILON, 16.0 * f64::EPSILON),
         };
-        let mut text = format!(
+        let text = format!(
             "alias real = {};\n\
              // Machine epsilon of real.\n\
              const EPS: real = {eps:e};\n\
@@ -521,19 +448,6 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
             variant.bvh_stack,
             variant.lane_rays()
         );
-        if variant.uses_uniform_prims() {
-            let c = UniformCapacity::of(precision);
-            text += &format!(
-                "// Array lengths of the primitives in uniform buffers: as many as fit {UNIFORM_BYTES} bytes.\n\
-                 const UNIFORM_SPHERES: u32 = {}u;\n\
-                 const UNIFORM_PLANES: u32 = {}u;\n\
-                 // Triangles in uniform buffers are packed reals in vec4s (bindings.wgsl).\n\
-                 const UNIFORM_TRIANGLE_VEC4S: u32 = {}u;\n",
-                c.spheres,
-                c.planes,
-                c.triangle_vec4s()
-            );
-        }
         return Some(text);
     }
     MODULES
@@ -544,11 +458,7 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
 
 /// The module the host generates (`precision`) with every declaration it may hold.
 pub fn generated_module() -> String {
-    let variant = Variant {
-        uniform_prims: true,
-        chunks: 1,
-        ..Variant::new(Precision::F32, Algorithm::Robust)
-    };
+    let variant = Variant::new(Precision::F32, Algorithm::Robust);
     module_source(PRECISION_MODULE, &variant).expect("the precision module is generated")
 }
 
@@ -760,7 +670,6 @@ pub fn all_variants() -> Vec<Variant> {
                         outputs: Outputs::GEOMETRY,
                         shade: None,
                         hook_rays: false,
-                        uniform_prims: false,
                         kernel: None,
                     };
                     let traversals = [
@@ -786,13 +695,6 @@ pub fn all_variants() -> Vec<Variant> {
                                 ..plain
                             });
                         }
-                        v.push(Variant {
-                            bvh,
-                            packets,
-                            eight_lanes,
-                            uniform_prims: true,
-                            ..plain
-                        });
                         // The lighter kernels of smaller renders (Variant::for_rays).
                         for lane_rays_limit in [2, 4].into_iter().filter(|_| eight_lanes) {
                             v.push(Variant {
@@ -1210,86 +1112,6 @@ mod tests {
                 );
             }
         }
-    }
-
-    /// With UNIFORM_PRIMS the spheres, planes and triangles are uniform fixed-size arrays of
-    /// the capacity the host pads its buffers to (checked on the naga module, both
-    /// precisions); without, read-only storage.
-    #[test]
-    fn uniform_primitives_are_in_the_uniform_address_space() {
-        for precision in [Precision::F32, Precision::F64] {
-            let capacity = UniformCapacity::of(precision);
-            let storage = Variant::new(precision, Algorithm::Robust);
-            for (variant, uniform) in [
-                (storage, false),
-                (
-                    Variant {
-                        uniform_prims: true,
-                        ..storage
-                    },
-                    true,
-                ),
-                (
-                    Variant {
-                        uniform_prims: true,
-                        bvh: true,
-                        ..storage
-                    },
-                    true,
-                ),
-                // Several chunks never are uniform.
-                (
-                    Variant {
-                        uniform_prims: true,
-                        chunks: 2,
-                        ..storage
-                    },
-                    false,
-                ),
-            ] {
-                assert_eq!(variant.uses_uniform_prims(), uniform);
-                let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
-                let mut layouter = naga::proc::Layouter::default();
-                layouter.update(module.to_ctx()).unwrap();
-                for (name, count) in [
-                    ("spheres", capacity.spheres),
-                    ("planes", capacity.planes),
-                    ("triangles", capacity.triangle_vec4s()),
-                ] {
-                    let (_, g) = module
-                        .global_variables
-                        .iter()
-                        .find(|(_, g)| g.name.as_deref() == Some(name))
-                        .unwrap();
-                    let naga::TypeInner::Array { size, stride, .. } = module.types[g.ty].inner
-                    else {
-                        panic!("{name} is not an array");
-                    };
-                    if uniform {
-                        assert_eq!(g.space, naga::AddressSpace::Uniform, "{name} {variant:?}");
-                        let n = match size {
-                            naga::ArraySize::Constant(n) => n.get(),
-                            other => panic!("{name}: {other:?}"),
-                        };
-                        assert_eq!(n, count, "{name}");
-                        assert!(layouter[g.ty].size as u64 <= UNIFORM_BYTES);
-                        assert_eq!(stride % 16, 0, "uniform arrays need 16-byte strides");
-                    } else {
-                        let read = naga::StorageAccess::LOAD;
-                        assert_eq!(g.space, naga::AddressSpace::Storage { access: read });
-                        assert_eq!(size, naga::ArraySize::Dynamic);
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn uniform_capacity_is_what_fits_64_kib() {
-        let c = UniformCapacity::of(Precision::F32);
-        assert_eq!((c.spheres, c.planes, c.triangles), (4096, 2048, 1638));
-        let c = UniformCapacity::of(Precision::F64);
-        assert_eq!((c.spheres, c.planes, c.triangles), (2048, 1024, 819));
     }
 
     #[test]

@@ -7,9 +7,7 @@
 //! - primitive kinds: only the scene's kinds compiled in, against every kind ([`Kinds::ALL`]);
 //! - BVH against brute force (brute force skipped above [`BRUTE_FORCE_LIMIT`] triangles);
 //! - subgroup packets against per-ray BVH traversal (where the scene uses a BVH);
-//! - outputs: distance only against id, distance and normal;
-//! - uniform memory against storage buffers for the spheres, planes and triangles (where they
-//!   fit a uniform binding, [`shader::UniformCapacity`]).
+//! - outputs: distance only against id, distance and normal.
 //!
 //! The distinct kernels of a scene are run in turn, round after round (one warm-up round, which
 //! also compiles them, then `runs` timed rounds), so drifts of the machine's load fall on all of
@@ -24,7 +22,7 @@ use std::path::{Path, PathBuf};
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
 use crate::Algorithm;
 use crate::error::{Error, Result};
-use crate::gpu::shader::{self, Kinds, Variant};
+use crate::gpu::shader::{Kinds, Variant};
 use crate::gpu::{Gpu, Stages};
 use crate::images::Outputs;
 use crate::math::{Precision, vec3};
@@ -46,16 +44,14 @@ pub enum Specialisation {
     Bvh,
     Packets,
     Outputs,
-    Uniform,
 }
 
 impl Specialisation {
-    pub const ALL: [Specialisation; 5] = [
+    pub const ALL: [Specialisation; 4] = [
         Specialisation::Kinds,
         Specialisation::Bvh,
         Specialisation::Packets,
         Specialisation::Outputs,
-        Specialisation::Uniform,
     ];
 
     /// Its name, and what "with" and "without" are.
@@ -65,7 +61,6 @@ impl Specialisation {
             Specialisation::Bvh => ("BVH", "BVH", "brute force"),
             Specialisation::Packets => ("subgroup packets", "packets", "per-ray traversal"),
             Specialisation::Outputs => ("outputs", "distance only", "id, distance, normal"),
-            Specialisation::Uniform => ("uniform memory", "uniform buffers", "storage buffers"),
         }
     }
 }
@@ -175,25 +170,6 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     plans.push(Plan {
         default_with: None,
         ..toggle(distance, base, false, Specialisation::Outputs)
-    });
-    plans.push(if gpu.uniform_fits(scene, Precision::F32) {
-        let on = Variant {
-            uniform_prims: true,
-            ..base
-        };
-        let off = Variant {
-            uniform_prims: false,
-            ..base
-        };
-        toggle(on, off, base.uniform_prims, Specialisation::Uniform)
-    } else {
-        Plan::not_applicable(
-            Specialisation::Uniform,
-            &format!(
-                "does not fit {} KiB uniform bindings",
-                shader::UNIFORM_BYTES >> 10
-            ),
-        )
     });
     plans
 }
@@ -443,24 +419,6 @@ fn times(x: f64) -> String {
     format!("{x:.2}x")
 }
 
-/// The paragraph on uniform memory: what was measured and what `scene_variant` does with it.
-fn uniform_finding(rows: &[Row]) -> String {
-    let decision = if shader::UNIFORM_BY_DEFAULT {
-        "on: `scene_variant` puts the primitives of every scene that fits into uniform buffers"
-    } else {
-        "off: `scene_variant` keeps storage buffers, and uniform memory is only run when asked for (`Variant::uniform_prims`)"
-    };
-    let measured = match summary(rows, Specialisation::Uniform) {
-        Some((geo, lo, hi, n)) => format!(
-            "uniform buffers against storage buffers, over {n} scene(s) whose primitives fit: speed-up {lo:.2}x to {hi:.2}x, geometric mean {geo:.2}x"
-        ),
-        None => "no scene here fits uniform buffers".into(),
-    };
-    format!(
-        "**Uniform memory.** Reported as 1.6x faster than storage buffers for small primitive sets on lavapipe with Mesa 22.3. Measured here: {measured}. `shader::UNIFORM_BY_DEFAULT` is {decision}.\n"
-    )
-}
-
 /// The whole document.
 pub fn document(report: &Report) -> String {
     let p = &report.provenance;
@@ -506,7 +464,6 @@ pub fn document(report: &Report) -> String {
     for note in &report.notes {
         s += &format!("{note}\n\n");
     }
-    s += &uniform_finding(&report.rows);
     if let Some(rows) = &report.crossover {
         s += "\n";
         s += &crossover_section(rows);
