@@ -46,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for run in 0..=runs {
             for (m, mode) in modes.iter().enumerate() {
                 let start = Instant::now();
-                render(&scene, *mode, Some(&gpu), false)?;
+                render(&scene, *mode, Some(&gpu), None)?;
                 if run > 0 {
                     times[m].push(start.elapsed().as_secs_f64());
                 }

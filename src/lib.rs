@@ -20,7 +20,7 @@
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let mode = Mode { device: Device::Gpu, precision: Arithmetic::F32, algorithm: Algorithm::Robust };
-//! let images = render::render(&scene, mode, Some(&gpu), false)?;
+//! let images = render::render(&scene, mode, Some(&gpu), None)?;
 //! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
 //! # Ok::<(), raycast::Error>(())
 //! ```
@@ -42,7 +42,6 @@
 pub mod adaptive;
 pub mod algorithm;
 pub mod camera;
-pub mod compare;
 pub mod cpu;
 pub mod error;
 pub mod gpu;
@@ -53,7 +52,6 @@ pub mod prepare;
 pub mod rays;
 pub mod render;
 pub mod scene;
-pub mod study;
 pub mod supersample;
 
 pub use algorithm::Algorithm;

@@ -218,7 +218,7 @@ pub fn supersample(
     mode: Mode,
     gpu: Option<&Gpu>,
     spp: u32,
-    progress: bool,
+    progress: Option<&render::Progress>,
 ) -> Result<AnyImages> {
     supersample_request(scene, mode, gpu, spp, progress, &Request::default())
 }
@@ -230,7 +230,7 @@ pub fn supersample_request(
     mode: Mode,
     gpu: Option<&Gpu>,
     spp: u32,
-    progress: bool,
+    progress: Option<&render::Progress>,
     request: &Request,
 ) -> Result<AnyImages> {
     if spp == 1 {
@@ -306,7 +306,7 @@ pub fn spp_errors(
     reference_spp: u32,
     gpu: Option<&Gpu>,
 ) -> Result<Vec<SppError>> {
-    let truth = supersample(scene, reference, gpu, reference_spp, false)?;
+    let truth = supersample(scene, reference, gpu, reference_spp, None)?;
     let alpha = |x: &AnyImages| -> Vec<f64> {
         let c = x.coverage().expect("supersampled images have coverage");
         let n = c.spp as f64;
@@ -316,7 +316,7 @@ pub fn spp_errors(
     let pixels = truth_alpha.len().max(1) as f64;
     let mut rows = Vec::new();
     for &spp in spps {
-        let (result, elapsed) = render::timed(|| supersample(scene, mode, gpu, spp, false));
+        let (result, elapsed) = render::timed(|| supersample(scene, mode, gpu, spp, None));
         let result = result?;
         let errors: Vec<f64> = alpha(&result)
             .iter()

@@ -75,7 +75,7 @@ fn sphere_cloud(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
 
 /// The extreme scenes built so that f32 overflows or underflows even in kernel units: there
 /// f32's box test and intersection tests are both meaningless (and adaptive precision re-casts
-/// every such pixel, tests/adaptive.rs), so the BVH has nothing exact to agree with.
+/// every such pixel, cli/tests/adaptive.rs), so the BVH has nothing exact to agree with.
 fn out_of_f32_range(name: &str) -> bool {
     name.starts_with("range-")
 }

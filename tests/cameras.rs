@@ -71,7 +71,7 @@ impl Course {
 /// The ids of `scene` rendered in `mode`.
 fn ids_in(scene: &Scene, mode: &str) -> Vec<i32> {
     let mode = mode.parse().unwrap();
-    match render::render(scene, mode, Some(common::gpu()), false).unwrap() {
+    match render::render(scene, mode, Some(common::gpu()), None).unwrap() {
         AnyImages::F32(images) => images.id,
         AnyImages::F64(images) => images.id,
     }

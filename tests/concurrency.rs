@@ -51,7 +51,7 @@ fn eight_threads_sharing_one_gpu_render_what_serial_renders_do() {
     let serial_gpu = Gpu::new().unwrap();
     let serial: Vec<_> = list
         .iter()
-        .map(|(scene, mode)| bits(&render::render(scene, *mode, Some(&serial_gpu), false).unwrap()))
+        .map(|(scene, mode)| bits(&render::render(scene, *mode, Some(&serial_gpu), None).unwrap()))
         .collect();
     // A fresh device, so that the first round's threads compile their pipelines side by side
     // (the bunny's three modes and the six scenes' kernels); the second finds them compiled.
@@ -62,7 +62,7 @@ fn eight_threads_sharing_one_gpu_render_what_serial_renders_do() {
                 .iter()
                 .map(|(scene, mode)| {
                     let gpu = &gpu;
-                    s.spawn(move || bits(&render::render(scene, *mode, Some(gpu), false).unwrap()))
+                    s.spawn(move || bits(&render::render(scene, *mode, Some(gpu), None).unwrap()))
                 })
                 .collect();
             handles.into_iter().map(|h| h.join().unwrap()).collect()

@@ -15,7 +15,7 @@
 //!   adaptive and textbook f32, the same hit/miss and ids, distances exactly 2^k times the
 //!   base's, normals identical.
 //! - `far-camera`: a centimetre sphere 1e6 away, placed as an independent f64 computation says.
-//! - `range`: f32 leaves its range; checked in tests/adaptive.rs.
+//! - `range`: f32 leaves its range; checked in cli/tests/adaptive.rs.
 //! - `degenerate`: zero-area triangles are never hit.
 //! - `far-sphere` at 1e5: textbook f32 gets hit/miss wrong on certain pixels (the far-sphere
 //!   ring of pbrt-v3 #265), robust f32 does not.
@@ -144,7 +144,7 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
 /// units: textbook f32 computes hits at t beyond it (a distance of infinity), robust f32 sphere
 /// normals whose half-chord overflows (NaN). Guarding the normal would cost every f32 render
 /// about 1% (measured on 100 spheres); adaptive precision re-casts such pixels in f64
-/// (tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
+/// (cli/tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {
@@ -229,7 +229,7 @@ fn rendered(scene: &Scene, mode: &str) -> (Vec<i32>, Vec<f64>, Vec<[f64; 3]>) {
         ),
         AnyImages::F64(i) => (i.id, i.distance, i.normal),
     };
-    widen(raycast::render::render(scene, mode, Some(gpu()), false).unwrap())
+    widen(raycast::render::render(scene, mode, Some(gpu()), None).unwrap())
 }
 
 /// Translated scenes, in robust f32, f64 and adaptive precision: the base's ids on every
@@ -436,7 +436,7 @@ fn every_mode_is_invariant_under_power_of_two_scaling() {
     for mode in modes {
         let mode: raycast::render::Mode = mode.parse().unwrap();
         let render =
-            |scene: &Scene| raycast::render::render(scene, mode, Some(gpu()), false).unwrap();
+            |scene: &Scene| raycast::render::render(scene, mode, Some(gpu()), None).unwrap();
         let reference = render(&base);
         assert!(
             reference.id().iter().any(|&id| id != MISS),

@@ -220,7 +220,7 @@ impl Scene {
         };
         let scene = self.inner.scene();
         let images = py
-            .detach(|| raycast::render::render_request(scene, mode, gpu, false, &request))
+            .detach(|| raycast::render::render_request(scene, mode, gpu, None, &request))
             .map_err(to_py)?;
         let d = PyDict::new(py);
         if let Some(color) = images.color() {

@@ -9,7 +9,6 @@ mod npy;
 pub mod pending;
 mod pictures;
 pub mod stream;
-pub mod text;
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;

@@ -25,7 +25,7 @@ pub const MAX_DEPTH: usize = 40;
 // shaders/traverse.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
-/// [`worth_it`] for scenes with triangles too). Measured with `examples/bvh_crossover.rs`
+/// [`worth_it`] for scenes with triangles too). Measured with `cli/examples/bvh_crossover.rs`
 /// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
 /// 2 cores, six runs: BVH / brute-force kernel time 0.93 to 1.09 at 16 spheres (break-even),
 /// 0.72 to 0.98 at 32, 0.52 to 0.64 at 64 (docs/specializations.md).
@@ -233,7 +233,7 @@ pub struct Bvh {
     pub triangle_order: Vec<u32>,
     /// [`Bvh::depth`], found once when the tree is built: every dispatch asks for it
     /// ([`Bvh::stack_entries`]), and walking 119,412 nodes made a one-ray cast take 1 ms.
-    pub(crate) depth: usize,
+    pub depth: usize,
 }
 
 /// A primitive's box while building, and its index in its kind's list.

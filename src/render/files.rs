@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::{AnyImages, Arithmetic, Device, Mode, Request, STREAM_PIXELS, band_rows, can_stream};
-use super::{check_kernels, render_streamed, timed};
+use super::{Progress, check_kernels, render_streamed, timed};
 use crate::adaptive;
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
@@ -259,8 +259,9 @@ impl Spec {
     }
 
     /// Reads the scene and the shader, renders and writes every file (all or none), and the
-    /// kernel with `emit_shader`. `gpu` is needed for a GPU mode.
-    pub fn run(&self, gpu: Option<&Gpu>) -> Result<Summary> {
+    /// kernel with `emit_shader`. `gpu` is needed for a GPU mode; a CPU render counts its rows
+    /// in `progress`.
+    pub fn run(&self, gpu: Option<&Gpu>, progress: Option<&Progress>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;
         if let Some(path) = &self.scene
@@ -274,10 +275,17 @@ impl Spec {
             );
         }
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
-        self.resolved(huge).run_resolved(gpu, &scene, huge)
+        self.resolved(huge)
+            .run_resolved(gpu, progress, &scene, huge)
     }
 
-    fn run_resolved(&self, gpu: Option<&Gpu>, scene: &Scene, huge: bool) -> Result<Summary> {
+    fn run_resolved(
+        &self,
+        gpu: Option<&Gpu>,
+        progress: Option<&Progress>,
+        scene: &Scene,
+        huge: bool,
+    ) -> Result<Summary> {
         let request = Request {
             outputs: self.encoding.outputs,
             shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
@@ -326,7 +334,7 @@ impl Spec {
                 summary.peak_mib = super::peak_rss_mib();
             }
             _ => {
-                let (images, elapsed) = timed(|| self.render_whole(scene, gpu, &request));
+                let (images, elapsed) = timed(|| self.render_whole(scene, gpu, progress, &request));
                 let (images, recast) = images?;
                 summary.hook_rays = images.hook_rays();
                 summary.elapsed = elapsed;
@@ -374,6 +382,7 @@ impl Spec {
         &self,
         scene: &Scene,
         gpu: Option<&Gpu>,
+        progress: Option<&Progress>,
         request: &Request,
     ) -> Result<(AnyImages, Option<(f64, bool)>)> {
         let mode = self.mode;
@@ -384,12 +393,12 @@ impl Spec {
                 Ok((AnyImages::F32(a.images), Some(recast)))
             }
             (_, None, _) => Ok((
-                super::render_request(scene, mode, gpu, true, request)?,
+                super::render_request(scene, mode, gpu, progress, request)?,
                 None,
             )),
             (_, Some(spp), _) => {
                 let images =
-                    supersample::supersample_request(scene, mode, gpu, spp, true, request)?;
+                    supersample::supersample_request(scene, mode, gpu, spp, progress, request)?;
                 Ok((images, None))
             }
         }

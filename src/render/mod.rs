@@ -167,9 +167,22 @@ pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
     }
 }
 
-/// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; with `progress`, a CPU
-/// render that takes over a second shows a progress bar on stderr when it is a terminal.
-pub fn render(scene: &Scene, mode: Mode, gpu: Option<&Gpu>, progress: bool) -> Result<AnyImages> {
+/// How far a CPU render has got, for a caller's progress display: the rows it renders and
+/// those it has finished (a GPU render leaves both at zero).
+#[derive(Debug, Default)]
+pub struct Progress {
+    pub rows: AtomicU32,
+    pub rows_done: AtomicU32,
+}
+
+/// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; a CPU render counts its
+/// rows in `progress`.
+pub fn render(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    progress: Option<&Progress>,
+) -> Result<AnyImages> {
     render_request(scene, mode, gpu, progress, &Request::default())
 }
 
@@ -178,13 +191,13 @@ pub fn render_request(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
-    progress: bool,
+    progress: Option<&Progress>,
     request: &Request,
 ) -> Result<AnyImages> {
     dispatch(scene, mode, gpu, progress, request, false).map(|(images, _)| images)
 }
 
-/// [`render`] (without a progress bar), also returning the GPU kernel time in seconds for a GPU
+/// [`render`] (without progress), also returning the GPU kernel time in seconds for a GPU
 /// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
 /// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
 pub fn render_timed(
@@ -192,7 +205,7 @@ pub fn render_timed(
     mode: Mode,
     gpu: Option<&Gpu>,
 ) -> Result<(AnyImages, Option<f64>)> {
-    dispatch(scene, mode, gpu, false, &Request::default(), true)
+    dispatch(scene, mode, gpu, None, &Request::default(), true)
 }
 
 /// The mode dispatch of [`render_request`] and [`render_timed`]: the images, and with `timed`
@@ -201,7 +214,7 @@ fn dispatch(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
-    progress: bool,
+    progress: Option<&Progress>,
     request: &Request,
     timed: bool,
 ) -> Result<(AnyImages, Option<f64>)> {
@@ -302,17 +315,6 @@ pub fn on_gpu<R: GpuReal>(
     Ok((r.images, r.stages))
 }
 
-/// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
-/// `enabled` and stderr is a terminal.
-pub fn progress_bar(enabled: bool, len: u64, template: &str) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !enabled || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    indicatif::ProgressBar::new(len)
-        .with_style(indicatif::ProgressStyle::with_template(template).expect("valid template"))
-}
-
 /// Images above this many pixels are rendered and written in bands of rows
 /// ([`render_streamed`]), holding one band at a time.
 pub const STREAM_PIXELS: u64 = 1 << 24;
@@ -372,50 +374,24 @@ pub fn render_streamed(
 fn cpu_render<T: crate::math::Real>(
     scene: &Scene,
     algorithm: Algorithm,
-    progress: bool,
+    progress: Option<&Progress>,
     lit: bool,
 ) -> Images<T> {
     let prepared = Prepared::<T>::new(scene, algorithm, Accel::Auto);
-    let mut images = cpu_with_progress(&prepared, progress);
+    let mut images = match progress {
+        Some(p) => {
+            p.rows.store(prepared.frame.ny, Ordering::Relaxed);
+            p.rows_done.store(0, Ordering::Relaxed);
+            cpu::render_prepared(&prepared, &p.rows_done)
+        }
+        None => cpu::render_prepared(&prepared, &AtomicU32::new(0)),
+    };
     if lit {
         let (colours, rays) = cpu::raytrace::render(&prepared);
         images.color = Some(colours);
         images.hook_rays = Some(rays);
     }
     images
-}
-
-/// Runs the CPU reference on `prepared`; if it is still running after a second and stderr is a
-/// terminal, shows a progress bar of finished rows.
-fn cpu_with_progress<T: crate::math::Real>(prepared: &Prepared<T>, progress: bool) -> Images<T> {
-    use std::io::IsTerminal;
-    let done = AtomicU32::new(0);
-    if !progress || !std::io::stderr().is_terminal() {
-        return cpu::render_prepared(prepared, &done);
-    }
-    let rows = prepared.frame.ny;
-    std::thread::scope(|s| {
-        let worker = s.spawn(|| cpu::render_prepared(prepared, &done));
-        let start = Instant::now();
-        let mut bar: Option<indicatif::ProgressBar> = None;
-        while !worker.is_finished() {
-            std::thread::sleep(Duration::from_millis(50));
-            if bar.is_none() && start.elapsed() > Duration::from_secs(1) {
-                bar = Some(progress_bar(
-                    true,
-                    rows as u64,
-                    "cpu render {bar:40} {pos}/{len} rows, {eta} left",
-                ));
-            }
-            if let Some(b) = &bar {
-                b.set_position(done.load(Ordering::Relaxed) as u64);
-            }
-        }
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
-        worker.join().expect("the CPU renderer does not panic")
-    })
 }
 
 /// `VmHWM` (peak resident set) of this process (Linux; `None` elsewhere) in MiB, from /proc/self/status.

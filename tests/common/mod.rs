@@ -86,12 +86,36 @@ pub fn file_names(dir: &Path) -> Vec<String> {
     names
 }
 
-pub fn repo_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
+/// The repository's root: the library's folder, above the command line's (cli/).
+pub fn repo_root() -> &'static Path {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    match manifest.join("shaders").is_dir() {
+        true => manifest,
+        false => manifest.parent().expect("cli/ is in the repository"),
+    }
 }
 
+pub fn repo_path(relative: &str) -> PathBuf {
+    repo_root().join(relative)
+}
+
+/// The `raycast` command, run in the repository's root (the command line's tests only).
+#[allow(dead_code)]
+pub fn raycast() -> std::process::Command {
+    let Some(exe) = option_env!("CARGO_BIN_EXE_raycast") else {
+        panic!("only the command line's tests (cli/tests) run the command");
+    };
+    let mut command = std::process::Command::new(exe);
+    command.current_dir(repo_root());
+    command
+}
+
+// The self-test's seeded scenes and rays, shared with these tests.
+#[allow(dead_code)]
+#[path = "../../cli/src/study/selftest/scenes.rs"]
+mod selftest_scenes;
 #[allow(unused_imports)]
-pub use raycast::study::selftest::data::COURSE_SCENES;
+pub use selftest_scenes::COURSE_SCENES;
 
 pub fn course_scene(name: &str) -> raycast::Scene {
     raycast::Scene::load(&repo_path(&format!("scenes/course/{name}.json"))).unwrap()
@@ -172,7 +196,7 @@ pub fn save_failure(
 }
 
 #[allow(unused_imports)]
-pub use raycast::study::selftest::scenes::{
+pub use selftest_scenes::{
     Rng, incoherent_rays, moved_along, pinhole_rays, random_scene, sphere_mesh,
 };
 
@@ -229,7 +253,7 @@ pub fn assert_no_files(dir: &Path) {
 
 /// `raycast render` of the course bunny, arguments to follow.
 pub fn render_bunny() -> std::process::Command {
-    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"));
+    let mut command = raycast();
     command
         .arg("render")
         .arg(repo_path("scenes/course/bunny.json"));

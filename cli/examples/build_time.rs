@@ -1,0 +1,42 @@
+//! Times the preparation of a scene (BVH build, then the whole `Prepared::new`), `--runs`
+//! times each, and prints the medians: `cargo run --release -p raycast-cli --example build_time SCENE [RUNS]`.
+use std::time::Instant;
+
+use raycast::prepare::Prepared;
+use raycast::prepare::bvh::{Accel, Bvh};
+use raycast_cli::study::median;
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let path = args.next().expect("usage: build_time SCENE [RUNS]");
+    let runs: usize = args
+        .next()
+        .map_or(11, |r| r.parse().expect("RUNS: a number"));
+    let scene = raycast::Scene::load(path.as_ref()).unwrap();
+    let (mut build, mut prepare) = (Vec::new(), Vec::new());
+    for _ in 0..runs {
+        let t = Instant::now();
+        let bvh = Bvh::build(&scene, raycast::Algorithm::Robust);
+        build.push(t.elapsed().as_secs_f64());
+        drop(bvh);
+        let t = Instant::now();
+        let p = Prepared::<f32>::new(&scene, raycast::Algorithm::Robust, Accel::Auto);
+        prepare.push(t.elapsed().as_secs_f64());
+        drop(p);
+    }
+    let bvh = Bvh::build(&scene, raycast::Algorithm::Robust);
+    let bytes: &[u8] = bytemuck::cast_slice(&bvh.nodes);
+    let order: &[u8] = bytemuck::cast_slice(&bvh.triangle_order);
+    let hash = bytes
+        .iter()
+        .chain(order)
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ *b as u64).wrapping_mul(0x100_0000_01b3)
+        });
+    println!(
+        "build {:.4} s, prepare {:.4} s; {} nodes, hash {hash:016x}",
+        median(&build),
+        median(&prepare),
+        bvh.nodes.len()
+    );
+}

@@ -1,0 +1,122 @@
+//! `raycast compare`: two renders of a scene (or of two scenes with one camera size), their
+//! report as one JSON object, optional pictures, and the bounds it must stay within.
+
+use std::path::PathBuf;
+
+use super::{
+    Comparison, color_error_picture, compare, distance_error_picture, exceeded, mismatch_picture,
+};
+use raycast::error::Result;
+use raycast::gpu::Gpu;
+use raycast::output::{self, EncodedFile};
+use raycast::render::{self, AnyImages, Mode};
+use raycast::scene;
+
+/// What `raycast compare` is asked for.
+#[derive(Clone, Debug)]
+pub struct Spec {
+    pub scene: PathBuf,
+    /// Side b's scene, rendered at side a's size; `None`: the same scene.
+    pub b_scene: Option<PathBuf>,
+    /// Overrides the scenes' resolution.
+    pub size: Option<[u32; 2]>,
+    /// Side a, and side b (the reference for relative errors).
+    pub modes: [Mode; 2],
+    /// Where to write `mismatch.png` and `distance_error.png`, if anywhere.
+    pub out_dir: Option<PathBuf>,
+    /// Metric bounds (`--fail-above`).
+    pub bounds: Vec<(String, f64)>,
+    /// A shade hook file colouring both sides' `color.png`, compared too (`--shader`).
+    pub shader: Option<PathBuf>,
+    /// Both sides lit by the course's ray tracer (`--lit`: the shipped hook on the GPU, its
+    /// mirror on the CPU).
+    pub lit: bool,
+}
+
+/// What a comparison found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The modes, scenes, times and the [`super::Report`], as one JSON object.
+    pub json: serde_json::Value,
+    /// One line per bound exceeded.
+    pub exceeded: Vec<String>,
+    /// The pictures written.
+    pub written: Vec<PathBuf>,
+}
+
+impl Spec {
+    /// Renders both sides, compares them and writes the pictures. `gpu` is needed where a
+    /// side is a GPU mode.
+    pub fn run(&self, gpu: Option<&Gpu>) -> Result<Outcome> {
+        let scene_a = scene::load_sized(Some(&self.scene), self.size)?;
+        let mut scene_b = match &self.b_scene {
+            Some(path) => scene::load_sized(Some(path), self.size)?,
+            None => scene_a.clone(),
+        };
+        // Side b must be comparable pixel for pixel.
+        scene_b.camera.resolution = scene_a.camera.resolution;
+        let request = render::Request {
+            shade: raycast::gpu::hooks::requested(self.lit, self.shader.as_deref())?,
+            ..render::Request::default()
+        };
+        for mode in self.modes {
+            render::check_request(mode, &request)?;
+        }
+        if let Some(dir) = &self.out_dir {
+            output::check_writable(dir)?;
+        }
+        let [mode_a, mode_b] = self.modes;
+        let render = |scene, mode| {
+            crate::progress::cpu_rows(|p| render::render_request(scene, mode, gpu, p, &request))
+        };
+        let (a, time_a) = render::timed(|| render(&scene_a, mode_a));
+        let (b, time_b) = render::timed(|| render(&scene_b, mode_b));
+        let (a, b) = (a?, b?);
+        let c = compare(&a, &b);
+        let mut json = serde_json::json!({
+            "scene": self.scene.display().to_string(),
+            "size": scene_a.camera.resolution,
+            "a": {"mode": mode_a.to_string(), "time_s": time_a.as_secs_f64()},
+            "b": {"mode": mode_b.to_string(), "time_s": time_b.as_secs_f64()},
+        });
+        if let Some(p) = &self.b_scene {
+            json["b"]["scene"] = p.display().to_string().into();
+        }
+        let report = serde_json::to_value(&c.report).expect("a report serialises");
+        if let (Some(fields), serde_json::Value::Object(report)) = (json.as_object_mut(), report) {
+            fields.extend(report);
+        }
+        let written = match &self.out_dir {
+            Some(dir) => output::write_files(dir, &pictures(&c, &a, &b))?,
+            None => Vec::new(),
+        };
+        Ok(Outcome {
+            json,
+            exceeded: exceeded(&c.report, &self.bounds),
+            written,
+        })
+    }
+}
+
+/// `mismatch.png` over side b's normals, `distance_error.png`, and where both sides have a
+/// `color.png`, `color_error.png`.
+fn pictures(c: &Comparison, a: &AnyImages, b: &AnyImages) -> Vec<EncodedFile> {
+    let base = match b {
+        AnyImages::F32(i) => output::pictures(i).normal,
+        AnyImages::F64(i) => output::pictures(i).normal,
+    };
+    let mut pictures = vec![
+        ("mismatch.png", mismatch_picture(c, &base)),
+        ("distance_error.png", distance_error_picture(c)),
+    ];
+    if let (Some(ca), Some(cb)) = (a.color(), b.color()) {
+        pictures.push(("color_error.png", color_error_picture(c, ca, cb)));
+    }
+    pictures
+        .into_iter()
+        .map(|(name, img)| EncodedFile {
+            name,
+            bytes: output::encode_png_rgb(&img),
+        })
+        .collect()
+}

@@ -1,0 +1,633 @@
+//! `raycast`: the command-line front end of the library.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use glam::DVec3;
+use raycast::Algorithm;
+use raycast::error::Result;
+use raycast::gpu::{self, Gpu};
+use raycast::images::Output;
+use raycast::output::{self, Format};
+use raycast::prepare::bvh::Accel;
+use raycast::render::{self, Arithmetic, Device, Mode};
+use raycast::{scene, supersample};
+use raycast_cli::study::{self, Stream};
+use raycast_cli::{compare, progress};
+
+#[derive(Parser)]
+#[command(
+    name = "raycast",
+    version,
+    about = "GPU compute-shader ray caster (wgpu/WGSL)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+// Parsed once per run: the size of the largest variant costs nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to id, depth and normal images.
+    Render {
+        /// Scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view
+        /// (docs/cli.md). Without it, the built-in default scene is rendered.
+        scene: Option<PathBuf>,
+        /// Output folder (created if missing).
+        #[arg(short, long, default_value = "out")]
+        output: PathBuf,
+        /// Image size in pixels, e.g. 1920x1080 (overrides the scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// Comma-separated output formats: png, ppm, npy, npz (render.npz), exr (render.exr),
+        /// depth16 (depth16.png). camera.json is written beside every render.
+        #[arg(long, value_delimiter = ',', default_value = "png")]
+        format: Vec<Format>,
+        /// The depth npy, npz, exr and depth16 hold: distance (from the ray's origin,
+        /// distance.npy) or z (planar, along the viewing axis, z.npy).
+        #[arg(long, default_value = "distance")]
+        depth: output::Depth,
+        /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
+        /// 65535 (1000: millimetres for scenes in metres).
+        #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
+        depth_scale: f64,
+        /// The camera's position, X,Y,Z (replaces the scene's, or a mesh's default view's).
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        eye: Option<DVec3>,
+        /// A point for the camera to look at, X,Y,Z.
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        look_at: Option<DVec3>,
+        /// The camera's up direction, X,Y,Z.
+        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        up: Option<DVec3>,
+        /// Vertical field of view in degrees (replaces the scene's image plane; perspective).
+        #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
+        fov: Option<f64>,
+        /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
+        #[arg(long, default_value = "gpu")]
+        device: Device,
+        /// Arithmetic: f32, f64 (on the GPU it needs SHADER_F64), or adaptive (GPU, robust:
+        /// f32 with uncertain pixels cast again in f64: on the CPU where they are few or the
+        /// GPU has no f64, else on the GPU).
+        /// Default: adaptive on the GPU (f32 with --shader, --kernel, --emit-shader,
+        /// --band-rows, the textbook set, or images of more than 16,777,216 pixels, which f32
+        /// renders in bands); f64 on the CPU.
+        #[arg(long)]
+        precision: Option<Arithmetic>,
+        /// Intersection algorithms: robust (camera-relative, watertight) or textbook (the
+        /// lecture's formulas in world coordinates).
+        #[arg(long, default_value = "robust")]
+        algorithm: Algorithm,
+        /// Samples per pixel, a perfect square s*s (1, 4, 9, 16, 64, 256, ...): one at the
+        /// centre of each of s x s strata; id by majority, coverage alpha. Adds alpha.npy to npy.
+        #[arg(long, value_name = "N", value_parser = supersample::parse_spp)]
+        spp: Option<u32>,
+        /// Composite color.png over this opaque colour, R,G,B in 0..255 (default: transparent,
+        /// premultiplied alpha).
+        #[arg(long, value_name = "R,G,B", value_parser = output::parse_background)]
+        background: Option<[u8; 3]>,
+        /// Also write the assembled WGSL kernel this render ran (specialised for the scene and
+        /// the mode) to this file.
+        #[arg(long, value_name = "FILE")]
+        emit_shader: Option<PathBuf>,
+        /// Run this complete WGSL kernel (as --emit-shader writes it, possibly edited) instead
+        /// of the assembled one; its bindings must be those of the kernel this render would
+        /// assemble (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        kernel: Option<PathBuf>,
+        /// Comma-separated outputs to compute and write: id, distance, normal, color (color.png,
+        /// png only). Default: every output the formats write.
+        #[arg(long, value_name = "LIST", value_delimiter = ',')]
+        outputs: Option<Vec<Output>>,
+        /// Shade hook: a WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`, called for
+        /// every pixel, misses too, to colour color.png (GPU, f32 or f64).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Colour color.png by the course's ray tracer from the scene's materials and lights
+        /// (Blinn-Phong, hard shadows, mirror reflections): the shade hook
+        /// shaders/examples/raytrace.wgsl on the GPU, its mirror on the CPU (f32 or f64)
+        #[arg(long)]
+        lit: bool,
+        /// After rendering, watch the scene file, its meshes, the shader and kernel files and render
+        /// again when one changes (polled every 200 ms); errors are printed and watching goes
+        /// on. Ctrl-C ends it.
+        #[arg(long)]
+        watch: bool,
+        /// Render and write in bands of at most this many rows, holding one band at a time
+        /// (GPU, f32 or f64, without --spp). Images above 16.7 million pixels always are, in
+        /// bands of about four million pixels.
+        #[arg(long, value_name = "ROWS", value_parser = clap::value_parser!(u32).range(1..))]
+        band_rows: Option<u32>,
+    },
+    /// Render a scene two ways and print how they differ, as one JSON object.
+    Compare {
+        /// Scene file (JSON).
+        scene: PathBuf,
+        /// Image size in pixels (overrides the scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// First render, DEVICE[:PRECISION][:ALGORITHM].
+        #[arg(long, default_value = "gpu:f32:robust")]
+        a: Mode,
+        /// Second render, the reference for relative errors.
+        #[arg(long, default_value = "cpu:f64:robust")]
+        b: Mode,
+        /// Render side b from this scene instead (same camera size), to compare two scenes.
+        #[arg(long)]
+        b_scene: Option<PathBuf>,
+        /// Also write mismatch.png and distance_error.png into this folder.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Exit with code 1 when a metric exceeds its bound, e.g. hit_mismatch=0,distance.rel_max=1e-5.
+        #[arg(long, value_delimiter = ',', value_parser = compare::parse_bound)]
+        fail_above: Vec<(String, f64)>,
+        /// Colour both sides' color.png by this shade hook (GPU sides) and compare them too
+        /// (color_error.png).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Light both sides by the course's ray tracer (the shipped hook on the GPU, its mirror
+        /// on the CPU) and compare their color.png too.
+        #[arg(long)]
+        lit: bool,
+    },
+    /// Render scenes in every mode and print a markdown table of each against a reference.
+    Accuracy {
+        /// Scene files (JSON).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Image size in pixels (overrides every scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// The mode every other is compared with, DEVICE[:PRECISION][:ALGORITHM].
+        #[arg(long, default_value = "cpu:f64:robust")]
+        reference: Mode,
+        /// Comma-separated modes. Default: gpu|cpu x f32|f64 x textbook|robust, GPU f64 only
+        /// where the adapter has SHADER_F64.
+        #[arg(long, value_delimiter = ',')]
+        modes: Option<Vec<Mode>>,
+        /// Also write the table, with what generated it and the scenes' comments, to this file.
+        #[arg(long)]
+        markdown: Option<PathBuf>,
+    },
+    /// Time and error of every mode the device supports, against CPU f64 robust: writes
+    /// tradeoff.csv, tradeoff.md and tradeoff.png into DIR.
+    Tradeoff {
+        /// Scene files (JSON).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Image size in pixels (overrides every scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// Timed runs per mode, after one warm-up run; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Comma-separated sample counts at which gpu:f32:robust is also measured (against
+        /// cpu:f64:robust at 64 spp); every mode is measured at 1.
+        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = supersample::parse_spp)]
+        spp: Vec<u32>,
+        /// Output folder (created if missing).
+        #[arg(short, long, value_name = "DIR")]
+        output: PathBuf,
+    },
+    /// Time each kernel specialisation on each scene, with it and with it turned off
+    /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
+    /// markdown and write it to --out.
+    Specializations {
+        /// Scene files, or folders of scene files (their *.json, in name order).
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specialize::DEFAULT_SCENES)]
+        scenes: Vec<PathBuf>,
+        /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
+        /// where it exists (else the table says it was not measured).
+        #[arg(long, value_name = "FILE")]
+        torus: Option<PathBuf>,
+        /// Timed rounds, after one warm-up round; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Leave out the BVH crossover measurement (random spheres and triangles, n = 2..256).
+        #[arg(long)]
+        no_crossover: bool,
+        /// The markdown file to write (whole or not at all).
+        #[arg(long, value_name = "FILE", default_value = "docs/specializations.md")]
+        out: PathBuf,
+    },
+    /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
+    /// the error, with its line and column.
+    CheckShader {
+        /// WGSL file defining `fn shade(hit: ShadeHit) -> vec4<f32>`.
+        file: PathBuf,
+    },
+    /// Time the stages of a frame (build, upload, trace) and the primary-ray rate, per mode and
+    /// acceleration: median of N runs after one warm-up.
+    Bench {
+        /// Scene file (JSON).
+        scene: PathBuf,
+        /// Image size in pixels (overrides the scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// Timed runs per configuration, after one warm-up run; the median is reported.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        /// Print one JSON object per configuration, one per line, and nothing else on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
+        #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
+        mode: Vec<Mode>,
+        /// Comma-separated accelerations: auto (a BVH where spheres / 32 + triangles / 8 >= 1),
+        /// bvh, brute-force.
+        #[arg(long, value_delimiter = ',', default_value = "auto")]
+        accel: Vec<Accel>,
+        /// Run this shade hook in every frame (GPU modes); a hook that casts rays reports them
+        /// as secondary rays a second.
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Run the course's ray tracer in every frame (the shipped hook on the GPU, its mirror
+        /// on the CPU).
+        #[arg(long, conflicts_with = "shader")]
+        lit: bool,
+        /// Cast this many incoherent rays at the scene's geometry instead of the camera's:
+        /// origins uniform in a cube 4/3 the size of its bounds, directions uniform (at most
+        /// 67,108,864).
+        #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = clap::value_parser!(u64).range(1..=study::bench::MAX_RAYS as u64))]
+        rays: Option<u64>,
+    },
+    /// Write a benchmark scene: `torus` (the peers' displaced torus, 518,400 triangles, in a
+    /// binary PLY beside the scene file) or `spheres` (100 spheres), seen by the peers' camera.
+    Workload {
+        /// torus or spheres.
+        name: String,
+        /// Output folder (created if missing).
+        #[arg(short, long, default_value = ".")]
+        output: PathBuf,
+        /// Image size in pixels.
+        #[arg(long, value_parser = scene::parse_size, default_value = "1920x1080")]
+        size: [u32; 2],
+        /// The torus's triangles, about (a grid twice as long around as across).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
+        triangles: Option<u64>,
+    },
+    /// Show the GPU adapter, driver, and the features and limits raycast uses.
+    Info,
+    /// Render a built-in suite on this adapter and check each result against the CPU
+    /// reference: one line per check, then a summary; exit 1 when a check fails.
+    Selftest {
+        /// Print one JSON object per check, then one with the adapter and the summary, and
+        /// nothing else on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Comma-separated parts of check names: run only the checks whose name contains one.
+        #[arg(long, value_delimiter = ',', value_name = "NAMES")]
+        only: Vec<String>,
+        /// Make this check's GPU result wrong in one pixel or ray, to see the check fail.
+        #[arg(long, value_name = "CHECK")]
+        plant: Option<String>,
+    },
+}
+
+/// Exit code after SIGINT, SIGTERM or SIGHUP: 128 + SIGINT, as shells report an interrupt.
+const INTERRUPTED: i32 = 130;
+
+fn main() -> ExitCode {
+    quiet_mesa();
+    // A write beyond the file-size limit (`ulimit -f`) then fails with EFBIG, reported and
+    // cleaned up like a full disk, instead of killing the process with its files half written.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to SIG_IGN, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+    // Stopped by a signal, remove the files being written first: output is all or nothing.
+    let stop = || {
+        raycast::output::pending::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+    };
+    if let Err(e) = ctrlc::set_handler(stop) {
+        eprintln!("error: cannot install the interrupt handler: {e}");
+        return ExitCode::from(1);
+    }
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // A bad option value is one line like every other error, without clap's
+        // "For more information" footer; help, usage and other errors stay clap's own.
+        Err(e) if e.kind() == clap::error::ErrorKind::ValueValidation => {
+            let text = e.render().to_string();
+            eprintln!("{}", text.lines().next().unwrap_or_default());
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
+    match run(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            report(&e);
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Prints an error on stderr: one `error: ` line, or a shader error's own block (which says
+/// `error:` after its location, as compilers do).
+fn report(e: &raycast::Error) {
+    match e {
+        raycast::Error::Shader { .. } => eprintln!("{e}"),
+        _ => eprintln!("error: {e}"),
+    }
+}
+
+/// Prints a line on stdout. A closed stdout (`raycast ... | head -1`) is not an error worth a
+/// panic: the output is simply not wanted any more.
+fn say(line: impl std::fmt::Display) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
+/// Mesa's device-select layer prints "XDG_RUNTIME_DIR is invalid" lines on headless machines;
+/// raycast chooses its adapter itself, so the layer is not needed.
+fn quiet_mesa() {
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: called first thing in main, before any other thread exists.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
+/// A point or direction written `X,Y,Z`.
+fn parse_vector(s: &str) -> std::result::Result<DVec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 => Ok(DVec3::new(x, y, z)),
+        _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
+    }
+}
+
+/// `--depth-scale`: a positive finite number.
+fn parse_depth_scale(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("expected a positive number, got `{s}`")),
+    }
+}
+
+fn run(command: Command) -> Result<ExitCode> {
+    match command {
+        Command::Render {
+            scene,
+            output,
+            size,
+            format,
+            device,
+            precision,
+            algorithm,
+            spp,
+            background,
+            emit_shader,
+            kernel,
+            outputs,
+            shader,
+            lit,
+            watch,
+            band_rows,
+            depth,
+            depth_scale,
+            eye,
+            look_at,
+            up,
+            fov,
+        } => {
+            let mode = Mode {
+                device,
+                precision: precision.unwrap_or(device.default_precision()),
+                algorithm,
+            };
+            let encoding = output::Encoding {
+                background,
+                depth,
+                depth_scale,
+                ..output::Encoding::new(&format, outputs.as_deref())?
+            };
+            let view = scene::CameraOverrides {
+                eye,
+                look_at,
+                up,
+                fov,
+            };
+            let spec = render::Spec {
+                scene,
+                size,
+                mode,
+                default_precision: precision.is_none(),
+                spp,
+                band_rows,
+                shader,
+                lit,
+                kernel,
+                out_dir: output,
+                encoding,
+                emit_shader,
+                view,
+            };
+            render(&spec, watch)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare {
+            scene,
+            size,
+            a,
+            b,
+            b_scene,
+            output,
+            fail_above,
+            shader,
+            lit,
+        } => compare(&compare::Spec {
+            scene,
+            b_scene,
+            size,
+            modes: [a, b],
+            out_dir: output,
+            bounds: fail_above,
+            shader,
+            lit,
+        }),
+        Command::Accuracy {
+            scenes,
+            size,
+            reference,
+            modes,
+            markdown,
+        } => {
+            let markdown = markdown.as_deref();
+            study::accuracy::command(&scenes, size, reference, modes, markdown, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Tradeoff {
+            scenes,
+            size,
+            runs,
+            spp,
+            output,
+        } => {
+            study::tradeoff::command(&scenes, size, runs as usize, spp, &output, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Specializations {
+            scenes,
+            torus,
+            runs,
+            no_crossover,
+            out,
+        } => {
+            let (torus, runs) = (torus.as_deref(), runs as usize);
+            study::specialize::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::CheckShader { file } => {
+            gpu::hooks::load(&file)?;
+            say(format!("{}: ok", file.display()));
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Bench {
+            scene,
+            size,
+            runs,
+            json,
+            mode,
+            accel,
+            shader,
+            lit,
+            rays,
+        } => {
+            let shade = gpu::hooks::requested(lit, shader.as_deref())?;
+            let options = study::bench::Options {
+                runs: runs as usize,
+                modes: mode,
+                accels: accel,
+                shade,
+                rays: rays.map(|n| n as usize),
+            };
+            study::bench::command(&scene, size, options, json, say_on)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Info => {
+            let gpu = Gpu::new()?;
+            say(gpu::describe(&gpu).trim_end());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Workload {
+            name,
+            output,
+            size,
+            triangles,
+        } => {
+            let triangles = triangles.map(|n| n as usize);
+            let path = study::workload::write(&name, &output, size, triangles)?;
+            say(format!("wrote {}", path.display()));
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Selftest { json, only, plant } => {
+            selftest(&study::selftest::Options { only, plant }, json)
+        }
+    }
+}
+
+/// `raycast selftest`: the checks as they end, then the adapter and the summary.
+fn selftest(options: &study::selftest::Options, json: bool) -> Result<ExitCode> {
+    use study::selftest;
+    let gpu = Gpu::new()?;
+    // Refused before the adapter's lines are printed: a bad --only or --plant prints nothing.
+    selftest::check_options(&gpu, options)?;
+    let adapter = selftest::Adapter::probe(&gpu)?;
+    if !json {
+        adapter.lines.iter().for_each(say);
+    }
+    let mut on_check = |check: &selftest::Check| match json {
+        true => say(serde_json::to_string(check).expect("a check serialises")),
+        false => say(check.line()),
+    };
+    let report = selftest::run(&gpu, &adapter, options, &mut on_check)?;
+    if json {
+        let summary = serde_json::json!({
+            "summary": {
+                "adapter": adapter.lines,
+                "passed": report.count(selftest::Outcome::Pass),
+                "failed": report.count(selftest::Outcome::Fail),
+                "skipped": report.count(selftest::Outcome::Skip),
+                "seconds": report.seconds,
+            }
+        });
+        say(summary);
+    } else {
+        say(report.summary());
+    }
+    Ok(ExitCode::from(u8::from(!report.passed())))
+}
+
+/// Renders once, or with `watch` again whenever a file it reads changes, for ever.
+fn render(spec: &render::Spec, watch: bool) -> Result<()> {
+    // From the options alone: watched_files() would load the scene and its meshes.
+    if watch && spec.scene.is_none() && spec.shader.is_none() && spec.kernel.is_none() {
+        return Err(raycast::Error::Argument {
+            option: "--watch".into(),
+            message: "nothing to watch: the built-in scene has no file; give a scene file, --shader or --kernel".into(),
+        });
+    }
+    spec.check()?;
+    // One device for every render, so kernels compiled once stay cached.
+    let gpu = render::gpu_for(&[spec.mode])?;
+    let render_once = || {
+        progress::cpu_rows(|p| spec.run(gpu.as_ref(), p))
+            .map(|s| s.lines().into_iter().for_each(say))
+    };
+    if !watch {
+        return render_once();
+    }
+    loop {
+        let files = spec.watched_files();
+        // Taken before rendering: a change during the render triggers the next one.
+        let before = stamps(&files);
+        if let Err(e) = render_once() {
+            report(&e);
+        }
+        let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("watching {} for changes (Ctrl-C ends)", names.join(", "));
+        while stamps(&files) == before {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+    }
+}
+
+/// A file's modification time and length, `None` while it cannot be read.
+type Stamp = Option<(std::time::SystemTime, u64)>;
+
+fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
+    files
+        .iter()
+        .map(|f| {
+            let m = std::fs::metadata(f).ok()?;
+            Some((m.modified().ok()?, m.len()))
+        })
+        .collect()
+}
+
+fn compare(spec: &compare::Spec) -> Result<ExitCode> {
+    let gpu = render::gpu_for(&spec.modes)?;
+    let outcome = spec.run(gpu.as_ref())?;
+    say(&outcome.json);
+    for path in &outcome.written {
+        eprintln!("wrote {}", path.display());
+    }
+    for line in &outcome.exceeded {
+        eprintln!("fail-above: {line}");
+    }
+    Ok(ExitCode::from(u8::from(!outcome.exceeded.is_empty())))
+}
+
+/// Prints a study's line on the stream it names.
+fn say_on(stream: Stream, line: &str) {
+    match stream {
+        Stream::Stdout => say(line),
+        Stream::Stderr => eprintln!("{line}"),
+    }
+}

@@ -1,0 +1,851 @@
+//! `raycast bench`: where the time of a frame goes, and how fast primary rays are cast, for
+//! each run configuration (mode x acceleration) of one scene.
+//!
+//! Per configuration ([`measure`]): one warm-up frame (which compiles the GPU kernel), then
+//! [`Options::runs`] timed frames, each with its stages timed apart and the median over the
+//! runs reported ([`Row`]):
+//! - GPU modes run [`raycast::render::on_gpu`]: primitives rounded and laid out and the BVH built
+//!   (`build_s`), the scene's buffers uploaded (`upload_s`), every tile dispatched and read
+//!   back (`trace_s`, wall clock) and the kernel's GPU time from timestamp queries
+//!   (`trace_gpu_s`).
+//! - CPU modes time [`Prepared::new`] (the BVH build and the layout, `build_s`) apart from
+//!   [`cpu::render_prepared`] on it (`trace_s`); nothing is uploaded.
+//!
+//! With a shade hook (`--shader`, `--lit`) every frame also colours `color.png`; a hook that
+//! casts rays reports them too, as secondary rays a second (`secondary_mrays_per_s`, over the
+//! same time as the primary rays).
+//!
+//! Adaptive precision runs two passes whose stages do not add up to one frame, and is not
+//! measured here (`raycast tradeoff` times it as a whole).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicU32;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::{Stream, Table, format_seconds, median, plural};
+use raycast::algorithm::Algorithm;
+use raycast::cpu;
+use raycast::error::{Error, Result};
+use raycast::gpu::hooks::ShadeHook;
+use raycast::gpu::{self, Gpu, layout::GpuTriangle};
+use raycast::images::{Images, MISS};
+use raycast::math::{Precision, Real};
+use raycast::prepare::Prepared;
+use raycast::prepare::bvh::{Accel, Bvh};
+use raycast::render::{self, Arithmetic, Device, Mode};
+use raycast::scene::{Object, Scene};
+
+/// `--runs` unless given.
+pub const DEFAULT_RUNS: usize = 5;
+
+/// `--mode` unless given: the default render.
+pub const DEFAULT_MODE: Mode = Mode {
+    device: Device::Gpu,
+    precision: Arithmetic::F32,
+    algorithm: Algorithm::Robust,
+};
+
+/// The most rays `--rays` casts: their list and hits fit a few GiB.
+pub const MAX_RAYS: usize = 1 << 26;
+
+/// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
+const OBJECT_ID_BYTES: usize = 4;
+
+/// What to measure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Timed runs per configuration, after one warm-up run (at least 1).
+    pub runs: usize,
+    pub modes: Vec<Mode>,
+    pub accels: Vec<Accel>,
+    /// A shade hook every frame runs (GPU modes; on the CPU only the ray tracer's mirror).
+    pub shade: Option<ShadeHook>,
+    /// Cast this many incoherent rays ([`incoherent_rays`]) instead of the camera's.
+    pub rays: Option<usize>,
+}
+
+impl Default for Options {
+    /// [`DEFAULT_RUNS`] runs of [`DEFAULT_MODE`] with [`Accel::Auto`].
+    fn default() -> Options {
+        Options {
+            runs: DEFAULT_RUNS,
+            modes: vec![DEFAULT_MODE],
+            accels: vec![Accel::Auto],
+            shade: None,
+            rays: None,
+        }
+    }
+}
+
+impl Options {
+    /// Every (mode, accel) pair, mode by mode, in the order given.
+    pub fn configurations(&self) -> Vec<(Mode, Accel)> {
+        self.modes
+            .iter()
+            .flat_map(|&m| self.accels.iter().map(move |&a| (m, a)))
+            .collect()
+    }
+
+    /// At least one run and one configuration; no adaptive precision (module docs).
+    pub fn check(&self) -> Result<()> {
+        if self.runs == 0 {
+            return Err(Error::Argument {
+                option: "--runs".into(),
+                message: "at least one timed run is needed".into(),
+            });
+        }
+        if self.modes.is_empty() || self.accels.is_empty() {
+            return Err(Error::Argument {
+                option: "--mode/--accel".into(),
+                message: "nothing to measure".into(),
+            });
+        }
+        if let Some(m) = self
+            .modes
+            .iter()
+            .find(|m| m.precision == Arithmetic::Adaptive)
+        {
+            return Err(Error::Argument {
+                option: "--mode".into(),
+                message: format!(
+                    "{m}: adaptive precision runs two passes whose stages are not one frame's; \
+                     bench f32 or f64 (raycast tradeoff times adaptive as a whole)"
+                ),
+            });
+        }
+        let request = self.request();
+        for &mode in &self.modes {
+            render::check_request(mode, &request)?;
+        }
+        match self.rays {
+            Some(n) if n == 0 || n > MAX_RAYS => Err(Error::Argument {
+                option: "--rays".into(),
+                message: format!("{n} rays: from 1 to {MAX_RAYS}"),
+            }),
+            Some(_) if self.shade.is_some() => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list has no shade hook; leave out --shader and --lit".into(),
+            }),
+            Some(_) if self.accels != [Accel::Auto] => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list chooses its own acceleration; leave out --accel".into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// What every frame renders: every output, with the hook.
+    fn request(&self) -> render::Request {
+        render::Request {
+            shade: self.shade.clone(),
+            ..render::Request::default()
+        }
+    }
+
+    /// Whether some configuration runs on the GPU.
+    pub fn needs_gpu(&self) -> bool {
+        render::needs_gpu(&self.modes)
+    }
+}
+
+/// A scene as loaded for benchmarking: where it came from and how long loading took.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub path: PathBuf,
+    pub scene: Scene,
+    /// Wall seconds of [`Scene::load`] (parsing, mesh files, validation).
+    pub load_s: f64,
+}
+
+/// Loads `path` (timed), with `size` overriding its resolution.
+pub fn load(path: &Path, size: Option<[u32; 2]>) -> Result<Loaded> {
+    let start = Instant::now();
+    let scene = raycast::scene::load_sized(Some(path), size)?;
+    let load_s = start.elapsed().as_secs_f64();
+    Ok(Loaded {
+        path: path.to_owned(),
+        scene,
+        load_s,
+    })
+}
+
+/// A scene's spheres, planes and triangles (a soup's triangles counted one by one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    pub spheres: usize,
+    pub planes: usize,
+    pub triangles: usize,
+}
+
+impl Counts {
+    pub fn of(scene: &Scene) -> Counts {
+        let mut c = Counts::default();
+        for object in &scene.objects {
+            match object {
+                Object::Sphere { .. } => c.spheres += 1,
+                Object::Plane { .. } => c.planes += 1,
+                Object::Triangle { .. } => c.triangles += 1,
+                Object::Soup { triangles, .. } => c.triangles += triangles.len(),
+            }
+        }
+        c
+    }
+}
+
+/// Bytes per triangle of the primitive layout a render traces, `None` without triangles:
+///
+/// `(T * triangle_bytes + 4 * (S + P + T) + bvh_bytes) / T`
+///
+/// with `S`, `P`, `T` the sphere, plane and triangle counts, `triangle_bytes` the size of one
+/// triangle as the render stores it (on the GPU `GpuTriangle`: 40 bytes in f32, 80 in f64; on
+/// the CPU `cpu::types::Triangle`: 36 in f32, 72 in f64), `4 * (S + P + T)` the object-id
+/// buffer (one `u32` per primitive) and `bvh_bytes` [`Bvh::bytes`] (64 bytes per node plus a
+/// 4-byte order entry per sphere and triangle) when the render uses a BVH, else 0. On the GPU
+/// these are the device buffers of bindings 3, 4, 9 and 10 (less the 4 bytes per plane the
+/// order buffer also holds).
+pub fn bytes_per_triangle(counts: Counts, triangle_bytes: usize, bvh: Option<&Bvh>) -> Option<f64> {
+    let Counts {
+        spheres: s,
+        planes: p,
+        triangles: t,
+    } = counts;
+    if t == 0 {
+        return None;
+    }
+    let bytes = t * triangle_bytes + OBJECT_ID_BYTES * (s + p + t) + bvh.map_or(0, Bvh::bytes);
+    Some(bytes as f64 / t as f64)
+}
+
+/// One configuration's measurement: `raycast bench --json` prints it as one JSON line, keys in
+/// this order. Times are in seconds, medians over the timed runs unless said otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Row {
+    /// The scene file, as given.
+    pub scene: String,
+    /// `DEVICE:PRECISION:ALGORITHM`.
+    pub mode: String,
+    /// The acceleration asked for: `auto`, `bvh` or `brute-force`.
+    pub accel: String,
+    /// Whether the render went through a BVH (what `auto` chose).
+    pub bvh: bool,
+    /// Image size `[width, height]`.
+    pub size: [u32; 2],
+    /// Primary rays per frame: one per pixel.
+    pub rays: u64,
+    /// The shade hook, if any (its file).
+    pub hook: Option<String>,
+    /// Rays the hook cast per frame (the last run's), where it casts any.
+    pub secondary_rays: Option<u64>,
+    pub triangles: usize,
+    pub spheres: usize,
+    pub planes: usize,
+    /// Timed runs (after one warm-up).
+    pub runs: usize,
+    /// [`Scene::load`] once, before every configuration (the same value on every row).
+    pub load_s: f64,
+    /// BVH build (when used) and primitive layout: [`gpu::Stages::build_s`] on the GPU,
+    /// [`Prepared::new`] on the CPU.
+    pub build_s: f64,
+    /// The warm-up frame's kernel compilation ([`gpu::Stages::compile_s`]); `None` on the CPU.
+    pub compile_s: Option<f64>,
+    /// The scene's buffers created and filled on the device; `None` on the CPU.
+    pub upload_s: Option<f64>,
+    /// Wall time of casting the frame: every tile dispatched and read back on the GPU, the
+    /// render from built primitives on the CPU.
+    pub trace_s: f64,
+    /// The kernel's GPU time, summed over tiles (timestamp queries); `None` on the CPU or
+    /// without `TIMESTAMP_QUERY`.
+    pub trace_gpu_s: Option<f64>,
+    /// Million rays per second: `rays / trace_gpu_s` where there is a GPU time, else
+    /// `rays / trace_s` (`mrays_from` says which).
+    pub mrays_per_s: f64,
+    /// Million rays per second of wall time: `rays / trace_s`.
+    pub mrays_per_s_wall: f64,
+    /// Million secondary rays per second: `secondary_rays` over the time `mrays_per_s` divides
+    /// by (the frame's, which casts both).
+    pub secondary_mrays_per_s: Option<f64>,
+    /// `"gpu_timestamps"` or `"wall"`: what `mrays_per_s` divides by.
+    pub mrays_from: &'static str,
+    /// Fraction of rays that hit something (the last run's frame).
+    pub hit_fraction: f64,
+    /// Peak resident set of the process in MiB (`VmHWM` of /proc/self/status, reset before the
+    /// configuration where the kernel allows; on lavapipe this includes the "device" buffers);
+    /// `None` where there is no /proc.
+    pub peak_rss_mb: Option<f64>,
+    /// See [`bytes_per_triangle`]; `None` without triangles.
+    pub bytes_per_triangle: Option<f64>,
+    /// BVH nodes (64 bytes each), when a BVH is used.
+    pub bvh_nodes: Option<usize>,
+    /// The GPU adapter's name; `None` on the CPU.
+    pub adapter: Option<String>,
+    /// The adapter's driver information (Mesa's version on lavapipe); `None` on the CPU.
+    pub driver: Option<String>,
+    /// The host CPU's model name (what lavapipe and the CPU reference run on), if known.
+    pub cpu: Option<String>,
+}
+
+/// Per-run stage times.
+#[derive(Clone, Copy, Debug, Default)]
+struct Run {
+    build_s: f64,
+    compile_s: f64,
+    upload_s: Option<f64>,
+    trace_s: f64,
+    kernel_s: Option<f64>,
+    hits: usize,
+    hook_rays: Option<u64>,
+}
+
+/// One frame in `mode` (never adaptive) with `accel` and `request`'s hook, its stages timed
+/// apart.
+fn run_once(
+    scene: &Scene,
+    mode: Mode,
+    accel: Accel,
+    gpu: Option<&Gpu>,
+    request: &render::Request,
+) -> Result<Run> {
+    match (mode.device, mode.precision) {
+        (Device::Gpu, precision) => {
+            let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+            let precision = match precision {
+                Arithmetic::F64 => Precision::F64,
+                _ => Precision::F32,
+            };
+            let mut variant = gpu::shader::Variant {
+                bvh: accel.uses_bvh(scene),
+                ..gpu.scene_variant(scene, precision, mode.algorithm)
+            };
+            if let Some(hook) = &request.shade {
+                variant = variant.with_shade(hook.key, hook.traces);
+            }
+            let variant = variant.with_outputs(request.kernel_outputs());
+            let (hits, stages) = match precision {
+                Precision::F32 => {
+                    let (images, stages) =
+                        raycast::render::on_gpu::<f32>(gpu, scene, variant, true)?;
+                    (hits(&images), stages)
+                }
+                Precision::F64 => {
+                    let (images, stages) =
+                        raycast::render::on_gpu::<f64>(gpu, scene, variant, true)?;
+                    (hits(&images), stages)
+                }
+            };
+            Ok(Run {
+                build_s: stages.build_s,
+                compile_s: stages.compile_s,
+                upload_s: Some(stages.upload_s),
+                trace_s: stages.trace_s,
+                kernel_s: stages.kernel_s,
+                hits,
+                hook_rays: stages.hook_rays,
+            })
+        }
+        (Device::Cpu, precision) => {
+            // check_request lets only the ray tracer's mirror through.
+            let lit = request.shade.is_some();
+            Ok(match precision {
+                Arithmetic::F32 => cpu_once::<f32>(scene, mode.algorithm, accel, lit),
+                _ => cpu_once::<f64>(scene, mode.algorithm, accel, lit),
+            })
+        }
+    }
+}
+
+/// One CPU frame, and with `lit` its colours by the ray tracer's mirror in the same time.
+fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel, lit: bool) -> Run {
+    let start = Instant::now();
+    let prepared = Prepared::<T>::new(scene, algorithm, accel);
+    let build_s = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let images = cpu::render_prepared(&prepared, &AtomicU32::new(0));
+    let hook_rays = lit.then(|| cpu::raytrace::render(&prepared).1);
+    let trace_s = start.elapsed().as_secs_f64();
+    Run {
+        build_s,
+        trace_s,
+        hits: hits(&images),
+        hook_rays,
+        ..Run::default()
+    }
+}
+
+fn hits<T>(images: &Images<T>) -> usize {
+    images.id.iter().filter(|&&id| id != MISS).count()
+}
+
+/// Measures `loaded` in `mode` with `accel`: one warm-up frame, then `runs` timed ones (module
+/// docs). `tick` is called after every frame.
+pub fn measure(
+    loaded: &Loaded,
+    (mode, accel): (Mode, Accel),
+    runs: usize,
+    gpu: Option<&Gpu>,
+    request: &render::Request,
+    tick: &mut dyn FnMut(),
+) -> Result<Row> {
+    let scene = &loaded.scene;
+    reset_peak_rss();
+    let warm_up = run_once(scene, mode, accel, gpu, request)?;
+    tick();
+    let mut timed = Vec::with_capacity(runs);
+    for _ in 0..runs.max(1) {
+        timed.push(run_once(scene, mode, accel, gpu, request)?);
+        tick();
+    }
+    let peak_rss_mb = render::peak_rss_mib();
+    let column = |f: fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
+    let build_s = column(|r| r.build_s);
+    let trace_s = column(|r| r.trace_s);
+    let upload_s = timed[0]
+        .upload_s
+        .map(|_| column(|r| r.upload_s.unwrap_or(0.0)));
+    let trace_gpu_s = timed
+        .iter()
+        .map(|r| r.kernel_s)
+        .collect::<Option<Vec<f64>>>()
+        .map(|k| median(&k));
+
+    let rays = scene.camera.pixel_count();
+    let mrays = |s: f64| rays as f64 / s * 1e-6;
+    let (frame_s, mrays_from) = match trace_gpu_s {
+        Some(s) if s > 0.0 => (s, "gpu_timestamps"),
+        _ => (trace_s, "wall"),
+    };
+    let mrays_per_s = mrays(frame_s);
+    let counts = Counts::of(scene);
+    let uses_bvh = accel.uses_bvh(scene) && (counts.spheres + counts.triangles) > 0;
+    // Built again outside the timed runs, to count what the render held.
+    let bvh = uses_bvh.then(|| Bvh::build(scene, mode.algorithm));
+    let triangle_bytes = match (mode.device, mode.precision) {
+        (Device::Gpu, Arithmetic::F64) => size_of::<GpuTriangle<f64>>(),
+        (Device::Gpu, _) => size_of::<GpuTriangle<f32>>(),
+        (Device::Cpu, Arithmetic::F32) => size_of::<cpu::types::Triangle<f32>>(),
+        (Device::Cpu, _) => size_of::<cpu::types::Triangle<f64>>(),
+    };
+    let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);
+    let last = timed.last().expect("at least one run");
+    let secondary_rays = last.hook_rays;
+    Ok(Row {
+        scene: loaded.path.display().to_string(),
+        mode: mode.to_string(),
+        accel: accel_name(accel).to_owned(),
+        bvh: uses_bvh,
+        size: scene.camera.resolution,
+        rays,
+        hook: (request.shade.as_ref()).map(|h| h.file.display().to_string()),
+        secondary_rays,
+        triangles: counts.triangles,
+        spheres: counts.spheres,
+        planes: counts.planes,
+        runs: timed.len(),
+        load_s: loaded.load_s,
+        build_s,
+        compile_s: warm_up.upload_s.map(|_| warm_up.compile_s),
+        upload_s,
+        trace_s,
+        trace_gpu_s,
+        mrays_per_s,
+        mrays_per_s_wall: mrays(trace_s),
+        secondary_mrays_per_s: secondary_rays.map(|n| n as f64 / frame_s * 1e-6),
+        mrays_from,
+        hit_fraction: last.hits as f64 / rays.max(1) as f64,
+        peak_rss_mb,
+        bytes_per_triangle: bytes_per_triangle(counts, triangle_bytes, bvh.as_ref()),
+        bvh_nodes: bvh.as_ref().map(|b| b.nodes.len()),
+        adapter: on_gpu.as_ref().map(|i| i.name.clone()),
+        driver: on_gpu.map(|i| i.driver_info),
+        cpu: cpu_model(),
+    })
+}
+
+/// `n` incoherent rays about `scene`'s geometry: origins uniform in a cube about the centre of
+/// its bounds, 4/3 of their largest extent across (the peers' torus: [-2, 2]^3), directions
+/// uniform on the sphere (seed 1).
+pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::rays::Ray> {
+    let (lo, hi) = raycast::scene::bounds(&scene.objects).unwrap_or_default();
+    let centre = (lo + hi) / 2.0;
+    let half = (hi - lo).max_element() / 2.0 * 4.0 / 3.0;
+    let mut rays = super::selftest::scenes::incoherent_rays(n, half.max(1e-30), 1);
+    for ray in &mut rays {
+        ray.origin = std::array::from_fn(|a| ray.origin[a] + centre[a]);
+    }
+    rays
+}
+
+/// Measures `n` incoherent rays cast at `loaded` in `mode` through [`RayScene::cast`]: one
+/// warm-up cast (which builds, uploads and compiles), then `runs` timed ones, wall time.
+fn measure_rays(
+    loaded: &Loaded,
+    mode: Mode,
+    n: usize,
+    runs: usize,
+    gpu: Option<&Gpu>,
+    tick: &mut dyn FnMut(),
+) -> Result<Row> {
+    let rays = incoherent_rays(&loaded.scene, n);
+    let scene = raycast::rays::RayScene::from_scene(loaded.scene.clone());
+    let gpu = gpu.filter(|_| mode.device == Device::Gpu);
+    reset_peak_rss();
+    let warm_up = scene.cast(gpu, mode, &rays[..])?;
+    tick();
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs.max(1) {
+        let (cast, time) = render::timed(|| scene.cast(gpu, mode, &rays[..]));
+        cast?;
+        times.push(time.as_secs_f64());
+        tick();
+    }
+    let trace_s = median(&times);
+    let counts = Counts::of(&loaded.scene);
+    let hits = warm_up.id().iter().filter(|&&id| id != MISS).count();
+    let info = gpu.map(Gpu::info);
+    Ok(Row {
+        scene: loaded.path.display().to_string(),
+        mode: mode.to_string(),
+        accel: accel_name(Accel::Auto).to_owned(),
+        bvh: Accel::Auto.uses_bvh(&loaded.scene),
+        size: [n.min(u32::MAX as usize) as u32, 1],
+        rays: n as u64,
+        hook: None,
+        secondary_rays: None,
+        triangles: counts.triangles,
+        spheres: counts.spheres,
+        planes: counts.planes,
+        runs: times.len(),
+        load_s: loaded.load_s,
+        build_s: 0.0,
+        compile_s: None,
+        upload_s: None,
+        trace_s,
+        trace_gpu_s: None,
+        mrays_per_s: n as f64 / trace_s * 1e-6,
+        mrays_per_s_wall: n as f64 / trace_s * 1e-6,
+        secondary_mrays_per_s: None,
+        mrays_from: "wall",
+        hit_fraction: hits as f64 / n as f64,
+        peak_rss_mb: render::peak_rss_mib(),
+        bytes_per_triangle: None,
+        bvh_nodes: None,
+        adapter: info.as_ref().map(|i| i.name.clone()),
+        driver: info.map(|i| i.driver_info),
+        cpu: cpu_model(),
+    })
+}
+
+/// Measures every configuration of `options` in turn, calling `on_row` as each is done. With
+/// `progress`, a progress bar over the frames is drawn on stderr when it is a terminal (and
+/// hidden while `on_row` runs).
+pub fn run(
+    loaded: &Loaded,
+    options: &Options,
+    gpu: Option<&Gpu>,
+    progress: bool,
+    mut on_row: impl FnMut(&Row),
+) -> Result<Vec<Row>> {
+    options.check()?;
+    check_size(loaded, options)?;
+    if options.needs_gpu() && gpu.is_none() {
+        return Err(Error::Device("a GPU mode needs a device".into()));
+    }
+    let configurations = options.configurations();
+    let frames = configurations.len() * (1 + options.runs);
+    let bar = crate::progress::bar(
+        progress,
+        frames as u64,
+        "bench {bar:24} {pos}/{len} frames: {wide_msg}",
+    );
+    let mut rows = Vec::with_capacity(configurations.len());
+    for config in configurations {
+        bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
+        let request = options.request();
+        let mut tick = || bar.inc(1);
+        let row = match options.rays {
+            Some(n) => measure_rays(loaded, config.0, n, options.runs, gpu, &mut tick)?,
+            None => measure(loaded, config, options.runs, gpu, &request, &mut tick)?,
+        };
+        bar.suspend(|| on_row(&row));
+        rows.push(row);
+    }
+    bar.finish_and_clear();
+    Ok(rows)
+}
+
+/// A frame is rendered whole (bench times whole frames, not bands): at most
+/// [`render::STREAM_PIXELS`] pixels.
+fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
+    let pixels = loaded.scene.camera.pixel_count();
+    if options.rays.is_none() && pixels > render::STREAM_PIXELS {
+        let [w, h] = loaded.scene.camera.resolution;
+        return Err(Error::Argument {
+            option: "--size".into(),
+            message: format!(
+                "{w}x{h}: bench renders each frame whole, of at most {} pixels; give a smaller --size",
+                render::STREAM_PIXELS
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// `auto`, `bvh` or `brute-force`, as `--accel` spells it.
+pub fn accel_name(accel: Accel) -> &'static str {
+    match accel {
+        Accel::Auto => "auto",
+        Accel::Bvh => "bvh",
+        Accel::BruteForce => "brute-force",
+    }
+}
+
+/// Resets `VmHWM` to the current resident set (Linux: `5` written to /proc/self/clear_refs),
+/// so each configuration's peak is its own; where that fails the peak is the process's.
+fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The CPU's model name from /proc/cpuinfo.
+fn cpu_model() -> Option<String> {
+    let info = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    info.lines()
+        .find(|l| l.starts_with("model name"))
+        .and_then(|l| l.split_once(':'))
+        .map(|(_, name)| name.trim().to_owned())
+}
+
+/// The lines printed above the table: the adapter and its driver (or the CPU), the scene and
+/// what was measured.
+pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<String> {
+    let mut lines = Vec::new();
+    if let Some(g) = gpu {
+        let info = g.info();
+        lines.push(format!(
+            "adapter: {}, driver: {}",
+            info.name, info.driver_info
+        ));
+    }
+    let threads = rayon::current_num_threads();
+    lines.push(format!(
+        "cpu: {}, {threads} threads",
+        cpu_model().unwrap_or_else(|| "unknown".into())
+    ));
+    let c = Counts::of(&loaded.scene);
+    let [nx, ny] = loaded.scene.camera.resolution;
+    lines.push(format!(
+        "scene: {} ({} triangles, {} spheres, {} planes), loaded in {} s",
+        loaded.path.display(),
+        c.triangles,
+        c.spheres,
+        c.planes,
+        format_seconds(loaded.load_s)
+    ));
+    lines.push(format!(
+        "{nx}x{ny} = {} rays, median of {} after 1 warm-up; Mrays/s from GPU timestamps where \
+         there are some, else wall",
+        nx as u64 * ny as u64,
+        plural(options.runs, "run")
+    ));
+    if let Some(hook) = &options.shade {
+        lines.push(format!(
+            "shade hook: {}{}",
+            hook.file.display(),
+            match hook.traces {
+                true => ", which casts rays: secondary Mrays/s over the same frame time",
+                false => "",
+            }
+        ));
+    }
+    lines
+}
+
+/// Column headings of [`to_table`].
+pub const COLUMNS: [&str; 13] = [
+    "mode",
+    "accel",
+    "build s",
+    "upload s",
+    "trace s",
+    "trace GPU s",
+    "Mrays/s",
+    "Mrays/s wall",
+    "secondary rays",
+    "secondary Mrays/s",
+    "hit %",
+    "peak RSS MiB",
+    "B/triangle",
+];
+
+/// The rows as an aligned markdown table, ending in a line break.
+pub fn to_table(rows: &[Row]) -> String {
+    let seconds = |s: Option<f64>| s.map_or("-".to_owned(), format_seconds);
+    let mut table = Table::text_then_numbers(&COLUMNS, 2);
+    for r in rows {
+        let accel = if r.accel == "auto" {
+            format!("auto ({})", if r.bvh { "bvh" } else { "brute-force" })
+        } else {
+            r.accel.clone()
+        };
+        table.row([
+            r.mode.clone(),
+            accel,
+            format_seconds(r.build_s),
+            seconds(r.upload_s),
+            format_seconds(r.trace_s),
+            seconds(r.trace_gpu_s),
+            format!("{:.2}", r.mrays_per_s),
+            format!("{:.2}", r.mrays_per_s_wall),
+            r.secondary_rays.map_or("-".into(), |n| n.to_string()),
+            (r.secondary_mrays_per_s).map_or("-".into(), |m| format!("{m:.2}")),
+            format!("{:.1}", 100.0 * r.hit_fraction),
+            r.peak_rss_mb.map_or("-".into(), |m| format!("{m:.0}")),
+            r.bytes_per_triangle
+                .map_or("-".into(), |b| format!("{b:.1}")),
+        ]);
+    }
+    table.aligned()
+}
+
+/// `raycast bench`: loads the scene (timed, and validated before the GPU is opened), measures
+/// every configuration of `options` with a progress bar, and prints the [`header`] and the
+/// table, or with `json` one JSON object per configuration and nothing else, on stdout.
+pub fn command(
+    scene: &Path,
+    size: Option<[u32; 2]>,
+    options: Options,
+    json: bool,
+    mut say: impl FnMut(Stream, &str),
+) -> Result<()> {
+    options.check()?;
+    let loaded = load(scene, size)?;
+    check_size(&loaded, &options)?;
+    let gpu = render::gpu_for(&options.modes)?;
+    if !json {
+        for line in header(&loaded, &options, gpu.as_ref()) {
+            say(Stream::Stdout, &line);
+        }
+    }
+    let rows = run(&loaded, &options, gpu.as_ref(), true, |row| {
+        if json {
+            say(
+                Stream::Stdout,
+                &serde_json::to_string(row).expect("a row serialises"),
+            );
+        }
+    })?;
+    if !json {
+        say(Stream::Stdout, to_table(&rows).trim_end());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn configurations_are_mode_major() {
+        let options = Options {
+            runs: 1,
+            modes: vec!["gpu".parse().unwrap(), "cpu:f32".parse().unwrap()],
+            accels: vec![Accel::Bvh, Accel::BruteForce],
+            ..Options::default()
+        };
+        let c: Vec<String> = options
+            .configurations()
+            .iter()
+            .map(|(m, a)| format!("{m} {}", accel_name(*a)))
+            .collect();
+        assert_eq!(
+            c,
+            [
+                "gpu:f32:robust bvh",
+                "gpu:f32:robust brute-force",
+                "cpu:f32:robust bvh",
+                "cpu:f32:robust brute-force"
+            ]
+        );
+    }
+
+    #[test]
+    fn checks_reject_zero_runs_and_adaptive() {
+        let zero = Options {
+            runs: 0,
+            ..Options::default()
+        };
+        assert!(zero.check().unwrap_err().to_string().starts_with("--runs"));
+        let adaptive = Options {
+            modes: vec!["gpu:adaptive".parse().unwrap()],
+            ..Options::default()
+        };
+        assert!(adaptive.check().is_err());
+        assert!(Options::default().check().is_ok());
+        for rays in [0, MAX_RAYS + 1] {
+            let list = Options {
+                rays: Some(rays),
+                ..Options::default()
+            };
+            assert!(list.check().unwrap_err().to_string().starts_with("--rays"));
+        }
+        // The CPU runs the ray tracer's mirror and no other hook.
+        let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
+        let other = raycast::gpu::hooks::check(source, Path::new("other.wgsl")).unwrap();
+        let cpu = |shade: ShadeHook| Options {
+            modes: vec!["cpu:f32".parse().unwrap()],
+            shade: Some(shade),
+            ..Options::default()
+        };
+        assert!(
+            cpu(other)
+                .check()
+                .unwrap_err()
+                .to_string()
+                .starts_with("--shader")
+        );
+        assert!(
+            cpu(raycast::gpu::hooks::raytrace().unwrap())
+                .check()
+                .is_ok()
+        );
+    }
+
+    #[test]
+    fn bytes_per_triangle_formula() {
+        let counts = Counts {
+            spheres: 2,
+            planes: 1,
+            triangles: 10,
+        };
+        // 10 * 48 + 4 * 13 = 532 bytes without a BVH.
+        assert_eq!(bytes_per_triangle(counts, 48, None), Some(53.2));
+        let bvh = Bvh {
+            nodes: vec![bytemuck::Zeroable::zeroed(); 3],
+            sphere_order: vec![0; 2],
+            triangle_order: vec![0; 10],
+            depth: 1,
+        };
+        // + 3 * 64 + 4 * 12 = 240.
+        assert_eq!(bytes_per_triangle(counts, 48, Some(&bvh)), Some(77.2));
+        let none = Counts {
+            triangles: 0,
+            ..counts
+        };
+        assert_eq!(bytes_per_triangle(none, 48, None), None);
+    }
+
+    #[test]
+    fn triangle_sizes_are_as_documented() {
+        assert_eq!(size_of::<GpuTriangle<f32>>(), 40);
+        assert_eq!(size_of::<GpuTriangle<f64>>(), 80);
+        assert_eq!(size_of::<cpu::types::Triangle<f32>>(), 36);
+        assert_eq!(size_of::<cpu::types::Triangle<f64>>(), 72);
+    }
+
+    #[test]
+    fn peak_rss_reads_proc() {
+        if Path::new("/proc/self/status").exists() {
+            assert!(render::peak_rss_mib().is_some_and(|m| m > 0.0));
+        }
+    }
+}

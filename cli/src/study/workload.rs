@@ -1,0 +1,206 @@
+//! `raycast workload`: the benchmark scenes written as files, so that a machine with nothing but
+//! the binary (a GPU server without Python, say) can measure the same workloads as the peers:
+//!
+//! - `torus`: the peers' displaced torus (../shared/bench/peer_bench.py's formula: a bumpy
+//!   torus of radii 1 and 0.4, `nu x nv x 2` triangles, 720 x 360 x 2 = 518,400 by default),
+//!   seen by the peers' camera (eye (0, -3, 2.5), looking at the origin, up +z, vertical field
+//!   of view 40 degrees);
+//! - `spheres`: 100 spheres in the torus's bounding box, radii 2% to 6% of its diagonal (the
+//!   peers' distribution; drawn by raycast's own seeded generator, so not the peers' spheres);
+//! - `lit-bunny`: the course's ray-tracing bunny (scenes/ray-tracing/bunny.json and its mesh),
+//!   for `raycast bench --lit`.
+//!
+//! Each is a scene file and, for the torus, a binary PLY mesh beside it (doubles: the formula's
+//! vertices exactly), written whole or not at all.
+
+use std::path::{Path, PathBuf};
+
+use super::selftest::scenes::Rng;
+use raycast::error::{Error, Result};
+use raycast::output::{EncodedFile, check_writable, write_files};
+
+/// The peers' torus: `nu` around the axis, `nv` around the tube.
+pub const TORUS_GRID: [usize; 2] = [720, 360];
+
+/// The workloads, as `raycast workload` names them.
+pub const NAMES: [&str; 3] = ["torus", "spheres", "lit-bunny"];
+
+/// The peers' camera as a scene file's `camera`, at `resolution`.
+pub fn peer_camera(resolution: [u32; 2]) -> serde_json::Value {
+    let height = 2.0 * 20f64.to_radians().tan();
+    let width = height * resolution[0] as f64 / resolution[1] as f64;
+    serde_json::json!({
+        "type": "perspective", "eye": [0, -3.0, 2.5], "look": [0, 3.0, -2.5], "up": [0, 0, 1],
+        "focal_length": 1, "height": height, "width": width, "resolution": resolution,
+    })
+}
+
+/// The displaced torus's vertices and triangles (vertex `i * nv + j` at grid point `(i, j)`).
+pub fn displaced_torus(nu: usize, nv: usize) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let (big, small) = (1.0, 0.4);
+    let mut vertices = Vec::with_capacity(nu * nv);
+    for i in 0..nu {
+        let u = i as f64 * (std::f64::consts::TAU / nu as f64);
+        for j in 0..nv {
+            let v = j as f64 * (std::f64::consts::TAU / nv as f64);
+            let bump = 1.0
+                + 0.12 * (7.0 * u).sin() * (5.0 * v).sin()
+                + 0.05 * (23.0 * u + 11.0 * v).cos()
+                + 0.02 * (61.0 * u).sin() * (37.0 * v).cos();
+            let r = small * bump;
+            let ring = big + r * v.cos();
+            vertices.push([ring * u.cos(), ring * u.sin(), r * v.sin()]);
+        }
+    }
+    let index = |i: usize, j: usize| ((i % nu) * nv + j % nv) as u32;
+    let mut first = Vec::with_capacity(nu * nv);
+    let mut second = Vec::with_capacity(nu * nv);
+    for i in 0..nu {
+        for j in 0..nv {
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
+            first.push([a, b, c]);
+            second.push([a, c, d]);
+        }
+    }
+    first.extend(second);
+    (vertices, first)
+}
+
+/// The torus grid for about `triangles` triangles, its cells as the peers' (nu = 2 nv).
+pub fn torus_grid(triangles: usize) -> [usize; 2] {
+    let nv = ((triangles as f64 / 4.0).sqrt().round() as usize).max(3);
+    [2 * nv, nv]
+}
+
+/// A binary little-endian PLY of `vertices` (doubles) and `triangles`.
+pub fn ply(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<u8> {
+    let header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment raycast workload\n\
+         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        triangles.len()
+    );
+    let mut bytes = Vec::with_capacity(header.len() + 24 * vertices.len() + 13 * triangles.len());
+    bytes.extend_from_slice(header.as_bytes());
+    for v in vertices {
+        v.iter()
+            .for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+    }
+    for t in triangles {
+        bytes.push(3);
+        t.iter()
+            .for_each(|&k| bytes.extend_from_slice(&(k as i32).to_le_bytes()));
+    }
+    bytes
+}
+
+/// `n` spheres inside the box `[lo, hi]`, radii 2% to 6% of its diagonal.
+pub fn spheres(n: usize, lo: [f64; 3], hi: [f64; 3], seed: u64) -> Vec<serde_json::Value> {
+    let mut rng = Rng(seed);
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+    (0..n)
+        .map(|_| {
+            let center: Vec<f64> = (0..3).map(|a| rng.range(lo[a], hi[a])).collect();
+            let radius = rng.range(0.02, 0.06) * diagonal;
+            serde_json::json!({"type": "sphere", "center": center, "radius": radius})
+        })
+        .collect()
+}
+
+/// Writes workload `name` into `dir` at `resolution` (`triangles`: the torus's size) and
+/// returns the scene file's path.
+pub fn write(
+    name: &str,
+    dir: &Path,
+    resolution: [u32; 2],
+    triangles: Option<usize>,
+) -> Result<PathBuf> {
+    let [nu, nv] = triangles.map_or(TORUS_GRID, torus_grid);
+    let scene = |comment: String, objects: Vec<serde_json::Value>| {
+        let json = serde_json::json!({
+            "comment": comment, "camera": peer_camera(resolution), "objects": objects,
+        });
+        serde_json::to_vec_pretty(&json).expect("a scene serialises")
+    };
+    let files = match name {
+        "torus" => {
+            let (vertices, faces) = displaced_torus(nu, nv);
+            let comment = format!(
+                "the peers' displaced torus, {nu} x {nv} x 2 = {} triangles (raycast workload)",
+                faces.len()
+            );
+            let mesh = serde_json::json!({"type": "soup", "ply": "torus.ply"});
+            vec![
+                EncodedFile {
+                    name: "torus.ply",
+                    bytes: ply(&vertices, &faces),
+                },
+                EncodedFile {
+                    name: "torus.json",
+                    bytes: scene(comment, vec![mesh]),
+                },
+            ]
+        }
+        "spheres" => {
+            let (vertices, _) = displaced_torus(nu, nv);
+            let lo =
+                std::array::from_fn(|a| vertices.iter().map(|v| v[a]).fold(f64::MAX, f64::min));
+            let hi =
+                std::array::from_fn(|a| vertices.iter().map(|v| v[a]).fold(f64::MIN, f64::max));
+            let comment = "100 spheres in the displaced torus's box (raycast workload)".to_owned();
+            vec![EncodedFile {
+                name: "spheres.json",
+                bytes: scene(comment, spheres(100, lo, hi, 0)),
+            }]
+        }
+        "lit-bunny" => {
+            let file = |name: &'static str| -> Result<EncodedFile> {
+                let path = format!("scenes/ray-tracing/{name}");
+                let bytes = super::selftest::data::file(&path)?.to_vec();
+                Ok(EncodedFile { name, bytes })
+            };
+            vec![file("bunny.stl")?, file("bunny.json")?]
+        }
+        _ => {
+            return Err(Error::Argument {
+                option: "workload".into(),
+                message: format!("`{name}` is none of {}", NAMES.join(", ")),
+            });
+        }
+    };
+    check_writable(dir)?;
+    let written = write_files(dir, &files)?;
+    Ok(written.last().expect("a scene file").clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_torus_is_closed_and_has_the_peers_size() {
+        let (v, t) = displaced_torus(TORUS_GRID[0], TORUS_GRID[1]);
+        assert_eq!((v.len(), t.len()), (259_200, 518_400));
+        // Closed: every edge is shared by exactly two triangles, in opposite directions.
+        let (v, t) = displaced_torus(12, 6);
+        let mut edges = std::collections::HashMap::new();
+        for tri in &t {
+            for k in 0..3 {
+                *edges.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        assert!(
+            edges
+                .iter()
+                .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
+        );
+        assert!(v.iter().all(|p| p[2].abs() < 0.4 * 1.2));
+        assert_eq!(torus_grid(5_000_000), [2236, 1118]);
+    }
+}
