@@ -50,10 +50,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 on_gpu::<f64>(&gpu, &scene, variant, false).map(|_| ())
             })?;
             time(2, &mut || {
-                raycast::adaptive::certainty_pass(&gpu, &scene, false).map(|_| ())
+                raycast::render::adaptive::certainty_pass(&gpu, &scene, false).map(|_| ())
             })?;
             time(3, &mut || {
-                fraction = raycast::adaptive::render_adaptive(&gpu, &scene)?.recast_fraction();
+                fraction =
+                    raycast::render::adaptive::render_adaptive(&gpu, &scene)?.recast_fraction();
                 Ok(())
             })?;
         }

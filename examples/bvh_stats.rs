@@ -3,10 +3,10 @@
 use std::sync::Arc;
 
 use raycast::Algorithm::Robust;
-use raycast::cpu::camera::camera_ray;
+use raycast::cpu::frame::camera_ray;
 use raycast::cpu::traverse::{box_entry, ray_inverse};
 use raycast::cpu::triangle::intersect_triangle;
-use raycast::cpu::types::{no_hit, shear_of};
+use raycast::kernel::types::{no_hit, shear_of};
 use raycast::prepare::bvh::{Bvh, LEAF_BIT, leaf_len};
 use raycast::prepare::{Primitives, kernel_frame};
 

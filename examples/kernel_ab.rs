@@ -18,9 +18,9 @@
 //! `builtin`.
 use std::path::Path;
 
-use raycast::gpu::layout::GpuReal;
-use raycast::gpu::shader::{Source, Variant};
+use raycast::gpu::shader::{Casts, Variant};
 use raycast::gpu::{self, Gpu, Job, kernel};
+use raycast::kernel::layout::GpuReal;
 use raycast::math::Precision;
 use raycast::rays::RayList;
 
@@ -65,11 +65,11 @@ fn options() -> Options {
 /// a NumPy caller holds them): origin, direction.
 fn camera_rows(scene: &raycast::Scene) -> Vec<[f32; 6]> {
     let [nx, ny] = scene.camera.resolution;
-    let frame = raycast::camera::Frame::new(&scene.camera, [nx, ny]);
+    let frame = raycast::kernel::frame::Frame::new(&scene.camera, [nx, ny]);
     let pixels = (0..ny).flat_map(|i| (0..nx).map(move |j| (i, j)));
     pixels
         .map(|(i, j)| {
-            let ray = raycast::cpu::camera::camera_ray(&frame, i, j);
+            let ray = raycast::cpu::frame::camera_ray(&frame, i, j);
             let (o, d) = (ray.origin, ray.direction);
             [o.x, o.y, o.z, d.x, d.y, d.z].map(|x| x as f32)
         })
@@ -99,12 +99,12 @@ fn time_kernels<R: GpuReal>(
     };
     let list = RayList::image(&rows[..], scene.camera.resolution[0] as usize);
     // As gpu::run compiles it, so that --emit writes the kernel that runs.
-    let source = if o.list { Source::Rays } else { Source::Camera };
+    let casts = if o.list { Casts::Rays } else { Casts::Camera };
     let cast = Variant {
         list_origin: raycast::rays::one_origin(list),
         ..camera
     };
-    let base = gpu::dispatch::specialised(cast, source, &prepared).unwrap();
+    let base = gpu::dispatch::specialized(cast, casts, &prepared).unwrap();
     if let Some(file) = &o.emit {
         let source = raycast::gpu::shader::kernel_source(&base).unwrap();
         std::fs::write(file, source).unwrap_or_else(|e| panic!("{file}: {e}"));

@@ -1,4 +1,4 @@
-//! Casting a list of rays through `raycast::rays::RayScene`, as the Python package does: the
+//! Casting a list of rays through `raycast::query::RayScene`, as the Python package does: the
 //! peer camera's rays (benches/peers.sh: 1920x1080 unit directions from (0, -3, 2.5) at the
 //! origin, vertical fov 40) at a mesh, in each mode given. Prints the median seconds of --runs
 //! casts and Mrays/s; compare with `raycast bench` on the same scene (target/bench/torus.json).
@@ -10,7 +10,8 @@
 //! up to S (less coherent), `--random` from random points near the torus in random directions
 //! (incoherent: traced one by one).
 
-use raycast::rays::{Ray, RayList, RayScene};
+use raycast::query::RayScene;
+use raycast::rays::{Ray, RayList};
 use std::time::Instant;
 
 const WIDTH: usize = 1920;

@@ -21,7 +21,8 @@ def rustdoc_json():
     subprocess.run(["cargo", "+nightly", "rustdoc", "-q", "--lib", "-p", "raycast", "--",
                     "-Z", "unstable-options", "--output-format", "json"],
                    cwd=ROOT, check=True)
-    with open(os.path.join(ROOT, "target", "doc", "raycast.json")) as f:
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+    with open(os.path.join(target, "doc", "raycast.json")) as f:
         return json.load(f)
 
 

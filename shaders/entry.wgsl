@@ -2,8 +2,8 @@
 // (PIXEL_LIST), or per ray of a caller's list (RAY_LIST).
 #import types
 #import bindings
-#import camera
-#import scene
+#import frame
+#import nearest
 #if COUNT
 #import count
 #endif

@@ -3,7 +3,7 @@
 // CPU mirror: src/cpu/shade.rs.
 #import types
 #import bindings
-#import scene
+#import nearest
 #import hooks
 
 // The camera ray's pixel, (column, row), while its hook runs: what `trace` reports as `pixel`.

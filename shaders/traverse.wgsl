@@ -107,7 +107,7 @@ fn box_entry_axis_parallel(a: vec3<real>, b: vec3<real>, inside: vec3<bool>, zer
     return NO_HIT;
 }
 
-// is_closer (scene.wgsl) for a primitive stored at `index` in BVH order: ties within one object
+// is_closer (nearest.wgsl) for a primitive stored at `index` in BVH order: ties within one object
 // go to the lower index in the scene's order, as in brute force. `base` is the kind's offset in
 // `objects` and `prim_order`.
 fn is_closer_ordered(t: real, object: u32, index: u32, base: u32, best: Hit) -> bool {

@@ -36,7 +36,7 @@ pub struct Images<T> {
     /// any.
     pub hook_rays: Option<u64>,
     /// How much of each pixel its samples covered, when the images were supersampled
-    /// (`--spp`, [`crate::supersample::reduce`]); `None` for one ray per pixel.
+    /// (`--spp`, [`crate::render::supersample::reduce`]); `None` for one ray per pixel.
     pub coverage: Option<Coverage>,
 }
 

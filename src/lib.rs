@@ -39,20 +39,19 @@
 //! # Ok::<(), raycast::Error>(())
 //! ```
 
-pub mod adaptive;
 pub mod algorithm;
-pub mod camera;
 pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod images;
+pub mod kernel;
 pub mod math;
 pub mod output;
 pub mod prepare;
+pub mod query;
 pub mod rays;
 pub mod render;
 pub mod scene;
-pub mod supersample;
 
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};

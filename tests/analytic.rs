@@ -41,8 +41,8 @@ mod common;
 use std::path::Path;
 
 use common::gpu;
-use raycast::gpu::layout::GpuReal;
 use raycast::images::MISS;
+use raycast::kernel::layout::GpuReal;
 use raycast::math::Precision;
 use raycast::scene::{Object, Projection};
 use raycast::{Images, Scene};
@@ -557,7 +557,7 @@ macro_rules! both_precisions {
     ($($name:ident),* $(,)?) => {$(
         mod $name {
             use raycast::Algorithm::{Robust, Textbook};
-            fn run<R: raycast::gpu::layout::GpuReal>(a: raycast::Algorithm) {
+            fn run<R: raycast::kernel::layout::GpuReal>(a: raycast::Algorithm) {
                 super::ALGORITHM.set(a);
                 super::$name::<R>()
             }

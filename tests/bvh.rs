@@ -260,7 +260,7 @@ fn packet_intervals_skip_only_boxes_every_ray_misses() {
                     if packet % 7 == 3 {
                         d[packet % 3] = 0.0;
                     }
-                    let ray = cpu::types::Ray {
+                    let ray = raycast::kernel::types::Ray {
                         origin: Vec3::from_array(o.map(T::from_f64)),
                         direction: Vec3::from_array(d.map(T::from_f64)),
                     };
@@ -306,12 +306,12 @@ fn packet_intervals_skip_only_boxes_every_ray_misses() {
                     .fold(T::ZERO, |m, &x| if x > m { x } else { m });
                 let packet_t = cpu::traverse::interval_entry(lo, hi, &interval, min_t, t_max);
                 boxes += 1;
-                skipped += usize::from(packet_t == cpu::types::no_hit::<T>());
+                skipped += usize::from(packet_t == raycast::kernel::types::no_hit::<T>());
                 for ((ray, ri), &ray_max) in rays.iter().zip(&t_maxes) {
                     let ray_t = cpu::traverse::box_entry(lo, hi, ray, ri, min_t, ray_max);
-                    if ray_t != cpu::types::no_hit::<T>() {
+                    if ray_t != raycast::kernel::types::no_hit::<T>() {
                         assert!(
-                            packet_t != cpu::types::no_hit::<T>() && packet_t <= ray_t,
+                            packet_t != raycast::kernel::types::no_hit::<T>() && packet_t <= ray_t,
                             "packet {packet}: box {lo:?}..{hi:?} entered by a ray at {ray_t:?}, by the packet at {packet_t:?}"
                         );
                     }

@@ -64,7 +64,7 @@ fn kind(e: &Extreme) -> &str {
         .unwrap_or_else(|| panic!("{}: comment.kind missing", e.name))
 }
 
-fn gpu_render<R: raycast::gpu::layout::GpuReal>(scene: &Scene, a: Algorithm) -> Images<R> {
+fn gpu_render<R: raycast::kernel::layout::GpuReal>(scene: &Scene, a: Algorithm) -> Images<R> {
     common::gpu_scene::<R>(gpu(), scene, a).unwrap()
 }
 
@@ -148,7 +148,7 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {
-        let adaptive = raycast::adaptive::render_adaptive(gpu(), &e.scene).unwrap();
+        let adaptive = raycast::render::adaptive::render_adaptive(gpu(), &e.scene).unwrap();
         assert_clean(&format!("{} gpu adaptive", e.name), &adaptive.images);
         for a in [Textbook, Robust] {
             if kind(&e) != "range" {
@@ -489,7 +489,7 @@ fn a_centimetre_sphere_a_million_away_is_placed_exactly_in_f64() {
         let Object::Sphere { center, radius } = e.scene.objects[0] else {
             panic!("{}: object 0 is the sphere", e.name)
         };
-        let frame = raycast::camera::Frame::new(&e.scene.camera, e.scene.camera.resolution);
+        let frame = raycast::kernel::frame::Frame::new(&e.scene.camera, e.scene.camera.resolution);
         let renders = [
             ("gpu f64", gpu_render::<f64>(&e.scene, Robust)),
             ("cpu f64", truth(&e.scene)),
@@ -498,7 +498,7 @@ fn a_centimetre_sphere_a_million_away_is_placed_exactly_in_f64() {
             let mut sphere_pixels = 0;
             for k in 0..images.len() {
                 let (i, j) = (k as u32 / frame.nx, k as u32 % frame.nx);
-                let ray = raycast::cpu::camera::camera_ray(&frame, i, j);
+                let ray = raycast::cpu::frame::camera_ray(&frame, i, j);
                 let d = raycast::math::normalize(ray.direction);
                 let v = center - ray.origin;
                 let l = raycast::math::length(raycast::math::cross(v, d));

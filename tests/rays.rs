@@ -6,7 +6,8 @@ mod common;
 
 use common::{Rng, f32_hits, gpu, moved_along, pinhole_rays, random_scene, sphere_mesh};
 use raycast::math::{Vec3, cross, dot, length, normalize};
-use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayScene, coherent, one_origin};
+use raycast::query::RayScene;
+use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, coherent, one_origin};
 use raycast::render::Mode;
 
 fn mode(s: &str) -> Mode {

@@ -77,7 +77,7 @@ fn main() {
             }
         }
         let bvh = raycast::prepare::bvh::Bvh::build(&scene, Robust);
-        let stored = size_of::<raycast::gpu::layout::GpuTriangle<f32>>();
+        let stored = size_of::<raycast::kernel::layout::GpuTriangle<f32>>();
         let counts = raycast_cli::study::bench::Counts::of(&scene);
         let bytes =
             raycast_cli::study::bench::bytes_per_triangle(counts, stored, Some(&bvh)).unwrap();

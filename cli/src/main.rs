@@ -11,8 +11,8 @@ use raycast::gpu::{self, Gpu};
 use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::prepare::bvh::Accel;
-use raycast::render::{self, Arithmetic, Device, Mode};
-use raycast::{scene, supersample};
+use raycast::render::{self, Arithmetic, Device, Mode, supersample};
+use raycast::scene;
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress};
 
@@ -89,7 +89,7 @@ enum Command {
         /// premultiplied alpha).
         #[arg(long, value_name = "R,G,B", value_parser = output::parse_background)]
         background: Option<[u8; 3]>,
-        /// Also write the assembled WGSL kernel this render ran (specialised for the scene and
+        /// Also write the assembled WGSL kernel this render ran (specialized for the scene and
         /// the mode) to this file.
         #[arg(long, value_name = "FILE")]
         emit_shader: Option<PathBuf>,
@@ -192,12 +192,12 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         output: PathBuf,
     },
-    /// Time each kernel specialisation on each scene, with it and with it turned off
+    /// Time each kernel specialization on each scene, with it and with it turned off
     /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
     /// markdown and write it to --out.
     Specializations {
         /// Scene files, or folders of scene files (their *.json, in name order).
-        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specialize::DEFAULT_SCENES)]
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES)]
         scenes: Vec<PathBuf>,
         /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
         /// where it exists (else the table says it was not measured).
@@ -480,7 +480,7 @@ fn run(command: Command) -> Result<ExitCode> {
             out,
         } => {
             let (torus, runs) = (torus.as_deref(), runs as usize);
-            study::specialize::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
+            study::specializations::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::CheckShader { file } => {

@@ -17,9 +17,9 @@ mod common;
 
 use common::*;
 use raycast::Algorithm::Robust;
-use raycast::adaptive::{Adaptive, render_adaptive, render_adaptive_with};
 use raycast::gpu::shader::Variant;
 use raycast::images::Images;
+use raycast::render::adaptive::{Adaptive, render_adaptive, render_adaptive_with};
 use raycast::scene::Scene;
 
 fn extreme_scenes() -> Vec<(String, Scene)> {
@@ -34,7 +34,7 @@ fn extreme_scenes() -> Vec<(String, Scene)> {
 fn adaptive_both_ways(name: &str, scene: &Scene) -> Adaptive {
     let on_cpu = render_adaptive(gpu(), scene).unwrap();
     let on_gpu = render_adaptive_with(gpu(), scene, false, 0).unwrap();
-    assert!(!on_cpu.recast_on_gpu || on_cpu.recast > raycast::adaptive::CPU_RECAST_PIXELS);
+    assert!(!on_cpu.recast_on_gpu || on_cpu.recast > raycast::render::adaptive::CPU_RECAST_PIXELS);
     let has_f64 = gpu().device.features().contains(wgpu::Features::SHADER_F64);
     assert_eq!(on_gpu.recast_on_gpu, has_f64 && on_gpu.recast > 0, "{name}");
     assert_eq!(on_cpu.recast, on_gpu.recast, "{name}");
@@ -88,10 +88,10 @@ fn adaptive_equals_f64_on_every_extreme_pixel() {
 /// whose kernel (one ray a lane at these sizes) gives the same images and certainty as that of
 /// large renders (two rays a lane).
 fn certain_disagreements(scene: &Scene) -> (usize, usize) {
-    let (pass, _) = raycast::adaptive::certainty_pass(gpu(), scene, false).unwrap();
+    let (pass, _) = raycast::render::adaptive::certainty_pass(gpu(), scene, false).unwrap();
     let large = Variant {
         lane_rays_limit: raycast::gpu::shader::MAX_LANE_RAYS,
-        ..raycast::adaptive::certainty_variant(gpu(), scene)
+        ..raycast::render::adaptive::certainty_variant(gpu(), scene)
     };
     let prepared = raycast::gpu::prepare::<f32>(scene, &large).unwrap();
     let other = raycast::gpu::run(gpu(), &prepared, raycast::gpu::Job::new(large)).unwrap();
@@ -149,7 +149,7 @@ fn no_pixel_is_certain_where_f32_left_its_range() {
         .collect();
     assert!(scenes.len() >= 3, "only {} range scenes", scenes.len());
     for (name, scene) in &scenes {
-        let (pass, _) = raycast::adaptive::certainty_pass(gpu(), scene, false).unwrap();
+        let (pass, _) = raycast::render::adaptive::certainty_pass(gpu(), scene, false).unwrap();
         let (first, certain) = (pass.images, pass.certainty.unwrap());
         let truth = raycast::cpu::render::<f64>(scene, Robust);
         let broken = |k: usize| {

@@ -19,7 +19,7 @@ mod common;
 
 use common::*;
 use raycast::Algorithm::Textbook;
-use raycast::gpu::layout::GpuReal;
+use raycast::kernel::layout::GpuReal;
 use raycast::output::{Pictures, pictures};
 
 struct Comparison {

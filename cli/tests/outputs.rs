@@ -9,8 +9,8 @@ mod common;
 use common::file_names;
 
 use raycast::Algorithm::{Robust, Textbook};
-use raycast::gpu::layout::GpuReal;
 use raycast::images::{Images, MISS, Outputs};
+use raycast::kernel::layout::GpuReal;
 
 fn only(id: bool, distance: bool, normal: bool) -> Outputs {
     Outputs {

@@ -11,8 +11,8 @@ use std::time::{Duration, Instant};
 
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::gpu::hooks::{self, ShadeHook};
-use raycast::gpu::layout::GpuReal;
 use raycast::images::{Images, MISS, Outputs};
+use raycast::kernel::layout::GpuReal;
 use raycast::scene::Scene;
 
 fn raycast(args: &[&str]) -> Output {

@@ -1,4 +1,4 @@
-//! `raycast specializations`: one row per specialisation and scene, times where they apply and
+//! `raycast specializations`: one row per specialization and scene, times where they apply and
 //! the reason where not, the same markdown printed and written, a missing torus noted; bad
 //! input is a one-line error with exit code 2 and writes nothing.
 
@@ -16,7 +16,7 @@ fn raycast(args: &[&str], cwd: &std::path::Path) -> Output {
 }
 
 #[test]
-fn every_specialisation_is_measured_or_says_why_not() {
+fn every_specialization_is_measured_or_says_why_not() {
     // Run from an empty folder: the default torus path does not exist there.
     let dir = tempfile::tempdir().unwrap();
     let scenes = ["triangle", "sphere-packing"]

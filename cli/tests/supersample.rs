@@ -16,8 +16,8 @@ use common::{file_names, gpu};
 use raycast::images::Coverage;
 use raycast::images::MISS;
 use raycast::output::{self, PALETTE, PixelCoverage};
+use raycast::render::supersample;
 use raycast::render::{self, AnyImages, Mode};
-use raycast::supersample;
 use raycast::{Images, Scene};
 
 fn scene(json: &str) -> Scene {

@@ -184,8 +184,8 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
         assert!(k > 0.0 && k < 60.0, "{k}");
     }
     // Adaptive: the same images, its two passes timed together.
-    let a = raycast::adaptive::render_adaptive(gpu, &scene).unwrap();
-    let t = raycast::adaptive::render_adaptive_timed(gpu, &scene).unwrap();
+    let a = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
+    let t = raycast::render::adaptive::render_adaptive_timed(gpu, &scene).unwrap();
     assert_eq!(a.images, t.images);
     assert_eq!(a.kernel_s, None);
     assert!(t.recast > 0, "the bunny has uncertain pixels");
@@ -194,7 +194,7 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     }
     // The re-cast forced onto the GPU (the bunny's few pixels go to the CPU): the same images,
     // both passes timed.
-    let g = raycast::adaptive::render_adaptive_with(gpu, &scene, true, 0).unwrap();
+    let g = raycast::render::adaptive::render_adaptive_with(gpu, &scene, true, 0).unwrap();
     assert!(g.recast_on_gpu);
     assert_eq!(g.images, t.images);
     assert_eq!(g.kernel_s.is_some(), timestamps);

@@ -21,7 +21,8 @@ use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::Precision;
 use raycast::prepare::bvh::Accel;
-use raycast::rays::{Hits, RayList, RayScene, one_origin};
+use raycast::query::RayScene;
+use raycast::rays::{Hits, RayList, one_origin};
 use raycast::scene::Scene;
 
 use common::assert_same_bits;
@@ -57,7 +58,7 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
         for algorithm in [Robust, Textbook] {
             camera_renders_agree(&name, &scene, algorithm);
         }
-        let adaptive = raycast::adaptive::render_adaptive(gpu, &scene).unwrap();
+        let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
         let truth = cpu::render_with::<f64>(&scene, Robust, Accel::Bvh);
         assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
     }

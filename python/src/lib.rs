@@ -11,7 +11,8 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::gpu::Gpu;
-use raycast::rays::{AnyHits, Hits, Ray, RayList, RayRows, RayScene};
+use raycast::query::RayScene;
+use raycast::rays::{AnyHits, Hits, Ray, RayList, RayRows};
 use raycast::render::{Device, Mode};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).

@@ -5,7 +5,7 @@ use super::plane::intersect_plane;
 use super::sphere::sphere_crossings;
 use super::traverse::{ray_inverse, visit};
 use super::triangle::intersect_triangle;
-use super::types::{Ray, Shear, no_hit, shear_of, t_far};
+use crate::kernel::types::{Ray, Shear, no_hit, shear_of, t_far};
 use crate::math::Real;
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{BvhNode, LEAF_BIT, MAX_DEPTH, SPHERE_LEAF, leaf_len};

@@ -1,8 +1,8 @@
 //! Mirror of shaders/entry.wgsl: the work of one pixel, or of one ray of a list.
 
-use super::camera::camera_ray;
-use super::scene::{hit_details, hit_normal, nearest_hit, primitive_key};
-use super::types::{Frame, Ray};
+use super::frame::camera_ray;
+use super::nearest::{hit_details, hit_normal, nearest_hit, primitive_key};
+use crate::kernel::types::{Frame, Ray};
 use crate::math::{Real, length};
 use crate::prepare::Primitives;
 

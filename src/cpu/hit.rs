@@ -1,6 +1,6 @@
 //! Mirror of shaders/hit.wgsl: the nearest hit so far and the order of hits.
 
-use super::types::no_hit;
+use crate::kernel::types::no_hit;
 use crate::math::Real;
 
 pub const KIND_SPHERE: u32 = 0;

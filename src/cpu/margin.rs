@@ -37,8 +37,8 @@
 //! length underflows. Margins are judged in kernel units (`Prepared`): the host's rescale
 //! decides which magnitudes the kernel meets.
 
-use super::camera::camera_ray;
-use super::types::{Frame, Ray};
+use super::frame::camera_ray;
+use crate::kernel::types::{Frame, Ray};
 use crate::math::{Vec3, dot, length};
 use crate::prepare::Primitives;
 

@@ -5,19 +5,18 @@
 //! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
-pub mod camera;
 pub mod count;
 pub mod entry;
+pub mod frame;
 pub mod hit;
 pub mod margin;
+pub mod nearest;
 pub mod plane;
 pub mod raytrace;
-pub mod scene;
 pub mod shade;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;
-pub mod types;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 

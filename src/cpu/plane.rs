@@ -1,6 +1,6 @@
 //! Mirror of shaders/plane.wgsl: ray/plane intersection.
 
-use super::types::{Plane, Ray, is_beyond, no_hit};
+use crate::kernel::types::{Plane, Ray, is_beyond, no_hit};
 use crate::math::{Real, Vec3, dot, length};
 
 pub fn intersect_plane<T: Real, const ROBUST: bool>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {

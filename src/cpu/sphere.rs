@@ -1,7 +1,7 @@
 //! Mirror of shaders/sphere.wgsl: ray/sphere intersection, `ROBUST` choosing the body as
 //! `#if ROBUST` does in WGSL.
 
-use super::types::{Ray, Sphere, is_beyond, no_hit};
+use crate::kernel::types::{Ray, Sphere, is_beyond, no_hit};
 use crate::math::{Real, Vec3, dot, normalize};
 
 pub fn intersect_sphere<T: Real, const ROBUST: bool>(
@@ -110,7 +110,7 @@ pub fn sphere_crossings<T: Real, const ROBUST: bool>(
     sphere: &Sphere<T>,
     min_t: T,
 ) -> u32 {
-    if intersect_sphere::<T, ROBUST>(ray, sphere, min_t) == super::types::no_hit() {
+    if intersect_sphere::<T, ROBUST>(ray, sphere, min_t) == crate::kernel::types::no_hit() {
         return 0;
     }
     let f = ray.origin + ray.direction * min_t - sphere.center;

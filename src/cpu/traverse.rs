@@ -4,7 +4,7 @@
 use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
-use super::types::{Ray, Shear, no_hit, shear_of, t_far};
+use crate::kernel::types::{Ray, Shear, no_hit, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{

@@ -1,9 +1,9 @@
 //! Mirror of shaders/triangle.wgsl: ray/triangle intersection.
 
-use super::types::{Ray, Shear, Triangle, is_beyond, no_hit};
+use crate::kernel::types::{Ray, Shear, Triangle, is_beyond, no_hit};
 use crate::math::{Precision, Real, Vec3, cross, dot, normalize, vec3};
 
-/// `shear` is [`super::types::shear_of`] of the ray's direction (the robust test's; the textbook
+/// `shear` is [`crate::kernel::types::shear_of`] of the ray's direction (the robust test's; the textbook
 /// one does not use it).
 pub fn intersect_triangle<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,

@@ -9,12 +9,12 @@ use bytemuck::Pod;
 use wgpu::util::DeviceExt;
 
 use super::Gpu;
-use super::layout::{
-    GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
-};
-use super::shader::{self, Source, Variant};
+use super::shader::{self, Casts, Variant};
 use crate::error::{Error, Result};
 use crate::images::{Images, MISS};
+use crate::kernel::layout::{
+    GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
+};
 use crate::math::Precision;
 use crate::prepare::{Prepared, Primitives};
 use crate::rays::{Hits, INVALID_ID};
@@ -50,11 +50,11 @@ pub enum Rays<'a> {
 
 impl Rays<'_> {
     /// Which rays the kernel casts for these.
-    fn source(&self) -> Source {
+    fn casts(&self) -> Casts {
         match self {
-            Rays::Camera => Source::Camera,
-            Rays::Pixels(_) => Source::Pixels,
-            Rays::List { .. } => Source::Rays,
+            Rays::Camera => Casts::Camera,
+            Rays::Pixels(_) => Casts::Pixels,
+            Rays::List { .. } => Casts::Rays,
         }
     }
 
@@ -196,22 +196,22 @@ pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 /// sized to its BVH, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
 /// `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
 /// with COUNT the counts alone).
-pub fn specialised<R: GpuReal>(
+pub fn specialized<R: GpuReal>(
     variant: Variant,
-    source: Source,
+    casts: Casts,
     prepared: &Prepared<R>,
 ) -> Result<Variant> {
     let variant = Variant {
-        source,
+        casts,
         rays_from_origin: variant.rays_from_origin
-            && source != Source::Rays
+            && casts != Casts::Rays
             && prepared.camera_rays_from_origin(),
-        list_origin: variant.list_origin && source == Source::Rays,
+        list_origin: variant.list_origin && casts == Casts::Rays,
         ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
     };
-    match (source, variant.count) {
-        (Source::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
-        (Source::Rays, true) => Ok(variant.with_outputs(crate::images::Outputs::NONE)),
+    match (casts, variant.count) {
+        (Casts::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
+        (Casts::Rays, true) => Ok(variant.with_outputs(crate::images::Outputs::NONE)),
         (_, false) => Ok(variant),
         (_, true) => Err(Error::Device(
             "intersections are counted for a list of rays only".into(),
@@ -229,8 +229,8 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
         mut sink,
         resident,
     } = job;
-    let variant = specialised(variant, rays.source(), prepared)?;
-    if variant.source != Source::Camera && sink.is_some() {
+    let variant = specialized(variant, rays.casts(), prepared)?;
+    if variant.casts != Casts::Camera && sink.is_some() {
         return Err(Error::Device(
             "a list comes back whole; only camera rays are streamed".into(),
         ));
@@ -386,12 +386,12 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
             frame,
             projection: projection_code(prepared.frame.projection),
             // A ray list's nx is its image width (0 when it is not an image's).
-            nx: match variant.source {
-                Source::Rays => grid.unwrap_or(0),
+            nx: match variant.casts {
+                Casts::Rays => grid.unwrap_or(0),
                 _ => nx,
             },
             ny,
-            row_offset: if variant.source == Source::Camera {
+            row_offset: if variant.casts == Casts::Camera {
                 first
             } else {
                 0
@@ -579,7 +579,7 @@ pub fn upload<R: GpuReal>(
 /// uploaded for kernels with a hook.
 fn upload_hook_scene<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>) -> Vec<(String, wgpu::Buffer)> {
     let (materials, lights, objects) =
-        super::layout::hook_buffers(&prepared.lighting, prepared.objects);
+        crate::kernel::layout::hook_buffers(&prepared.lighting, prepared.objects);
     vec![
         (
             "hook_materials".to_owned(),
@@ -844,7 +844,7 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     let shader_module = match variant.is_ours() {
         // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
         // bounds: the traversal's stacks hold at least the tree's depth in entries, one waiting
-        // node per level at most (`with_stack_for` in `specialised`; tests check it). Its loops
+        // node per level at most (`with_stack_for` in `specialized`; tests check it). Its loops
         // end (the traversal visits each node at most once), and it divides only by nonzero
         // values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {
@@ -1172,7 +1172,7 @@ impl OutputBuffers {
     /// colours with a shade hook, a ray list's primitives and barycentrics or counts.
     fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
         let o = variant.outputs;
-        let hit_detail = variant.source == Source::Rays && !variant.count;
+        let hit_detail = variant.casts == Casts::Rays && !variant.count;
         // Reals first, so that each slot starts aligned to its element in the readback
         // buffer whatever the capacity.
         let wanted = [

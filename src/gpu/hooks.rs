@@ -728,7 +728,7 @@ mod tests {
     fn hooked_kernels_validate() {
         let hook = check(GOOD, Path::new("a.wgsl")).unwrap();
         for variant in shader::all_variants() {
-            if variant.certainty || variant.source != shader::Source::Camera {
+            if variant.certainty || variant.casts != shader::Casts::Camera {
                 continue;
             }
             let variant = variant.with_shade(hook.key, hook.traces);

@@ -10,7 +10,6 @@
 pub mod dispatch;
 pub mod hooks;
 pub mod kernel;
-pub mod layout;
 pub mod probe;
 pub mod shader;
 pub mod source;
@@ -87,7 +86,7 @@ impl Gpu {
             algorithm,
             f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
             certainty: false,
-            source: shader::Source::Camera,
+            casts: shader::Casts::Camera,
             count: false,
             rays_from_origin: false,
             list_origin: false,

@@ -51,7 +51,7 @@ impl Kinds {
 
 /// Which rays a kernel casts (`main` in shaders/entry.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Source {
+pub enum Casts {
     /// The camera's ray through every pixel, in tiles of image rows.
     Camera,
     /// The camera's rays of listed pixels (`PIXEL_LIST`, binding `pixel_list`).
@@ -61,7 +61,7 @@ pub enum Source {
     Rays,
 }
 
-/// What a kernel is specialised for.
+/// What a kernel is specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
     pub precision: Precision,
@@ -74,7 +74,7 @@ pub struct Variant {
     pub certainty: bool,
     /// Which rays the kernel casts: the camera's over tiles of rows, the camera's for a list of
     /// pixels (the re-cast of adaptive precision), or a caller's list of rays.
-    pub source: Source,
+    pub casts: Casts,
     /// Count every intersection along each ray instead of finding the nearest (`COUNT`; ray
     /// lists only: `out_count`).
     pub count: bool,
@@ -82,7 +82,7 @@ pub struct Variant {
     /// perspective camera whose eye is that origin, as in the robust set
     /// ([`super::Gpu::scene_variant`]; the dispatch clears it for a caller's rays, or where
     /// [`crate::prepare::Prepared::camera_rays_from_origin`] does not hold). The kernel then
-    /// makes each ray's origin the constant zero (`RAYS_FROM_ORIGIN`, shaders/camera.wgsl).
+    /// makes each ray's origin the constant zero (`RAYS_FROM_ORIGIN`, shaders/frame.wgsl).
     pub rays_from_origin: bool,
     /// Every ray of a caller's list starts at the same point, the first one's origin
     /// ([`crate::rays::one_origin`]; the dispatch clears it for other sources). The kernel reads
@@ -156,7 +156,7 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
 /// bytes: every chunk of BVH nodes (64 bytes) or triangles (40 bytes in f32, 80 in f64) fits
 /// one binding.
 pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
-    use super::layout::GpuTriangle;
+    use crate::kernel::layout::GpuTriangle;
     let node = size_of::<crate::prepare::bvh::BvhNode>();
     let largest = match precision {
         Precision::F32 => node.max(size_of::<GpuTriangle<f32>>()),
@@ -172,7 +172,7 @@ impl Variant {
             algorithm,
             f64_available: true,
             certainty: false,
-            source: Source::Camera,
+            casts: Casts::Camera,
             count: false,
             rays_from_origin: false,
             list_origin: false,
@@ -255,10 +255,10 @@ impl Variant {
                 d.push("CERTAINTY");
             }
         }
-        match self.source {
-            Source::Camera => {}
-            Source::Pixels => d.push("PIXEL_LIST"),
-            Source::Rays => d.push("RAY_LIST"),
+        match self.casts {
+            Casts::Camera => {}
+            Casts::Pixels => d.push("PIXEL_LIST"),
+            Casts::Rays => d.push("RAY_LIST"),
         }
         if self.count {
             d.push("COUNT");
@@ -266,7 +266,7 @@ impl Variant {
         if self.rays_from_origin {
             d.push("RAYS_FROM_ORIGIN");
         }
-        if self.list_origin && self.source == Source::Rays {
+        if self.list_origin && self.casts == Casts::Rays {
             d.push("LIST_ORIGIN");
         }
         for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
@@ -337,10 +337,10 @@ impl Variant {
     /// whose neighbouring pixels have coherent rays, or over a caller's rays (whose owner says
     /// whether they are coherent), for the nearest hit. Listed pixels are scattered.
     pub fn uses_packets(&self) -> bool {
-        let coherent = match self.source {
-            Source::Camera => true,
-            Source::Rays => !self.count,
-            Source::Pixels => false,
+        let coherent = match self.casts {
+            Casts::Camera => true,
+            Casts::Rays => !self.count,
+            Casts::Pixels => false,
         };
         self.packets && self.uses_bvh() && coherent && !self.hook_rays
     }
@@ -395,14 +395,14 @@ impl Variant {
 pub const MODULES: &[(&str, &str)] = &[
     ("types", include_str!("../../shaders/types.wgsl")),
     ("bindings", include_str!("../../shaders/bindings.wgsl")),
-    ("camera", include_str!("../../shaders/camera.wgsl")),
+    ("frame", include_str!("../../shaders/frame.wgsl")),
     ("sphere", include_str!("../../shaders/sphere.wgsl")),
     ("plane", include_str!("../../shaders/plane.wgsl")),
     ("triangle", include_str!("../../shaders/triangle.wgsl")),
     ("hit", include_str!("../../shaders/hit.wgsl")),
     ("traverse", include_str!("../../shaders/traverse.wgsl")),
     ("certainty", include_str!("../../shaders/certainty.wgsl")),
-    ("scene", include_str!("../../shaders/scene.wgsl")),
+    ("nearest", include_str!("../../shaders/nearest.wgsl")),
     ("count", include_str!("../../shaders/count.wgsl")),
     ("hooks", include_str!("../../shaders/hooks.wgsl")),
     ("shade", include_str!("../../shaders/shade.wgsl")),
@@ -462,7 +462,7 @@ pub fn generated_module() -> String {
     module_source(PRECISION_MODULE, &variant).expect("the precision module is generated")
 }
 
-/// Assembles `root` and everything it imports into one WGSL source specialised for `variant`.
+/// Assembles `root` and everything it imports into one WGSL source specialized for `variant`.
 ///
 /// Each module appears once, after its imports, under a `// ---- shaders/NAME.wgsl` banner so a
 /// reader of the emitted shader can find the file it came from.
@@ -635,14 +635,14 @@ pub fn all_variants() -> Vec<Variant> {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
                 // A caller's rays from many points, and from one (a pinhole camera's).
-                for (certainty, source, count, list_origin) in [
-                    (false, Source::Camera, false, false),
-                    (true, Source::Camera, false, false),
-                    (false, Source::Pixels, false, false),
-                    (false, Source::Rays, false, false),
-                    (false, Source::Rays, false, true),
-                    (true, Source::Rays, false, true),
-                    (false, Source::Rays, true, true),
+                for (certainty, casts, count, list_origin) in [
+                    (false, Casts::Camera, false, false),
+                    (true, Casts::Camera, false, false),
+                    (false, Casts::Pixels, false, false),
+                    (false, Casts::Rays, false, false),
+                    (false, Casts::Rays, false, true),
+                    (true, Casts::Rays, false, true),
+                    (false, Casts::Rays, true, true),
                 ] {
                     let impossible = precision == Precision::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
@@ -653,11 +653,11 @@ pub fn all_variants() -> Vec<Variant> {
                         algorithm,
                         f64_available,
                         certainty,
-                        source,
+                        casts,
                         count,
                         // As robust perspective renders set it (the textbook set covers the
                         // camera's general rays).
-                        rays_from_origin: source != Source::Rays && algorithm == Algorithm::Robust,
+                        rays_from_origin: casts != Casts::Rays && algorithm == Algorithm::Robust,
                         list_origin,
                         kinds: Kinds::ALL,
                         bvh: false,
@@ -678,7 +678,7 @@ pub fn all_variants() -> Vec<Variant> {
                         (true, true, false),
                         (true, true, true),
                     ];
-                    let listed = source != Source::Camera;
+                    let listed = casts != Casts::Camera;
                     let probe = Variant {
                         bvh: true,
                         packets: true,
@@ -781,7 +781,7 @@ mod tests {
     fn no_two_resources_share_a_binding() {
         let both = Variant {
             certainty: true,
-            source: Source::Rays,
+            casts: Casts::Rays,
             bvh: true,
             chunks: MAX_CHUNKS,
             ..Variant::new(Precision::F32, Algorithm::Robust)
@@ -844,7 +844,7 @@ mod tests {
             ..Variant::new(Precision::F32, Algorithm::Robust)
         };
         let listed = Variant {
-            source: Source::Rays,
+            casts: Casts::Rays,
             ..lanes
         };
         let f64 = Variant {
@@ -905,12 +905,12 @@ mod tests {
                 ..lanes
             },
             Variant {
-                source: Source::Rays,
+                casts: Casts::Rays,
                 count: true,
                 ..lanes
             },
             Variant {
-                source: Source::Pixels,
+                casts: Casts::Pixels,
                 ..lanes
             },
             Variant {

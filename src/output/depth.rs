@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use super::EncodedFile;
-use crate::camera::Frame;
 use crate::images::Images;
+use crate::kernel::frame::Frame;
 use crate::math::{Real, length};
 use crate::scene::{Camera, Lens, Projection};
 
@@ -71,7 +71,7 @@ impl Depth {
         (images.distance.par_iter().enumerate())
             .map(|(k, &distance)| {
                 let (i, j) = ((k / width) as u32 + first_row, (k % width) as u32);
-                let ray = crate::cpu::camera::camera_ray(&frame, i, j);
+                let ray = crate::cpu::frame::camera_ray(&frame, i, j);
                 let scale = frame.focal_length / length(ray.direction);
                 T::from_f64(distance.to_f64() * scale)
             })

@@ -17,7 +17,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
-use crate::cpu::types::{Frame, Plane, Ray, Sphere, Triangle};
+use crate::kernel::types::{Frame, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Lighting, Object, Scene};
 use bvh::{Accel, Bvh};
@@ -341,7 +341,7 @@ mod tests {
     use super::*;
     use crate::scene::Projection;
 
-    /// The kernel's RAYS_FROM_ORIGIN (shaders/camera.wgsl) puts every camera ray's origin at +0:
+    /// The kernel's RAYS_FROM_ORIGIN (shaders/frame.wgsl) puts every camera ray's origin at +0:
     /// right exactly where the prepared eye is +0, which the robust set gives every perspective
     /// camera, and the textbook set only a perspective camera at the world origin.
     #[test]

@@ -14,14 +14,14 @@ use std::time::Duration;
 
 use super::{AnyImages, Arithmetic, Device, Mode, Request, STREAM_PIXELS, band_rows, can_stream};
 use super::{Progress, check_kernels, render_streamed, timed};
-use crate::adaptive;
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
+use crate::render::adaptive;
+use crate::render::supersample;
 use crate::scene::{self, CameraOverrides, Object, Scene};
-use crate::supersample;
 
 /// Everything a render to files is asked for.
 #[derive(Clone, Debug)]
@@ -405,7 +405,7 @@ impl Spec {
     }
 
     /// The kernel the render runs first (for adaptive precision: its f32 certainty pass,
-    /// which writes every output), specialised for `scene` and `request`.
+    /// which writes every output), specialized for `scene` and `request`.
     fn first_kernel(&self, gpu: &Gpu, scene: &Scene, request: &Request) -> Result<Variant> {
         let mode = self.mode;
         if mode.precision == Arithmetic::Adaptive {

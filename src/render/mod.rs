@@ -1,8 +1,10 @@
 //! One entry point for every way of rendering, in every [`Mode`] ([`render`]), and the policy
 //! of a render to files ([`Spec`]: whole or in bands, supersampled, adaptive).
 
+pub mod adaptive;
 mod files;
 mod mode;
+pub mod supersample;
 
 pub use files::{Spec, Summary};
 pub use mode::{Arithmetic, DEFAULT_ALGORITHM, Device, Mode};
@@ -16,16 +18,15 @@ use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
-use crate::gpu::layout::GpuReal;
 use crate::gpu::shader::Variant;
 use crate::gpu::{self, Gpu, Job, Stages};
 use crate::images::{Coverage, Images, Outputs};
+use crate::kernel::layout::GpuReal;
 use crate::math::Precision;
 use crate::output::{self, Encoding};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Accel;
 use crate::scene::{Camera, Scene};
-use crate::supersample;
 
 /// Images in whichever precision they were rendered in.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,7 +115,7 @@ impl Default for Request {
 
 impl Request {
     /// The kernel a GPU render of `scene` in `mode` (f32 or f64) runs for this request:
-    /// specialised for the scene, its size ([`gpu::shader::Variant::for_rays`]) and the
+    /// specialized for the scene, its size ([`gpu::shader::Variant::for_rays`]) and the
     /// outputs, with the hook, and the user's kernel in its place where one is given (an error
     /// if its bindings do not fit).
     pub fn kernel_variant(
@@ -230,9 +231,9 @@ fn dispatch(
             }
         };
         let a = if timed {
-            crate::adaptive::render_adaptive_timed(gpu, scene)?
+            crate::render::adaptive::render_adaptive_timed(gpu, scene)?
         } else {
-            crate::adaptive::render_adaptive(gpu, scene)?
+            crate::render::adaptive::render_adaptive(gpu, scene)?
         };
         return Ok((AnyImages::F32(a.images), a.kernel_s));
     }

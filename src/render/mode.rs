@@ -28,7 +28,7 @@ impl Device {
 }
 
 /// The arithmetic of a render: one precision throughout, or adaptive (robust f32, with the
-/// pixels it cannot be sure of cast again in f64; see [`crate::adaptive`]).
+/// pixels it cannot be sure of cast again in f64; see [`crate::render::adaptive`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Arithmetic {
     F32,

@@ -7,9 +7,9 @@ use std::sync::OnceLock;
 use raycast::Algorithm;
 use raycast::gpu::Gpu;
 use raycast::gpu::hooks::ShadeHook;
-use raycast::gpu::layout::GpuReal;
 use raycast::gpu::shader::Variant;
 use raycast::images::{Images, Outputs};
+use raycast::kernel::layout::GpuReal;
 use raycast::scene::Scene;
 
 /// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail

@@ -178,7 +178,7 @@ pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
 /// before scene `k` (0-based). Scenes are loaded (and so validated) before anything renders.
 ///
 /// GPU kernels are compiled before each scene's timed renders (by rendering a 1x1 image of the
-/// scene in each GPU mode: kernels are specialised per scene), so the time column compares
+/// scene in each GPU mode: kernels are specialized per scene), so the time column compares
 /// renders, not compilations.
 pub fn run(
     paths: &[PathBuf],

@@ -29,8 +29,10 @@ use raycast::algorithm::Algorithm;
 use raycast::cpu;
 use raycast::error::{Error, Result};
 use raycast::gpu::hooks::ShadeHook;
-use raycast::gpu::{self, Gpu, layout::GpuTriangle};
+use raycast::gpu::{self, Gpu};
 use raycast::images::{Images, MISS};
+use raycast::kernel::layout::GpuTriangle;
+use raycast::kernel::types;
 use raycast::math::{Precision, Real};
 use raycast::prepare::Prepared;
 use raycast::prepare::bvh::{Accel, Bvh};
@@ -200,7 +202,7 @@ impl Counts {
 ///
 /// with `S`, `P`, `T` the sphere, plane and triangle counts, `triangle_bytes` the size of one
 /// triangle as the render stores it (on the GPU `GpuTriangle`: 40 bytes in f32, 80 in f64; on
-/// the CPU `cpu::types::Triangle`: 36 in f32, 72 in f64), `4 * (S + P + T)` the object-id
+/// the CPU `types::Triangle`: 36 in f32, 72 in f64), `4 * (S + P + T)` the object-id
 /// buffer (one `u32` per primitive) and `bvh_bytes` [`Bvh::bytes`] (64 bytes per node plus a
 /// 4-byte order entry per sphere and triangle) when the render uses a BVH, else 0. On the GPU
 /// these are the device buffers of bindings 3, 4, 9 and 10 (less the 4 bytes per plane the
@@ -423,8 +425,8 @@ pub fn measure(
     let triangle_bytes = match (mode.device, mode.precision) {
         (Device::Gpu, Arithmetic::F64) => size_of::<GpuTriangle<f64>>(),
         (Device::Gpu, _) => size_of::<GpuTriangle<f32>>(),
-        (Device::Cpu, Arithmetic::F32) => size_of::<cpu::types::Triangle<f32>>(),
-        (Device::Cpu, _) => size_of::<cpu::types::Triangle<f64>>(),
+        (Device::Cpu, Arithmetic::F32) => size_of::<types::Triangle<f32>>(),
+        (Device::Cpu, _) => size_of::<types::Triangle<f64>>(),
     };
     let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);
     let last = timed.last().expect("at least one run");
@@ -487,7 +489,7 @@ fn measure_rays(
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
     let rays = incoherent_rays(&loaded.scene, n);
-    let scene = raycast::rays::RayScene::from_scene(loaded.scene.clone());
+    let scene = raycast::query::RayScene::from_scene(loaded.scene.clone());
     let gpu = gpu.filter(|_| mode.device == Device::Gpu);
     reset_peak_rss();
     let warm_up = scene.cast(gpu, mode, &rays[..])?;
@@ -838,8 +840,8 @@ mod tests {
     fn triangle_sizes_are_as_documented() {
         assert_eq!(size_of::<GpuTriangle<f32>>(), 40);
         assert_eq!(size_of::<GpuTriangle<f64>>(), 80);
-        assert_eq!(size_of::<cpu::types::Triangle<f32>>(), 36);
-        assert_eq!(size_of::<cpu::types::Triangle<f64>>(), 72);
+        assert_eq!(size_of::<types::Triangle<f32>>(), 36);
+        assert_eq!(size_of::<types::Triangle<f64>>(), 72);
     }
 
     #[test]

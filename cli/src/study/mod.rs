@@ -3,7 +3,7 @@
 //!
 //! - [`accuracy`] (`raycast accuracy`): every mode against a reference mode, scene by scene;
 //! - [`tradeoff`] (`raycast tradeoff`): the time of a frame against its error, for every mode;
-//! - [`specialize`] (`raycast specializations`): what each specialisation of the kernel is worth;
+//! - [`specializations`] (`raycast specializations`): what each specialization of the kernel is worth;
 //! - [`bench`](mod@bench) (`raycast bench`): where the time of a frame goes, stage by stage;
 //! - [`selftest`] (`raycast selftest`): a built-in suite checked against the CPU reference on
 //!   the chosen adapter.
@@ -16,7 +16,7 @@
 pub mod accuracy;
 pub mod bench;
 pub mod selftest;
-pub mod specialize;
+pub mod specializations;
 pub mod tradeoff;
 pub mod workload;
 

@@ -40,9 +40,9 @@ use raycast::algorithm::Algorithm;
 use raycast::error::{Error, Result};
 use raycast::gpu::Gpu;
 use raycast::output::{self, EncodedFile};
+use raycast::render::supersample;
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
-use raycast::supersample;
 
 pub use plot::{LogAxis, plot};
 
@@ -285,7 +285,7 @@ fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Resul
         if let (Arithmetic::Adaptive, Device::Gpu, Some(g)) = (mode.precision, mode.device, gpu)
             && mode.algorithm == Algorithm::Robust
         {
-            let a = raycast::adaptive::render_adaptive_timed(g, scene)?;
+            let a = raycast::render::adaptive::render_adaptive_timed(g, scene)?;
             let recast_fraction = Some(a.recast_fraction());
             return Ok(Frame {
                 images: AnyImages::F32(a.images),

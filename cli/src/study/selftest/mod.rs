@@ -24,12 +24,14 @@ use crate::compare::color_error;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu::{self, margin::margins};
 use raycast::error::{Error, Result};
-use raycast::gpu::{self, Gpu, Job, layout::GpuReal, shader::Variant};
+use raycast::gpu::{self, Gpu, Job, shader::Variant};
 use raycast::images::{Images, MISS, Outputs};
+use raycast::kernel::layout::GpuReal;
 use raycast::math::{Precision, Real};
 use raycast::output::{Pictures, pictures};
 use raycast::prepare::{Prepared, bvh::Accel};
-use raycast::rays::{AnyHits, Hits, Ray, RayScene};
+use raycast::query::RayScene;
+use raycast::rays::{AnyHits, Hits, Ray};
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
 use raycast::scene::Scene;
 

@@ -1,8 +1,8 @@
-//! `raycast specializations`: what each specialisation of the kernel is worth, measured side by
+//! `raycast specializations`: what each specialization of the kernel is worth, measured side by
 //! side on the same device in one run.
 //!
-//! For every scene, each specialisation is timed with the kernel specialised and with that one
-//! specialisation turned off, everything else as `raycast render` would run it (GPU, f32, robust,
+//! For every scene, each specialization is timed with the kernel specialized and with that one
+//! specialization turned off, everything else as `raycast render` would run it (GPU, f32, robust,
 //! the scene's own resolution):
 //! - primitive kinds: only the scene's kinds compiled in, against every kind ([`Kinds::ALL`]);
 //! - BVH against brute force (brute force skipped above [`BRUTE_FORCE_LIMIT`] triangles);
@@ -37,40 +37,40 @@ pub const DEFAULT_TORUS: &str = "target/bench/torus.json";
 /// The scenes measured unless others are named.
 pub const DEFAULT_SCENES: &str = "scenes/course";
 
-/// A kernel specialisation, as a row of the table.
+/// A kernel specialization, as a row of the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Specialisation {
+pub enum Specialization {
     Kinds,
     Bvh,
     Packets,
     Outputs,
 }
 
-impl Specialisation {
-    pub const ALL: [Specialisation; 4] = [
-        Specialisation::Kinds,
-        Specialisation::Bvh,
-        Specialisation::Packets,
-        Specialisation::Outputs,
+impl Specialization {
+    pub const ALL: [Specialization; 4] = [
+        Specialization::Kinds,
+        Specialization::Bvh,
+        Specialization::Packets,
+        Specialization::Outputs,
     ];
 
     /// Its name, and what "with" and "without" are.
     pub fn describe(self) -> (&'static str, &'static str, &'static str) {
         match self {
-            Specialisation::Kinds => ("primitive kinds", "the scene's kinds", "every kind"),
-            Specialisation::Bvh => ("BVH", "BVH", "brute force"),
-            Specialisation::Packets => ("subgroup packets", "packets", "per-ray traversal"),
-            Specialisation::Outputs => ("outputs", "distance only", "id, distance, normal"),
+            Specialization::Kinds => ("primitive kinds", "the scene's kinds", "every kind"),
+            Specialization::Bvh => ("BVH", "BVH", "brute force"),
+            Specialization::Packets => ("subgroup packets", "packets", "per-ray traversal"),
+            Specialization::Outputs => ("outputs", "distance only", "id, distance, normal"),
         }
     }
 }
 
-/// One row: a specialisation on one scene.
+/// One row: a specialization on one scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
     pub scene: String,
-    pub specialisation: Specialisation,
-    /// Median time with the specialisation, and without, in milliseconds; `None` where not
+    pub specialization: Specialization,
+    /// Median time with the specialization, and without, in milliseconds; `None` where not
     /// measured (see `note`).
     pub with_ms: Option<f64>,
     pub without_ms: Option<f64>,
@@ -82,15 +82,15 @@ pub struct Row {
 }
 
 impl Row {
-    /// Time without over time with (above 1: the specialisation is faster).
+    /// Time without over time with (above 1: the specialization is faster).
     pub fn speed_up(&self) -> Option<f64> {
         Some(self.without_ms? / self.with_ms?)
     }
 }
 
-/// What to run for one row: the kernel with and without the specialisation (`None`: not run).
+/// What to run for one row: the kernel with and without the specialization (`None`: not run).
 struct Plan {
-    specialisation: Specialisation,
+    specialization: Specialization,
     with: Option<Variant>,
     without: Option<Variant>,
     default_with: Option<bool>,
@@ -98,9 +98,9 @@ struct Plan {
 }
 
 impl Plan {
-    fn not_applicable(specialisation: Specialisation, why: &str) -> Plan {
+    fn not_applicable(specialization: Specialization, why: &str) -> Plan {
         Plan {
-            specialisation,
+            specialization,
             with: None,
             without: None,
             default_with: None,
@@ -116,7 +116,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
         .scene_variant(scene, Precision::F32, Algorithm::Robust)
         .for_rays(scene.camera.pixel_count());
     let toggle = |on: Variant, off: Variant, default_with: bool, spec| Plan {
-        specialisation: spec,
+        specialization: spec,
         with: Some(on),
         without: Some(off),
         default_with: Some(default_with),
@@ -125,31 +125,31 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     let [spheres, _, triangles] = scene.primitive_counts();
     let mut plans = Vec::new();
     plans.push(if base.kinds == Kinds::ALL {
-        Plan::not_applicable(Specialisation::Kinds, "the scene has every kind")
+        Plan::not_applicable(Specialization::Kinds, "the scene has every kind")
     } else {
         let all = base.with_kinds(Kinds::ALL);
-        toggle(base, all, true, Specialisation::Kinds)
+        toggle(base, all, true, Specialization::Kinds)
     });
     let bvh = Variant { bvh: true, ..base };
     plans.push(if spheres + triangles == 0 {
-        Plan::not_applicable(Specialisation::Bvh, "no spheres or triangles")
+        Plan::not_applicable(Specialization::Bvh, "no spheres or triangles")
     } else if triangles > BRUTE_FORCE_LIMIT {
         Plan {
             without: None,
             note: Some(format!(
                 "brute force skipped (too slow): more than {BRUTE_FORCE_LIMIT} triangles"
             )),
-            ..toggle(bvh, base, true, Specialisation::Bvh)
+            ..toggle(bvh, base, true, Specialization::Bvh)
         }
     } else {
         let brute = Variant { bvh: false, ..base };
-        toggle(bvh, brute, base.uses_bvh(), Specialisation::Bvh)
+        toggle(bvh, brute, base.uses_bvh(), Specialization::Bvh)
     });
     plans.push(if !base.uses_bvh() {
-        Plan::not_applicable(Specialisation::Packets, "no BVH for this scene")
+        Plan::not_applicable(Specialization::Packets, "no BVH for this scene")
     } else if !gpu.has_packet_subgroups() {
         Plan::not_applicable(
-            Specialisation::Packets,
+            Specialization::Packets,
             "no subgroups of 8 or more invocations on this device",
         )
     } else {
@@ -161,7 +161,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             packets: false,
             ..base
         };
-        toggle(on, off, base.packets, Specialisation::Packets)
+        toggle(on, off, base.packets, Specialization::Packets)
     });
     let distance = base.with_outputs(Outputs {
         distance: true,
@@ -169,7 +169,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     });
     plans.push(Plan {
         default_with: None,
-        ..toggle(distance, base, false, Specialisation::Outputs)
+        ..toggle(distance, base, false, Specialization::Outputs)
     });
     plans
 }
@@ -234,7 +234,7 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     v[lo] + (v[hi] - v[lo]) * (at - lo as f64)
 }
 
-/// Measures every specialisation on `scene` (`runs` timed rounds); also returns the spread of
+/// Measures every specialization on `scene` (`runs` timed rounds); also returns the spread of
 /// every kernel timed.
 pub fn scene_rows(gpu: &Gpu, named: &NamedScene, runs: usize) -> Result<(Vec<Row>, Vec<f64>)> {
     let plans = plans(gpu, &named.scene);
@@ -253,7 +253,7 @@ pub fn scene_rows(gpu: &Gpu, named: &NamedScene, runs: usize) -> Result<(Vec<Row
         .into_iter()
         .map(|p| Row {
             scene: named.name.clone(),
-            specialisation: p.specialisation,
+            specialization: p.specialization,
             with_ms: ms(p.with),
             without_ms: ms(p.without),
             default_with: p.default_with,
@@ -311,13 +311,13 @@ fn ms_cell(ms: Option<f64>) -> String {
     }
 }
 
-/// The specialisation table, in markdown.
+/// The specialization table, in markdown.
 pub fn table(rows: &[Row]) -> String {
     use Align::{Left, Right};
     let mut table = Table::new(
         &[
             "scene",
-            "specialisation: with / without",
+            "specialization: with / without",
             "with (ms)",
             "without (ms)",
             "speed-up",
@@ -327,7 +327,7 @@ pub fn table(rows: &[Row]) -> String {
         &[Left, Left, Right, Right, Right, Left, Left],
     );
     for r in rows {
-        let (name, with, without) = r.specialisation.describe();
+        let (name, with, without) = r.specialization.describe();
         let without_ms = match (&r.without_ms, &r.note) {
             (None, Some(note)) if note.starts_with("brute force skipped") => {
                 "skipped (too slow)".to_owned()
@@ -372,10 +372,10 @@ fn scenes_table(scenes: &[NamedScene]) -> String {
 }
 
 /// The geometric mean, least and greatest speed-up of the measured rows of `spec`.
-fn summary(rows: &[Row], spec: Specialisation) -> Option<(f64, f64, f64, usize)> {
+fn summary(rows: &[Row], spec: Specialization) -> Option<(f64, f64, f64, usize)> {
     let ups: Vec<f64> = rows
         .iter()
-        .filter(|r| r.specialisation == spec)
+        .filter(|r| r.specialization == spec)
         .filter_map(Row::speed_up)
         .collect();
     if ups.is_empty() {
@@ -387,11 +387,11 @@ fn summary(rows: &[Row], spec: Specialisation) -> Option<(f64, f64, f64, usize)>
     Some((geo, lo, hi, ups.len()))
 }
 
-/// Per specialisation, the speed-ups over the scenes where it was measured, in markdown.
+/// Per specialization, the speed-ups over the scenes where it was measured, in markdown.
 fn summary_table(rows: &[Row]) -> String {
     let mut table = Table::text_then_numbers(
         &[
-            "specialisation",
+            "specialization",
             "scenes measured",
             "speed-up, geometric mean",
             "least",
@@ -399,7 +399,7 @@ fn summary_table(rows: &[Row]) -> String {
         ],
         1,
     );
-    for spec in Specialisation::ALL {
+    for spec in Specialization::ALL {
         let (name, with, without) = spec.describe();
         let cells = match summary(rows, spec) {
             Some((geo, lo, hi, n)) => [n.to_string(), times(geo), times(lo), times(hi)],
@@ -427,10 +427,10 @@ pub fn document(report: &Report) -> String {
     } else {
         "wall time of dispatch and readback (the device has no timestamp queries)"
     };
-    let mut s = String::from("# Kernel specialisations\n\n");
-    s += "What each specialisation of the kernel is worth: every scene rendered by the kernel \
+    let mut s = String::from("# Kernel specializations\n\n");
+    s += "What each specialization of the kernel is worth: every scene rendered by the kernel \
           `raycast render` runs for it (GPU, f32, robust, the scene's own resolution, id, \
-          distance and normal), and by the same kernel with one specialisation turned off. \
+          distance and normal), and by the same kernel with one specialization turned off. \
           Generated by\n\n";
     s += &format!("    {}\n\n", p.command);
     let adapter = match &p.adapter {
@@ -471,7 +471,7 @@ pub fn document(report: &Report) -> String {
     s
 }
 
-/// `raycast specializations`: measures every specialisation on the scenes of `scenes` (files,
+/// `raycast specializations`: measures every specialization on the scenes of `scenes` (files,
 /// or folders of them, [`scene_files`]) and the torus (`torus`, else [`DEFAULT_TORUS`] where
 /// it exists, else a note that it was not), `runs` rounds each, and with `with_crossover` where a
 /// BVH starts to pay; progress on stderr. Writes the [`document`] to `out` (whole or not at
@@ -735,7 +735,7 @@ mod tests {
         let rows = [
             Row {
                 scene: "a".into(),
-                specialisation: Specialisation::Bvh,
+                specialization: Specialization::Bvh,
                 with_ms: Some(2.0),
                 without_ms: Some(5.0),
                 default_with: Some(true),
@@ -743,7 +743,7 @@ mod tests {
             },
             Row {
                 scene: "torus".into(),
-                specialisation: Specialisation::Bvh,
+                specialization: Specialization::Bvh,
                 with_ms: Some(500.0),
                 without_ms: None,
                 default_with: Some(true),

@@ -1,5 +1,5 @@
 // Nearest-hit search: over every primitive (brute force), or the planes by brute force and the
-// rest through the BVH (BVH; shaders/traverse.wgsl). CPU mirror: src/cpu/scene.rs.
+// rest through the BVH (BVH; shaders/traverse.wgsl). CPU mirror: src/cpu/nearest.rs.
 #import types
 #import bindings
 #import hit

@@ -1,4 +1,4 @@
-//! Mirror of shaders/scene.wgsl: the nearest hit over every primitive (brute force), or the
+//! Mirror of shaders/nearest.wgsl: the nearest hit over every primitive (brute force), or the
 //! planes by brute force and the rest through the BVH (src/cpu/traverse.rs).
 
 pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
@@ -6,7 +6,7 @@ use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
 use super::triangle::{intersect_triangle, plane_t, triangle_normal, triangle_uv};
-use super::types::{Ray, shear_of, t_far};
+use crate::kernel::types::{Ray, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 

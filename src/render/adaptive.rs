@@ -67,7 +67,7 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, true, CPU_RECAST_PIXELS)
 }
 
-/// The kernel of the first pass: robust f32, specialised for `scene` and its size
+/// The kernel of the first pass: robust f32, specialized for `scene` and its size
 /// ([`Variant::for_rays`]), with the certainty test.
 pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
     Variant {

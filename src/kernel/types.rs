@@ -3,7 +3,7 @@
 
 use crate::math::{Real, Vec3};
 
-pub use crate::camera::Frame;
+pub use crate::kernel::frame::Frame;
 
 /// Returned by the `intersect_*` functions when the ray misses (valid hits have `t >= 1`).
 pub fn no_hit<T: Real>() -> T {

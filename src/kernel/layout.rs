@@ -9,8 +9,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::camera::Frame;
-use crate::cpu::types::{Plane, Sphere, Triangle};
+use crate::kernel::frame::Frame;
+use crate::kernel::types::{Plane, Sphere, Triangle};
 use crate::math::Real;
 use crate::scene::Projection;
 
@@ -156,8 +156,8 @@ impl<R: GpuReal> From<&Triangle<R>> for GpuTriangle<R> {
     }
 }
 
-impl<R: GpuReal> From<&crate::cpu::types::Ray<R>> for GpuRay<R> {
-    fn from(r: &crate::cpu::types::Ray<R>) -> Self {
+impl<R: GpuReal> From<&crate::kernel::types::Ray<R>> for GpuRay<R> {
+    fn from(r: &crate::kernel::types::Ray<R>) -> Self {
         GpuRay {
             origin: r.origin.to_array(),
             _pad0: R::ZERO,

@@ -1,6 +1,6 @@
-//! Mirror of shaders/camera.wgsl: per-pixel ray generation.
+//! Mirror of shaders/frame.wgsl: per-pixel ray generation.
 
-use super::types::{Frame, Ray};
+use crate::kernel::types::{Frame, Ray};
 use crate::math::{Real, vec3};
 use crate::scene::Projection;
 

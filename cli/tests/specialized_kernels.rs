@@ -1,6 +1,6 @@
 //! Kernels compiled for only the primitive kinds a scene has render exactly like the general
 //! kernel (every kind compiled in), for every combination of kinds, both algorithm sets and
-//! both precisions. (That the specialised kernel contains no code for absent kinds is checked
+//! both precisions. (That the specialized kernel contains no code for absent kinds is checked
 //! on the naga module in `src/gpu/shader.rs`.)
 
 #[path = "../../tests/common/mod.rs"]
@@ -34,7 +34,7 @@ fn scene(objects: &[&str]) -> Scene {
 }
 
 #[test]
-fn specialised_kernels_render_like_the_general_one() {
+fn specialized_kernels_render_like_the_general_one() {
     let gpu = common::gpu();
     for bits in 0..16u32 {
         let objects: Vec<&str> = (0..4)
@@ -60,10 +60,10 @@ fn specialised_kernels_render_like_the_general_one() {
     }
 }
 
-/// `render --emit-shader FILE` writes the kernel that ran: valid WGSL, specialised for the
+/// `render --emit-shader FILE` writes the kernel that ran: valid WGSL, specialized for the
 /// scene (no triangle code for spheres and a plane), and refuses the CPU device.
 #[test]
-fn emit_shader_writes_the_specialised_kernel() {
+fn emit_shader_writes_the_specialized_kernel() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("kernel.wgsl");
     let scene = common::repo_path("scenes/course/sphere-and-plane.json");

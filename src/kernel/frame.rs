@@ -1,7 +1,7 @@
 //! The camera frame, built on the host in f64 from the scene's camera (the lecture's formulas).
 //!
-//! Ray generation from the frame runs per pixel in `shaders/camera.wgsl` and its CPU mirror
-//! `src/cpu/camera.rs`; this module only builds the orthonormal basis once.
+//! Ray generation from the frame runs per pixel in `shaders/frame.wgsl` and its CPU mirror
+//! `src/cpu/frame.rs`; this module only builds the orthonormal basis once.
 
 use crate::math::{Real, Vec3};
 use crate::scene::{Camera, Projection};
@@ -147,7 +147,7 @@ mod tests {
             let frame = Frame::new(&c, [16, 9]);
             let (k, to_camera) = (c.intrinsics(), c.world_to_camera());
             for (i, j) in [(0, 0), (8, 15), (3, 7)] {
-                let ray = crate::cpu::camera::camera_ray(&frame, i, j);
+                let ray = crate::cpu::frame::camera_ray(&frame, i, j);
                 let [o, d] = [ray.origin, ray.direction].map(|p| DVec3::new(p.x, p.y, p.z));
                 let pixel = match projection {
                     // Any point along the ray projects to the pixel's centre.

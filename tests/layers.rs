@@ -1,0 +1,134 @@
+//! The library's top-level modules import one another in one direction only: no two modules,
+//! directly or through others, import each other (docs/architecture.md draws the layers). Read
+//! from the sources: `crate::NAME` and `super::NAME` paths outside comments and test modules.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Every `.rs` file under `dir`.
+fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            sources(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// `text` without comments and without what follows `#[cfg(test)]` (test modules close files).
+fn code(text: &str) -> String {
+    let text = text.split("#[cfg(test)]").next().unwrap();
+    text.lines()
+        .map(|line| match line.find("//") {
+            Some(i) => &line[..i],
+            None => line,
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The top-level modules named after `crate::` in `code`.
+fn imports(code: &str, modules: &BTreeSet<String>) -> BTreeSet<String> {
+    let mut found = BTreeSet::new();
+    for (i, _) in code.match_indices("crate::") {
+        let rest = &code[i + "crate::".len()..];
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if modules.contains(&name) {
+            found.insert(name);
+        }
+        // `crate::{a, b::c}`
+        if rest.starts_with('{') {
+            let group = &rest[1..rest.find('}').unwrap_or(rest.len())];
+            for item in group.split(',') {
+                let name = item.trim().split("::").next().unwrap().trim();
+                if modules.contains(name) {
+                    found.insert(name.to_owned());
+                }
+            }
+        }
+    }
+    found
+}
+
+/// The top-level module graph: which modules each imports.
+fn graph() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut modules = BTreeSet::new();
+    for entry in std::fs::read_dir(&src).unwrap() {
+        let path = entry.unwrap().path();
+        let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+        if stem != "lib" && (path.is_dir() || path.extension().is_some_and(|e| e == "rs")) {
+            modules.insert(stem);
+        }
+    }
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let mut graph: BTreeMap<String, BTreeSet<String>> = modules
+        .iter()
+        .map(|m| (m.clone(), BTreeSet::new()))
+        .collect();
+    for file in files {
+        let relative = file.strip_prefix(&src).unwrap();
+        let top = relative.iter().next().unwrap().to_string_lossy();
+        let top = top.trim_end_matches(".rs").to_owned();
+        if top == "lib" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&file).unwrap();
+        let mut used = imports(&code(&text), &modules);
+        used.remove(&top);
+        graph.get_mut(&top).unwrap().extend(used);
+    }
+    graph
+}
+
+/// A path of imports from `from` back to `to`, if there is one.
+fn path_back(
+    graph: &BTreeMap<String, BTreeSet<String>>,
+    from: &str,
+    to: &str,
+    seen: &mut BTreeSet<String>,
+) -> Option<Vec<String>> {
+    if from == to {
+        return Some(vec![to.to_owned()]);
+    }
+    if !seen.insert(from.to_owned()) {
+        return None;
+    }
+    for next in &graph[from] {
+        if let Some(mut path) = path_back(graph, next, to, seen) {
+            path.insert(0, from.to_owned());
+            return Some(path);
+        }
+    }
+    None
+}
+
+#[test]
+fn no_two_top_level_modules_import_each_other() {
+    let graph = graph();
+    assert!(graph.len() >= 8, "{graph:?}");
+    let mut cycles = Vec::new();
+    for (module, used) in &graph {
+        for other in used {
+            if let Some(back) = path_back(&graph, other, module, &mut BTreeSet::new()) {
+                cycles.push(format!("{module} -> {}", back.join(" -> ")));
+            }
+        }
+    }
+    assert!(cycles.is_empty(), "import cycles:\n{}", cycles.join("\n"));
+}
+
+#[test]
+fn the_reader_finds_imports_in_code_only() {
+    let modules: BTreeSet<String> = ["gpu", "cpu", "scene"].map(String::from).into();
+    let text = "use crate::gpu::Gpu;\n/// [`crate::cpu::render`]\nlet s = crate::{scene, x};\n\
+                #[cfg(test)]\nmod tests { use crate::cpu; }";
+    let found = imports(&code(text), &modules);
+    assert_eq!(found, ["gpu", "scene"].map(String::from).into());
+}
