@@ -146,7 +146,7 @@ impl Outputs {
     };
 
     /// Id, distance and normal: what [`Images`] holds without a shade hook.
-    pub const GEOMETRY: Outputs = Outputs {
+    pub(crate) const GEOMETRY: Outputs = Outputs {
         color: false,
         ..Outputs::ALL
     };
@@ -160,7 +160,7 @@ impl Outputs {
     };
 
     /// The outputs of a list (`--outputs id,normal`).
-    pub fn of(list: &[Output]) -> Outputs {
+    pub(crate) fn of(list: &[Output]) -> Outputs {
         let mut o = Outputs::NONE;
         for output in list {
             match output {

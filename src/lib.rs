@@ -53,6 +53,11 @@ pub mod rays;
 pub mod render;
 pub mod scene;
 
+// The README's Rust code, compiled and run by `cargo test` as doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};
 pub use images::Images;

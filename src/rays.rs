@@ -69,7 +69,7 @@ impl<'a> RayList<'a> {
         }
     }
 
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         match self.rays {
             RayRows::F64(r) => r.len(),
             RayRows::F32(r) => r.len(),
@@ -81,7 +81,7 @@ impl<'a> RayList<'a> {
     }
 
     /// Ray `k` (`k < len()`).
-    pub fn get(&self, k: usize) -> Ray {
+    pub(crate) fn get(&self, k: usize) -> Ray {
         match self.rays {
             RayRows::F64(r) => r[k],
             RayRows::F32(r) => widen(&r[k]),
@@ -162,7 +162,7 @@ pub struct Hits<T> {
 
 impl<T: Real> Hits<T> {
     /// `n` misses, or with `counting` `n` zero counts.
-    pub fn new(n: usize, counting: bool) -> Hits<T> {
+    pub(crate) fn new(n: usize, counting: bool) -> Hits<T> {
         let per_ray = if counting { 0 } else { n };
         Hits {
             t: vec![T::INFINITY; per_ray],

@@ -14,7 +14,7 @@ fn hit_count<T: Real>(t: T) -> u32 {
     u32::from(t != no_hit())
 }
 
-pub fn count_crossings<T: Real, const ROBUST: bool>(
+pub(crate) fn count_crossings<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     prims: &Primitives<T>,

@@ -8,13 +8,13 @@ use crate::prepare::Primitives;
 
 /// What the kernel writes for one pixel: object id (-1 on a miss), distance and normal
 /// (`None` on a miss).
-pub struct PixelOut<T> {
+pub(crate) struct PixelOut<T> {
     pub id: i32,
     pub surface: Option<([T; 3], T)>,
 }
 
 /// The kernel's entry point for pixel (`i`, `j`) (`main` in shaders/entry.wgsl).
-pub fn main<T: Real, const ROBUST: bool>(
+pub(crate) fn main<T: Real, const ROBUST: bool>(
     frame: &Frame<T>,
     prims: &Primitives<T>,
     unit: T,
@@ -42,12 +42,12 @@ pub fn main<T: Real, const ROBUST: bool>(
 
 /// What the kernel writes for one ray of a list (`cast_ray` in shaders/entry.wgsl): object id
 /// (-1 on a miss), and on a hit its normal, t, primitive key and barycentrics.
-pub struct RayOut<T> {
+pub(crate) struct RayOut<T> {
     pub id: i32,
     pub hit: Option<RayHit<T>>,
 }
 
-pub struct RayHit<T> {
+pub(crate) struct RayHit<T> {
     pub normal: [T; 3],
     pub t: T,
     /// The primitive's index among its kind in the scene's order.
@@ -55,7 +55,7 @@ pub struct RayHit<T> {
     pub uv: [T; 2],
 }
 
-pub fn cast_ray<T: Real, const ROBUST: bool>(
+pub(crate) fn cast_ray<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     prims: &Primitives<T>,

@@ -5,16 +5,16 @@
 //! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
-pub mod count;
-pub mod entry;
+pub(crate) mod count;
+pub(crate) mod entry;
 pub mod frame;
-pub mod hit;
+pub(crate) mod hit;
 pub mod margin;
-pub mod nearest;
-pub mod plane;
+pub(crate) mod nearest;
+pub(crate) mod plane;
 pub mod raytrace;
-pub mod shade;
-pub mod sphere;
+pub(crate) mod shade;
+pub(crate) mod sphere;
 pub mod traverse;
 pub mod triangle;
 
@@ -78,7 +78,7 @@ pub fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -
 }
 
 /// Renders only the listed pixels (row-major indices) of a prepared scene, in list order.
-pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pixel<T>> {
+pub(crate) fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pixel<T>> {
     let frame = &prepared.frame;
     let prims = &prepared.primitives;
     let width = frame.nx;
@@ -111,7 +111,7 @@ pub fn render_pixels<T: Real>(prepared: &Prepared<T>, pixels: &[u32]) -> Vec<Pix
 /// Casts a caller's rays (world coordinates) through a prepared scene, hits counted from `t_near`
 /// (in units of each ray's direction), or with `count` counts every surface crossed: the CPU
 /// mirror of a [`crate::gpu::Rays::List`] job, with its raw results (primitive keys).
-pub fn cast_rays<T: Real>(
+pub(crate) fn cast_rays<T: Real>(
     prepared: &Prepared<T>,
     rays: crate::rays::RayList<'_>,
     t_near: f64,

@@ -24,7 +24,7 @@ fn keep<T: Real>(t: T, kind: u32, index: usize, objects: &[u32], best: &mut Hit<
     }
 }
 
-pub fn nearest_hit<T: Real, const ROBUST: bool>(
+pub(crate) fn nearest_hit<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     prims: &Primitives<T>,
@@ -35,7 +35,7 @@ pub fn nearest_hit<T: Real, const ROBUST: bool>(
 /// The nearest hit, searching no box that starts beyond `t_max` (shadow rays,
 /// [`super::shade`]'s `occluded`): the nearest one where it is before t_max, and may be any
 /// hit where none is.
-pub fn nearest_hit_before<T: Real, const ROBUST: bool>(
+pub(crate) fn nearest_hit_before<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     t_max: T,
@@ -87,7 +87,7 @@ fn nearest_triangle<T: Real, const ROBUST: bool>(
 }
 
 /// The normal of the nearest hit, computed once rather than for every candidate.
-pub fn hit_normal<T: Real, const ROBUST: bool>(
+pub(crate) fn hit_normal<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     hit: &Hit<T>,
     prims: &Primitives<T>,
@@ -102,7 +102,7 @@ pub fn hit_normal<T: Real, const ROBUST: bool>(
 
 /// The hit primitive's index among the primitives of its kind in the scene's order (the BVH
 /// stores spheres and triangles in its own order).
-pub fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
+pub(crate) fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
     match hit.kind {
         KIND_SPHERE => prims.sphere_key(hit.index),
         KIND_PLANE => hit.index,
@@ -113,13 +113,13 @@ pub fn primitive_key<T: Real>(hit: &Hit<T>, prims: &Primitives<T>) -> u32 {
 /// A ray list's view of its nearest hit (`HitDetails` in WGSL): the normal, the t it reports
 /// (a robust triangle hit's recomputed from its plane, [`plane_t`]; decisions keep the test's)
 /// and the barycentrics of a triangle (zero on spheres and planes).
-pub struct HitDetails<T> {
+pub(crate) struct HitDetails<T> {
     pub normal: Vec3<T>,
     pub t: T,
     pub uv: [T; 2],
 }
 
-pub fn hit_details<T: Real, const ROBUST: bool>(
+pub(crate) fn hit_details<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     hit: &Hit<T>,
     prims: &Primitives<T>,

@@ -3,7 +3,11 @@
 use crate::kernel::types::{Plane, Ray, is_beyond, no_hit};
 use crate::math::{Real, Vec3, dot, length};
 
-pub fn intersect_plane<T: Real, const ROBUST: bool>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {
+pub(crate) fn intersect_plane<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    plane: &Plane<T>,
+    min_t: T,
+) -> T {
     if ROBUST {
         intersect_plane_robust(ray, plane, min_t)
     } else {
@@ -13,7 +17,7 @@ pub fn intersect_plane<T: Real, const ROBUST: bool>(ray: &Ray<T>, plane: &Plane<
 
 /// Point-normal form with a parallel cutoff: within the dot product's rounding error the sign
 /// of d.n, and so whether the ray meets the plane, is not known.
-pub fn intersect_plane_robust<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {
+pub(crate) fn intersect_plane_robust<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {
     let denominator = dot(ray.direction, plane.normal);
     if denominator.abs() <= T::from_f64(4.0) * T::EPS * length(ray.direction) {
         return no_hit();
@@ -25,7 +29,7 @@ pub fn intersect_plane_robust<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: T)
     no_hit()
 }
 
-pub fn intersect_plane_textbook<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {
+pub(crate) fn intersect_plane_textbook<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: T) -> T {
     let denominator = dot(ray.direction, plane.normal);
     // A ray parallel to the plane never meets it (and dividing by zero would make inf/NaN).
     if denominator == T::ZERO {
@@ -39,6 +43,6 @@ pub fn intersect_plane_textbook<T: Real>(ray: &Ray<T>, plane: &Plane<T>, min_t: 
 }
 
 /// The stored (unit) normal, on both sides of the plane.
-pub fn plane_normal<T: Real>(plane: &Plane<T>) -> Vec3<T> {
+pub(crate) fn plane_normal<T: Real>(plane: &Plane<T>) -> Vec3<T> {
     plane.normal
 }

@@ -28,7 +28,7 @@ pub struct ShadeHit<T> {
 
 /// `struct Material` of shaders/hooks.wgsl.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Material<T> {
+pub(crate) struct Material<T> {
     pub ka: Vec3<T>,
     pub phong_exponent: T,
     pub kd: Vec3<T>,
@@ -36,12 +36,12 @@ pub struct Material<T> {
     pub km: Vec3<T>,
 }
 
-pub const LIGHT_DIRECTIONAL: u32 = 0;
-pub const LIGHT_POINT: u32 = 1;
+pub(crate) const LIGHT_DIRECTIONAL: u32 = 0;
+pub(crate) const LIGHT_POINT: u32 = 1;
 
 /// `struct Light` of shaders/hooks.wgsl.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Light<T> {
+pub(crate) struct Light<T> {
     pub position: Vec3<T>,
     pub kind: u32,
     pub direction: Vec3<T>,
@@ -62,7 +62,7 @@ pub struct Shading<'a, T, const ROBUST: bool> {
 
 /// The scene's materials, lights and per-object data as hooks read them, in `T` (the GPU's
 /// hook buffers hold them in f32, src/gpu/layout.rs).
-pub struct HookScene<T> {
+pub(crate) struct HookScene<T> {
     materials: Vec<Material<T>>,
     lights: Vec<Light<T>>,
     /// Per object: its material's index and its values.
@@ -70,7 +70,7 @@ pub struct HookScene<T> {
 }
 
 impl<T: Real> HookScene<T> {
-    pub fn new(lighting: &crate::scene::Lighting, objects: usize) -> HookScene<T> {
+    pub(crate) fn new(lighting: &crate::scene::Lighting, objects: usize) -> HookScene<T> {
         let v = |v: &Vec3<f64>| v.cast::<T>();
         HookScene {
             materials: lighting
@@ -113,7 +113,7 @@ impl<T: Real> HookScene<T> {
 }
 
 impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
-    pub fn new(prepared: &'a Prepared<T>, scene: &'a HookScene<T>, pixel: [u32; 2]) -> Self {
+    pub(crate) fn new(prepared: &'a Prepared<T>, scene: &'a HookScene<T>, pixel: [u32; 2]) -> Self {
         Shading {
             prepared,
             scene,
@@ -132,7 +132,7 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
 
     /// The hook's view of a hit of `ray` (`shade_hit`); `surface`: the normal and distance
     /// of a hit.
-    pub fn shade_hit(
+    pub(crate) fn shade_hit(
         &self,
         ray: &Ray<T>,
         hit: &Hit<T>,
@@ -164,7 +164,7 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
 
     /// The camera's ray through this pixel, its nearest hit and the hook's view of it (what
     /// `write_pixel` in shaders/entry.wgsl hands the hook).
-    pub fn camera_hit(&self) -> ShadeHit<T> {
+    pub(crate) fn camera_hit(&self) -> ShadeHit<T> {
         let frame = &self.prepared.frame;
         let ray = camera_ray(frame, self.pixel[1], self.pixel[0]);
         let hit = nearest_hit::<T, ROBUST>(&ray, frame.min_t, &self.prepared.primitives);
@@ -193,7 +193,7 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
     }
 
     /// `trace`: the nearest hit along origin + t direction, t >= t_min.
-    pub fn trace(&mut self, origin: Vec3<T>, direction: Vec3<T>, t_min: T) -> ShadeHit<T> {
+    pub(crate) fn trace(&mut self, origin: Vec3<T>, direction: Vec3<T>, t_min: T) -> ShadeHit<T> {
         self.rays += 1;
         let ray = self.hook_ray(origin, direction);
         let hit = nearest_hit::<T, ROBUST>(&ray, t_min, &self.prepared.primitives);
@@ -201,7 +201,13 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
     }
 
     /// `occluded`: whether anything is hit with t_min <= t < t_max.
-    pub fn occluded(&mut self, origin: Vec3<T>, direction: Vec3<T>, t_min: T, t_max: T) -> bool {
+    pub(crate) fn occluded(
+        &mut self,
+        origin: Vec3<T>,
+        direction: Vec3<T>,
+        t_min: T,
+        t_max: T,
+    ) -> bool {
         self.rays += 1;
         let far = t_max.min(t_far());
         let ray = self.hook_ray(origin, direction);
@@ -210,7 +216,7 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
     }
 
     /// `object_material`: zero where the object names none.
-    pub fn object_material(&self, id: i32) -> Material<T> {
+    pub(crate) fn object_material(&self, id: i32) -> Material<T> {
         usize::try_from(id)
             .ok()
             .and_then(|k| self.scene.objects.get(k))
@@ -227,12 +233,12 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
     }
 
     /// `light_count`.
-    pub fn light_count(&self) -> u32 {
+    pub(crate) fn light_count(&self) -> u32 {
         self.scene.lights.len() as u32
     }
 
     /// `scene_light`.
-    pub fn scene_light(&self, k: u32) -> Light<T> {
+    pub(crate) fn scene_light(&self, k: u32) -> Light<T> {
         self.scene.lights[k as usize]
     }
 }
@@ -253,7 +259,7 @@ fn position_error<T: Real>(
 
 /// `leave` (shaders/hooks.wgsl): `hit.position` moved off the surface by twice its error
 /// bound, to the side `direction` goes.
-pub fn leave<T: Real>(hit: &ShadeHit<T>, direction: Vec3<T>) -> Vec3<T> {
+pub(crate) fn leave<T: Real>(hit: &ShadeHit<T>, direction: Vec3<T>) -> Vec3<T> {
     let off = T::TWO * dot(hit.normal.abs(), hit.error);
     let off = if dot(direction, hit.normal) < T::ZERO {
         -off
@@ -264,7 +270,7 @@ pub fn leave<T: Real>(hit: &ShadeHit<T>, direction: Vec3<T>) -> Vec3<T> {
 }
 
 /// WGSL's `pack4x8unorm`: each component clamped to [0, 1], times 255, rounded.
-pub fn pack_unorm<T: Real>(colour: [T; 4]) -> [u8; 4] {
+pub(crate) fn pack_unorm<T: Real>(colour: [T; 4]) -> [u8; 4] {
     colour.map(|c| {
         let c = c.max(T::ZERO).min(T::ONE);
         (T::HALF + T::from_f64(255.0) * c).floor().to_f64() as u8

@@ -4,7 +4,7 @@
 use crate::kernel::types::{Ray, Sphere, is_beyond, no_hit};
 use crate::math::{Real, Vec3, dot, normalize};
 
-pub fn intersect_sphere<T: Real, const ROBUST: bool>(
+pub(crate) fn intersect_sphere<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     sphere: &Sphere<T>,
     min_t: T,
@@ -16,7 +16,7 @@ pub fn intersect_sphere<T: Real, const ROBUST: bool>(
     }
 }
 
-pub fn sphere_normal<T: Real, const ROBUST: bool>(
+pub(crate) fn sphere_normal<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     t: T,
     sphere: &Sphere<T>,
@@ -30,7 +30,7 @@ pub fn sphere_normal<T: Real, const ROBUST: bool>(
 
 /// The discriminant from the squared distance between the centre and the ray line: error about
 /// EPS * r^2 instead of EPS * b^2. The root pair q/a, c/q never subtracts nearly equal numbers.
-pub fn intersect_sphere_robust<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
+pub(crate) fn intersect_sphere_robust<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
     let f = ray.origin - sphere.center;
     let d = ray.direction;
     let a = dot(d, d);
@@ -63,7 +63,7 @@ pub fn intersect_sphere_robust<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t:
 
 /// Outward unit normal from the perpendicular l and the half-chord along the ray (backwards for
 /// the near root, forwards for the far one): no cancellation for far spheres.
-pub fn sphere_normal_robust<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
+pub(crate) fn sphere_normal_robust<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
     let f = ray.origin - sphere.center;
     let d = ray.direction;
     let a = dot(d, d);
@@ -75,7 +75,7 @@ pub fn sphere_normal_robust<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> 
 }
 
 /// The lecture's quadratic: the near root if it is at or beyond `min_t`, else the far root.
-pub fn intersect_sphere_textbook<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
+pub(crate) fn intersect_sphere_textbook<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_t: T) -> T {
     let oc = ray.origin - sphere.center;
     let a = dot(ray.direction, ray.direction);
     let b = T::TWO * dot(ray.direction, oc);
@@ -97,7 +97,7 @@ pub fn intersect_sphere_textbook<T: Real>(ray: &Ray<T>, sphere: &Sphere<T>, min_
 }
 
 /// Outward unit normal at the hit point, never flipped (seen from inside it points away).
-pub fn sphere_normal_textbook<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
+pub(crate) fn sphere_normal_textbook<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -> Vec3<T> {
     let p = ray.origin + ray.direction * t;
     (p - sphere.center) / sphere.radius
 }
@@ -105,7 +105,7 @@ pub fn sphere_normal_textbook<T: Real>(ray: &Ray<T>, t: T, sphere: &Sphere<T>) -
 /// How many times the ray crosses the sphere's surface from `min_t` on: none where
 /// [`intersect_sphere`] finds no hit, else once from inside (the ray's start point) and twice from
 /// outside (a tangent ray touches twice at one point).
-pub fn sphere_crossings<T: Real, const ROBUST: bool>(
+pub(crate) fn sphere_crossings<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     sphere: &Sphere<T>,
     min_t: T,

@@ -333,7 +333,7 @@ fn cull_t<T: Real>(best: &Hit<T>) -> T {
 
 /// A node as the traversal sees it: where the ray enters each child's box (NO_HIT when it
 /// misses) and where the children are.
-pub struct Visit<T> {
+pub(crate) struct Visit<T> {
     pub t0: T,
     pub t1: T,
     pub reference0: u32,
@@ -343,7 +343,7 @@ pub struct Visit<T> {
 }
 
 /// Reads node `node` and tests the ray against both boxes.
-pub fn visit<T: Real>(
+pub(crate) fn visit<T: Real>(
     nodes: &[BvhNode],
     node: u32,
     ray: &Ray<T>,
@@ -365,7 +365,7 @@ pub fn visit<T: Real>(
 /// Ordered traversal: of two children hit, leaves are tested at once and the nearer inner
 /// node is visited first, the farther one waiting on a short stack with its entry distance,
 /// skipped when popped if a hit nearer than that entry has been found.
-pub fn traverse_bvh<T: Real, const ROBUST: bool>(
+pub(crate) fn traverse_bvh<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     prims: &Primitives<T>,

@@ -104,7 +104,7 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// Casts the listed pixels only ([`Rays::Pixels`]).
-    pub fn pixels(self, list: &'a [u32]) -> Self {
+    pub(crate) fn pixels(self, list: &'a [u32]) -> Self {
         Job {
             rays: Rays::Pixels(list),
             ..self
@@ -141,7 +141,7 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// Streams the tiles to `sink`.
-    pub fn sink(self, sink: TileSink<'a, R>) -> Self {
+    pub(crate) fn sink(self, sink: TileSink<'a, R>) -> Self {
         Job {
             sink: Some(sink),
             ..self
@@ -174,13 +174,13 @@ pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<
 
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
 /// which is built again here (for `--emit-shader`, which writes the kernel a render ran).
-pub fn as_run(scene: &Scene, variant: Variant) -> Variant {
+pub(crate) fn as_run(scene: &Scene, variant: Variant) -> Variant {
     let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.accel());
     variant.with_stack_for(bvh.as_ref())
 }
 
 /// An error if `scene` has more spheres and triangles than `variant`'s storage bindings hold.
-pub fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
+pub(crate) fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
     let bounded = crate::prepare::bvh::bounded_count(scene) as u64;
     let capacity = (shader::MAX_CHUNKS as u64) << variant.chunk_bits;
     if bounded > capacity {
@@ -529,7 +529,7 @@ pub struct Resident {
 
 impl Resident {
     /// Whether these buffers are on `gpu` and laid out as `variant` binds them.
-    pub fn fits(&self, gpu: &Gpu, variant: &Variant) -> bool {
+    pub(crate) fn fits(&self, gpu: &Gpu, variant: &Variant) -> bool {
         self.check_fits(gpu, variant).is_ok()
     }
 

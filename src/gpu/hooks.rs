@@ -32,12 +32,12 @@ use crate::error::{Error, Result};
 use crate::math::Precision;
 
 /// The function a hook file defines.
-pub const HOOK_FUNCTION: &str = "shade";
+pub(crate) const HOOK_FUNCTION: &str = "shade";
 /// The struct `shade` takes.
-pub const HOOK_INPUT: &str = "ShadeHit";
+pub(crate) const HOOK_INPUT: &str = "ShadeHit";
 /// `shaders/hooks.wgsl`: the declaration of [`HOOK_INPUT`], of the scene's materials and lights
 /// and their accessors, appended to the user's text.
-pub const PRELUDE: &str = include_str!("../../shaders/hooks.wgsl");
+pub(crate) const PRELUDE: &str = include_str!("../../shaders/hooks.wgsl");
 /// The functions that cast rays from a hook, which the kernel defines in shaders/shade.wgsl
 /// (`HOOK_RAYS`) from its own internals: declared here with empty bodies for checking a hook on
 /// its own, after [`PRELUDE`] (a test holds their signatures to the kernel's).
@@ -46,7 +46,7 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> ShadeHit { retu
 fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_min: f32, t_max: f32) -> bool { return false; }
 ";
 /// The names of the functions in [`RAY_STUBS`].
-pub const RAY_FUNCTIONS: [&str; 2] = ["trace", "occluded"];
+pub(crate) const RAY_FUNCTIONS: [&str; 2] = ["trace", "occluded"];
 
 /// A checked user shader.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,9 +62,9 @@ pub struct ShadeHook {
 
 /// The course's ray tracer as a hook, as shipped (shaders/examples/raytrace.wgsl): what
 /// `--lit` runs, and the one hook the CPU reference mirrors (src/cpu/raytrace.rs).
-pub const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.wgsl");
+pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.wgsl");
 /// Where [`RAYTRACE`] lives, for messages.
-pub const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
+pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
 
 /// [`RAYTRACE`], checked.
 pub fn raytrace() -> Result<ShadeHook> {
@@ -83,7 +83,7 @@ pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> 
 }
 
 /// The error of `--lit` given with `--shader`.
-pub fn lit_and_shader() -> Error {
+pub(crate) fn lit_and_shader() -> Error {
     Error::Argument {
         option: "--lit".into(),
         message: format!("is the shade hook {RAYTRACE_FILE}; give it or --shader, not both"),
@@ -92,7 +92,7 @@ pub fn lit_and_shader() -> Error {
 
 impl ShadeHook {
     /// Whether the CPU reference mirrors this hook: it is [`RAYTRACE`], text for text.
-    pub fn has_cpu_mirror(&self) -> bool {
+    pub(crate) fn has_cpu_mirror(&self) -> bool {
         &*self.source == RAYTRACE
     }
 }
@@ -569,7 +569,7 @@ fn check_in_kernel(key: SourceKey, traces: bool, source: &str, file: &Path) -> R
 }
 
 /// Where the hook's source begins in an assembled `kernel`.
-pub fn hook_offset(kernel: &str, key: SourceKey) -> Option<usize> {
+pub(crate) fn hook_offset(kernel: &str, key: SourceKey) -> Option<usize> {
     let banner = shader::banner(key);
     kernel.find(&banner).map(|at| at + banner.len())
 }

@@ -49,7 +49,7 @@ pub fn load(path: &Path) -> Result<UserKernel> {
 
 /// Validates a kernel's `source` (read from `file`, which labels errors) with naga, finds its
 /// entry point and registers it.
-pub fn check(source: &str, file: &Path) -> Result<UserKernel> {
+pub(crate) fn check(source: &str, file: &Path) -> Result<UserKernel> {
     let (module, info) = shader::validate(source, file)?;
     let interface = interface(&module, &info)
         .ok_or_else(|| source::shader_error(file, source, 0, 0, no_entry_point()))?;

@@ -12,7 +12,7 @@ pub mod hooks;
 pub mod kernel;
 pub mod probe;
 pub mod shader;
-pub mod source;
+pub(crate) mod source;
 
 pub use dispatch::{
     Job, Rays, Rendered, Resident, Stages, TileSink, max_tile_rows, prepare, run, upload,
@@ -25,7 +25,7 @@ use crate::error::{Error, Result};
 use shader::Variant;
 
 /// The package that provides a software Vulkan driver on Debian and Ubuntu.
-pub const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` \
+pub(crate) const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` \
      (Mesa's lavapipe runs on any CPU)";
 
 /// Features used when the adapter offers them (never required).
@@ -35,7 +35,7 @@ pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
 
 /// Invocations that share one node fetch in the packet traversal.
-pub const PACKET_LANES: u32 = 8;
+pub(crate) const PACKET_LANES: u32 = 8;
 
 /// An adapter with an open device and queue, and the kernels compiled on it so far.
 pub struct Gpu {
@@ -123,7 +123,7 @@ impl Gpu {
     }
 
     /// The largest storage binding this device allows, in bytes.
-    pub fn max_binding(&self) -> u64 {
+    pub(crate) fn max_binding(&self) -> u64 {
         let limits = self.device.limits();
         limits
             .max_storage_buffer_binding_size
@@ -221,7 +221,7 @@ impl Gpu {
 
     /// An error if the device has been lost (a driver reset, a destroyed device): wgpu panics
     /// on some calls to a lost device, so every render checks first.
-    pub fn check_alive(&self) -> Result<()> {
+    pub(crate) fn check_alive(&self) -> Result<()> {
         // Polling runs the callbacks due, the device-lost one among them.
         if let Err(e) = self.device.poll(wgpu::PollType::Poll) {
             return Err(Error::Device(format!("the GPU device failed: {e}")));

@@ -136,10 +136,10 @@ pub struct Variant {
 pub const MAX_LANE_RAYS: u8 = 8;
 /// Renders of at least this many rays cast four rays a lane ([`Variant::for_rays`]): 1920x1080
 /// and more.
-pub const FOUR_LANE_RAYS: u64 = 2_000_000;
+pub(crate) const FOUR_LANE_RAYS: u64 = 2_000_000;
 /// Renders of at least this many rays cast eight rays a lane ([`Variant::for_rays`]): 3840x2160
 /// and more.
-pub const EIGHT_LANE_RAYS: u64 = 8_000_000;
+pub(crate) const EIGHT_LANE_RAYS: u64 = 8_000_000;
 
 /// The most chunks a kernel binds for triangles, and for nodes.
 pub const MAX_CHUNKS: u8 = 4;
@@ -155,7 +155,7 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
 /// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
 /// bytes: every chunk of BVH nodes (64 bytes) or triangles (40 bytes in f32, 80 in f64) fits
 /// one binding.
-pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
+pub(crate) fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
     use crate::kernel::layout::GpuTriangle;
     let node = size_of::<crate::prepare::bvh::BvhNode>();
     let largest = match precision {
@@ -166,7 +166,7 @@ pub fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
 }
 
 impl Variant {
-    pub fn new(precision: Precision, algorithm: Algorithm) -> Variant {
+    pub(crate) fn new(precision: Precision, algorithm: Algorithm) -> Variant {
         Variant {
             precision,
             algorithm,
@@ -192,7 +192,7 @@ impl Variant {
     }
 
     /// This variant with the traversal stack `bvh` needs (MAX_DEPTH entries without one).
-    pub fn with_stack_for(self, bvh: Option<&crate::prepare::bvh::Bvh>) -> Variant {
+    pub(crate) fn with_stack_for(self, bvh: Option<&crate::prepare::bvh::Bvh>) -> Variant {
         Variant {
             bvh_stack: bvh.map_or(crate::prepare::bvh::MAX_DEPTH as u8, |b| b.stack_entries()),
             ..self
@@ -320,7 +320,7 @@ impl Variant {
     }
 
     /// How the scene is prepared for this kernel: through a BVH exactly when it traverses one.
-    pub fn accel(&self) -> crate::prepare::bvh::Accel {
+    pub(crate) fn accel(&self) -> crate::prepare::bvh::Accel {
         match self.uses_bvh() {
             true => crate::prepare::bvh::Accel::Bvh,
             false => crate::prepare::bvh::Accel::BruteForce,
@@ -329,7 +329,7 @@ impl Variant {
 
     /// Whether the kernel is assembled from shaders/ alone: no user hook, no user kernel. Only
     /// such kernels are compiled without wgpu's runtime checks (`create_pipeline`).
-    pub fn is_ours(&self) -> bool {
+    pub(crate) fn is_ours(&self) -> bool {
         self.shade.is_none() && self.kernel.is_none()
     }
 
@@ -392,7 +392,7 @@ impl Variant {
     }
 }
 
-pub const MODULES: &[(&str, &str)] = &[
+pub(crate) const MODULES: &[(&str, &str)] = &[
     ("types", include_str!("../../shaders/types.wgsl")),
     ("bindings", include_str!("../../shaders/bindings.wgsl")),
     ("frame", include_str!("../../shaders/frame.wgsl")),
@@ -410,9 +410,9 @@ pub const MODULES: &[(&str, &str)] = &[
 ];
 
 /// The module holding the kernel's entry point.
-pub const ENTRY_MODULE: &str = "entry";
+pub(crate) const ENTRY_MODULE: &str = "entry";
 /// The kernel's entry point function.
-pub const ENTRY_POINT: &str = "main";
+pub(crate) const ENTRY_POINT: &str = "main";
 
 /// The generated module that fixes the kernel's scalar type.
 const PRECISION_MODULE: &str = "precision";
@@ -457,7 +457,7 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
 }
 
 /// The module the host generates (`precision`) with every declaration it may hold.
-pub fn generated_module() -> String {
+pub(crate) fn generated_module() -> String {
     let variant = Variant::new(Precision::F32, Algorithm::Robust);
     module_source(PRECISION_MODULE, &variant).expect("the precision module is generated")
 }
@@ -466,7 +466,7 @@ pub fn generated_module() -> String {
 ///
 /// Each module appears once, after its imports, under a `// ---- shaders/NAME.wgsl` banner so a
 /// reader of the emitted shader can find the file it came from.
-pub fn assemble(root: &str, variant: &Variant) -> Result<String> {
+pub(crate) fn assemble(root: &str, variant: &Variant) -> Result<String> {
     let mut out = String::new();
     let mut done = Vec::new();
     include(root, variant, &mut done, &mut Vec::new(), &mut out)?;
@@ -475,7 +475,7 @@ pub fn assemble(root: &str, variant: &Variant) -> Result<String> {
 
 /// Keeps the lines of `source` whose enclosing `#if NAME` / `#else` / `#endif` blocks hold
 /// under `defines` (`#if !NAME` negates); blocks nest.
-pub fn preprocess(source: &str, defines: &[&str], module: &str) -> Result<String> {
+pub(crate) fn preprocess(source: &str, defines: &[&str], module: &str) -> Result<String> {
     let fail = |line: usize, m: &str| Error::Device(format!("shaders/{module}.wgsl:{line}: {m}"));
     // For each open block: (this branch is kept, some enclosing block drops it).
     let mut stack: Vec<(bool, bool)> = Vec::new();
@@ -514,7 +514,7 @@ pub fn preprocess(source: &str, defines: &[&str], module: &str) -> Result<String
 /// lane (`rays`: Variant::lane_rays), `$r` in them replaced by the ray's number (0, 1, ...):
 /// code for each of a lane's rays, written out because llvmpipe keeps arrays indexed in loops
 /// in memory. Blocks do not nest; `#if` blocks inside are repeated with them.
-pub fn each_ray(source: &str, rays: u32, module: &str) -> Result<String> {
+pub(crate) fn each_ray(source: &str, rays: u32, module: &str) -> Result<String> {
     let fail = |line: usize, m: &str| Error::Device(format!("shaders/{module}.wgsl:{line}: {m}"));
     let mut out = String::new();
     let mut block: Option<Vec<&str>> = None;
@@ -602,7 +602,7 @@ fn import_name(line: &str) -> Option<&str> {
 }
 
 /// The modules `source` imports, in order.
-pub fn imports(source: &str) -> impl Iterator<Item = &str> {
+pub(crate) fn imports(source: &str) -> impl Iterator<Item = &str> {
     source.lines().filter_map(import_name)
 }
 

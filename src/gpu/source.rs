@@ -41,7 +41,7 @@ pub(crate) fn register(source: &str) -> (SourceKey, Arc<str>) {
 }
 
 /// The source registered under `key`.
-pub fn registered_source(key: SourceKey) -> Option<Arc<str>> {
+pub(crate) fn registered_source(key: SourceKey) -> Option<Arc<str>> {
     registry()
         .lock()
         .expect("source registry lock")
@@ -64,7 +64,7 @@ pub fn validate(
 /// [`validate`], turning an error at byte `offset` of `source` (`len` bytes underlined) into an
 /// [`Error`] with `locate` (which may map it into another file, as for a shade hook inside the
 /// kernel).
-pub fn validate_located(
+pub(crate) fn validate_located(
     source: &str,
     locate: &dyn Fn(usize, usize, String) -> Error,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo)> {
@@ -95,7 +95,7 @@ pub fn validate_located(
 
 /// One resource binding of a kernel.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Binding {
+pub(crate) struct Binding {
     pub group: u32,
     pub binding: u32,
     pub name: String,
@@ -108,14 +108,14 @@ pub struct Binding {
 }
 
 impl Binding {
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         format!("`{}`: {}, {} bytes", self.name, self.space, self.size)
     }
 }
 
 /// The resource bindings `module` declares, and whether its compute entry point `entry` uses
 /// each (none is used without one).
-pub fn bindings(
+pub(crate) fn bindings(
     module: &naga::Module,
     info: &naga::valid::ModuleInfo,
     entry: &str,

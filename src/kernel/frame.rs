@@ -8,7 +8,7 @@ use crate::scene::{Camera, Projection};
 
 /// Hits closer than this ray parameter are ignored: `t = 1` is the image plane, so only objects
 /// in front of it count (the course's `min_t`).
-pub const MIN_T: f64 = 1.0;
+pub(crate) const MIN_T: f64 = 1.0;
 
 /// An orthonormal camera frame and the image-plane geometry, in precision `T`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,17 +11,17 @@ pub fn no_hit<T: Real>() -> T {
 }
 
 /// The largest finite f32: the initial "nearest so far" distance (`T_FAR` in WGSL).
-pub fn t_far<T: Real>() -> T {
+pub(crate) fn t_far<T: Real>() -> T {
     T::from_f64(f32::MAX as f64)
 }
 
 /// Relative error allowed for a computed t in the conservative start test (robust set).
-pub fn t_tolerance<T: Real>() -> T {
+pub(crate) fn t_tolerance<T: Real>() -> T {
     T::from_f64(16.0) * T::EPS
 }
 
 /// Conservative `t >= min_t`: a hit within its own error bound of the ray's start is no hit.
-pub fn is_beyond<T: Real>(t: T, min_t: T) -> bool {
+pub(crate) fn is_beyond<T: Real>(t: T, min_t: T) -> bool {
     t - t_tolerance::<T>() * t.abs() >= min_t
 }
 

@@ -38,7 +38,7 @@ impl FromStr for Depth {
 
 impl Depth {
     /// The npy file's name.
-    pub fn npy_name(self) -> &'static str {
+    pub(crate) fn npy_name(self) -> &'static str {
         match self {
             Depth::Distance => "distance.npy",
             Depth::Z => "z.npy",
@@ -57,7 +57,7 @@ impl Depth {
     /// ray reaches the image plane at t = 1 and its z grows by the focal length per unit of t,
     /// so z = distance * d / |direction| (the direction in f64 from the camera's frame; an
     /// orthographic ray's length is d: z is the distance). A miss stays `+inf`.
-    pub fn of<'a, T: Real>(
+    pub(crate) fn of<'a, T: Real>(
         self,
         images: &'a Images<T>,
         camera: &Camera,

@@ -12,7 +12,11 @@ use crate::math::Real;
 /// (u32, the object id, 0xFFFFFFFF on a miss) and, for supersampled images, `A` (f32
 /// coverage), those of `outputs`. An f64 render's values are rounded to f32 (OpenEXR has no
 /// f64 samples); an f32 render's are the npy files' exactly.
-pub fn encode_exr<T: Real>(images: &Images<T>, depth: &[T], outputs: Outputs) -> EncodedFile {
+pub(crate) fn encode_exr<T: Real>(
+    images: &Images<T>,
+    depth: &[T],
+    outputs: Outputs,
+) -> EncodedFile {
     let f32s = |values: &mut dyn Iterator<Item = T>| {
         x::FlatSamples::F32(values.map(|v| v.to_f64() as f32).collect())
     };

@@ -8,7 +8,7 @@ mod exr;
 mod npy;
 pub mod pending;
 mod pictures;
-pub mod stream;
+pub(crate) mod stream;
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -44,11 +44,11 @@ pub enum Format {
 
 impl Format {
     /// Whether the format's files are written whole (they cannot be written in bands of rows).
-    pub fn whole_only(self) -> bool {
+    pub(crate) fn whole_only(self) -> bool {
         matches!(self, Format::Npz | Format::Exr)
     }
 
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Format::Png => "png",
             Format::Ppm => "ppm",
@@ -168,7 +168,7 @@ impl Encoding {
     }
 
     /// `camera.json` for a render of `camera` in this encoding.
-    pub fn camera_json(&self, camera: &Camera) -> EncodedFile {
+    pub(crate) fn camera_json(&self, camera: &Camera) -> EncodedFile {
         let scale = self.formats.contains(&Format::Depth16);
         camera_json(camera, self.depth, scale.then_some(self.depth_scale))
     }
@@ -180,7 +180,7 @@ impl Encoding {
 /// coverage, premultiplied alpha, or opaque over the background, see
 /// [`PixelCoverage::to_rgba8`]); for supersampled images with ids, `alpha.npy` (float32,
 /// H x W); `render.npz`, `render.exr`, `depth16.png`; and `camera.json`.
-pub fn encode<T: Real>(
+pub(crate) fn encode<T: Real>(
     images: &Images<T>,
     encoding: &Encoding,
     camera: &Camera,
@@ -234,7 +234,7 @@ pub(super) fn depth16_picture<T: Real>(images: &Images<T>, depth: &[T], scale: f
 }
 
 /// The png pictures of `images` before encoding: those of `outputs` (see [`encode`]).
-pub fn png_pictures<T: Real>(
+pub(crate) fn png_pictures<T: Real>(
     images: &Images<T>,
     outputs: Outputs,
     background: Option<[u8; 3]>,
@@ -258,7 +258,7 @@ pub fn png_pictures<T: Real>(
 
 /// Encodes (see [`encode`]) and writes into `dir`, all files or none; returns the files
 /// written.
-pub fn write<T: Real>(
+pub(crate) fn write<T: Real>(
     images: &Images<T>,
     dir: &Path,
     encoding: &Encoding,

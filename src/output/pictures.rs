@@ -112,7 +112,7 @@ pub struct Picture {
 
 impl Picture {
     /// An 8-bit picture.
-    pub fn new(
+    pub(crate) fn new(
         name: &'static str,
         width: u32,
         height: u32,
@@ -130,7 +130,7 @@ impl Picture {
     }
 
     /// The PNG colour type of its pixels.
-    pub fn png_color(&self) -> image::ExtendedColorType {
+    pub(crate) fn png_color(&self) -> image::ExtendedColorType {
         use image::ExtendedColorType::{L8, L16, Rgb8, Rgba8};
         match (self.channels, self.bits) {
             (1, 16) => L16,
@@ -140,7 +140,7 @@ impl Picture {
         }
     }
 
-    pub fn to_png(&self) -> EncodedFile {
+    pub(crate) fn to_png(&self) -> EncodedFile {
         let native: Vec<u8>;
         let pixels = match self.bits {
             // The encoder takes 16-bit samples in the machine's order.
@@ -159,7 +159,7 @@ impl Picture {
     }
 
     /// ASCII netpbm: `P3` for RGB, `P2` for grey.
-    pub fn to_ppm(&self) -> EncodedFile {
+    pub(crate) fn to_ppm(&self) -> EncodedFile {
         let magic = if self.channels == 1 { "P2" } else { "P3" };
         EncodedFile {
             name: self.name,
@@ -193,7 +193,7 @@ pub fn picture_set<T: Real>(
 }
 
 /// The names of the png pictures and of the ppm ones.
-pub const PNG_NAMES: [&str; 3] = ["id.png", "depth.png", "normal.png"];
+pub(crate) const PNG_NAMES: [&str; 3] = ["id.png", "depth.png", "normal.png"];
 const PPM_NAMES: [&str; 3] = ["id.ppm", "depth.ppm", "normal.ppm"];
 
 /// ASCII netpbm: `P3` (RGB) or `P2` (grey), max value 255, one pixel per line.

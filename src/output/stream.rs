@@ -49,7 +49,7 @@ impl BandFile {
 }
 
 /// Writes the files of a render band by band (see the module docs).
-pub struct BandWriter {
+pub(crate) struct BandWriter {
     dir: PathBuf,
     width: u32,
     height: u32,
@@ -63,7 +63,7 @@ impl BandWriter {
     /// A writer for a render of `camera` (at its resolution) into `dir`; files open with the
     /// first band. Formats written whole only ([`Format::whole_only`]) are an error naming
     /// `--format`.
-    pub fn new(dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<BandWriter> {
+    pub(crate) fn new(dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<BandWriter> {
         if let Some(f) = encoding.formats.iter().find(|f| f.whole_only()) {
             return Err(Error::Argument {
                 option: format!("--format {}", f.name()),
@@ -110,7 +110,7 @@ impl BandWriter {
 
     /// Appends the next band of rows (from the top, in order).
     /// Bands are never supersampled.
-    pub fn write_band<T: Real>(&mut self, band: &Images<T>) -> Result<()> {
+    pub(crate) fn write_band<T: Real>(&mut self, band: &Images<T>) -> Result<()> {
         let files = self.band_files(band);
         if self.streams.is_empty() {
             // One by one, so that those opened are removed (Drop) if a later one fails.
@@ -132,7 +132,7 @@ impl BandWriter {
     }
 
     /// Completes every file and renames them into place; returns their paths.
-    pub fn finish(mut self) -> Result<Vec<PathBuf>> {
+    pub(crate) fn finish(mut self) -> Result<Vec<PathBuf>> {
         if self.rows_written != self.height {
             return Err(Error::Device(format!(
                 "streamed {} of {} rows",

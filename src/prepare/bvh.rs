@@ -73,7 +73,7 @@ impl std::str::FromStr for Accel {
 /// Whether `scene` has enough spheres and triangles for a BVH to pay: brute force costs the
 /// sum of its tests, so each kind counts as a fraction of its own crossover,
 /// `spheres / CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`.
-pub fn worth_it(scene: &Scene) -> bool {
+pub(crate) fn worth_it(scene: &Scene) -> bool {
     let [spheres, _, triangles] = scene.primitive_counts();
     spheres * TRIANGLE_CROSSOVER + triangles * CROSSOVER >= CROSSOVER * TRIANGLE_CROSSOVER
 }
@@ -94,19 +94,19 @@ pub fn bounded_count(scene: &Scene) -> usize {
 /// Set in a child's `reference` when it is a leaf (the rest is its first primitive).
 pub const LEAF_BIT: u32 = 1 << 31;
 /// Set in a leaf's `count` when its primitives are spheres (else triangles).
-pub const SPHERE_LEAF: u32 = 1 << 31;
+pub(crate) const SPHERE_LEAF: u32 = 1 << 31;
 /// Set in a leaf's `count` when it holds more primitives than [`LEAF_COUNT`] counts (only a
 /// leaf at [`MAX_DEPTH`] can): the bits below are the count, and each primitive's object is
 /// looked up.
-pub const MANY_LEAF: u32 = 1 << 30;
+pub(crate) const MANY_LEAF: u32 = 1 << 30;
 /// A leaf's `count` without [`MANY_LEAF`]: its primitives in these bits, and from
 /// [`LEAF_OBJECT_SHIFT`] up the object all of them belong to, or [`MIXED_OBJECTS`]. The kernel
 /// then takes a candidate's object id from the node it already holds instead of loading it
 /// for every hit (1.02x on the torus; shaders/traverse.wgsl).
-pub const LEAF_COUNT: u32 = 0xF;
-pub const LEAF_OBJECT_SHIFT: u32 = 4;
+pub(crate) const LEAF_COUNT: u32 = 0xF;
+pub(crate) const LEAF_OBJECT_SHIFT: u32 = 4;
 /// The leaf's primitives belong to several objects (or to one whose id does not fit).
-pub const MIXED_OBJECTS: u32 = (1 << 26) - 1;
+pub(crate) const MIXED_OBJECTS: u32 = (1 << 26) - 1;
 
 /// The `count` of a leaf of `len` primitives of `kind` ([`SPHERE_LEAF`] or 0), all of `object`
 /// or of several ([`MIXED_OBJECTS`]).
@@ -127,7 +127,7 @@ pub fn leaf_len(count: u32) -> u32 {
 }
 
 /// The object every primitive of a leaf belongs to, from its `count`, or [`MIXED_OBJECTS`].
-pub fn leaf_object(count: u32) -> u32 {
+pub(crate) fn leaf_object(count: u32) -> u32 {
     match count & MANY_LEAF != 0 {
         true => MIXED_OBJECTS,
         false => (count >> LEAF_OBJECT_SHIFT) & MIXED_OBJECTS,
@@ -181,7 +181,7 @@ const _: () = assert!(size_of::<BvhNode>() == 64);
 
 /// A child as its parent stores it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Child {
+pub(crate) struct Child {
     pub lo: [f32; 3],
     pub hi: [f32; 3],
     pub reference: u32,
@@ -203,7 +203,7 @@ impl BvhNode {
     }
 
     /// Child `k` (0 or 1).
-    pub fn child(&self, k: usize) -> Child {
+    pub(crate) fn child(&self, k: usize) -> Child {
         if k == 0 {
             Child {
                 lo: self.lo0,

@@ -93,14 +93,14 @@ impl<T: Real> Prepared<T> {
     }
 
     /// The image size `[nx, ny]` in pixels.
-    pub fn resolution(&self) -> [u32; 2] {
+    pub(crate) fn resolution(&self) -> [u32; 2] {
         [self.frame.nx, self.frame.ny]
     }
 
     /// A caller's ray (world coordinates) in the kernel's: its origin measured from
     /// [`Prepared::origin`], origin and direction scaled by `1 / unit` (exact: a power of two),
     /// both rounded to `T`. A point at parameter t along it is the world ray's point at t.
-    pub fn kernel_ray(&self, ray: &crate::rays::Ray) -> Ray<T> {
+    pub(crate) fn kernel_ray(&self, ray: &crate::rays::Ray) -> Ray<T> {
         let scale = 1.0 / self.unit;
         let origin = Vec3::from_array(ray.origin) - self.origin;
         Ray {
@@ -112,7 +112,7 @@ impl<T: Real> Prepared<T> {
     /// Whether every camera ray starts at the kernel's origin: a perspective camera whose eye
     /// is that origin, +0 in each coordinate (the robust set measures from the eye,
     /// [`kernel_origin`], and eye - eye is +0).
-    pub fn camera_rays_from_origin(&self) -> bool {
+    pub(crate) fn camera_rays_from_origin(&self) -> bool {
         self.frame.projection == crate::scene::Projection::Perspective
             && self
                 .frame
@@ -123,7 +123,7 @@ impl<T: Real> Prepared<T> {
     }
 
     /// The BVH the primitives are ordered by, if any.
-    pub fn bvh(&self) -> Option<&Arc<Bvh>> {
+    pub(crate) fn bvh(&self) -> Option<&Arc<Bvh>> {
         self.primitives.bvh.as_ref()
     }
 }
@@ -152,7 +152,7 @@ pub struct Primitives<T> {
 /// file's 1e18 can span) would carry that number beyond 2^60 in kernel units, and even beyond
 /// f64's range for a camera near 1e-300: `e` is then raised to keep every kernel coordinate
 /// within 2^61, which also adds exactly `k` under scaling.
-pub fn unit_exponent(scene: &Scene) -> i32 {
+pub(crate) fn unit_exponent(scene: &Scene) -> i32 {
     let c = &scene.camera;
     let plane = c.image_plane();
     let camera = binary_exponent(c.focal_length.max(plane.width).max(plane.height));
@@ -171,7 +171,7 @@ fn binary_exponent(x: f64) -> i32 {
 
 /// The BVH [`Prepared::new`] builds for `scene` where `accel` asks for one, without the rest
 /// of the preparation.
-pub fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
+pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
     kernel_bvh(scene, &in_kernel_units(scene).0, algorithm, accel)
 }
 
@@ -193,7 +193,7 @@ fn in_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
 /// Where the kernel's coordinates are measured from: the world origin for
 /// [`Algorithm::Textbook`], the eye for [`Algorithm::Robust`] (camera-relative rendering: the
 /// subtraction happens here in f64, so f32 precision sits where the camera is).
-pub fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
+pub(crate) fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
     match algorithm {
         Algorithm::Textbook => vec3(0.0, 0.0, 0.0),
         Algorithm::Robust => scene.camera.eye.into(),
@@ -315,12 +315,12 @@ impl<T: Real> Primitives<T> {
 
     /// The index in the scene's own order of sphere `k` of this list (ties between primitives
     /// of one object go to the lower one, whatever order they are stored in).
-    pub fn sphere_key(&self, k: u32) -> u32 {
+    pub(crate) fn sphere_key(&self, k: u32) -> u32 {
         self.bvh.as_ref().map_or(k, |b| b.sphere_order[k as usize])
     }
 
     /// As [`Primitives::sphere_key`], for triangle `k`.
-    pub fn triangle_key(&self, k: u32) -> u32 {
+    pub(crate) fn triangle_key(&self, k: u32) -> u32 {
         self.bvh
             .as_ref()
             .map_or(k, |b| b.triangle_order[k as usize])

@@ -118,7 +118,7 @@ impl Request {
     /// specialized for the scene, its size ([`gpu::shader::Variant::for_rays`]) and the
     /// outputs, with the hook, and the user's kernel in its place where one is given (an error
     /// if its bindings do not fit).
-    pub fn kernel_variant(
+    pub(crate) fn kernel_variant(
         &self,
         gpu: &Gpu,
         scene: &Scene,
@@ -321,19 +321,19 @@ pub fn on_gpu<R: GpuReal>(
 pub const STREAM_PIXELS: u64 = 1 << 24;
 
 /// Rows per band for a streamed render `width` pixels wide: about four million pixels.
-pub fn band_rows(width: u32) -> u32 {
+pub(crate) fn band_rows(width: u32) -> u32 {
     ((1u32 << 22) / width.max(1)).max(1)
 }
 
 /// Whether [`render_streamed`] can render `mode`: a GPU kernel in f32 or f64.
-pub fn can_stream(mode: Mode) -> bool {
+pub(crate) fn can_stream(mode: Mode) -> bool {
     mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive
 }
 
 /// Renders `scene` on the GPU in bands of at most `max_rows` rows, handing each band to
 /// `sink` from the top as soon as it is read back (see [`gpu::Job::sink`]). Only for
 /// modes where [`can_stream`] holds. Returns the rays the shade hook cast, where it casts any.
-pub fn render_streamed(
+pub(crate) fn render_streamed(
     scene: &Scene,
     mode: Mode,
     gpu: &Gpu,

@@ -42,7 +42,7 @@ use crate::scene::Scene;
 
 /// The largest `s`: `N = s * s` up to 2^24, so that sample counts are exact in f32 and
 /// `255 N` fits the u32 colour sums.
-pub const MAX_SIDE: u32 = 4096;
+pub(crate) const MAX_SIDE: u32 = 4096;
 
 /// `s` for `spp = s * s`, or why `spp` is not allowed (one line, for `--spp`).
 pub fn side(spp: u32) -> std::result::Result<u32, String> {
@@ -225,7 +225,7 @@ pub fn supersample(
 
 /// [`supersample`] producing what `request` asks for. Above one sample per pixel the ids are
 /// rendered whatever the request: the reduction is by majority id.
-pub fn supersample_request(
+pub(crate) fn supersample_request(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
@@ -273,7 +273,7 @@ pub fn sample_scene(scene: &Scene, spp: u32) -> Result<(Scene, u32)> {
 
 /// What the render of the samples is asked for at `spp` samples per pixel: `request`, with
 /// the ids above one sample (the reduction is by majority id).
-pub fn sample_request(request: &Request, spp: u32) -> Request {
+pub(crate) fn sample_request(request: &Request, spp: u32) -> Request {
     let mut r = request.clone();
     r.outputs.id |= spp > 1;
     r

@@ -77,7 +77,7 @@ impl Camera {
     }
 
     /// The image plane at `[nx, ny]` pixels.
-    pub fn image_plane_at(&self, resolution: [u32; 2]) -> ImagePlane {
+    pub(crate) fn image_plane_at(&self, resolution: [u32; 2]) -> ImagePlane {
         let [nx, ny] = resolution.map(f64::from);
         let d = self.focal_length;
         match self.lens {
@@ -127,7 +127,7 @@ impl Camera {
 
     /// The orthonormal frame: right `u = normalize(look x up)`, up `v = w x u`, backward
     /// `w = -look / |look|` (the lecture's formulas, in this order of operations).
-    pub fn basis(&self) -> [DVec3; 3] {
+    pub(crate) fn basis(&self) -> [DVec3; 3] {
         let w = -(self.look / self.look.length());
         let side = self.look.cross(self.up);
         let u = side / side.length();
@@ -137,7 +137,7 @@ impl Camera {
     /// The pixel intrinsics `K` at [`Camera::resolution`], OpenCV's convention (pixel (j, i)
     /// centred at (j, i); camera x right, y down, z forward). Perspective: pixel = K (x/z,
     /// y/z, 1). Orthographic: pixel = K (x, y, 1), x and y in scene units (no division by z).
-    pub fn intrinsics(&self) -> DMat3 {
+    pub(crate) fn intrinsics(&self) -> DMat3 {
         let plane = self.image_plane();
         let [nx, ny] = self.resolution.map(f64::from);
         // Pixels per scene unit on the image plane, and per unit of x/z behind it.
@@ -156,7 +156,7 @@ impl Camera {
     }
 
     /// World to camera coordinates with OpenCV's axes (x right, y down, z forward).
-    pub fn world_to_camera(&self) -> DMat4 {
+    pub(crate) fn world_to_camera(&self) -> DMat4 {
         let [u, v, w] = self.basis();
         let rotation = DMat3::from_cols(u, -v, -w).transpose();
         let mut m = DMat4::from_mat3(rotation);
@@ -165,7 +165,7 @@ impl Camera {
     }
 
     /// Camera coordinates (OpenCV's axes) to world: columns right, down, forward and the eye.
-    pub fn camera_to_world(&self) -> DMat4 {
+    pub(crate) fn camera_to_world(&self) -> DMat4 {
         let [u, v, w] = self.basis();
         DMat4::from_cols(
             u.extend(0.0),
@@ -194,7 +194,7 @@ pub const MESH_VIEW_DIRECTION: DVec3 = DVec3::new(0.6, 0.5, 1.0);
 pub const MESH_VIEW_FOV: f64 = 40.0;
 
 impl CameraOverrides {
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         *self == CameraOverrides::default()
     }
 
@@ -238,7 +238,7 @@ impl CameraOverrides {
     /// `camera` with these settings: the eye moved (looking the same way unless `look_at` is
     /// given), looking at `look_at`, `up` replaced, and the image plane given by `fov` (the
     /// focal length kept as the distance rays start at).
-    pub fn apply(&self, camera: &Camera) -> Result<Camera> {
+    pub(crate) fn apply(&self, camera: &Camera) -> Result<Camera> {
         self.check()?;
         let mut c = camera.clone();
         if let Some(eye) = self.eye {
@@ -289,7 +289,11 @@ impl CameraOverrides {
     /// settings: looking at the box's centre (or `look_at`) from [`MESH_VIEW_DIRECTION`], far
     /// enough for the box's bounding sphere to fit the image (or from `eye`), up +y (or `up`),
     /// vertical field of view [`MESH_VIEW_FOV`] (or `fov`).
-    pub fn framing(&self, bounds: Option<(DVec3, DVec3)>, resolution: [u32; 2]) -> Result<Camera> {
+    pub(crate) fn framing(
+        &self,
+        bounds: Option<(DVec3, DVec3)>,
+        resolution: [u32; 2],
+    ) -> Result<Camera> {
         self.check()?;
         let (lo, hi) = bounds.unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
         let target = self.look_at.unwrap_or((lo + hi) / 2.0);
@@ -328,7 +332,7 @@ impl CameraOverrides {
 /// without `near`): 1/1000 of the distance from `eye` to the farthest corner of `bounds`, the
 /// box of the scene's objects ([`super::bounds`]), so that only what is that close to the eye
 /// is cut away; 1/1000 of a unit without objects.
-pub fn default_near(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
+pub(crate) fn default_near(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
     let farthest = bounds.map_or(0.0, |(lo, hi)| farthest_corner(eye, lo, hi));
     if farthest > 0.0 {
         farthest / 1000.0
@@ -345,7 +349,7 @@ fn farthest_corner(eye: DVec3, lo: DVec3, hi: DVec3) -> f64 {
 /// The distance `depth.png` shows white for a camera other than the course's (whose focal
 /// length it is): the distance from `eye` to the box of the scene's objects, or from inside it
 /// 1/8 of the distance to its farthest corner; 1 without objects.
-pub fn default_depth_white(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
+pub(crate) fn default_depth_white(eye: DVec3, bounds: Option<(DVec3, DVec3)>) -> f64 {
     let Some((lo, hi)) = bounds else {
         return 1.0;
     };

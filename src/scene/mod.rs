@@ -23,12 +23,12 @@ pub use camera::{
 pub use mesh::{load_mesh, parse_mesh};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
-pub const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
+pub(crate) const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
 
 /// The built-in scene `raycast render` uses when given no scene file.
-pub const DEFAULT_SCENE_JSON: &str = include_str!("../../scenes/default.json");
+pub(crate) const DEFAULT_SCENE_JSON: &str = include_str!("../../scenes/default.json");
 /// The mesh the default scene refers to as `bunny.stl` (the course's bunny).
-pub const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny.stl");
+pub(crate) const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny.stl");
 
 /// One triangle by its corners, in the order that fixes its normal.
 pub type Triangle = [Vec3<f64>; 3];
@@ -106,7 +106,7 @@ pub struct Lighting {
 }
 
 /// How many numbers an object's `values` holds at most: a hook reads them as one `vec4<f32>`.
-pub const OBJECT_VALUES: usize = 4;
+pub(crate) const OBJECT_VALUES: usize = 4;
 
 impl Lighting {
     /// Whether the scene gives no material, light or object material at all.
@@ -122,7 +122,7 @@ impl Lighting {
 
     /// Object `k`'s material (its index in `materials`) and values, as hooks read them: none
     /// and zeros beyond the lists (a scene built in code may leave them empty).
-    pub fn object_data(&self, k: usize) -> (Option<usize>, [f64; OBJECT_VALUES]) {
+    pub(crate) fn object_data(&self, k: usize) -> (Option<usize>, [f64; OBJECT_VALUES]) {
         (
             self.object_materials.get(k).copied().flatten(),
             self.object_values.get(k).copied().unwrap_or_default(),
@@ -130,7 +130,7 @@ impl Lighting {
     }
 
     /// What the scene gives, e.g. `2 lights, 5 materials, a material on 8 objects`.
-    pub fn summary(&self) -> String {
+    pub(crate) fn summary(&self) -> String {
         let plural = |n: usize, what: &str| match n {
             1 => format!("1 {what}"),
             n => format!("{n} {what}s"),
@@ -187,7 +187,7 @@ pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> 
 
 /// [`load_sized`] with the camera's settings replaced by `view`'s ([`CameraOverrides`]; for a
 /// mesh file they replace those of its default view).
-pub fn load_viewed(
+pub(crate) fn load_viewed(
     path: Option<&Path>,
     size: Option<[u32; 2]>,
     view: &CameraOverrides,
@@ -209,7 +209,7 @@ pub fn load_viewed(
 }
 
 /// Whether `path` names a mesh file (`.obj`, `.stl`, `.ply`, any case) rather than a scene.
-pub fn is_mesh_file(path: &Path) -> bool {
+pub(crate) fn is_mesh_file(path: &Path) -> bool {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     ["obj", "stl", "ply"]
         .iter()
@@ -226,7 +226,11 @@ impl Scene {
 
     /// The mesh file `path` as a scene of one object, seen by its default view
     /// ([`CameraOverrides::framing`]) at `resolution` pixels, with `view`'s settings.
-    pub fn of_mesh(path: &Path, resolution: [u32; 2], view: &CameraOverrides) -> Result<Scene> {
+    pub(crate) fn of_mesh(
+        path: &Path,
+        resolution: [u32; 2],
+        view: &CameraOverrides,
+    ) -> Result<Scene> {
         file::mesh_scene(path, |bounds| view.framing(bounds, resolution))
     }
 
@@ -240,7 +244,7 @@ impl Scene {
     }
 
     /// The built-in default scene (the course bunny in a room with two spheres).
-    pub fn default_scene() -> Scene {
+    pub(crate) fn default_scene() -> Scene {
         let name = Path::new("<built-in default scene>");
         Scene::from_json(DEFAULT_SCENE_JSON, name, &mut |file| {
             assert_eq!(file, "bunny.stl", "the default scene embeds only bunny.stl");

@@ -38,7 +38,7 @@ pub fn parse_mesh(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
 }
 
 /// Parses STL bytes (binary or ASCII); `path` names the file in errors.
-pub fn parse_stl(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
+pub(crate) fn parse_stl(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
     stl::parse(bytes).map_err(|e| e.in_file(path))
 }
 
