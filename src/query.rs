@@ -251,7 +251,7 @@ impl RayScene {
             Arithmetic::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
             Arithmetic::F64 | Arithmetic::Adaptive => {
                 let mode = match (mode.device, gpu) {
-                    (Device::Gpu, Some(g)) if !has_f64(g) => Mode {
+                    (Device::Gpu, Some(g)) if !g.has_f64() => Mode {
                         device: Device::Cpu,
                         ..mode
                     },
@@ -442,10 +442,6 @@ impl RayScene {
         }
         hits
     }
-}
-
-fn has_f64(gpu: &Gpu) -> bool {
-    gpu.device.features().contains(wgpu::Features::SHADER_F64)
 }
 
 /// Per object, the index of its first primitive among the primitives of its kind (spheres,

@@ -132,3 +132,29 @@ fn the_reader_finds_imports_in_code_only() {
     let found = imports(&code(text), &modules);
     assert_eq!(found, ["gpu", "scene"].map(String::from).into());
 }
+
+/// The Python package's dependency tree holds none of the command line's crates: the library
+/// depends on none of them (`cli/` does).
+#[test]
+fn the_python_package_depends_on_no_command_line_crate() {
+    let out = std::process::Command::new(env!("CARGO"))
+        .args(["tree", "--offline", "-p", "raycast-python", "-e", "normal"])
+        .args(["--prefix", "none", "--format", "{p}"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let tree = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let has = |name: &str| tree.lines().any(|l| l.starts_with(&format!("{name} v")));
+    assert!(has("raycast") && has("wgpu"), "{tree}");
+    for name in ["clap", "indicatif", "ctrlc", "font8x8"] {
+        assert!(
+            !has(name),
+            "{name} is in the Python package's tree:\n{tree}"
+        );
+    }
+}

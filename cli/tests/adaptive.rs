@@ -35,7 +35,7 @@ fn adaptive_both_ways(name: &str, scene: &Scene) -> Adaptive {
     let on_cpu = render_adaptive(gpu(), scene).unwrap();
     let on_gpu = render_adaptive_with(gpu(), scene, false, 0).unwrap();
     assert!(!on_cpu.recast_on_gpu || on_cpu.recast > raycast::render::adaptive::CPU_RECAST_PIXELS);
-    let has_f64 = gpu().device.features().contains(wgpu::Features::SHADER_F64);
+    let has_f64 = gpu().has_f64();
     assert_eq!(on_gpu.recast_on_gpu, has_f64 && on_gpu.recast > 0, "{name}");
     assert_eq!(on_cpu.recast, on_gpu.recast, "{name}");
     assert!(

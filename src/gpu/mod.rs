@@ -84,7 +84,7 @@ impl Gpu {
         Variant {
             precision,
             algorithm,
-            f64_available: self.device.features().contains(wgpu::Features::SHADER_F64),
+            f64_available: self.has_f64(),
             certainty: false,
             casts: shader::Casts::Camera,
             count: false,
@@ -103,6 +103,12 @@ impl Gpu {
             hook_rays: false,
             kernel: None,
         }
+    }
+
+    /// Whether kernels in f64 run here (`SHADER_F64`): f64 and adaptive precision's re-casts
+    /// on the GPU, and the f64 rechecks of robust f32.
+    pub fn has_f64(&self) -> bool {
+        self.device.features().contains(wgpu::Features::SHADER_F64)
     }
 
     /// Whether the packet traversal runs here: subgroups, of at least the 8 invocations it

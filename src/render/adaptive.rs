@@ -54,7 +54,7 @@ pub const CPU_RECAST_PIXELS: usize = 1 << 16;
 /// Whether `uncertain` pixels (or rays) are cast again on `gpu` rather than on the CPU: where
 /// it has f64 and they are more than `cpu_recast_pixels`.
 pub(crate) fn recasts_on_gpu(gpu: &Gpu, uncertain: usize, cpu_recast_pixels: usize) -> bool {
-    gpu.device.features().contains(wgpu::Features::SHADER_F64) && uncertain > cpu_recast_pixels
+    gpu.has_f64() && uncertain > cpu_recast_pixels
 }
 
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).

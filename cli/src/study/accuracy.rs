@@ -163,7 +163,7 @@ pub fn all_modes() -> Vec<Mode> {
 /// [`all_modes`] less what `gpu` cannot run: the GPU f64 modes when the adapter lacks
 /// `SHADER_F64`, every GPU mode when there is no GPU.
 pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
-    let f64_on_gpu = gpu.is_some_and(|g| g.device.features().contains(wgpu::Features::SHADER_F64));
+    let f64_on_gpu = gpu.is_some_and(Gpu::has_f64);
     all_modes()
         .into_iter()
         .filter(|m| match (m.device, m.precision) {

@@ -178,7 +178,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// Whether the adapter runs f64 kernels (`SHADER_F64`).
     fn has_f64(&self) -> bool {
-        (self.gpu.device.features()).contains(wgpu::Features::SHADER_F64)
+        self.gpu.has_f64()
     }
 
     /// `mode` runs here: not f64 on an adapter without f64 kernels (adaptive precision re-casts
@@ -232,7 +232,7 @@ impl Adapter {
     /// Probes `gpu` for fusion ([`raycast::gpu::probe`]) and describes it.
     pub fn probe(gpu: &Gpu) -> Result<Adapter> {
         let fusion = gpu::probe::fusion_probe(gpu)?;
-        let f64_support = gpu.device.features().contains(wgpu::Features::SHADER_F64);
+        let f64_support = gpu.has_f64();
         // Without f64 shaders the robust f32 kernel leaves out the f64 rechecks (edge signs,
         // a triangle's t) that the CPU mirror always makes.
         let rule = if fusion.unfused == fusion.samples && f64_support {
