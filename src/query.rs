@@ -34,7 +34,7 @@ use crate::images::MISS;
 use crate::kernel::layout::GpuReal;
 use crate::math::{Precision, Vec3};
 use crate::prepare::Prepared;
-use crate::prepare::bvh::Accel;
+use crate::prepare::bvh::Search;
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
@@ -380,7 +380,7 @@ impl RayScene {
         let scene = &self.scene;
         let bvh = match variant {
             Some(v) => v.uses_bvh(),
-            None => Accel::Auto.uses_bvh(scene),
+            None => Search::Auto.uses_bvh(scene),
         };
         let mut cache = self.cache.lock().expect("cache lock");
         if let Some(p) = R::cached(&mut cache).get(&(algorithm, bvh)) {
@@ -396,7 +396,7 @@ impl RayScene {
         let prepared = Arc::new(match shared {
             Some(shared) => Prepared::with_bvh(scene, algorithm, shared),
             None => {
-                let accel = if bvh { Accel::Bvh } else { Accel::BruteForce };
+                let accel = if bvh { Search::Bvh } else { Search::BruteForce };
                 Prepared::new(scene, algorithm, accel)
             }
         });

@@ -18,7 +18,7 @@ use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::{Precision, Real, Vec3, vec3};
-use raycast::prepare::bvh::{Accel, Bvh, MAX_DEPTH};
+use raycast::prepare::bvh::{Bvh, MAX_DEPTH, Search};
 use raycast::scene::Scene;
 
 /// `n` random small triangles in a cube of side 2 seen from z = 5: boxes overlap in depth, so
@@ -113,12 +113,12 @@ fn cpu_bvh_differences<T: Real>(name: &str, scene: &Scene, algorithm: Algorithm)
     if T::PRECISION == Precision::F32 && out_of_f32_range(name) {
         return Vec::new();
     }
-    let bvh = cpu::render_with::<T>(scene, algorithm, Accel::Bvh);
-    let brute = cpu::render_with::<T>(scene, algorithm, Accel::BruteForce);
+    let bvh = cpu::render_with::<T>(scene, algorithm, Search::Bvh);
+    let brute = cpu::render_with::<T>(scene, algorithm, Search::BruteForce);
     if bvh == brute {
         return Vec::new();
     }
-    let truth = cpu::render_with::<f64>(scene, Robust, Accel::BruteForce);
+    let truth = cpu::render_with::<f64>(scene, Robust, Search::BruteForce);
     let brute_wrong = |k: usize| algorithm == Textbook && brute.id[k] != truth.id[k];
     let differ: Vec<usize> = (0..bvh.len())
         .filter(|&k| bvh.pixel(k) != brute.pixel(k))
@@ -166,8 +166,8 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             let brute32 = common::gpu_variant::<f32>(gpu, &scene, variant(false));
             let brute32 = brute32.unwrap();
             // Where the textbook f32 formulas are wrong, as on the CPU (see above).
-            let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Accel::BruteForce);
-            let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Accel::Bvh);
+            let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
+            let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Search::Bvh);
             assert_same_bits(
                 &bvh32,
                 &cpu32,

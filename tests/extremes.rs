@@ -29,7 +29,7 @@ use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu::margin::{Margins, margins};
 use raycast::images::{Images, MISS};
 use raycast::prepare::Prepared;
-use raycast::prepare::bvh::Accel;
+use raycast::prepare::bvh::Search;
 use raycast::render::AnyImages;
 use raycast::scene::{Object, Scene};
 
@@ -74,7 +74,7 @@ fn truth(scene: &Scene) -> Images<f64> {
 
 /// The f32 kernel's margins, judged in its own (kernel) units.
 fn f32_margins(scene: &Scene) -> Vec<Margins> {
-    let prepared = Prepared::<f64>::new(scene, Robust, Accel::BruteForce);
+    let prepared = Prepared::<f64>::new(scene, Robust, Search::BruteForce);
     margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64)
 }
 

@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use raycast::prepare::Prepared;
-use raycast::prepare::bvh::{Accel, Bvh};
+use raycast::prepare::bvh::{Bvh, Search};
 use raycast_cli::study::median;
 
 fn main() {
@@ -20,7 +20,7 @@ fn main() {
         build.push(t.elapsed().as_secs_f64());
         drop(bvh);
         let t = Instant::now();
-        let p = Prepared::<f32>::new(&scene, raycast::Algorithm::Robust, Accel::Auto);
+        let p = Prepared::<f32>::new(&scene, raycast::Algorithm::Robust, Search::Auto);
         prepare.push(t.elapsed().as_secs_f64());
         drop(p);
     }

@@ -10,7 +10,7 @@ use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
 use raycast::images::Output;
 use raycast::output::{self, Format};
-use raycast::prepare::bvh::Accel;
+use raycast::prepare::bvh::Search;
 use raycast::render::{self, Arithmetic, Device, Mode, supersample};
 use raycast::scene;
 use raycast_cli::study::{self, Stream};
@@ -239,7 +239,7 @@ enum Command {
         /// Comma-separated accelerations: auto (a BVH where spheres / 32 + triangles / 8 >= 1),
         /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
-        accel: Vec<Accel>,
+        accel: Vec<Search>,
         /// Run this shade hook in every frame (GPU modes); a hook that casts rays reports them
         /// as secondary rays a second.
         #[arg(long, value_name = "FILE")]

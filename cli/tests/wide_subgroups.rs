@@ -20,7 +20,7 @@ use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::Precision;
-use raycast::prepare::bvh::Accel;
+use raycast::prepare::bvh::Search;
 use raycast::query::RayScene;
 use raycast::rays::{Hits, RayList, one_origin};
 use raycast::scene::Scene;
@@ -59,7 +59,7 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
             camera_renders_agree(&name, &scene, algorithm);
         }
         let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
-        let truth = cpu::render_with::<f64>(&scene, Robust, Accel::Bvh);
+        let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
         assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
     }
     for seed in [2, 3] {
@@ -111,14 +111,14 @@ fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
         packets,
         ..gpu.scene_variant(scene, precision, algorithm)
     };
-    let cpu32 = cpu::render_with::<f32>(scene, algorithm, Accel::Bvh);
+    let cpu32 = cpu::render_with::<f32>(scene, algorithm, Search::Bvh);
     for packets in [true, false] {
         let gpu32 = common::gpu_variant::<f32>(gpu, scene, variant(Precision::F32, packets));
         let what = format!("{name} {algorithm} f32, packets {packets}");
         assert_same_bits(&gpu32.unwrap(), &cpu32, &what);
     }
     let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Precision::F64, true)).unwrap();
-    let cpu64 = cpu::render_with::<f64>(scene, algorithm, Accel::Bvh);
+    let cpu64 = cpu::render_with::<f64>(scene, algorithm, Search::Bvh);
     assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
 }
 
@@ -136,7 +136,7 @@ fn lit_renders_agree() {
         .with_shade(hook.key, hook.traces)
         .with_outputs(raycast::images::Outputs::ALL);
     let lit = common::gpu_tiles::<f32>(gpu, &scene, variant, 16).unwrap();
-    let prepared = raycast::prepare::Prepared::<f32>::new(&scene, Robust, Accel::Auto);
+    let prepared = raycast::prepare::Prepared::<f32>::new(&scene, Robust, Search::Auto);
     let (colours, rays) = cpu::raytrace::render(&prepared);
     let e = raycast_cli::compare::color_error(lit.color.as_deref().unwrap(), &colours);
     assert!(e.exact >= 0.999 && e.max <= 1, "lit bunny: {e:?}");

@@ -26,17 +26,17 @@ use crate::algorithm::Algorithm;
 use crate::images::{Images, MISS, Pixel};
 use crate::math::Real;
 use crate::prepare::Prepared;
-use crate::prepare::bvh::Accel;
+use crate::prepare::bvh::Search;
 use crate::scene::Scene;
 
 /// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`,
 /// through a BVH where it pays.
 pub fn render<T: Real>(scene: &Scene, algorithm: Algorithm) -> Images<T> {
-    render_with(scene, algorithm, Accel::Auto)
+    render_with(scene, algorithm, Search::Auto)
 }
 
 /// As [`render`], searching with `accel` (for example brute force, the BVH's oracle).
-pub fn render_with<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Images<T> {
+pub fn render_with<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Search) -> Images<T> {
     render_prepared(&Prepared::new(scene, algorithm, accel), &AtomicU32::new(0))
 }
 

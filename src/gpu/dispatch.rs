@@ -169,13 +169,13 @@ pub struct Rendered<R> {
 /// buffers again).
 pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
     check_capacity(scene, variant)?;
-    Ok(Prepared::new(scene, variant.algorithm, variant.accel()))
+    Ok(Prepared::new(scene, variant.algorithm, variant.search()))
 }
 
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
 /// which is built again here (for `--emit-shader`, which writes the kernel a render ran).
 pub(crate) fn as_run(scene: &Scene, variant: Variant) -> Variant {
-    let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.accel());
+    let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.search());
     variant.with_stack_for(bvh.as_ref())
 }
 

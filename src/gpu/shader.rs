@@ -320,10 +320,10 @@ impl Variant {
     }
 
     /// How the scene is prepared for this kernel: through a BVH exactly when it traverses one.
-    pub(crate) fn accel(&self) -> crate::prepare::bvh::Accel {
+    pub(crate) fn search(&self) -> crate::prepare::bvh::Search {
         match self.uses_bvh() {
-            true => crate::prepare::bvh::Accel::Bvh,
-            false => crate::prepare::bvh::Accel::BruteForce,
+            true => crate::prepare::bvh::Search::Bvh,
+            false => crate::prepare::bvh::Search::BruteForce,
         }
     }
 

@@ -37,7 +37,7 @@ pub const TRIANGLE_CROSSOVER: usize = 8;
 
 /// How the nearest hit is searched for among spheres and triangles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub enum Accel {
+pub enum Search {
     /// A BVH where it pays ([`worth_it`]).
     #[default]
     Auto,
@@ -45,24 +45,24 @@ pub enum Accel {
     BruteForce,
 }
 
-impl Accel {
+impl Search {
     /// Whether `scene` is rendered through a BVH.
     pub fn uses_bvh(self, scene: &Scene) -> bool {
         match self {
-            Accel::Auto => worth_it(scene),
-            Accel::Bvh => true,
-            Accel::BruteForce => false,
+            Search::Auto => worth_it(scene),
+            Search::Bvh => true,
+            Search::BruteForce => false,
         }
     }
 }
 
-impl std::str::FromStr for Accel {
+impl std::str::FromStr for Search {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
-            "auto" => Ok(Accel::Auto),
-            "bvh" => Ok(Accel::Bvh),
-            "brute-force" => Ok(Accel::BruteForce),
+            "auto" => Ok(Search::Auto),
+            "bvh" => Ok(Search::Bvh),
+            "brute-force" => Ok(Search::BruteForce),
             _ => Err(format!(
                 "unknown acceleration `{s}` (auto, bvh, brute-force)"
             )),
@@ -953,7 +953,7 @@ mod tests {
                 expected,
                 "{spheres} spheres, {triangles} triangles"
             );
-            assert_eq!(Accel::Auto.uses_bvh(&scene), expected);
+            assert_eq!(Search::Auto.uses_bvh(&scene), expected);
         }
     }
 

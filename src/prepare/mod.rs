@@ -20,7 +20,7 @@ use crate::algorithm::Algorithm;
 use crate::kernel::types::{Frame, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Lighting, Object, Scene};
-use bvh::{Accel, Bvh};
+use bvh::{Bvh, Search};
 
 /// A scene prepared for the kernel in precision `T`.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,7 +47,7 @@ pub struct Prepared<T> {
 
 impl<T: Real> Prepared<T> {
     /// `scene` prepared for `algorithm`, through a BVH built here where `accel` asks for one.
-    pub fn new(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Prepared<T> {
+    pub fn new(scene: &Scene, algorithm: Algorithm, accel: Search) -> Prepared<T> {
         let clock = Instant::now();
         let kernel = in_kernel_units(scene);
         let bvh = kernel_bvh(scene, &kernel.0, algorithm, accel).map(Arc::new);
@@ -171,12 +171,12 @@ fn binary_exponent(x: f64) -> i32 {
 
 /// The BVH [`Prepared::new`] builds for `scene` where `accel` asks for one, without the rest
 /// of the preparation.
-pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
+pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Search) -> Option<Bvh> {
     kernel_bvh(scene, &in_kernel_units(scene).0, algorithm, accel)
 }
 
 /// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one.
-fn kernel_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm, accel: Accel) -> Option<Bvh> {
+fn kernel_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm, accel: Search) -> Option<Bvh> {
     accel.uses_bvh(scene).then(|| Bvh::build(kernel, algorithm))
 }
 
@@ -363,7 +363,7 @@ mod tests {
                     (Algorithm::Robust, perspective),
                     (Algorithm::Textbook, perspective && at_world_origin),
                 ] {
-                    let prepared = Prepared::<f32>::new(&scene, algorithm, Accel::BruteForce);
+                    let prepared = Prepared::<f32>::new(&scene, algorithm, Search::BruteForce);
                     assert_eq!(
                         prepared.camera_rays_from_origin(),
                         expected,

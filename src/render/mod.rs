@@ -25,7 +25,7 @@ use crate::kernel::layout::GpuReal;
 use crate::math::Precision;
 use crate::output::{self, Encoding};
 use crate::prepare::Prepared;
-use crate::prepare::bvh::Accel;
+use crate::prepare::bvh::Search;
 use crate::scene::{Camera, Scene};
 
 /// Images in whichever precision they were rendered in.
@@ -378,7 +378,7 @@ fn cpu_render<T: crate::math::Real>(
     progress: Option<&Progress>,
     lit: bool,
 ) -> Images<T> {
-    let prepared = Prepared::<T>::new(scene, algorithm, Accel::Auto);
+    let prepared = Prepared::<T>::new(scene, algorithm, Search::Auto);
     let mut images = match progress {
         Some(p) => {
             p.rows.store(prepared.frame.ny, Ordering::Relaxed);

@@ -35,7 +35,7 @@ use raycast::kernel::layout::GpuTriangle;
 use raycast::kernel::types;
 use raycast::math::{Precision, Real};
 use raycast::prepare::Prepared;
-use raycast::prepare::bvh::{Accel, Bvh};
+use raycast::prepare::bvh::{Bvh, Search};
 use raycast::render::{self, Arithmetic, Device, Mode};
 use raycast::scene::{Object, Scene};
 
@@ -61,7 +61,7 @@ pub struct Options {
     /// Timed runs per configuration, after one warm-up run (at least 1).
     pub runs: usize,
     pub modes: Vec<Mode>,
-    pub accels: Vec<Accel>,
+    pub accels: Vec<Search>,
     /// A shade hook every frame runs (GPU modes; on the CPU only the ray tracer's mirror).
     pub shade: Option<ShadeHook>,
     /// Cast this many incoherent rays ([`incoherent_rays`]) instead of the camera's.
@@ -69,12 +69,12 @@ pub struct Options {
 }
 
 impl Default for Options {
-    /// [`DEFAULT_RUNS`] runs of [`DEFAULT_MODE`] with [`Accel::Auto`].
+    /// [`DEFAULT_RUNS`] runs of [`DEFAULT_MODE`] with [`Search::Auto`].
     fn default() -> Options {
         Options {
             runs: DEFAULT_RUNS,
             modes: vec![DEFAULT_MODE],
-            accels: vec![Accel::Auto],
+            accels: vec![Search::Auto],
             shade: None,
             rays: None,
         }
@@ -83,7 +83,7 @@ impl Default for Options {
 
 impl Options {
     /// Every (mode, accel) pair, mode by mode, in the order given.
-    pub fn configurations(&self) -> Vec<(Mode, Accel)> {
+    pub fn configurations(&self) -> Vec<(Mode, Search)> {
         self.modes
             .iter()
             .flat_map(|&m| self.accels.iter().map(move |&a| (m, a)))
@@ -130,7 +130,7 @@ impl Options {
                 option: "--rays".into(),
                 message: "a ray list has no shade hook; leave out --shader and --lit".into(),
             }),
-            Some(_) if self.accels != [Accel::Auto] => Err(Error::Argument {
+            Some(_) if self.accels != [Search::Auto] => Err(Error::Argument {
                 option: "--rays".into(),
                 message: "a ray list chooses its own acceleration; leave out --accel".into(),
             }),
@@ -305,7 +305,7 @@ struct Run {
 fn run_once(
     scene: &Scene,
     mode: Mode,
-    accel: Accel,
+    accel: Search,
     gpu: Option<&Gpu>,
     request: &render::Request,
 ) -> Result<Run> {
@@ -358,7 +358,7 @@ fn run_once(
 }
 
 /// One CPU frame, and with `lit` its colours by the ray tracer's mirror in the same time.
-fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Accel, lit: bool) -> Run {
+fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Search, lit: bool) -> Run {
     let start = Instant::now();
     let prepared = Prepared::<T>::new(scene, algorithm, accel);
     let build_s = start.elapsed().as_secs_f64();
@@ -383,7 +383,7 @@ fn hits<T>(images: &Images<T>) -> usize {
 /// docs). `tick` is called after every frame.
 pub fn measure(
     loaded: &Loaded,
-    (mode, accel): (Mode, Accel),
+    (mode, accel): (Mode, Search),
     runs: usize,
     gpu: Option<&Gpu>,
     request: &render::Request,
@@ -508,8 +508,8 @@ fn measure_rays(
     Ok(Row {
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
-        accel: accel_name(Accel::Auto).to_owned(),
-        bvh: Accel::Auto.uses_bvh(&loaded.scene),
+        accel: accel_name(Search::Auto).to_owned(),
+        bvh: Search::Auto.uses_bvh(&loaded.scene),
         size: [n.min(u32::MAX as usize) as u32, 1],
         rays: n as u64,
         hook: None,
@@ -594,11 +594,11 @@ fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
 }
 
 /// `auto`, `bvh` or `brute-force`, as `--accel` spells it.
-pub fn accel_name(accel: Accel) -> &'static str {
+pub fn accel_name(accel: Search) -> &'static str {
     match accel {
-        Accel::Auto => "auto",
-        Accel::Bvh => "bvh",
-        Accel::BruteForce => "brute-force",
+        Search::Auto => "auto",
+        Search::Bvh => "bvh",
+        Search::BruteForce => "brute-force",
     }
 }
 
@@ -751,7 +751,7 @@ mod tests {
         let options = Options {
             runs: 1,
             modes: vec!["gpu".parse().unwrap(), "cpu:f32".parse().unwrap()],
-            accels: vec![Accel::Bvh, Accel::BruteForce],
+            accels: vec![Search::Bvh, Search::BruteForce],
             ..Options::default()
         };
         let c: Vec<String> = options

@@ -29,7 +29,7 @@ use raycast::images::{Images, MISS, Outputs};
 use raycast::kernel::layout::GpuReal;
 use raycast::math::{Precision, Real};
 use raycast::output::{Pictures, pictures};
-use raycast::prepare::{Prepared, bvh::Accel};
+use raycast::prepare::{Prepared, bvh::Search};
 use raycast::query::RayScene;
 use raycast::rays::{AnyHits, Hits, Ray};
 use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
@@ -547,11 +547,11 @@ fn random_f32(ctx: &Ctx, seed: u64, packets: bool, planted: bool) -> Result<Verd
 /// An f32 camera render through the BVH by the adapter's rule: CPU f64 on every certain pixel,
 /// and where the rule is exact CPU f32 bit for bit too.
 fn judge_f32(ctx: &Ctx, scene: &Scene, images: &Images<f32>) -> Verdict {
-    judge_f32_with(ctx, scene, images, Accel::Bvh)
+    judge_f32_with(ctx, scene, images, Search::Bvh)
 }
 
 /// [`judge_f32`] of a render that searched with `accel` (the CPU f32 reference searches so too).
-fn judge_f32_with(ctx: &Ctx, scene: &Scene, images: &Images<f32>, accel: Accel) -> Verdict {
+fn judge_f32_with(ctx: &Ctx, scene: &Scene, images: &Images<f32>, accel: Search) -> Verdict {
     let f64_side = MarginCheck::of(scene, images);
     match ctx.rule {
         F32Rule::Exact => {
@@ -607,7 +607,7 @@ impl MarginCheck {
 
     fn of(scene: &Scene, images: &Images<f32>) -> MarginCheck {
         let truth = cpu::render::<f64>(scene, Robust);
-        let prepared = Prepared::<f64>::new(scene, Robust, Accel::BruteForce);
+        let prepared = Prepared::<f64>::new(scene, Robust, Search::BruteForce);
         let m = margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64);
         let (mut wrong, mut uncertain, mut worst) = (0, 0, 0.0f64);
         for (k, margin) in m.iter().enumerate() {
@@ -671,7 +671,7 @@ fn scene_f32(ctx: &Ctx, scene: &Scene, planted: bool) -> Result<Verdict> {
     if planted {
         plant(&mut images.id);
     }
-    Ok(judge_f32_with(ctx, scene, &images, Accel::Auto))
+    Ok(judge_f32_with(ctx, scene, &images, Search::Auto))
 }
 
 /// (ids, distances, normals) widened to f64.
@@ -946,7 +946,7 @@ fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
     if planted && let Some(c) = colours.first_mut() {
         c[0] ^= 0x80;
     }
-    let prepared = Prepared::<f32>::new(&scene, Robust, Accel::Auto);
+    let prepared = Prepared::<f32>::new(&scene, Robust, Search::Auto);
     let (mirror, mirror_rays) = cpu::raytrace::render(&prepared);
     let e = color_error(&colours, &mirror);
     let rays = lit.hook_rays.unwrap_or(0);
@@ -1033,5 +1033,5 @@ fn streaming(ctx: &Ctx, planted: bool) -> Result<Verdict> {
     if planted {
         plant(&mut images.id);
     }
-    Ok(judge_f32_with(ctx, &scene, &images, Accel::BruteForce))
+    Ok(judge_f32_with(ctx, &scene, &images, Search::BruteForce))
 }
