@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use raycast::Algorithm::Robust;
 use raycast::gpu::Gpu;
-use raycast::math::Precision;
+use raycast::math::Float;
 use raycast::render::on_gpu;
 
 fn median(mut t: Vec<f64>) -> f64 {
@@ -42,11 +42,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Ok::<(), raycast::Error>(())
             };
             time(0, &mut || {
-                let variant = gpu.scene_variant(&scene, Precision::F32, Robust);
+                let variant = gpu.scene_variant(&scene, Float::F32, Robust);
                 on_gpu::<f32>(&gpu, &scene, variant, false).map(|_| ())
             })?;
             time(1, &mut || {
-                let variant = gpu.scene_variant(&scene, Precision::F64, Robust);
+                let variant = gpu.scene_variant(&scene, Float::F64, Robust);
                 on_gpu::<f64>(&gpu, &scene, variant, false).map(|_| ())
             })?;
             time(2, &mut || {

@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use raycast::gpu::shader::Variant;
-use raycast::math::Precision;
+use raycast::math::Float;
 
 fn main() {
     let path = std::env::args()
@@ -23,7 +23,7 @@ fn main() {
         bvh.depth()
     );
     let gpu = raycast::gpu::Gpu::new().unwrap();
-    let base = gpu.scene_variant(&scene, Precision::F32, raycast::Algorithm::Robust);
+    let base = gpu.scene_variant(&scene, Float::F32, raycast::Algorithm::Robust);
     let mut variants = vec![
         (
             "per-ray",
@@ -51,7 +51,7 @@ fn main() {
                 ..base
             },
         ));
-        let textbook = gpu.scene_variant(&scene, Precision::F32, raycast::Algorithm::Textbook);
+        let textbook = gpu.scene_variant(&scene, Float::F32, raycast::Algorithm::Textbook);
         variants.push((
             "textbook",
             Variant {

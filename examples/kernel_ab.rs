@@ -21,12 +21,12 @@ use std::path::Path;
 use raycast::gpu::shader::{Casts, Variant};
 use raycast::gpu::{self, Gpu, Job, kernel};
 use raycast::kernel::layout::GpuReal;
-use raycast::math::Precision;
+use raycast::math::Float;
 use raycast::rays::RayList;
 
 struct Options {
     scene: String,
-    precision: Precision,
+    precision: Float,
     rounds: usize,
     check: bool,
     list: bool,
@@ -40,7 +40,7 @@ fn options() -> Options {
     let mut args = std::env::args().skip(1);
     let mut o = Options {
         scene: args.next().expect(usage),
-        precision: Precision::F32,
+        precision: Float::F32,
         rounds: 15,
         check: true,
         list: false,
@@ -49,7 +49,7 @@ fn options() -> Options {
     };
     while let Some(a) = args.next() {
         match a.as_str() {
-            "--f64" => o.precision = Precision::F64,
+            "--f64" => o.precision = Float::F64,
             "--no-check" => o.check = false,
             "--list" => o.list = true,
             "--emit" => o.emit = Some(args.next().expect(usage)),
@@ -154,8 +154,8 @@ fn main() {
     let gpu = Gpu::new().unwrap();
     let base = gpu.scene_variant(&scene, o.precision, raycast::Algorithm::Robust);
     let times = match o.precision {
-        Precision::F32 => time_kernels::<f32>(&gpu, &scene, base, &o),
-        Precision::F64 => time_kernels::<f64>(&gpu, &scene, base, &o),
+        Float::F32 => time_kernels::<f32>(&gpu, &scene, base, &o),
+        Float::F64 => time_kernels::<f64>(&gpu, &scene, base, &o),
     };
     if o.list {
         let camera = times.last().expect("the camera kernel's times");

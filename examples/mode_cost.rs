@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::gpu::Gpu;
-use raycast::math::Precision;
+use raycast::math::Float;
 use raycast::render::{Device, Mode, render};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -31,10 +31,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             scene.camera.resolution = [w.parse()?, h.parse()?];
         }
         let modes: Vec<Mode> = [
-            (Precision::F32, Textbook),
-            (Precision::F32, Robust),
-            (Precision::F64, Textbook),
-            (Precision::F64, Robust),
+            (Float::F32, Textbook),
+            (Float::F32, Robust),
+            (Float::F64, Textbook),
+            (Float::F64, Robust),
         ]
         .map(|(precision, algorithm)| Mode {
             device: Device::Gpu,

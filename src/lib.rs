@@ -15,11 +15,11 @@
 //! [`render::render`] does all of it for a [`render::Mode`] (device, precision, algorithm):
 //!
 //! ```no_run
-//! use raycast::render::{self, Arithmetic, Device, Mode};
+//! use raycast::render::{self, Precision, Device, Mode};
 //! use raycast::{Algorithm, Scene, gpu::Gpu, output::{Encoding, Format}};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
-//! let mode = Mode { device: Device::Gpu, precision: Arithmetic::F32, algorithm: Algorithm::Robust };
+//! let mode = Mode { device: Device::Gpu, precision: Precision::F32, algorithm: Algorithm::Robust };
 //! let images = render::render(&scene, mode, Some(&gpu), None)?;
 //! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
 //! # Ok::<(), raycast::Error>(())
@@ -28,10 +28,10 @@
 //! The stages one by one, typed by precision:
 //!
 //! ```no_run
-//! use raycast::{Algorithm, Scene, gpu::{self, Gpu, Job}, math::Precision};
+//! use raycast::{Algorithm, Scene, gpu::{self, Gpu, Job}, math::Float};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let gpu = Gpu::new()?;
-//! let variant = gpu.scene_variant(&scene, Precision::F32, Algorithm::Robust);
+//! let variant = gpu.scene_variant(&scene, Float::F32, Algorithm::Robust);
 //! let prepared = gpu::prepare::<f32>(&scene, &variant)?;
 //! let rendered = gpu::run(&gpu, &prepared, Job::new(variant).timed(true))?;
 //! println!("{} hits, kernel {:?} s", rendered.images.id.iter().filter(|&&id| id >= 0).count(),

@@ -24,7 +24,7 @@ pub trait Real:
     + Neg<Output = Self>
 {
     /// Which of the two this is.
-    const PRECISION: Precision;
+    const PRECISION: Float;
     const ZERO: Self;
     const ONE: Self;
     const HALF: Self;
@@ -50,7 +50,7 @@ pub trait Real:
 macro_rules! impl_real {
     ($t:ty, $p:expr) => {
         impl Real for $t {
-            const PRECISION: Precision = $p;
+            const PRECISION: Float = $p;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -100,38 +100,39 @@ macro_rules! impl_real {
         }
     };
 }
-impl_real!(f32, Precision::F32);
-impl_real!(f64, Precision::F64);
+impl_real!(f32, Float::F32);
+impl_real!(f64, Float::F64);
 
-/// The floating-point precision a render runs in.
+/// The kernel's floating-point type, `real` in the WGSL (a render's [`crate::render::Precision`]
+/// runs one or, adaptive, both).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Precision {
+pub enum Float {
     F32,
     F64,
 }
 
-impl Precision {
+impl Float {
     /// `"f32"` or `"f64"`, also the WGSL type name.
     pub fn name(self) -> &'static str {
         match self {
-            Precision::F32 => "f32",
-            Precision::F64 => "f64",
+            Float::F32 => "f32",
+            Float::F64 => "f64",
         }
     }
 }
 
-impl std::fmt::Display for Precision {
+impl std::fmt::Display for Float {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
 }
 
-impl std::str::FromStr for Precision {
+impl std::str::FromStr for Float {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
-            "f32" => Ok(Precision::F32),
-            "f64" => Ok(Precision::F64),
+            "f32" => Ok(Float::F32),
+            "f64" => Ok(Float::F64),
             other => Err(format!("unknown precision `{other}` (expected f32 or f64)")),
         }
     }

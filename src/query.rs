@@ -32,13 +32,13 @@ use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu, Job};
 use crate::images::MISS;
 use crate::kernel::layout::GpuReal;
-use crate::math::{Precision, Vec3};
+use crate::math::{Float, Vec3};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Search;
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
-use crate::render::{Arithmetic, Device, Mode};
+use crate::render::{Device, Mode, Precision};
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 
@@ -66,7 +66,7 @@ impl Default for RayScene {
 pub(crate) struct Cache {
     f32: HashMap<(Algorithm, bool), Arc<Prepared<f32>>>,
     f64: HashMap<(Algorithm, bool), Arc<Prepared<f64>>>,
-    resident: HashMap<(Precision, Algorithm, bool), Arc<gpu::Resident>>,
+    resident: HashMap<(Float, Algorithm, bool), Arc<gpu::Resident>>,
 }
 
 impl std::fmt::Debug for Cache {
@@ -248,8 +248,8 @@ impl RayScene {
     ) -> Result<Vec<u32>> {
         let rays = rays.into();
         let hits = match mode.precision {
-            Arithmetic::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
-            Arithmetic::F64 | Arithmetic::Adaptive => {
+            Precision::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
+            Precision::F64 | Precision::Adaptive => {
                 let mode = match (mode.device, gpu) {
                     (Device::Gpu, Some(g)) if !g.has_f64() => Mode {
                         device: Device::Cpu,
@@ -271,9 +271,9 @@ impl RayScene {
         t_near: f64,
     ) -> Result<AnyHits> {
         let hits = match mode.precision {
-            Arithmetic::F32 => AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, false)?.0),
-            Arithmetic::F64 => AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, false)?.0),
-            Arithmetic::Adaptive => AnyHits::F32(self.adaptive(gpu, mode, rays, t_near)?),
+            Precision::F32 => AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, false)?.0),
+            Precision::F64 => AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, false)?.0),
+            Precision::Adaptive => AnyHits::F32(self.adaptive(gpu, mode, rays, t_near)?),
         };
         Ok(self.within_objects(hits))
     }
@@ -353,8 +353,7 @@ impl RayScene {
                 let gpu = gpu.ok_or_else(|| Error::Device("a gpu: cast needs a GPU".into()))?;
                 let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
                 let variant = gpu::shader::Variant {
-                    certainty: mode.precision == Arithmetic::Adaptive
-                        && R::PRECISION == Precision::F32,
+                    certainty: mode.precision == Precision::Adaptive && R::PRECISION == Float::F32,
                     count,
                     packets: general.packets && coherent(rays, self.extent),
                     list_origin: one_origin(rays),
@@ -390,8 +389,8 @@ impl RayScene {
             gpu::dispatch::check_capacity(scene, v)?;
         }
         let shared = match R::PRECISION {
-            Precision::F32 => cache.f64.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
-            Precision::F64 => cache.f32.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
+            Float::F32 => cache.f64.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
+            Float::F64 => cache.f32.get(&(algorithm, bvh)).map(|p| p.bvh().cloned()),
         };
         let prepared = Arc::new(match shared {
             Some(shared) => Prepared::with_bvh(scene, algorithm, shared),

@@ -43,7 +43,7 @@ use std::path::Path;
 use common::gpu;
 use raycast::images::MISS;
 use raycast::kernel::layout::GpuReal;
-use raycast::math::Precision;
+use raycast::math::Float;
 use raycast::scene::{Object, Projection};
 use raycast::{Images, Scene};
 
@@ -83,8 +83,8 @@ const K_MARGIN: f64 = 64.0;
 /// Unit roundoff of the kernel's precision.
 fn eps<R: GpuReal>() -> f64 {
     match R::PRECISION {
-        Precision::F32 => f32::EPSILON as f64 / 2.0,
-        Precision::F64 => f64::EPSILON / 2.0,
+        Float::F32 => f32::EPSILON as f64 / 2.0,
+        Float::F64 => f64::EPSILON / 2.0,
     }
 }
 

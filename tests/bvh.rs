@@ -17,7 +17,7 @@ use common::assert_same_bits;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
-use raycast::math::{Precision, Real, Vec3, vec3};
+use raycast::math::{Float, Real, Vec3, vec3};
 use raycast::prepare::bvh::{Bvh, MAX_DEPTH, Search};
 use raycast::scene::Scene;
 
@@ -110,7 +110,7 @@ fn scenes() -> Vec<(String, Scene)> {
 /// renders of the `range-*` scenes, whose arithmetic leaves f32's range (`out_of_f32_range`),
 /// are not compared at all.
 fn cpu_bvh_differences<T: Real>(name: &str, scene: &Scene, algorithm: Algorithm) -> Vec<String> {
-    if T::PRECISION == Precision::F32 && out_of_f32_range(name) {
+    if T::PRECISION == Float::F32 && out_of_f32_range(name) {
         return Vec::new();
     }
     let bvh = cpu::render_with::<T>(scene, algorithm, Search::Bvh);
@@ -159,7 +159,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             let variant = |bvh| Variant {
                 bvh,
                 packets: gpu.has_packet_subgroups(),
-                ..gpu.scene_variant(&scene, Precision::F32, algorithm)
+                ..gpu.scene_variant(&scene, Float::F32, algorithm)
             };
             let bvh32 = common::gpu_variant::<f32>(gpu, &scene, variant(true));
             let bvh32 = bvh32.unwrap();
@@ -202,7 +202,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             }
             let variant64 = |bvh| Variant {
                 bvh,
-                ..gpu.scene_variant(&scene, Precision::F64, algorithm)
+                ..gpu.scene_variant(&scene, Float::F64, algorithm)
             };
             let bvh64 = common::gpu_variant::<f64>(gpu, &scene, variant64(true));
             let brute64 = common::gpu_variant::<f64>(gpu, &scene, variant64(false));

@@ -7,7 +7,7 @@ mod common;
 
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::gpu::shader::{MAX_CHUNKS, Variant};
-use raycast::math::Precision;
+use raycast::math::Float;
 
 #[test]
 fn a_small_image_in_many_tiles_equals_one_tile() {
@@ -16,13 +16,13 @@ fn a_small_image_in_many_tiles_equals_one_tile() {
     bunny.camera.resolution = [64, 37];
     for scene in [bunny, common::random_scene(3, [50, 41])] {
         for algorithm in [Robust, Textbook] {
-            let variant = gpu.scene_variant(&scene, Precision::F32, algorithm);
+            let variant = gpu.scene_variant(&scene, Float::F32, algorithm);
             let whole = common::gpu_variant::<f32>(gpu, &scene, variant).unwrap();
             for rows in [1, 3, 8] {
                 let tiled = common::gpu_tiles::<f32>(gpu, &scene, variant, rows).unwrap();
                 assert_eq!(tiled, whole, "{algorithm}, tiles of {rows} rows");
             }
-            let variant = gpu.scene_variant(&scene, Precision::F64, algorithm);
+            let variant = gpu.scene_variant(&scene, Float::F64, algorithm);
             let whole = common::gpu_variant::<f64>(gpu, &scene, variant).unwrap();
             let tiled = common::gpu_tiles::<f64>(gpu, &scene, variant, 5).unwrap();
             assert_eq!(tiled, whole, "{algorithm} f64");
@@ -41,7 +41,7 @@ fn a_mesh_in_several_bindings_equals_one_binding() {
             for algorithm in [Robust, Textbook] {
                 let one = Variant {
                     bvh,
-                    ..gpu.scene_variant(&bunny, Precision::F32, algorithm)
+                    ..gpu.scene_variant(&bunny, Float::F32, algorithm)
                 };
                 assert_eq!(one.chunks, 1);
                 let split = Variant {
@@ -65,7 +65,7 @@ fn a_mesh_needing_more_bindings_than_the_kernel_has_is_refused() {
     let too_small = Variant {
         chunks: 2,
         chunk_bits: 8,
-        ..gpu.scene_variant(&bunny, Precision::F32, Robust)
+        ..gpu.scene_variant(&bunny, Float::F32, Robust)
     };
     let err = common::gpu_variant::<f32>(gpu, &bunny, too_small).unwrap_err();
     assert!(err.to_string().contains("storage bindings"), "{err}");

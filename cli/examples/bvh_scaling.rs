@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use raycast::Algorithm::Robust;
-use raycast::math::{Precision, vec3};
+use raycast::math::{Float, vec3};
 use raycast::scene::{Scene, Triangle};
 
 /// A torus around the z axis (radii 1 and 0.4) of 2 * nu * nv triangles.
@@ -65,7 +65,7 @@ fn main() {
         drop(mesh);
         let variant = raycast::gpu::shader::Variant {
             bvh: true,
-            ..gpu.scene_variant(&scene, Precision::F32, Robust)
+            ..gpu.scene_variant(&scene, Float::F32, Robust)
         };
         let mut builds = Vec::new();
         let mut kernels = Vec::new();

@@ -11,7 +11,7 @@ use raycast::gpu::{self, Gpu};
 use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::prepare::bvh::Search;
-use raycast::render::{self, Arithmetic, Device, Mode, supersample};
+use raycast::render::{self, Device, Mode, Precision, supersample};
 use raycast::scene;
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress};
@@ -76,7 +76,7 @@ enum Command {
         /// --band-rows, the textbook set, or images of more than 16,777,216 pixels, which f32
         /// renders in bands); f64 on the CPU.
         #[arg(long)]
-        precision: Option<Arithmetic>,
+        precision: Option<Precision>,
         /// Intersection algorithms: robust (camera-relative, watertight) or textbook (the
         /// lecture's formulas in world coordinates).
         #[arg(long, default_value = "robust")]

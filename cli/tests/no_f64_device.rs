@@ -38,7 +38,7 @@ fn f64_without_shader_f64_is_a_clear_error() {
 fn robust_f32_without_f64_still_renders_the_course_bunny() {
     let gpu = gpu_without_f64();
     assert!(
-        !gpu.variant(raycast::math::Precision::F32, Robust)
+        !gpu.variant(raycast::math::Float::F32, Robust)
             .defines()
             .contains(&"RECHECK_F64")
     );

@@ -326,7 +326,7 @@ fn only_a_hook_that_casts_rays_compiles_them_in() {
     let toon = hooks::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
     let lit = hooks::raytrace().unwrap();
     assert!(!toon.traces && lit.traces);
-    let base = gpu.scene_variant(&scene, raycast::math::Precision::F32, Robust);
+    let base = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
     assert!(base.uses_packets(), "lavapipe has subgroups");
     let variant = |hook: &ShadeHook| {
         base.with_shade(hook.key, hook.traces)

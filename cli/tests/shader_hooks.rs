@@ -405,7 +405,7 @@ fn hooked_kernels_of_every_lane_count_agree() {
     let hook = hooks::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
     let gpu = common::gpu();
     let base = gpu
-        .scene_variant(&scene, raycast::math::Precision::F32, Robust)
+        .scene_variant(&scene, raycast::math::Float::F32, Robust)
         .with_shade(hook.key, hook.traces)
         .with_outputs(Outputs::ALL);
     let render = |lane_rays_limit| {

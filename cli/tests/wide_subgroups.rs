@@ -19,7 +19,7 @@ use std::sync::OnceLock;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
-use raycast::math::Precision;
+use raycast::math::Float;
 use raycast::prepare::bvh::Search;
 use raycast::query::RayScene;
 use raycast::rays::{Hits, RayList, one_origin};
@@ -51,7 +51,7 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
         (16, 16),
         "{WIDTH_VAR}=512 gives lavapipe subgroups of 16"
     );
-    let packets = gpu.variant(Precision::F32, Robust);
+    let packets = gpu.variant(Float::F32, Robust);
     assert!(packets.packets && !packets.eight_lanes && packets.lane_rays() == 1);
     assert!(!gpu.host_memory(), "staging buffers, as on a discrete GPU");
     for (name, scene) in scenes() {
@@ -113,11 +113,11 @@ fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
     };
     let cpu32 = cpu::render_with::<f32>(scene, algorithm, Search::Bvh);
     for packets in [true, false] {
-        let gpu32 = common::gpu_variant::<f32>(gpu, scene, variant(Precision::F32, packets));
+        let gpu32 = common::gpu_variant::<f32>(gpu, scene, variant(Float::F32, packets));
         let what = format!("{name} {algorithm} f32, packets {packets}");
         assert_same_bits(&gpu32.unwrap(), &cpu32, &what);
     }
-    let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Precision::F64, true)).unwrap();
+    let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Float::F64, true)).unwrap();
     let cpu64 = cpu::render_with::<f64>(scene, algorithm, Search::Bvh);
     assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
 }
@@ -132,7 +132,7 @@ fn lit_renders_agree() {
     let mut scene = Scene::load(&path).unwrap();
     scene.camera.resolution = [160, 90];
     let variant = gpu
-        .scene_variant(&scene, Precision::F32, Robust)
+        .scene_variant(&scene, Float::F32, Robust)
         .with_shade(hook.key, hook.traces)
         .with_outputs(raycast::images::Outputs::ALL);
     let lit = common::gpu_tiles::<f32>(gpu, &scene, variant, 16).unwrap();

@@ -1,7 +1,7 @@
 //! Mirror of shaders/triangle.wgsl: ray/triangle intersection.
 
 use crate::kernel::types::{Ray, Shear, Triangle, is_beyond, no_hit};
-use crate::math::{Precision, Real, Vec3, cross, dot, normalize, vec3};
+use crate::math::{Float, Real, Vec3, cross, dot, normalize, vec3};
 
 /// `shear` is [`crate::kernel::types::shear_of`] of the ray's direction (the robust test's; the textbook
 /// one does not use it).
@@ -29,7 +29,7 @@ pub fn edges_exact<T: Real>(
     d: Vec3<T>,
     approx: Vec3<T>,
 ) -> Vec3<T> {
-    if T::PRECISION == Precision::F64 {
+    if T::PRECISION == Float::F64 {
         return approx;
     }
     let edge = |k: usize| {
@@ -151,7 +151,7 @@ pub fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
 /// test's t = T / det loses by up to 1 / cos. A degenerate triangle or a ray in its plane keeps
 /// `t`. f64 kernels keep the test's t.
 pub fn plane_t<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, t: T) -> T {
-    if T::PRECISION == Precision::F64 {
+    if T::PRECISION == Float::F64 {
         return t;
     }
     let a = tri.a.cast::<f64>();

@@ -15,7 +15,7 @@ use crate::images::{Images, MISS};
 use crate::kernel::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
-use crate::math::Precision;
+use crate::math::Float;
 use crate::prepare::{Prepared, Primitives};
 use crate::rays::{Hits, INVALID_ID};
 use crate::scene::Scene;
@@ -882,7 +882,7 @@ fn check_limits<R: GpuReal>(
 ) -> Result<u32> {
     let p = &prepared.primitives;
     let nodes = prepared.bvh().map_or(0, |b| b.nodes.len());
-    if R::PRECISION == Precision::F64 && !gpu.has_f64() {
+    if R::PRECISION == Float::F64 && !gpu.has_f64() {
         return Err(Error::Device(format!(
             "--precision f64: the adapter {} has no f64 shader support (SHADER_F64); use --precision f32",
             gpu.info().name
@@ -931,17 +931,17 @@ fn chunked_upload<T: Pod>(
         .collect()
 }
 
-fn surface_bytes(precision: Precision) -> u64 {
+fn surface_bytes(precision: Float) -> u64 {
     SURFACE_REALS
         * match precision {
-            Precision::F32 => 4,
-            Precision::F64 => 8,
+            Float::F32 => 4,
+            Float::F64 => 8,
         }
 }
 
 /// The most image rows one dispatch can cover at `width` pixels per row under `limits`
 /// (output binding size and workgroups per dimension); 0 if not even one row fits.
-pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Precision) -> u32 {
+pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Float) -> u32 {
     let binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
     let by_memory = binding / (width as u64 * surface_bytes(precision));
     let by_dispatch = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
@@ -1146,7 +1146,7 @@ impl Slot {
         }
     }
 
-    fn pixel_bytes(self, precision: Precision) -> u64 {
+    fn pixel_bytes(self, precision: Float) -> u64 {
         match self {
             Slot::Surface => surface_bytes(precision),
             Slot::Uv => surface_bytes(precision) / 2,
@@ -1162,7 +1162,7 @@ struct OutputBuffers {
     /// Slot, buffer, and its offset in the readback buffer.
     slots: Vec<(Slot, wgpu::Buffer, u64)>,
     readback: Option<wgpu::Buffer>,
-    precision: Precision,
+    precision: Float,
 }
 
 impl OutputBuffers {

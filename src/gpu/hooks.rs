@@ -29,7 +29,7 @@ use super::shader::{self, Variant};
 use super::source::{SourceKey, error_chain, register, shader_error, span_range};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
-use crate::math::Precision;
+use crate::math::Float;
 
 /// The function a hook file defines.
 pub(crate) const HOOK_FUNCTION: &str = "shade";
@@ -545,7 +545,7 @@ fn check_names(module: &naga::Module, located: &Locate) -> Result<()> {
 /// The general kernel (f32 robust, every kind and output) with the hook registered under
 /// `key` validates; an error inside the hook's lines is reported at the user's line.
 fn check_in_kernel(key: SourceKey, traces: bool, source: &str, file: &Path) -> Result<()> {
-    let variant = Variant::new(Precision::F32, Algorithm::Robust).with_shade(key, traces);
+    let variant = Variant::new(Float::F32, Algorithm::Robust).with_shade(key, traces);
     let kernel = shader::kernel_source(&variant)?;
     let start = hook_offset(&kernel, key).expect("the kernel includes the hook");
     let fail = |offset: usize, len: usize, message: String| {
@@ -669,7 +669,7 @@ mod tests {
         let c = check(&other, Path::new("c.wgsl")).unwrap();
         assert_ne!(a.key, c.key);
         // The kernel variants of the two differ, and each kernel holds its own source.
-        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let base = Variant::new(Float::F32, Algorithm::Robust);
         let (va, vc) = (base.with_shade(a.key, false), base.with_shade(c.key, false));
         assert_ne!(va, vc);
         assert!(shader::kernel_source(&va).unwrap().contains(GOOD));
@@ -692,7 +692,7 @@ mod tests {
             (arguments, f.result.as_ref().map(|r| type_name(m, r.ty)))
         };
         let stubs = naga::front::wgsl::parse_str(&format!("{PRELUDE}{RAY_STUBS}")).unwrap();
-        for precision in [Precision::F32, Precision::F64] {
+        for precision in [Float::F32, Float::F64] {
             let variant = Variant::new(precision, Algorithm::Robust).with_shade(hook.key, true);
             let source = shader::kernel_source(&variant).unwrap();
             let kernel = naga::front::wgsl::parse_str(&source).unwrap();

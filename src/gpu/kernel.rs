@@ -177,7 +177,7 @@ impl UserKernel {
 mod tests {
     use super::*;
     use crate::Algorithm;
-    use crate::math::Precision;
+    use crate::math::Float;
 
     fn assembled(variant: &Variant) -> String {
         shader::kernel_source(variant).unwrap()
@@ -185,7 +185,7 @@ mod tests {
 
     #[test]
     fn an_assembled_kernel_fits_its_own_variant_and_runs_as_itself() {
-        let variant = Variant::new(Precision::F32, Algorithm::Robust);
+        let variant = Variant::new(Float::F32, Algorithm::Robust);
         let source = assembled(&variant);
         let kernel = check(&source, Path::new("k.wgsl")).unwrap();
         let with = kernel.for_variant(variant).unwrap();
@@ -198,7 +198,7 @@ mod tests {
 
     #[test]
     fn a_kernel_of_other_kinds_precision_or_outputs_does_not_fit() {
-        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let base = Variant::new(Float::F32, Algorithm::Robust);
         let spheres_only = base.with_kinds(shader::Kinds {
             spheres: true,
             planes: false,
@@ -211,7 +211,7 @@ mod tests {
         assert_eq!(option, "--kernel s.wgsl");
         assert!(message.contains("@binding(2)"), "{message}");
         assert!(!message.contains('\n'), "{message}");
-        let f64 = Variant::new(Precision::F64, Algorithm::Robust);
+        let f64 = Variant::new(Float::F64, Algorithm::Robust);
         // f64 changes the size of everything real, Params first.
         let message = kernel.for_variant(f64.with_kinds(spheres_only.kinds));
         assert!(format!("{message:?}").contains("192 bytes"), "{message:?}");
@@ -226,7 +226,7 @@ mod tests {
 
     #[test]
     fn an_unused_binding_or_another_workgroup_size_does_not_fit() {
-        let base = Variant::new(Precision::F32, Algorithm::Robust);
+        let base = Variant::new(Float::F32, Algorithm::Robust);
         let source = assembled(&base);
         let unused = source.replace(
             "out_id[index] = select(hit.object, -1, hit.object < 0);",

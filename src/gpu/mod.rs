@@ -59,7 +59,7 @@ impl Gpu {
     pub fn scene_variant(
         &self,
         scene: &crate::scene::Scene,
-        precision: crate::math::Precision,
+        precision: crate::math::Float,
         algorithm: crate::Algorithm,
     ) -> Variant {
         let general = self.variant(precision, algorithm);
@@ -75,11 +75,7 @@ impl Gpu {
     }
 
     /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
-    pub fn variant(
-        &self,
-        precision: crate::math::Precision,
-        algorithm: crate::Algorithm,
-    ) -> Variant {
+    pub fn variant(&self, precision: crate::math::Float, algorithm: crate::Algorithm) -> Variant {
         let packets = self.has_packet_subgroups();
         Variant {
             precision,

@@ -7,7 +7,7 @@ use super::source::{self, SourceKey};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::images::Outputs;
-use crate::math::Precision;
+use crate::math::Float;
 
 /// The primitive kinds a kernel is compiled for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -64,7 +64,7 @@ pub enum Casts {
 /// What a kernel is specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
-    pub precision: Precision,
+    pub precision: Float,
     pub algorithm: Algorithm,
     /// The device has f64 shaders: an f32 robust kernel rechecks near-zero triangle edge
     /// functions exactly in f64.
@@ -155,18 +155,18 @@ pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
 /// log2 of the elements per chunk for a device whose storage bindings hold `max_binding`
 /// bytes: every chunk of BVH nodes (64 bytes) or triangles (40 bytes in f32, 80 in f64) fits
 /// one binding.
-pub(crate) fn chunk_bits_for(max_binding: u64, precision: Precision) -> u8 {
+pub(crate) fn chunk_bits_for(max_binding: u64, precision: Float) -> u8 {
     use crate::kernel::layout::GpuTriangle;
     let node = size_of::<crate::prepare::bvh::BvhNode>();
     let largest = match precision {
-        Precision::F32 => node.max(size_of::<GpuTriangle<f32>>()),
-        Precision::F64 => node.max(size_of::<GpuTriangle<f64>>()),
+        Float::F32 => node.max(size_of::<GpuTriangle<f32>>()),
+        Float::F64 => node.max(size_of::<GpuTriangle<f64>>()),
     } as u64;
     (max_binding / largest).max(1).ilog2().min(31) as u8
 }
 
 impl Variant {
-    pub(crate) fn new(precision: Precision, algorithm: Algorithm) -> Variant {
+    pub(crate) fn new(precision: Float, algorithm: Algorithm) -> Variant {
         Variant {
             precision,
             algorithm,
@@ -243,12 +243,12 @@ impl Variant {
     /// casts rays of its own).
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        if self.precision == Precision::F64 {
+        if self.precision == Float::F64 {
             d.push("F64");
         }
         if self.algorithm == Algorithm::Robust {
             d.push("ROBUST");
-            if self.precision == Precision::F32 && self.f64_available {
+            if self.precision == Float::F32 && self.f64_available {
                 d.push("RECHECK_F64");
             }
             if self.certainty {
@@ -427,8 +427,8 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
     if name == PRECISION_MODULE {
         // Written as literals: naga's constant evaluator does no f64 arithmetic.
         let (eps, t_tolerance) = match precision {
-            Precision::F32 => (f32::EPSILON as f64, 16.0 * f32::EPSILON as f64),
-            Precision::F64 => (f64::EPSILON, 16.0 * f64::EPSILON),
+            Float::F32 => (f32::EPSILON as f64, 16.0 * f32::EPSILON as f64),
+            Float::F64 => (f64::EPSILON, 16.0 * f64::EPSILON),
         };
         let text = format!(
             "alias real = {};\n\
@@ -458,7 +458,7 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
 
 /// The module the host generates (`precision`) with every declaration it may hold.
 pub(crate) fn generated_module() -> String {
-    let variant = Variant::new(Precision::F32, Algorithm::Robust);
+    let variant = Variant::new(Float::F32, Algorithm::Robust);
     module_source(PRECISION_MODULE, &variant).expect("the precision module is generated")
 }
 
@@ -631,7 +631,7 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 /// and with none.
 pub fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
-    for precision in [Precision::F32, Precision::F64] {
+    for precision in [Float::F32, Float::F64] {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
                 // A caller's rays from many points, and from one (a pinhole camera's).
@@ -644,7 +644,7 @@ pub fn all_variants() -> Vec<Variant> {
                     (true, Casts::Rays, false, true),
                     (false, Casts::Rays, true, true),
                 ] {
-                    let impossible = precision == Precision::F64 && !f64_available;
+                    let impossible = precision == Float::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
                         continue;
                     }
@@ -784,7 +784,7 @@ mod tests {
             casts: Casts::Rays,
             bvh: true,
             chunks: MAX_CHUNKS,
-            ..Variant::new(Precision::F32, Algorithm::Robust)
+            ..Variant::new(Float::F32, Algorithm::Robust)
         };
         for variant in all_variants().into_iter().chain([both]) {
             let (module, info) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
@@ -808,7 +808,7 @@ mod tests {
     fn traversal_stack_is_the_variants() {
         let plain = Variant {
             bvh: true,
-            ..Variant::new(Precision::F32, Algorithm::Robust)
+            ..Variant::new(Float::F32, Algorithm::Robust)
         };
         assert_eq!(plain.bvh_stack as usize, crate::prepare::bvh::MAX_DEPTH);
         for entries in [8, 24, plain.bvh_stack] {
@@ -841,14 +841,14 @@ mod tests {
             bvh: true,
             packets: true,
             eight_lanes: true,
-            ..Variant::new(Precision::F32, Algorithm::Robust)
+            ..Variant::new(Float::F32, Algorithm::Robust)
         };
         let listed = Variant {
             casts: Casts::Rays,
             ..lanes
         };
         let f64 = Variant {
-            precision: Precision::F64,
+            precision: Float::F64,
             ..lanes
         };
         let certainty = Variant {
@@ -925,7 +925,7 @@ mod tests {
 
     #[test]
     fn kernel_has_its_entry_point() {
-        let variant = Variant::new(Precision::F32, Algorithm::Textbook);
+        let variant = Variant::new(Float::F32, Algorithm::Textbook);
         let (module, _) = validate(&kernel_source(&variant).unwrap(), "kernel").unwrap();
         assert!(module.entry_points.iter().any(|e| e.name == ENTRY_POINT));
     }
@@ -936,11 +936,11 @@ mod tests {
         let hook = super::super::hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
         let variant = Variant {
             bvh: true,
-            ..Variant::new(Precision::F64, Algorithm::Robust)
+            ..Variant::new(Float::F64, Algorithm::Robust)
         };
         let certainty = Variant {
             certainty: true,
-            ..Variant::new(Precision::F32, Algorithm::Robust)
+            ..Variant::new(Float::F32, Algorithm::Robust)
         };
         for (variant, with_hook) in [
             (variant, false),
@@ -983,11 +983,11 @@ mod tests {
                 triangles: bits & 4 != 0,
             };
             for base in [
-                Variant::new(Precision::F32, Algorithm::Robust),
-                Variant::new(Precision::F64, Algorithm::Textbook),
+                Variant::new(Float::F32, Algorithm::Robust),
+                Variant::new(Float::F64, Algorithm::Textbook),
                 Variant {
                     certainty: true,
-                    ..Variant::new(Precision::F32, Algorithm::Robust)
+                    ..Variant::new(Float::F32, Algorithm::Robust)
                 },
             ] {
                 let variant = base.with_kinds(kinds);
@@ -1078,8 +1078,8 @@ mod tests {
             "triangle_normal",
         ];
         for base in [
-            Variant::new(Precision::F32, Algorithm::Robust),
-            Variant::new(Precision::F64, Algorithm::Textbook),
+            Variant::new(Float::F32, Algorithm::Robust),
+            Variant::new(Float::F64, Algorithm::Textbook),
         ] {
             for (outputs, normals) in [
                 (OUTPUT_SUBSETS[1], false), // distance only

@@ -2,7 +2,7 @@
 
 use super::{Depth, EncodedFile};
 use crate::images::{Images, Outputs};
-use crate::math::{Precision, Real};
+use crate::math::{Float, Real};
 
 /// Encodes little-endian `data` with NumPy dtype `descr` (e.g. `<f4`) and `shape`.
 pub fn encode_npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
@@ -27,7 +27,7 @@ pub fn encode_npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
 
 /// Little-endian bytes of a float slice, with the matching NumPy dtype.
 fn float_bytes<T: Real>(values: impl Iterator<Item = T>) -> (&'static str, Vec<u8>) {
-    if T::PRECISION == Precision::F32 {
+    if T::PRECISION == Float::F32 {
         let v: Vec<u8> = values
             .flat_map(|x| (x.to_f64() as f32).to_le_bytes())
             .collect();

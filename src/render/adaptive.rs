@@ -20,7 +20,7 @@ use crate::error::Result;
 use crate::gpu::shader::Variant;
 use crate::gpu::{self, Gpu, Job};
 use crate::images::{Images, Pixel};
-use crate::math::Precision;
+use crate::math::Float;
 use crate::prepare::Prepared;
 use crate::scene::Scene;
 
@@ -72,7 +72,7 @@ pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
 pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
     Variant {
         certainty: true,
-        ..gpu.scene_variant(scene, Precision::F32, Algorithm::Robust)
+        ..gpu.scene_variant(scene, Float::F32, Algorithm::Robust)
     }
     .for_rays(scene.camera.pixel_count())
 }
@@ -120,7 +120,7 @@ pub fn render_adaptive_with(
     // The f64 pass walks the same BVH.
     let exact = Prepared::<f64>::with_bvh(scene, Algorithm::Robust, prepared.bvh().cloned());
     let (pixels, kernel_s): (Vec<Pixel<f64>>, _) = if recast_on_gpu {
-        let variant = gpu.scene_variant(scene, Precision::F64, Algorithm::Robust);
+        let variant = gpu.scene_variant(scene, Float::F64, Algorithm::Robust);
         let job = Job::new(variant).pixels(&uncertain).timed(timed);
         let second = gpu::run(gpu, &exact, job)?;
         let pixels = (0..uncertain.len()).map(|k| second.images.pixel(k));

@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::{AnyImages, Arithmetic, Device, Mode, Request, STREAM_PIXELS, band_rows, can_stream};
+use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
 use super::{Progress, check_kernels, render_streamed, timed};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
@@ -149,9 +149,9 @@ impl Spec {
         let precision = match device {
             Device::Cpu => device.default_precision(),
             Device::Gpu if single_kernel || self.mode.algorithm != Algorithm::Robust => {
-                Arithmetic::F32
+                Precision::F32
             }
-            Device::Gpu => Arithmetic::Adaptive,
+            Device::Gpu => Precision::Adaptive,
         };
         Mode {
             precision,
@@ -190,7 +190,7 @@ impl Spec {
         if self.lit && self.shader.is_some() {
             return Err(gpu::hooks::lit_and_shader());
         }
-        if self.lit && self.mode.precision == Arithmetic::Adaptive {
+        if self.lit && self.mode.precision == Precision::Adaptive {
             return refuse("--lit", "runs with --precision f32 or f64, not adaptive");
         }
         // The CPU runs the course's ray tracer by its mirror, and no other hook.
@@ -387,7 +387,7 @@ impl Spec {
     ) -> Result<(AnyImages, Option<(f64, bool)>)> {
         let mode = self.mode;
         match (mode.precision, self.spp, gpu) {
-            (Arithmetic::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
+            (Precision::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
                 let a = adaptive::render_adaptive(g, scene)?;
                 let recast = (a.recast_fraction(), a.recast_on_gpu);
                 Ok((AnyImages::F32(a.images), Some(recast)))
@@ -408,7 +408,7 @@ impl Spec {
     /// which writes every output), specialized for `scene` and `request`.
     fn first_kernel(&self, gpu: &Gpu, scene: &Scene, request: &Request) -> Result<Variant> {
         let mode = self.mode;
-        if mode.precision == Arithmetic::Adaptive {
+        if mode.precision == Precision::Adaptive {
             return Ok(adaptive::certainty_variant(gpu, scene));
         }
         let spp = self.spp.unwrap_or(1);

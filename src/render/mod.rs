@@ -7,7 +7,7 @@ mod mode;
 pub mod supersample;
 
 pub use files::{Spec, Summary};
-pub use mode::{Arithmetic, DEFAULT_ALGORITHM, Device, Mode};
+pub use mode::{DEFAULT_ALGORITHM, Device, Mode, Precision};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -22,7 +22,7 @@ use crate::gpu::shader::Variant;
 use crate::gpu::{self, Gpu, Job, Stages};
 use crate::images::{Coverage, Images, Outputs};
 use crate::kernel::layout::GpuReal;
-use crate::math::Precision;
+use crate::math::Float;
 use crate::output::{self, Encoding};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Search;
@@ -125,8 +125,8 @@ impl Request {
         mode: Mode,
     ) -> Result<gpu::shader::Variant> {
         let precision = match mode.precision {
-            Arithmetic::F64 => Precision::F64,
-            _ => Precision::F32,
+            Precision::F64 => Float::F64,
+            _ => Float::F32,
         };
         let mut variant = gpu
             .scene_variant(scene, precision, mode.algorithm)
@@ -220,7 +220,7 @@ fn dispatch(
     timed: bool,
 ) -> Result<(AnyImages, Option<f64>)> {
     check_request(mode, request)?;
-    if mode.precision == Arithmetic::Adaptive {
+    if mode.precision == Precision::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
             _ => {
@@ -242,7 +242,7 @@ fn dispatch(
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             Ok(match mode.precision {
-                Arithmetic::F32 => {
+                Precision::F32 => {
                     let (images, stages) = on_gpu::<f32>(gpu, scene, variant, timed)?;
                     (AnyImages::F32(images), stages.kernel_s)
                 }
@@ -255,7 +255,7 @@ fn dispatch(
         Device::Cpu => {
             let lit = request.shade.is_some() && request.outputs.color;
             Ok(match mode.precision {
-                Arithmetic::F32 => AnyImages::F32(cpu_render(scene, mode.algorithm, progress, lit)),
+                Precision::F32 => AnyImages::F32(cpu_render(scene, mode.algorithm, progress, lit)),
                 _ => AnyImages::F64(cpu_render(scene, mode.algorithm, progress, lit)),
             })
             .map(|images| (images, None))
@@ -269,7 +269,7 @@ pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
     let shades = request.shade.as_ref().filter(|_| request.outputs.color);
     // The CPU runs the course's ray tracer by its mirror, and no other hook.
     let mirrored = mode.device == Device::Cpu
-        && mode.precision != Arithmetic::Adaptive
+        && mode.precision != Precision::Adaptive
         && shades.is_some_and(ShadeHook::has_cpu_mirror);
     check_kernels(
         mode,
@@ -293,7 +293,7 @@ fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
             message: message.into(),
         })
     };
-    let kernels = mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive;
+    let kernels = mode.device == Device::Gpu && mode.precision != Precision::Adaptive;
     if kernel && !kernels {
         return refuse("--kernel");
     }
@@ -327,7 +327,7 @@ pub(crate) fn band_rows(width: u32) -> u32 {
 
 /// Whether [`render_streamed`] can render `mode`: a GPU kernel in f32 or f64.
 pub(crate) fn can_stream(mode: Mode) -> bool {
-    mode.device == Device::Gpu && mode.precision != Arithmetic::Adaptive
+    mode.device == Device::Gpu && mode.precision != Precision::Adaptive
 }
 
 /// Renders `scene` on the GPU in bands of at most `max_rows` rows, handing each band to
@@ -361,7 +361,7 @@ pub(crate) fn render_streamed(
         gpu::run(gpu, &prepared, job).map(|r| r.stages.hook_rays)
     }
     match mode.precision {
-        Arithmetic::F32 => bands::<f32>(gpu, scene, variant, max_rows, &mut |b| {
+        Precision::F32 => bands::<f32>(gpu, scene, variant, max_rows, &mut |b| {
             sink(AnyImages::F32(b))
         }),
         _ => bands::<f64>(gpu, scene, variant, max_rows, &mut |b| {

@@ -6,7 +6,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::algorithm::Algorithm;
-use crate::math::Precision;
+use crate::math::Float;
 
 /// Where a render runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,53 +19,50 @@ pub enum Device {
 
 impl Device {
     /// f32 on the GPU (what GPUs are fast at), f64 on the CPU (the reference).
-    pub fn default_precision(self) -> Arithmetic {
+    pub fn default_precision(self) -> Precision {
         match self {
-            Device::Gpu => Arithmetic::F32,
-            Device::Cpu => Arithmetic::F64,
+            Device::Gpu => Precision::F32,
+            Device::Cpu => Precision::F64,
         }
     }
 }
 
-/// The arithmetic of a render: one precision throughout, or adaptive (robust f32, with the
+/// The precision of a render: one [`Float`] throughout, or adaptive (robust f32, with the
 /// pixels it cannot be sure of cast again in f64; see [`crate::render::adaptive`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Arithmetic {
+pub enum Precision {
     F32,
     F64,
     Adaptive,
 }
 
-impl From<Precision> for Arithmetic {
-    fn from(p: Precision) -> Self {
+impl From<Float> for Precision {
+    fn from(p: Float) -> Self {
         match p {
-            Precision::F32 => Arithmetic::F32,
-            Precision::F64 => Arithmetic::F64,
+            Float::F32 => Precision::F32,
+            Float::F64 => Precision::F64,
         }
     }
 }
 
-impl FromStr for Arithmetic {
+impl FromStr for Precision {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         match s {
-            "adaptive" => Ok(Arithmetic::Adaptive),
-            other => other
-                .parse::<Precision>()
-                .map(Arithmetic::from)
-                .map_err(|_| {
-                    format!("unknown precision `{other}` (expected f32, f64 or adaptive)")
-                }),
+            "adaptive" => Ok(Precision::Adaptive),
+            other => other.parse::<Float>().map(Precision::from).map_err(|_| {
+                format!("unknown precision `{other}` (expected f32, f64 or adaptive)")
+            }),
         }
     }
 }
 
-impl fmt::Display for Arithmetic {
+impl fmt::Display for Precision {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Arithmetic::F32 => "f32",
-            Arithmetic::F64 => "f64",
-            Arithmetic::Adaptive => "adaptive",
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+            Precision::Adaptive => "adaptive",
         })
     }
 }
@@ -90,7 +87,7 @@ pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mode {
     pub device: Device,
-    pub precision: Arithmetic,
+    pub precision: Precision,
     pub algorithm: Algorithm,
 }
 
@@ -136,12 +133,12 @@ mod tests {
         let m: Mode = "cpu".parse().unwrap();
         let expected = Mode {
             device: Device::Cpu,
-            precision: Arithmetic::F64,
+            precision: Precision::F64,
             algorithm: Algorithm::Robust,
         };
         assert_eq!(m, expected);
         let m: Mode = "gpu:adaptive".parse().unwrap();
-        assert_eq!(m.precision, Arithmetic::Adaptive);
+        assert_eq!(m.precision, Precision::Adaptive);
         let m: Mode = "gpu:f64:textbook".parse().unwrap();
         assert_eq!(m.to_string(), "gpu:f64:textbook");
         assert!("tpu:f32".parse::<Mode>().is_err());

@@ -7,7 +7,7 @@ mod pictures;
 use serde::Serialize;
 
 use raycast::images::{Images, MISS};
-use raycast::math::{Precision, Real};
+use raycast::math::{Float, Real};
 use raycast::render::AnyImages;
 
 pub use command::{Outcome, Spec};
@@ -117,7 +117,7 @@ struct Side<'a> {
     color: Option<&'a [[u8; 4]]>,
     distance: Vec<f64>,
     normal: Vec<[f64; 3]>,
-    precision: Precision,
+    precision: Float,
 }
 
 fn side<T: Real>(images: &Images<T>) -> Side<'_> {
@@ -138,14 +138,14 @@ fn any_side(images: &AnyImages) -> (Side<'_>, u32, u32) {
 }
 
 /// Spacing of floats of `precision` at `x` (the ulp of |x|).
-fn ulp(x: f64, precision: Precision) -> f64 {
+fn ulp(x: f64, precision: Float) -> f64 {
     let x = x.abs();
     match precision {
-        Precision::F32 => {
+        Float::F32 => {
             let f = x as f32;
             (f32::from_bits(f.to_bits() + 1) - f) as f64
         }
-        Precision::F64 => f64::from_bits(x.to_bits() + 1) - x,
+        Float::F64 => f64::from_bits(x.to_bits() + 1) - x,
     }
 }
 
@@ -180,7 +180,7 @@ pub fn compare(a: &AnyImages, b: &AnyImages) -> Comparison {
     let (sa, width, height) = any_side(a);
     let (sb, wb, hb) = any_side(b);
     assert_eq!((width, height), (wb, hb), "compared images differ in size");
-    let ulp_side = if sa.precision == Precision::F32 || sb.precision != Precision::F32 {
+    let ulp_side = if sa.precision == Float::F32 || sb.precision != Float::F32 {
         &sa
     } else {
         &sb
@@ -351,8 +351,8 @@ mod tests {
 
     #[test]
     fn ulps_of_f32() {
-        assert_eq!(ulp(1.0, Precision::F32), f32::EPSILON as f64);
-        assert_eq!(ulp(1.0, Precision::F64), f64::EPSILON);
+        assert_eq!(ulp(1.0, Float::F32), f32::EPSILON as f64);
+        assert_eq!(ulp(1.0, Float::F64), f64::EPSILON);
     }
 
     #[test]

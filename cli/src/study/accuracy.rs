@@ -26,13 +26,13 @@ use raycast::gpu::Gpu;
 use raycast::images::{Images, MISS};
 use raycast::math::Real;
 use raycast::output;
-use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
+use raycast::render::{self, AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
 
 /// The reference mode unless another is named: the CPU in f64 with the robust algorithms.
 pub const DEFAULT_REFERENCE: Mode = Mode {
     device: Device::Cpu,
-    precision: Arithmetic::F64,
+    precision: Precision::F64,
     algorithm: Algorithm::Robust,
 };
 
@@ -140,7 +140,7 @@ pub struct Accuracy {
 pub fn all_modes() -> Vec<Mode> {
     let mut modes = Vec::new();
     for device in [Device::Gpu, Device::Cpu] {
-        for precision in [Arithmetic::F32, Arithmetic::F64] {
+        for precision in [Precision::F32, Precision::F64] {
             for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
                 modes.push(Mode {
                     device,
@@ -152,7 +152,7 @@ pub fn all_modes() -> Vec<Mode> {
         if device == Device::Gpu {
             modes.push(Mode {
                 device,
-                precision: Arithmetic::Adaptive,
+                precision: Precision::Adaptive,
                 algorithm: Algorithm::Robust,
             });
         }
@@ -168,8 +168,8 @@ pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
         .into_iter()
         .filter(|m| match (m.device, m.precision) {
             (Device::Cpu, _) => true,
-            (Device::Gpu, Arithmetic::F32 | Arithmetic::Adaptive) => gpu.is_some(),
-            (Device::Gpu, Arithmetic::F64) => f64_on_gpu,
+            (Device::Gpu, Precision::F32 | Precision::Adaptive) => gpu.is_some(),
+            (Device::Gpu, Precision::F64) => f64_on_gpu,
         })
         .collect()
 }

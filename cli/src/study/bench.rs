@@ -33,10 +33,10 @@ use raycast::gpu::{self, Gpu};
 use raycast::images::{Images, MISS};
 use raycast::kernel::layout::GpuTriangle;
 use raycast::kernel::types;
-use raycast::math::{Precision, Real};
+use raycast::math::{Float, Real};
 use raycast::prepare::Prepared;
 use raycast::prepare::bvh::{Bvh, Search};
-use raycast::render::{self, Arithmetic, Device, Mode};
+use raycast::render::{self, Device, Mode, Precision};
 use raycast::scene::{Object, Scene};
 
 /// `--runs` unless given.
@@ -45,7 +45,7 @@ pub const DEFAULT_RUNS: usize = 5;
 /// `--mode` unless given: the default render.
 pub const DEFAULT_MODE: Mode = Mode {
     device: Device::Gpu,
-    precision: Arithmetic::F32,
+    precision: Precision::F32,
     algorithm: Algorithm::Robust,
 };
 
@@ -107,7 +107,7 @@ impl Options {
         if let Some(m) = self
             .modes
             .iter()
-            .find(|m| m.precision == Arithmetic::Adaptive)
+            .find(|m| m.precision == Precision::Adaptive)
         {
             return Err(Error::Argument {
                 option: "--mode".into(),
@@ -313,8 +313,8 @@ fn run_once(
         (Device::Gpu, precision) => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let precision = match precision {
-                Arithmetic::F64 => Precision::F64,
-                _ => Precision::F32,
+                Precision::F64 => Float::F64,
+                _ => Float::F32,
             };
             let mut variant = gpu::shader::Variant {
                 bvh: accel.uses_bvh(scene),
@@ -325,12 +325,12 @@ fn run_once(
             }
             let variant = variant.with_outputs(request.kernel_outputs());
             let (hits, stages) = match precision {
-                Precision::F32 => {
+                Float::F32 => {
                     let (images, stages) =
                         raycast::render::on_gpu::<f32>(gpu, scene, variant, true)?;
                     (hits(&images), stages)
                 }
-                Precision::F64 => {
+                Float::F64 => {
                     let (images, stages) =
                         raycast::render::on_gpu::<f64>(gpu, scene, variant, true)?;
                     (hits(&images), stages)
@@ -350,7 +350,7 @@ fn run_once(
             // check_request lets only the ray tracer's mirror through.
             let lit = request.shade.is_some();
             Ok(match precision {
-                Arithmetic::F32 => cpu_once::<f32>(scene, mode.algorithm, accel, lit),
+                Precision::F32 => cpu_once::<f32>(scene, mode.algorithm, accel, lit),
                 _ => cpu_once::<f64>(scene, mode.algorithm, accel, lit),
             })
         }
@@ -423,9 +423,9 @@ pub fn measure(
     // Built again outside the timed runs, to count what the render held.
     let bvh = uses_bvh.then(|| Bvh::build(scene, mode.algorithm));
     let triangle_bytes = match (mode.device, mode.precision) {
-        (Device::Gpu, Arithmetic::F64) => size_of::<GpuTriangle<f64>>(),
+        (Device::Gpu, Precision::F64) => size_of::<GpuTriangle<f64>>(),
         (Device::Gpu, _) => size_of::<GpuTriangle<f32>>(),
-        (Device::Cpu, Arithmetic::F32) => size_of::<types::Triangle<f32>>(),
+        (Device::Cpu, Precision::F32) => size_of::<types::Triangle<f32>>(),
         (Device::Cpu, _) => size_of::<types::Triangle<f64>>(),
     };
     let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);

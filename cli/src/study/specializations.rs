@@ -25,7 +25,7 @@ use raycast::error::{Error, Result};
 use raycast::gpu::shader::{Kinds, Variant};
 use raycast::gpu::{Gpu, Stages};
 use raycast::images::Outputs;
-use raycast::math::{Precision, vec3};
+use raycast::math::{Float, vec3};
 use raycast::output;
 use raycast::scene::Scene;
 
@@ -113,7 +113,7 @@ impl Plan {
 /// (GPU, f32, robust, id, distance and normal).
 fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     let base = gpu
-        .scene_variant(scene, Precision::F32, Algorithm::Robust)
+        .scene_variant(scene, Float::F32, Algorithm::Robust)
         .for_rays(scene.camera.pixel_count());
     let toggle = |on: Variant, off: Variant, default_with: bool, spec| Plan {
         specialization: spec,
@@ -564,7 +564,7 @@ pub fn crossover(
             } else {
                 random_triangles(n, &mut rng)
             };
-            let base = gpu.scene_variant(&scene, Precision::F32, Algorithm::Robust);
+            let base = gpu.scene_variant(&scene, Float::F32, Algorithm::Robust);
             let variants = [false, true].map(|bvh| Variant { bvh, ..base });
             let t = interleaved_times(gpu, &scene, &variants, runs)?;
             rows.push(CrossoverRow {

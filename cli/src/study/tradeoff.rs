@@ -41,7 +41,7 @@ use raycast::error::{Error, Result};
 use raycast::gpu::Gpu;
 use raycast::output::{self, EncodedFile};
 use raycast::render::supersample;
-use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
+use raycast::render::{self, AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
 
 pub use plot::{LogAxis, plot};
@@ -55,7 +55,7 @@ pub const REFERENCE_SPP: u32 = 64;
 /// The mode also measured at more than one sample per pixel: the default render.
 pub const SUPERSAMPLED_MODE: Mode = Mode {
     device: Device::Gpu,
-    precision: Arithmetic::F32,
+    precision: Precision::F32,
     algorithm: Algorithm::Robust,
 };
 
@@ -282,7 +282,7 @@ struct Frame {
 /// Renders `scene` in `mode` at `spp` samples per pixel (reduced as `--spp` does).
 fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Result<Frame> {
     if spp == 1 {
-        if let (Arithmetic::Adaptive, Device::Gpu, Some(g)) = (mode.precision, mode.device, gpu)
+        if let (Precision::Adaptive, Device::Gpu, Some(g)) = (mode.precision, mode.device, gpu)
             && mode.algorithm == Algorithm::Robust
         {
             let a = raycast::render::adaptive::render_adaptive_timed(g, scene)?;

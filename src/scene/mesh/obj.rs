@@ -6,7 +6,7 @@
 
 use super::text::{self, found, show};
 use super::{Parsed, Triangle, at_line, fan};
-use crate::math::{Precision, Vec3};
+use crate::math::{Float, Vec3};
 
 /// Parses OBJ text. Faces may only refer to vertices defined above them (the OBJ rule that
 /// makes negative, relative indices meaningful).
@@ -32,7 +32,7 @@ pub(super) fn parse(bytes: &[u8]) -> Parsed<Vec<Triangle>> {
 /// `v x y z`, optionally followed by `w` or by a vertex colour `r g b` (a common extension);
 /// the extras must be numbers but are not used.
 fn vertex<'a>(n: usize, mut words: impl Iterator<Item = &'a [u8]>) -> Parsed<Vec3<f64>> {
-    let point = text::point(n, "v", &mut words, Precision::F64)?;
+    let point = text::point(n, "v", &mut words, Float::F64)?;
     let mut extras = 0;
     for word in words {
         if text::parse::<f64>(word).is_none() {

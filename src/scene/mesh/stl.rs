@@ -4,7 +4,7 @@
 
 use super::text::{self, found, show};
 use super::{Parsed, Triangle, at_byte, at_line};
-use crate::math::{Precision, Vec3};
+use crate::math::{Float, Vec3};
 
 /// Binary STL: an 80-byte header, a little-endian u32 triangle count, then per triangle a
 /// normal and three corners (12 little-endian f32) and a 2-byte attribute.
@@ -191,7 +191,7 @@ impl<'a> Statements<'a> {
         self.keyword("'vertex'", b"vertex")?;
         let n = self.last;
         let mut words = text::words(self.rest);
-        let point = text::point(n, "vertex", &mut words, Precision::F32)?;
+        let point = text::point(n, "vertex", &mut words, Float::F32)?;
         if let Some(extra) = words.next() {
             let message = format!(
                 "expected end of line after 3 numbers, found {}",

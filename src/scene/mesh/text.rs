@@ -5,7 +5,7 @@
 use std::str::FromStr;
 
 use super::{Parsed, at_line};
-use crate::math::{Precision, Vec3};
+use crate::math::{Float, Vec3};
 
 /// The lines of `bytes` with their 1-based numbers, counting from `first`, without the line
 /// break (`\n` or `\r\n`). A file ending in a line break yields a last, empty line: end-of-file
@@ -91,14 +91,14 @@ pub(super) fn point<'a>(
     n: usize,
     keyword: &str,
     words: &mut impl Iterator<Item = &'a [u8]>,
-    precision: Precision,
+    precision: Float,
 ) -> Parsed<Vec3<f64>> {
     let mut xyz = [0.0; 3];
     for x in &mut xyz {
         let word = words.next();
         let value = word.and_then(|w| match precision {
-            Precision::F32 => parse::<f32>(w).map(f64::from),
-            Precision::F64 => parse::<f64>(w),
+            Float::F32 => parse::<f32>(w).map(f64::from),
+            Float::F64 => parse::<f64>(w),
         });
         let value = value.ok_or_else(|| {
             at_line(
@@ -112,8 +112,8 @@ pub(super) fn point<'a>(
         if !value.is_finite() {
             let word = show(word.unwrap_or_default());
             let bits = match precision {
-                Precision::F32 => 32,
-                Precision::F64 => 64,
+                Float::F32 => 32,
+                Float::F64 => 64,
             };
             return Err(at_line(
                 n,
@@ -188,14 +188,14 @@ mod tests {
 
     #[test]
     fn points_need_three_finite_numbers() {
-        let read = |line: &[u8]| point(3, "vertex", &mut words(line), Precision::F32);
+        let read = |line: &[u8]| point(3, "vertex", &mut words(line), Float::F32);
         assert_eq!(
             read(b"1 -2.5 3e2"),
             Ok(Vec3::from_array([1.0, -2.5, 300.0]))
         );
         // Rounded to f32 in f32 (STL), kept in f64 (OBJ).
         assert_eq!(read(b"0.1 0 0").unwrap().x, f64::from(0.1f32));
-        let read_f64 = |line: &[u8]| point(3, "v", &mut words(line), Precision::F64);
+        let read_f64 = |line: &[u8]| point(3, "v", &mut words(line), Float::F64);
         assert_eq!(
             read_f64(b"0.1 1e6 -3e300").unwrap(),
             Vec3::from_array([0.1, 1e6, -3e300])

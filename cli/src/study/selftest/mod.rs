@@ -27,12 +27,12 @@ use raycast::error::{Error, Result};
 use raycast::gpu::{self, Gpu, Job, shader::Variant};
 use raycast::images::{Images, MISS, Outputs};
 use raycast::kernel::layout::GpuReal;
-use raycast::math::{Precision, Real};
+use raycast::math::{Float, Real};
 use raycast::output::{Pictures, pictures};
 use raycast::prepare::{Prepared, bvh::Search};
 use raycast::query::RayScene;
 use raycast::rays::{AnyHits, Hits, Ray};
-use raycast::render::{self, AnyImages, Arithmetic, Device, Mode};
+use raycast::render::{self, AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
 
 /// How far a bounded f32 distance may be from CPU f64's, relative, where both hit one object.
@@ -184,7 +184,7 @@ impl Ctx<'_> {
     /// `mode` runs here: not f64 on an adapter without f64 kernels (adaptive precision re-casts
     /// on the CPU there).
     fn runs(&self, mode: Mode) -> bool {
-        mode.precision != Arithmetic::F64 || self.has_f64()
+        mode.precision != Precision::F64 || self.has_f64()
     }
 
     /// What a check of several modes says when it left f64 out.
@@ -373,7 +373,7 @@ fn plan<'a>(gpu: &Gpu, options: &'a Options) -> Vec<Planned<'a>> {
                 move |ctx, planted| random_f32(ctx, seed, on, planted),
             ));
         }
-        for precision in [Arithmetic::F64, Arithmetic::Adaptive] {
+        for precision in [Precision::F64, Precision::Adaptive] {
             all.push(planned(
                 format!("random-{seed}/{precision}"),
                 format!("gpu:{precision}:robust"),
@@ -382,14 +382,14 @@ fn plan<'a>(gpu: &Gpu, options: &'a Options) -> Vec<Planned<'a>> {
         }
     }
     all.extend(wide_path_skipped(gpu));
-    for precision in [Arithmetic::F32, Arithmetic::F64, Arithmetic::Adaptive] {
+    for precision in [Precision::F32, Precision::F64, Precision::Adaptive] {
         all.push(planned(
             format!("extremes/dyadic-base/{precision}"),
             format!("gpu:{precision}:robust"),
             move |ctx, planted| {
                 let scene = data::extreme("dyadic-base")?;
                 match precision {
-                    Arithmetic::F32 => scene_f32(ctx, &scene, planted),
+                    Precision::F32 => scene_f32(ctx, &scene, planted),
                     _ => ids_as_cpu_f64(ctx, &scene, precision, planted),
                 }
             },
@@ -411,8 +411,8 @@ fn plan<'a>(gpu: &Gpu, options: &'a Options) -> Vec<Planned<'a>> {
     }
     for list in RayKind::ALL {
         // f64 and adaptive on the incoherent list: the others differ only in f32's packets.
-        for precision in [Arithmetic::F32, Arithmetic::F64, Arithmetic::Adaptive] {
-            if precision != Arithmetic::F32 && list != RayKind::Incoherent {
+        for precision in [Precision::F32, Precision::F64, Precision::Adaptive] {
+            if precision != Precision::F32 && list != RayKind::Incoherent {
                 continue;
             }
             all.push(planned(
@@ -442,11 +442,11 @@ fn plan<'a>(gpu: &Gpu, options: &'a Options) -> Vec<Planned<'a>> {
 
 const ADAPTIVE: Mode = Mode {
     device: Device::Gpu,
-    precision: Arithmetic::Adaptive,
+    precision: Precision::Adaptive,
     algorithm: Robust,
 };
 
-fn gpu_mode(precision: Arithmetic, algorithm: Algorithm) -> Mode {
+fn gpu_mode(precision: Precision, algorithm: Algorithm) -> Mode {
     Mode {
         device: Device::Gpu,
         precision,
@@ -528,7 +528,7 @@ fn gpu_images<R: GpuReal>(gpu: &Gpu, scene: &Scene, variant: Variant) -> Result<
 /// f32 through the BVH, in packets or ray by ray, judged by the adapter's [`F32Rule`].
 fn random_f32(ctx: &Ctx, seed: u64, packets: bool, planted: bool) -> Result<Verdict> {
     let scene = random(seed);
-    let base = ctx.gpu.scene_variant(&scene, Precision::F32, Robust);
+    let base = ctx.gpu.scene_variant(&scene, Float::F32, Robust);
     if packets && !base.packets {
         return Ok(Verdict::skip("this adapter has no subgroups for packets"));
     }
@@ -643,7 +643,7 @@ impl MarginCheck {
 fn ids_as_cpu_f64(
     ctx: &Ctx,
     scene: &Scene,
-    precision: Arithmetic,
+    precision: Precision,
     planted: bool,
 ) -> Result<Verdict> {
     if !ctx.runs(gpu_mode(precision, Robust)) {
@@ -666,7 +666,7 @@ fn ids_as_cpu_f64(
 
 /// Robust f32 of a file scene by the kernel a render picks for it, judged by the adapter's rule.
 fn scene_f32(ctx: &Ctx, scene: &Scene, planted: bool) -> Result<Verdict> {
-    let variant = ctx.gpu.scene_variant(scene, Precision::F32, Robust);
+    let variant = ctx.gpu.scene_variant(scene, Float::F32, Robust);
     let mut images = gpu_images::<f32>(ctx.gpu, scene, variant)?;
     if planted {
         plant(&mut images.id);
@@ -692,18 +692,18 @@ fn widen(images: AnyImages) -> Widened {
 const INVARIANT_MODES: [Mode; 4] = [
     Mode {
         device: Device::Gpu,
-        precision: Arithmetic::F32,
+        precision: Precision::F32,
         algorithm: Robust,
     },
     Mode {
         device: Device::Gpu,
-        precision: Arithmetic::F64,
+        precision: Precision::F64,
         algorithm: Robust,
     },
     ADAPTIVE,
     Mode {
         device: Device::Gpu,
-        precision: Arithmetic::F32,
+        precision: Precision::F32,
         algorithm: Textbook,
     },
 ];
@@ -835,7 +835,7 @@ fn f32_hits(hits: AnyHits) -> Result<Hits<f32>> {
 /// A ray list cast at random scene 2: f32 by the adapter's rule (CPU f32's hits bit for bit,
 /// or CPU f64's ids but for [`F32_RAY_ID_BOUND`] of the rays), f64 and adaptive with CPU
 /// f64's ids.
-fn ray_list(ctx: &Ctx, kind: RayKind, precision: Arithmetic, planted: bool) -> Result<Verdict> {
+fn ray_list(ctx: &Ctx, kind: RayKind, precision: Precision, planted: bool) -> Result<Verdict> {
     if !ctx.runs(gpu_mode(precision, Robust)) {
         return Ok(Verdict::skip(NO_F64));
     }
@@ -865,12 +865,12 @@ fn ray_list(ctx: &Ctx, kind: RayKind, precision: Arithmetic, planted: bool) -> R
             rays.len()
         )));
     }
-    let exact = cast(Device::Cpu, Arithmetic::F64)?;
+    let exact = cast(Device::Cpu, Precision::F64)?;
     let id_differ = (ours.id().iter().zip(exact.id()))
         .filter(|(a, b)| a != b)
         .count();
     let n = rays.len();
-    if precision != Arithmetic::F32 {
+    if precision != Precision::F32 {
         return Ok(Verdict::new(
             format!("ids differ from CPU f64 on {id_differ} of {n} rays"),
             "0 rays",
@@ -904,7 +904,7 @@ fn ray_list(ctx: &Ctx, kind: RayKind, precision: Arithmetic, planted: bool) -> R
         && worst <= F32_GRAZING_BOUND;
     Ok(match ctx.rule {
         F32Rule::Exact => {
-            let cpu = f32_hits(cast(Device::Cpu, Arithmetic::F32)?)?;
+            let cpu = f32_hits(cast(Device::Cpu, Precision::F32)?)?;
             let bits = |x: f32| x.to_bits();
             let differ = (0..n)
                 .filter(|&k| {
@@ -936,7 +936,7 @@ fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
     let hook = gpu::hooks::raytrace()?;
     let mut scene = data::scene("scenes/ray-tracing/bunny.json")?;
     scene.camera.resolution = LIT_SIZE;
-    let variant = (ctx.gpu.scene_variant(&scene, Precision::F32, Robust))
+    let variant = (ctx.gpu.scene_variant(&scene, Float::F32, Robust))
         .with_shade(hook.key, hook.traces)
         .with_outputs(Outputs::ALL);
     let lit = gpu_images::<f32>(ctx.gpu, &scene, variant)?;
@@ -975,7 +975,7 @@ fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
 /// The packet traversal this adapter's subgroups select: eight lanes a packet by butterfly
 /// votes where subgroups are 8 wide, by `subgroupAny` and `subgroupAdd` where wider.
 fn packet_path(gpu: &Gpu) -> String {
-    let general = gpu.variant(Precision::F32, Robust);
+    let general = gpu.variant(Float::F32, Robust);
     let lanes = gpu.info().subgroup_max_size;
     match (general.packets, general.eight_lanes) {
         (false, _) => "no subgroups: ray by ray".into(),
@@ -986,7 +986,7 @@ fn packet_path(gpu: &Gpu) -> String {
 
 /// A line saying that the wide packet path does not run here, where it does not.
 fn wide_path_skipped<'a>(gpu: &Gpu) -> Option<Planned<'a>> {
-    let general = gpu.variant(Precision::F32, Robust);
+    let general = gpu.variant(Float::F32, Robust);
     if general.packets && !general.eight_lanes {
         return None;
     }
@@ -1020,7 +1020,7 @@ fn streaming(ctx: &Ctx, planted: bool) -> Result<Verdict> {
         bvh: false,
         chunks: gpu::shader::chunks_for(&scene, bits),
         chunk_bits: bits,
-        ..ctx.gpu.scene_variant(&scene, Precision::F32, Robust)
+        ..ctx.gpu.scene_variant(&scene, Float::F32, Robust)
     };
     if variant.chunks < 2 {
         return Err(Error::Device(format!(
