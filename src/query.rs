@@ -1,7 +1,7 @@
 //! Casting a caller's rays ([`crate::rays`]): any number of rays (origin and direction each, world coordinates)
 //! through the same preparation and the same kernel job as camera renders
 //! ([`crate::gpu::Rays::List`]), on the GPU in f32, f64 or adaptive precision, or on the CPU
-//! reference ([`crate::cpu::cast_rays`]).
+//! reference (`crate::cpu::cast_rays`).
 //!
 //! [`RayScene`] holds the objects (from a scene file, or added from memory: meshes, spheres,
 //! planes) and their preparations, built once per precision and algorithm and reused by every

@@ -43,7 +43,7 @@ fn huge_pages<T>(v: &Vec<T>) {
 
 /// A caller's rays as held: [`Ray`]s, or rows of six f32s (origin, direction), numpy's float32
 /// arrays as Open3D takes them, read without converting the list first (2M rays: 0.02 s of a
-/// 0.35 s cast went to widening numpy's copy). Each is read as a [`Ray`] ([`RayList::get`]);
+/// 0.35 s cast went to widening numpy's copy). Each is read as a [`Ray`] (`RayList::get`);
 /// f32 widens exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayRows<'a> {
@@ -53,7 +53,7 @@ pub enum RayRows<'a> {
 
 /// A caller's rays, and whether they are an image's: row-major rows of `width` rays, as a
 /// camera makes them (Open3D's `create_rays_pinhole`). The GPU traces coherent rays in packets
-/// ([`RayScene::cast`]), an image's in tiles of two rows, as it does a camera's.
+/// ([`RayScene::cast`](crate::query::RayScene::cast)), an image's in tiles of two rows, as it does a camera's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayList<'a> {
     pub rays: RayRows<'a>,
@@ -267,9 +267,9 @@ const COHERENT_SPREAD: f64 = 0.02;
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
 /// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
-/// ([`PACKET`]), the rays lie within [`COHERENT_SPREAD`] of each other
-/// ([`packet_spread`], origins measured against `extent`, the scene's size) and stray at most
-/// [`COHERENT_ROUGHNESS`] from a smooth progression along the rows ([`packet_roughness`]).
+/// (`PACKET`), the rays lie within `COHERENT_SPREAD` of each other
+/// (`packet_spread`, origins measured against `extent`, the scene's size) and stray at most
+/// `COHERENT_ROUGHNESS` from a smooth progression along the rows (`packet_roughness`).
 pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
     let n = list.len();
     let packets = n.div_ceil(PACKET);
@@ -311,7 +311,7 @@ pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
 
 /// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
 /// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
-/// ([`gpu::shader::Variant::list_origin`]). Checked in parallel runs, each stopping at its
+/// (`gpu::shader::Variant::list_origin`). Checked in parallel runs, each stopping at its
 /// first other origin.
 pub fn one_origin(list: RayList<'_>) -> bool {
     use rayon::prelude::*;

@@ -1,6 +1,6 @@
 //! Mirror of shaders/examples/raytrace.wgsl, line for line: the course's ray tracer as a shade
 //! hook (ambient, Blinn-Phong from point and directional lights with hard shadows, mirror
-//! reflections to five bounces), written against [`super::shade`]. In f64 it is the model's
+//! reflections to five bounces), written against `super::shade`. In f64 it is the model's
 //! truth, which reproduces the instructor's render of sphere-and-plane byte for byte.
 
 use super::shade::{LIGHT_POINT, Material, ShadeHit, Shading, leave};

@@ -17,7 +17,7 @@
 //! Every error is an [`Error::Shader`]: `FILE:LINE:COLUMN: error: MESSAGE`, then the source line
 //! and a caret under the column (columns count characters, from 1).
 //!
-//! A checked hook is registered under a [`SourceKey`], a hash of its source, which the kernel
+//! A checked hook is registered under a `SourceKey`, a hash of its source, which the kernel
 //! [`Variant`] carries (so it stays `Copy` and a cache key); the assembler takes the source from
 //! the registry. Sources stay registered for the life of the process.
 
@@ -56,7 +56,7 @@ pub struct ShadeHook {
     pub source: Arc<str>,
     pub key: SourceKey,
     /// `shade` casts rays of its own, directly or through the file's other functions
-    /// ([`RAY_FUNCTIONS`]): its kernel compiles them in ([`Variant::hook_rays`]).
+    /// (`RAY_FUNCTIONS`): its kernel compiles them in ([`Variant::hook_rays`]).
     pub traces: bool,
 }
 
@@ -66,13 +66,13 @@ pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.
 /// Where [`RAYTRACE`] lives, for messages.
 pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
 
-/// [`RAYTRACE`], checked.
+/// `RAYTRACE`, checked.
 pub fn raytrace() -> Result<ShadeHook> {
     check(RAYTRACE, Path::new(RAYTRACE_FILE))
 }
 
 /// The hook a command asks for: `--lit` ([`raytrace`]) or `--shader FILE` ([`load`]), or none;
-/// both at once is [`lit_and_shader`]'s error.
+/// both at once is `lit_and_shader`'s error.
 pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
     match (lit, shader) {
         (true, Some(_)) => Err(lit_and_shader()),

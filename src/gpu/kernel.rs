@@ -3,7 +3,7 @@
 //!
 //! The kernel [`Variant`] is chosen as usual, from the scene and the request; the file only
 //! replaces its source. So that what the host binds fits the file:
-//! 1. [`check`] parses and validates the file with naga (errors at `FILE:LINE:COLUMN`, as for
+//! 1. `check` parses and validates the file with naga (errors at `FILE:LINE:COLUMN`, as for
 //!    shade hooks) and finds its compute entry point `main`;
 //! 2. [`UserKernel::for_variant`] compares, on the naga modules, the file's resource bindings
 //!    with those of the assembled kernel of that variant: the same binding numbers, each with
@@ -13,7 +13,7 @@
 //!
 //! A mismatch, such as a kernel emitted for a scene with other primitive kinds, precision or
 //! outputs, is a one-line [`Error::Argument`] naming `--kernel FILE`. The variant that passes
-//! carries the file's [`SourceKey`], a hash of its text in the source registry, so the
+//! carries the file's `SourceKey`, a hash of its text in the source registry, so the
 //! pipeline cache never gives one file's pipeline to another.
 
 use std::path::{Path, PathBuf};
@@ -40,7 +40,7 @@ struct Interface {
     workgroup_size: [u32; 3],
 }
 
-/// Reads and [`check`]s the kernel file at `path`.
+/// Reads and `check`s the kernel file at `path`.
 pub fn load(path: &Path) -> Result<UserKernel> {
     let source =
         std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;

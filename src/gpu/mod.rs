@@ -2,9 +2,9 @@
 //! tests and library users can bring their own `wgpu::Device`.
 //!
 //! - [`shader`] assembles the kernel's WGSL for a [`shader::Variant`] from `shaders/`;
-//! - [`source`] keeps the user's sources, validates WGSL with located errors and reflects a
+//! - `source` keeps the user's sources, validates WGSL with located errors and reflects a
 //!   kernel's bindings; [`hooks`] and [`kernel`] check shade hooks and kernel files;
-//! - [`layout`] is the byte layout of the kernel's structs;
+//! - [`layout`](crate::kernel::layout) is the byte layout of the kernel's structs;
 //! - [`dispatch`] runs a [`Job`] on a prepared scene: the one way every render reaches the GPU.
 
 pub mod dispatch;
@@ -55,7 +55,7 @@ pub struct Gpu {
 
 impl Gpu {
     /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
-    /// pays ([`crate::prepare::bvh::worth_it`]).
+    /// pays (`crate::prepare::bvh::worth_it`).
     pub fn scene_variant(
         &self,
         scene: &crate::scene::Scene,

@@ -81,7 +81,7 @@ pub struct Variant {
     /// Every ray starts at the kernel's origin: the camera's rays (or listed pixels') of a
     /// perspective camera whose eye is that origin, as in the robust set
     /// ([`super::Gpu::scene_variant`]; the dispatch clears it for a caller's rays, or where
-    /// [`crate::prepare::Prepared::camera_rays_from_origin`] does not hold). The kernel then
+    /// `crate::prepare::Prepared::camera_rays_from_origin` does not hold). The kernel then
     /// makes each ray's origin the constant zero (`RAYS_FROM_ORIGIN`, shaders/frame.wgsl).
     pub rays_from_origin: bool,
     /// Every ray of a caller's list starts at the same point, the first one's origin
@@ -96,7 +96,7 @@ pub struct Variant {
     /// The device has subgroups of at least 8 invocations: the rays of a subgroup traverse the
     /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
-    /// Subgroups are exactly [`super::PACKET_LANES`] invocations: packets vote by butterflies of
+    /// Subgroups are exactly `super::PACKET_LANES` invocations: packets vote by butterflies of
     /// constant-xor shuffles (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
     /// compiles to permutes instead of a loop over the lanes.
     pub eight_lanes: bool,
@@ -367,7 +367,7 @@ impl Variant {
     }
 
     /// This variant for a render of `rays` rays in one process: at most two rays a lane below
-    /// [`FOUR_LANE_RAYS`] rays (the certainty pass one), four below [`EIGHT_LANE_RAYS`], else
+    /// `FOUR_LANE_RAYS` rays (the certainty pass one), four below `EIGHT_LANE_RAYS`, else
     /// eight (the certainty pass two). Each ray a lane lengthens the kernel that llvmpipe
     /// translates in every process, even with Mesa's shader cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
     /// four and 0.28 s with eight (through `--kernel`, 2026-11-26), while eight rays gain on

@@ -31,7 +31,7 @@ pub struct Frame<T> {
 }
 
 impl Frame<f64> {
-    /// The camera's orthonormal basis ([`Camera::basis`]) and image plane
+    /// The camera's orthonormal basis (`Camera::basis`) and image plane
     /// ([`Camera::image_plane`]) at `[nx, ny]` pixels.
     ///
     /// An image plane shifted off the viewing axis (intrinsics with an off-centre principal

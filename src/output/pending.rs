@@ -1,10 +1,10 @@
 //! The temporary files being written, so that an interrupted process can remove them: output
 //! is all or nothing even when the command line is stopped by a signal ([`abandon`]).
 //!
-//! A temporary file is registered and created under the registry's lock ([`create`]), so an
+//! A temporary file is registered and created under the registry's lock (`create`), so an
 //! interruption either removes it or comes before it exists, and forgotten once renamed or
 //! removed. The renames that put a set of files in place run under the lock too
-//! ([`place_all`]), so an interruption waits for the whole set to be placed, never leaving part
+//! (`place_all`), so an interruption waits for the whole set to be placed, never leaving part
 //! of it.
 
 use std::fs::File;

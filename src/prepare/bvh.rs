@@ -25,7 +25,7 @@ pub const MAX_DEPTH: usize = 40;
 // shaders/traverse.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
-/// [`worth_it`] for scenes with triangles too). Measured with `cli/examples/bvh_crossover.rs`
+/// `worth_it` for scenes with triangles too). Measured with `cli/examples/bvh_crossover.rs`
 /// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
 /// 2 cores, six runs: BVH / brute-force kernel time 0.93 to 1.09 at 16 spheres (break-even),
 /// 0.72 to 0.98 at 32, 0.52 to 0.64 at 64 (docs/specializations.md).
@@ -38,7 +38,7 @@ pub const TRIANGLE_CROSSOVER: usize = 8;
 /// How the nearest hit is searched for among spheres and triangles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Search {
-    /// A BVH where it pays ([`worth_it`]).
+    /// A BVH where it pays (`worth_it`).
     #[default]
     Auto,
     Bvh,

@@ -29,9 +29,9 @@ pub struct Prepared<T> {
     /// The camera frame in the kernel's coordinates, rounded to `T`.
     pub frame: Frame<T>,
     /// Where the kernel's coordinates are measured from, in world coordinates
-    /// ([`kernel_origin`]).
+    /// (`kernel_origin`).
     pub origin: Vec3<f64>,
-    /// World units per kernel unit, `2^e` ([`unit_exponent`]): the kernel sees the scene
+    /// World units per kernel unit, `2^e` (`unit_exponent`): the kernel sees the scene
     /// scaled by `1 / unit` and multiplies distances back.
     pub unit: f64,
     pub primitives: Primitives<T>,

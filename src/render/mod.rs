@@ -36,7 +36,7 @@ pub enum AnyImages {
 }
 
 impl AnyImages {
-    /// Encodes and writes the images, a render of `camera` (see [`output::write`]).
+    /// Encodes and writes the images, a render of `camera` (see `output::write`).
     pub fn write(&self, dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<Vec<PathBuf>> {
         match self {
             AnyImages::F32(i) => output::write(i, dir, encoding, camera),
@@ -317,7 +317,7 @@ pub fn on_gpu<R: GpuReal>(
 }
 
 /// Images above this many pixels are rendered and written in bands of rows
-/// ([`render_streamed`]), holding one band at a time.
+/// (`render_streamed`), holding one band at a time.
 pub const STREAM_PIXELS: u64 = 1 << 24;
 
 /// Rows per band for a streamed render `width` pixels wide: about four million pixels.

@@ -100,7 +100,7 @@ pub struct Lighting {
     /// Per object of [`Scene::objects`], the index in `materials` of the material it names.
     pub object_materials: Vec<Option<usize>>,
     /// Per object of [`Scene::objects`], the numbers its `values` gives (zeros where it gives
-    /// none or fewer than [`OBJECT_VALUES`]): the user's own per-object data, which shade
+    /// none or fewer than `OBJECT_VALUES`): the user's own per-object data, which shade
     /// hooks read as `object_values(id)` (shaders/hooks.wgsl).
     pub object_values: Vec<[f64; OBJECT_VALUES]>,
 }
@@ -179,7 +179,7 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 }
 
 /// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
-/// that mesh alone, [`Scene::of_mesh`]), or without one the built-in default scene, with its
+/// that mesh alone, `Scene::of_mesh`), or without one the built-in default scene, with its
 /// resolution replaced by `size` where given (`--size`): the command line's loader.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
     load_viewed(path, size, &CameraOverrides::default())
