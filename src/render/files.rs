@@ -13,14 +13,12 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
-use super::{Progress, check_kernels, render_streamed, timed};
+use super::{Progress, adaptive, check_kernels, render_streamed, supersample, timed};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
-use crate::render::adaptive;
-use crate::render::supersample;
 use crate::scene::{self, CameraOverrides, Object, Scene};
 
 /// Everything a render to files is asked for.

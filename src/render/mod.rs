@@ -231,9 +231,9 @@ fn dispatch(
             }
         };
         let a = if timed {
-            crate::render::adaptive::render_adaptive_timed(gpu, scene)?
+            adaptive::render_adaptive_timed(gpu, scene)?
         } else {
-            crate::render::adaptive::render_adaptive(gpu, scene)?
+            adaptive::render_adaptive(gpu, scene)?
         };
         return Ok((AnyImages::F32(a.images), a.kernel_s));
     }
@@ -379,14 +379,11 @@ fn cpu_render<T: crate::math::Real>(
     lit: bool,
 ) -> Images<T> {
     let prepared = Prepared::<T>::new(scene, algorithm, Search::Auto);
-    let mut images = match progress {
-        Some(p) => {
-            p.rows.store(prepared.frame.ny, Ordering::Relaxed);
-            p.rows_done.store(0, Ordering::Relaxed);
-            cpu::render_prepared(&prepared, &p.rows_done)
-        }
-        None => cpu::render_prepared(&prepared, &AtomicU32::new(0)),
-    };
+    let unwatched = Progress::default();
+    let progress = progress.unwrap_or(&unwatched);
+    progress.rows.store(prepared.frame.ny, Ordering::Relaxed);
+    progress.rows_done.store(0, Ordering::Relaxed);
+    let mut images = cpu::render_prepared(&prepared, &progress.rows_done);
     if lit {
         let (colours, rays) = cpu::raytrace::render(&prepared);
         images.color = Some(colours);

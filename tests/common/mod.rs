@@ -89,9 +89,9 @@ pub fn file_names(dir: &Path) -> Vec<String> {
 /// The repository's root: the library's folder, above the command line's (cli/).
 pub fn repo_root() -> &'static Path {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    match manifest.join("shaders").is_dir() {
-        true => manifest,
-        false => manifest.parent().expect("cli/ is in the repository"),
+    match env!("CARGO_PKG_NAME") {
+        "raycast-cli" => manifest.parent().expect("cli/ is in the repository"),
+        _ => manifest,
     }
 }
 
