@@ -27,6 +27,10 @@ usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-benc
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
+# The Vulkan loader, and libglvnd, without which NVIDIA's Vulkan driver (libGLX_nvidia.so.0)
+# loads but creates no instance; containers that mount the driver may lack both.
+kit_libs=(libvulkan.so.1 libGLdispatch.so.0 libGLX.so.0 libEGL.so.1 libGL.so.1 libOpenGL.so.0 libGLESv2.so.2)
+
 # --- packing -------------------------------------------------------------------------------
 pack() { # DIR BINARY MITSUBA PYTHON_VERSION
     local dir=$1 binary=${2:-$here/../target/release/raycast} mitsuba=$3 python=$4
@@ -34,13 +38,15 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION
     mkdir -p "$dir/lib" || exit 2
     cp "${BASH_SOURCE[0]}" "$dir/gpu-check.sh" && cp "$binary" "$dir/raycast" || exit 2
     if command -v strip >/dev/null; then strip "$dir/raycast"; else say "gpu-check: no strip; the binary keeps its symbols"; fi
-    local loader
-    loader=$(ldconfig -p 2>/dev/null | awk '/libvulkan\.so\.1 /{print $NF; exit}')
-    if [[ -n $loader ]]; then
-        cp -L "$loader" "$dir/lib/libvulkan.so.1"
-    else
-        say "gpu-check: this machine has no Vulkan loader to bring; $dir/lib stays empty"
-    fi
+    local lib found
+    for lib in "${kit_libs[@]}"; do
+        found=$(ldconfig -p 2>/dev/null | awk -v l="$lib" '$1 == l {print $NF; exit}')
+        if [[ -n $found ]]; then
+            cp -L "$found" "$dir/lib/$lib" || exit 2
+        else
+            say "gpu-check: this machine has no $lib to bring"
+        fi
+    done
     if [[ $mitsuba == 1 ]]; then
         local peers=${PEER_BENCH_DIR:-$here/../../shared/bench} raw=$dir/wheels.download
         [[ -f $peers/peer_bench.py ]] || { say "gpu-check: no peer_bench.py in $peers (set PEER_BENCH_DIR)"; exit 2; }
@@ -89,11 +95,15 @@ rm -f "$raw"/*
 
 # --- the Vulkan loader and driver ----------------------------------------------------------
 export NODEVICE_SELECT=1
-if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; then
+missing=()
+for lib in "${kit_libs[@]}"; do
+    ldconfig -p 2>/dev/null | awk -v l="$lib" '$1 == l {found = 1} END {exit !found}' || missing+=("$lib")
+done
+if [[ ${#missing[@]} -gt 0 ]]; then
     for lib in "$(dirname "$binary")/lib" "$here/lib"; do
-        if [[ -e $lib/libvulkan.so.1 ]]; then
+        if [[ -e $lib/${missing[0]} ]]; then
             export LD_LIBRARY_PATH=$lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-            say "gpu-check: using the Vulkan loader in $lib"
+            say "gpu-check: the system lacks ${missing[*]}; using $lib"
             break
         fi
     done
@@ -118,7 +128,11 @@ step() { # NAME OUTFILE COMMAND...: runs a step, its stdout into OUTFILE, stderr
 }
 
 rc_total=0
-step info "$raw/info.txt" "$binary" info || { say "gpu-check: no adapter; see $raw/info.txt.err"; rc_total=1; }
+if ! step info "$raw/info.txt" "$binary" info; then
+    VK_LOADER_DEBUG=error,warn,driver "$binary" info >"$raw/info-loader.txt" 2>&1
+    say "gpu-check: no adapter; the Vulkan loader's log is in $raw/info-loader.txt"
+    rc_total=1
+fi
 step selftest "$raw/selftest.txt" "$binary" selftest
 
 # --- workloads ------------------------------------------------------------------------------
