@@ -1,4 +1,4 @@
-//! Casting a list of rays through `raycast::query::RayScene`, as the Python package does: the
+//! Casting a list of rays through a committed `raycast::Accel`, as the Python package does: the
 //! peer camera's rays (benches/peers.sh: 1920x1080 unit directions from (0, -3, 2.5) at the
 //! origin, vertical fov 40) at a mesh, in each mode given. Prints the median seconds of --runs
 //! casts and Mrays/s; compare with `raycast bench` on the same scene (target/bench/torus.json).
@@ -10,7 +10,6 @@
 //! up to S (less coherent), `--random` from random points near the torus in random directions
 //! (incoherent: traced one by one).
 
-use raycast::query::RayScene;
 use raycast::rays::{Ray, RayList};
 use std::time::Instant;
 
@@ -97,8 +96,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
         .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
         .collect();
-    let mut scene = RayScene::new();
-    scene.add_mesh(&vertices, &indices)?;
+    let mut geometry = raycast::Geometry::new();
+    geometry.add_mesh(&vertices, &indices)?;
     let gpu = raycast::gpu::Gpu::new()?;
     let mut rays = peer_rays();
     if random {
@@ -120,13 +119,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     for mode in modes {
         let parsed: raycast::render::Mode = mode.parse()?;
-        scene.cast(Some(&gpu), parsed, list)?;
+        let accel = raycast::query::commit_mode(Some(&gpu), &geometry, parsed)?;
+        accel.intersect(list)?;
         let mut seconds: Vec<f64> = (0..runs.max(1))
             .map(|_| {
                 let start = Instant::now();
-                scene
-                    .cast(Some(&gpu), parsed, list)
-                    .map(|_| start.elapsed().as_secs_f64())
+                accel.intersect(list).map(|_| start.elapsed().as_secs_f64())
             })
             .collect::<raycast::Result<_>>()?;
         seconds.sort_by(f64::total_cmp);

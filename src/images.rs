@@ -38,6 +38,9 @@ pub struct Images<T> {
     /// How much of each pixel its samples covered, when the images were supersampled
     /// (`--spp`, [`crate::render::supersample::reduce`]); `None` for one ray per pixel.
     pub coverage: Option<Coverage>,
+    /// The GPU kernel's time in seconds, for a render asked to be timed
+    /// ([`crate::RenderOptions::timed`]) on a device with timestamp queries.
+    pub kernel_s: Option<f64>,
 }
 
 /// Per-pixel coverage of a supersampled render, row-major like the images.
@@ -69,6 +72,7 @@ impl<T: Real> Images<T> {
             color: None,
             hook_rays: None,
             coverage: None,
+            kernel_s: None,
         }
     }
 

@@ -60,5 +60,9 @@ pub struct ReadmeDoctests;
 
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};
-pub use images::Images;
+pub use gpu::Gpu;
+pub use images::{Images, Output, Outputs};
+pub use query::{Accel, Geometry};
+pub use rays::{AnyHits, Hits, Ray, RayList};
+pub use render::{AnyImages, Cpu, Precision, RenderOptions};
 pub use scene::Scene;

@@ -1,25 +1,24 @@
-//! Casting a caller's rays ([`crate::rays`]): any number of rays (origin and direction each, world coordinates)
-//! through the same preparation and the same kernel job as camera renders
-//! ([`crate::gpu::Rays::List`]), on the GPU in f32, f64 or adaptive precision, or on the CPU
-//! reference (`crate::cpu::cast_rays`).
+//! Casting a caller's rays ([`crate::rays`]) at geometry held on a device: any number of rays
+//! (origin and direction each, world coordinates) through the same preparation and the same
+//! kernel job as camera renders ([`crate::gpu::Rays::List`]), on the GPU in f32, f64 or adaptive
+//! precision, or on the CPU reference (`crate::cpu::cast_rays`).
 //!
-//! [`RayScene`] holds the objects (from a scene file, or added from memory: meshes, spheres,
-//! planes) and their preparations, built once per precision and algorithm and reused by every
-//! cast. Per ray a nearest-hit cast gives `t` (in units of the ray's direction, as Open3D's
-//! `t_hit`), the object id, the primitive's index within its object, the barycentric `u, v`
-//! of a triangle hit and the geometric normal ([`Hits`]); [`RayScene::occluded`] answers
-//! shadow-ray queries between `t_near` and `t_far`, and [`RayScene::count`] counts the
-//! surfaces each ray crosses.
+//! A [`Geometry`] holds the objects (from a scene file, or added from memory: meshes, spheres,
+//! planes); [`Gpu::commit`] or [`Cpu::commit`] builds its search structure once, in one
+//! precision, and uploads it: the [`Accel`] every query reuses. Per ray a nearest-hit query
+//! ([`Accel::intersect`]) gives `t` (in units of the ray's direction, as Open3D's `t_hit`), the
+//! object id, the primitive's index within its object, the barycentric `u, v` of a triangle
+//! hit and the geometric normal ([`Hits`]); [`Accel::occluded`] answers shadow-ray queries
+//! between `t_near` and `t_far`, and [`Accel::count`] counts the surfaces each ray crosses.
 //!
 //! ```no_run
-//! use raycast::query::RayScene;
-//! use raycast::rays::Ray;
-//! use raycast::render::Mode;
-//! let mut scene = RayScene::new();
-//! let id = scene.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
-//! let gpu = raycast::gpu::Gpu::new()?;
+//! use raycast::{Geometry, Gpu, Precision, Ray};
+//! let mut geometry = Geometry::new();
+//! let id = geometry.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+//! let gpu = Gpu::new()?;
+//! let accel = gpu.commit(&geometry, Precision::F32)?;
 //! let ray = Ray { origin: [0.25, 0.25, 1.0], direction: [0.0, 0.0, -1.0] };
-//! let hits = scene.cast(Some(&gpu), "gpu:f32".parse().unwrap(), &[ray])?;
+//! let hits = accel.intersect(&[ray])?;
 //! assert_eq!(hits.id()[0], id as i32);
 //! # Ok::<(), raycast::Error>(())
 //! ```
@@ -38,92 +37,43 @@ use crate::prepare::bvh::Search;
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
-use crate::render::{Device, Mode, Precision};
+use crate::render::{Cpu, Device, Mode, Precision};
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 
-/// Objects to cast rays at, with their preparations (module docs).
-#[derive(Debug)]
-pub struct RayScene {
-    /// The objects, and the camera of a scene file (its eye is where the robust kernel measures
-    /// from) or one [`framing_camera`] places at their centre.
-    scene: Scene,
-    /// Whether the camera is [`framing_camera`]'s, placed again as objects are added.
-    framed: bool,
-    /// The largest side of the objects' bounds: what [`coherent`] measures ray origins by.
-    extent: f64,
-    cache: Mutex<Cache>,
+/// Objects to cast rays at, without a camera: triangle meshes, spheres and planes, each with
+/// its id (its index, in the order added). [`Gpu::commit`] and [`Cpu::commit`] prepare it for
+/// queries.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    objects: Vec<Object>,
+    /// The camera of the scene file it came from: its eye is where the robust kernel measures
+    /// from. Without one, [`framing_camera`] places it at the objects' centre.
+    camera: Option<Camera>,
 }
 
-impl Default for RayScene {
-    fn default() -> Self {
-        RayScene::new()
+impl Geometry {
+    /// No objects: every ray misses.
+    pub fn new() -> Geometry {
+        Geometry::default()
     }
-}
 
-/// Preparations by precision, algorithm and acceleration, and their buffers on a device.
-#[derive(Default)]
-pub(crate) struct Cache {
-    f32: HashMap<(Algorithm, bool), Arc<Prepared<f32>>>,
-    f64: HashMap<(Algorithm, bool), Arc<Prepared<f64>>>,
-    resident: HashMap<(Float, Algorithm, bool), Arc<gpu::Resident>>,
-}
-
-impl std::fmt::Debug for Cache {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Cache")
-            .field("f32", &self.f32.keys())
-            .field("f64", &self.f64.keys())
-            .field("resident", &self.resident.keys())
-            .finish()
-    }
-}
-
-/// A kernel precision with its place in the [`Cache`].
-pub(crate) trait CastReal: GpuReal {
-    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<Self>>>;
-}
-
-impl CastReal for f32 {
-    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f32>>> {
-        &mut cache.f32
-    }
-}
-
-impl CastReal for f64 {
-    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f64>>> {
-        &mut cache.f64
-    }
-}
-
-impl RayScene {
-    /// A scene with no objects: every ray misses.
-    pub fn new() -> RayScene {
-        RayScene {
-            scene: Scene {
-                camera: framing_camera(None),
-                objects: Vec::new(),
-                lighting: Default::default(),
-            },
-            framed: true,
-            extent: 1.0,
-            cache: Mutex::default(),
+    /// A loaded scene's objects, measured from its camera's eye.
+    pub fn from_scene(scene: &Scene) -> Geometry {
+        Geometry {
+            objects: scene.objects.clone(),
+            camera: Some(scene.camera.clone()),
         }
     }
 
-    /// The objects of a loaded scene file, measured from its camera's eye.
-    pub fn from_scene(scene: Scene) -> RayScene {
-        RayScene {
-            extent: extent(scene::bounds(&scene.objects)),
-            scene,
-            framed: false,
-            cache: Mutex::default(),
-        }
+    /// The number of objects.
+    pub fn len(&self) -> usize {
+        self.objects.len()
     }
 
-    /// The objects with the scene file's camera, or one framing them.
-    pub fn scene(&self) -> &Scene {
-        &self.scene
+    /// Whether there are no objects.
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
     }
 
     /// Adds a triangle mesh, `triangles` indexing `vertices`, as one object; returns its id.
@@ -189,43 +139,197 @@ impl RayScene {
     }
 
     fn push(&mut self, object: Object) -> Result<u32> {
-        let id = u32::try_from(self.scene.objects.len())
+        let id = u32::try_from(self.objects.len())
             .ok()
             .filter(|&id| id < i32::MAX as u32)
             .ok_or_else(|| argument("geometry", "too many objects".into()))?;
-        self.scene.objects.push(object);
-        let bounds = scene::bounds(&self.scene.objects);
-        self.extent = extent(bounds);
-        if self.framed {
-            self.scene.camera = framing_camera(bounds);
-        }
-        *self.cache.get_mut().expect("cache lock") = Cache::default();
+        self.objects.push(object);
         Ok(id)
     }
+}
 
-    /// The nearest hit of every ray (`t >= 0`), in `mode`'s precision and algorithm, on `gpu`
-    /// (needed for `gpu:` modes) or on the CPU. On the GPU, coherent rays (neighbours in the
-    /// list start close together and point nearly the same way: [`coherent`]) are traced in
-    /// packets sharing node fetches, others one by one.
-    pub fn cast<'a>(
-        &self,
-        gpu: Option<&Gpu>,
-        mode: Mode,
-        rays: impl Into<RayList<'a>>,
-    ) -> Result<AnyHits> {
-        self.nearest(gpu, mode, rays.into(), 0.0)
+/// A [`Geometry`] prepared on a device in one precision: its search structure built and
+/// uploaded once by [`Gpu::commit`] or [`Cpu::commit`], then queried by any number of casts.
+pub struct Accel<'d> {
+    scene: RayScene,
+    gpu: Option<&'d Gpu>,
+    mode: Mode,
+}
+
+impl std::fmt::Debug for Accel<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Accel")
+            .field("objects", &self.scene.scene.objects.len())
+            .field("mode", &self.mode)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Gpu {
+    /// Prepares `geometry` for queries on this GPU in `precision` (robust algorithm set): the
+    /// BVH built and the buffers uploaded now, once.
+    pub fn commit(&self, geometry: &Geometry, precision: Precision) -> Result<Accel<'_>> {
+        Accel::new(geometry, Some(self), Device::Gpu, precision)
+    }
+}
+
+impl Cpu {
+    /// Prepares `geometry` for queries by the CPU reference in `precision` (robust algorithm
+    /// set; adaptive precision casts in f64 throughout).
+    pub fn commit(&self, geometry: &Geometry, precision: Precision) -> Result<Accel<'static>> {
+        Accel::new(geometry, None, Device::Cpu, precision)
+    }
+}
+
+/// Prepares `geometry` for queries in `mode` (any algorithm set): on `gpu` for a GPU mode.
+pub fn commit_mode<'d>(gpu: Option<&'d Gpu>, geometry: &Geometry, mode: Mode) -> Result<Accel<'d>> {
+    match (mode.device, gpu) {
+        (Device::Gpu, None) => Err(Error::Device("a gpu: cast needs a GPU".into())),
+        (Device::Gpu, gpu) => Accel::with_mode(geometry, gpu, mode),
+        (Device::Cpu, _) => Accel::with_mode(geometry, None, mode),
+    }
+}
+
+impl<'d> Accel<'d> {
+    fn new(
+        geometry: &Geometry,
+        gpu: Option<&'d Gpu>,
+        device: Device,
+        precision: Precision,
+    ) -> Result<Accel<'d>> {
+        let mode = Mode {
+            device,
+            precision,
+            algorithm: Algorithm::Robust,
+        };
+        Accel::with_mode(geometry, gpu, mode)
+    }
+
+    fn with_mode(geometry: &Geometry, gpu: Option<&'d Gpu>, mode: Mode) -> Result<Accel<'d>> {
+        let scene = RayScene::new(geometry);
+        scene.warm(gpu, mode)?;
+        Ok(Accel { scene, gpu, mode })
+    }
+
+    /// The precision queries run in.
+    pub fn precision(&self) -> Precision {
+        self.mode.precision
+    }
+
+    /// The nearest hit of every ray (`t >= 0`). On the GPU, coherent rays (neighbours in the
+    /// list start close together and point nearly the same way) are traced in packets sharing
+    /// node fetches, others one by one.
+    pub fn intersect<'a>(&self, rays: impl Into<RayList<'a>>) -> Result<AnyHits> {
+        self.scene.nearest(self.gpu, self.mode, rays.into(), 0.0)
     }
 
     /// Whether each ray hits anything with `t_near <= t <= t_far` (shadow rays).
     pub fn occluded<'a>(
         &self,
-        gpu: Option<&Gpu>,
-        mode: Mode,
         rays: impl Into<RayList<'a>>,
         t_near: f64,
         t_far: f64,
     ) -> Result<Vec<bool>> {
-        let rays = rays.into();
+        self.scene
+            .occluded(self.gpu, self.mode, rays.into(), t_near, t_far)
+    }
+
+    /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere
+    /// twice from outside and once from inside. Adaptive precision counts in f64.
+    pub fn count<'a>(&self, rays: impl Into<RayList<'a>>) -> Result<Vec<u32>> {
+        self.scene.count(self.gpu, self.mode, rays.into())
+    }
+}
+
+/// A geometry's objects with their preparations, built once per precision and algorithm and
+/// reused by every cast.
+#[derive(Debug)]
+struct RayScene {
+    /// The objects, and the camera of a scene file (its eye is where the robust kernel measures
+    /// from) or one [`framing_camera`] places at their centre.
+    scene: Scene,
+    /// The largest side of the objects' bounds: what [`coherent`] measures ray origins by.
+    extent: f64,
+    cache: Mutex<Cache>,
+}
+
+/// Preparations by precision, algorithm and acceleration, and their buffers on a device.
+#[derive(Default)]
+pub(crate) struct Cache {
+    f32: HashMap<(Algorithm, bool), Arc<Prepared<f32>>>,
+    f64: HashMap<(Algorithm, bool), Arc<Prepared<f64>>>,
+    resident: HashMap<(Float, Algorithm, bool), Arc<gpu::Resident>>,
+}
+
+impl std::fmt::Debug for Cache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Cache")
+            .field("f32", &self.f32.keys())
+            .field("f64", &self.f64.keys())
+            .field("resident", &self.resident.keys())
+            .finish()
+    }
+}
+
+/// A kernel precision with its place in the [`Cache`].
+pub(crate) trait CastReal: GpuReal {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<Self>>>;
+}
+
+impl CastReal for f32 {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f32>>> {
+        &mut cache.f32
+    }
+}
+
+impl CastReal for f64 {
+    fn cached(cache: &mut Cache) -> &mut HashMap<(Algorithm, bool), Arc<Prepared<f64>>> {
+        &mut cache.f64
+    }
+}
+
+impl RayScene {
+    fn new(geometry: &Geometry) -> RayScene {
+        let bounds = scene::bounds(&geometry.objects);
+        let camera = (geometry.camera.clone()).unwrap_or_else(|| framing_camera(bounds));
+        RayScene {
+            scene: Scene {
+                camera,
+                objects: geometry.objects.clone(),
+                lighting: Default::default(),
+            },
+            extent: extent(bounds),
+            cache: Mutex::default(),
+        }
+    }
+
+    /// Builds (and on a GPU uploads) what casts in `mode` use first.
+    fn warm(&self, gpu: Option<&Gpu>, mode: Mode) -> Result<()> {
+        fn on<R: CastReal>(scene: &RayScene, gpu: Option<&Gpu>, mode: Mode) -> Result<()> {
+            match (mode.device, gpu) {
+                (Device::Gpu, Some(gpu)) if R::PRECISION == Float::F32 || gpu.has_f64() => {
+                    let variant = gpu.scene_variant(&scene.scene, R::PRECISION, mode.algorithm);
+                    let prepared = scene.prepared::<R>(mode.algorithm, Some(&variant))?;
+                    scene.resident(gpu, &prepared, &variant).map(|_| ())
+                }
+                _ => scene.prepared::<R>(mode.algorithm, None).map(|_| ()),
+            }
+        }
+        match (mode.device, mode.precision) {
+            (Device::Gpu, Precision::F32 | Precision::Adaptive) => on::<f32>(self, gpu, mode),
+            (Device::Cpu, Precision::F32) => on::<f32>(self, gpu, mode),
+            _ => on::<f64>(self, gpu, mode),
+        }
+    }
+
+    fn occluded(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: Mode,
+        rays: RayList<'_>,
+        t_near: f64,
+        t_far: f64,
+    ) -> Result<Vec<bool>> {
         if !(t_near >= 0.0 && t_near.is_finite()) || t_far.is_nan() {
             return Err(argument(
                 "tnear",
@@ -238,15 +342,7 @@ impl RayScene {
         Ok((0..rays.len()).map(hit).collect())
     }
 
-    /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere
-    /// twice from outside and once from inside. Adaptive precision counts in f64.
-    pub fn count<'a>(
-        &self,
-        gpu: Option<&Gpu>,
-        mode: Mode,
-        rays: impl Into<RayList<'a>>,
-    ) -> Result<Vec<u32>> {
-        let rays = rays.into();
+    fn count(&self, gpu: Option<&Gpu>, mode: Mode, rays: RayList<'_>) -> Result<Vec<u32>> {
         let hits = match mode.precision {
             Precision::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
             Precision::F64 | Precision::Adaptive => {

@@ -4,9 +4,9 @@
 
 mod common;
 
+use common::Target;
 use common::{Rng, f32_hits, gpu, moved_along, pinhole_rays, random_scene, sphere_mesh};
 use raycast::math::{Vec3, cross, dot, length, normalize};
-use raycast::query::RayScene;
 use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, coherent, one_origin};
 use raycast::render::Mode;
 
@@ -47,7 +47,7 @@ fn f64_hits(h: AnyHits) -> Hits<f64> {
 fn gpu_rays_equal_cpu_rays_bit_for_bit() {
     let gpu = gpu();
     for seed in 0..4 {
-        let scene = RayScene::from_scene(random_scene(seed, [4, 4]));
+        let scene = Target::from_scene(random_scene(seed, [4, 4]));
         let rays = random_rays(&mut Rng(100 + seed), 3000);
         for algorithm in ["robust", "textbook"] {
             for precision in ["f32", "f64"] {
@@ -132,7 +132,7 @@ fn coherent_rays_in_packets_equal_cpu_rays() {
     for seed in [2, 3] {
         let scene = random_scene(seed, [4, 4]);
         let eye = scene.camera.eye.to_array();
-        let scene = RayScene::from_scene(scene);
+        let scene = Target::from_scene(scene);
         let w = 90;
         // 0.002 between neighbours: coherent.
         let mut pinhole = pinhole_rays(eye, w, 50, 0.2);
@@ -252,7 +252,7 @@ fn coherence_of_ray_lists() {
 #[test]
 fn sphere_answers_are_exact() {
     let gpu = gpu();
-    let mut scene = RayScene::new();
+    let mut scene = Target::new();
     let id = scene.add_sphere([0.0, 0.0, 0.0], 1.0).unwrap();
     let outside = Ray {
         origin: [0.0, 0.0, 5.0],
@@ -299,7 +299,7 @@ fn sphere_answers_are_exact() {
 #[test]
 fn mesh_hits_name_their_triangle_and_barycentrics() {
     let gpu = gpu();
-    let mut scene = RayScene::new();
+    let mut scene = Target::new();
     let sphere = scene.add_sphere([5.0, 5.0, 5.0], 0.5).unwrap();
     let vertices = [
         [0.0, 0.0, 0.0],
@@ -354,7 +354,7 @@ fn closed_mesh_barycentrics_and_parity() {
     let gpu = gpu();
     let triangles = sphere_mesh([0.5, -0.25, 0.0], 1.0, 24, 16);
     let (vertices, indices) = indexed(&triangles);
-    let mut scene = RayScene::new();
+    let mut scene = Target::new();
     scene.add_mesh(&vertices, &indices).unwrap();
     let mut rng = Rng(7);
     let from = |origin: [f64; 3], rng: &mut Rng| Ray {
@@ -399,7 +399,7 @@ fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 
 fn adaptive_rays_decide_as_f64() {
     let gpu = gpu();
     for seed in 0..3 {
-        let scene = RayScene::from_scene(random_scene(seed, [4, 4]));
+        let scene = Target::from_scene(random_scene(seed, [4, 4]));
         let rays = random_rays(&mut Rng(200 + seed), 4000);
         let adaptive = f32_hits(scene.cast(Some(gpu), mode("gpu:adaptive"), &rays).unwrap());
         let exact = f64_hits(scene.cast(Some(gpu), mode("cpu:f64"), &rays).unwrap());
@@ -412,7 +412,7 @@ fn adaptive_rays_decide_as_f64() {
 /// Bad geometry and rays are errors naming what is wrong.
 #[test]
 fn bad_input_is_an_error_naming_it() {
-    let mut scene = RayScene::new();
+    let mut scene = Target::new();
     let message = |e: raycast::Error| e.to_string();
     let tri = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let e = scene.add_mesh(&tri, &[[0, 1, 3]]).unwrap_err();
@@ -426,10 +426,7 @@ fn bad_input_is_an_error_naming_it() {
     assert!(message(e).starts_with("vertices[1]: NaN is not a finite number"));
     assert!(scene.add_sphere([0.0; 3], 0.0).is_err());
     assert!(scene.add_plane([0.0; 3], [0.0; 3]).is_err());
-    assert!(
-        scene.scene().objects.is_empty(),
-        "a refused object was kept"
-    );
+    assert!(scene.is_empty(), "a refused object was kept");
     let zero = Ray {
         origin: [0.0; 3],
         direction: [0.0; 3],
@@ -445,7 +442,7 @@ fn bad_input_is_an_error_naming_it() {
 /// An empty scene: every ray misses, on both devices; no rays, no hits.
 #[test]
 fn empty_scene_misses() {
-    let scene = RayScene::new();
+    let scene = Target::new();
     let ray = Ray {
         origin: [0.0; 3],
         direction: [1.0, 0.0, 0.0],
@@ -478,7 +475,7 @@ fn grazing_hits_keep_f32_accuracy() {
         let triangles = sphere_mesh(centre, 1.0, 64, 48);
         let (vertices, indices) = indexed(&triangles);
         let vertices: Vec<[f64; 3]> = vertices.into_iter().map(f32_point).collect();
-        let mut scene = RayScene::new();
+        let mut scene = Target::new();
         scene.add_mesh(&vertices, &indices).unwrap();
         let mut rng = Rng(11);
         let rays: Vec<Ray> = (0..4000)
@@ -538,7 +535,7 @@ fn grazing_hits_keep_f32_accuracy() {
 #[test]
 fn f32_rows_equal_their_f64_rays() {
     let gpu = gpu();
-    let scene = RayScene::from_scene(random_scene(3, [4, 4]));
+    let scene = Target::from_scene(random_scene(3, [4, 4]));
     let rows: Vec<[f32; 6]> = random_rays(&mut Rng(9), 2000)
         .iter()
         .map(|r| {
@@ -572,7 +569,7 @@ fn f32_rows_equal_their_f64_rays() {
 
 /// Asserts that adaptive precision on the GPU finds exactly the rays CPU f64 finds occluded
 /// from `t_near` on; returns how many are.
-fn occluded_as_f64(gpu: &raycast::gpu::Gpu, scene: &RayScene, rays: &[Ray], t_near: f64) -> usize {
+fn occluded_as_f64(gpu: &raycast::gpu::Gpu, scene: &Target, rays: &[Ray], t_near: f64) -> usize {
     let exact = scene
         .occluded(None, mode("cpu:f64"), rays, t_near, f64::INFINITY)
         .unwrap();
@@ -598,7 +595,7 @@ fn adaptive_grazing_starts_decide_as_f64() {
         let v: Vec<[f64; 3]> = (0..3)
             .map(|_| rng.point(-1.0, 1.0).map(|x| x as f32 as f64))
             .collect();
-        let mut scene = RayScene::new();
+        let mut scene = Target::new();
         scene.add_mesh(&v, &[[0, 1, 2]]).unwrap();
         let [a, b, c] = [0, 1, 2].map(|k| Vec3::from_array(v[k]));
         let normal = normalize(cross(b - a, c - a));
@@ -640,7 +637,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
         let corners: Vec<Vec3<f64>> = (0..3)
             .map(|_| centre + Vec3::from_array(rng.point(-0.01, 0.01)))
             .collect();
-        let mut scene = RayScene::new();
+        let mut scene = Target::new();
         scene
             .add_mesh(
                 &corners.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
@@ -681,7 +678,7 @@ fn adaptive_rays_near_far_spheres_decide_as_f64() {
     let centre = FAR_POINT;
     for _ in 0..10 {
         let radius = 0.01 * rng.range(0.5, 1.0);
-        let mut scene = RayScene::new();
+        let mut scene = Target::new();
         scene.add_sphere(centre, radius).unwrap();
         scene.add_sphere([-60.0, -60.0, -60.0], 0.5).unwrap();
         let rays: Vec<Ray> = (0..2000)
@@ -713,7 +710,7 @@ fn adaptive_rays_near_far_planes_decide_as_f64() {
     let mut rng = Rng(4);
     let point = Vec3::from_array(FAR_POINT);
     let normal = normalize(Vec3::from_array([0.3, 0.5, 0.81]));
-    let mut scene = RayScene::new();
+    let mut scene = Target::new();
     scene
         .add_plane(point.to_array(), normal.to_array())
         .unwrap();

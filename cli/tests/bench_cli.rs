@@ -282,7 +282,7 @@ fn incoherent_rays_are_cast_as_a_list() {
         .collect();
     let scene = raycast::Scene::load(&path).unwrap();
     let rays = raycast_cli::study::bench::incoherent_rays(&scene, 5000);
-    let lists = raycast::query::RayScene::from_scene(scene);
+    let lists = common::Target::from_scene(scene);
     let hits = lists
         .cast(None, "cpu:f64".parse().unwrap(), &rays[..])
         .unwrap();

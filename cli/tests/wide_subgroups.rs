@@ -16,12 +16,12 @@ mod common;
 use std::process::Command;
 use std::sync::OnceLock;
 
+use common::Target;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::Float;
 use raycast::prepare::bvh::Search;
-use raycast::query::RayScene;
 use raycast::rays::{Hits, RayList, one_origin};
 use raycast::scene::Scene;
 
@@ -154,7 +154,7 @@ fn ray_lists_agree(seed: u64) {
     let gpu = discrete_like();
     let scene = common::random_scene(seed, [4, 4]);
     let eye = scene.camera.eye.to_array();
-    let scene = RayScene::from_scene(scene);
+    let scene = Target::from_scene(scene);
     let w = 90;
     let pinhole = common::pinhole_rays(eye, w, 50, 0.2);
     let along = common::moved_along(&pinhole, 1e-3);

@@ -4,16 +4,15 @@
 //! the results; this half casts, with the GIL released, and hands the result vectors to NumPy
 //! without copying them.
 
-use std::sync::OnceLock;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use raycast::gpu::Gpu;
-use raycast::query::RayScene;
-use raycast::rays::{AnyHits, Hits, Ray, RayList, RayRows};
-use raycast::render::{Device, Mode};
+use raycast::rays::{RayList, RayRows};
+use raycast::{Accel, AnyHits, AnyImages, Cpu, Geometry, Gpu, Hits, Precision, Ray, RenderOptions};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
 fn gpu() -> PyResult<&'static Gpu> {
@@ -36,16 +35,25 @@ fn to_py(e: raycast::Error) -> PyErr {
     }
 }
 
-/// The mode of `device` and `precision` (robust algorithm), and the GPU it needs.
-fn mode(device: &str, precision: &str) -> PyResult<(Mode, Option<&'static Gpu>)> {
-    let mode: Mode = format!("{device}:{precision}")
-        .parse()
-        .map_err(|e: String| PyValueError::new_err(e))?;
-    let gpu = match mode.device {
-        Device::Gpu => Some(gpu()?),
-        Device::Cpu => None,
+/// Where a call runs: `device` is "gpu" or "cpu", `precision` "f32", "f64" or "adaptive".
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+struct On {
+    gpu: bool,
+    precision: Precision,
+}
+
+fn on(device: &str, precision: &str) -> PyResult<On> {
+    let gpu = match device {
+        "gpu" => true,
+        "cpu" => false,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "unknown device `{other}` (expected gpu or cpu)"
+            )));
+        }
     };
-    Ok((mode, gpu))
+    let precision = precision.parse().map_err(PyValueError::new_err)?;
+    Ok(On { gpu, precision })
 }
 
 /// Rays as the Python half passes them: (n, 6) float32 (as Open3D's callers hold them) or
@@ -101,28 +109,62 @@ fn hits_dict<'py, T: numpy::Element + bytemuck::Pod>(
     Ok(d)
 }
 
-/// The objects rays are cast at (wrapped by `raycast.RaycastingScene`).
+/// The objects rays are cast at (wrapped by `raycast.RaycastingScene`), committed to a device
+/// and precision on the first cast there, and again after objects are added.
 #[pyclass(name = "Scene", module = "raycast._raycast")]
 struct Scene {
-    inner: RayScene,
+    geometry: Geometry,
+    /// The scene file it was loaded from, whose camera `render` renders.
+    scene: Option<raycast::Scene>,
+    accels: Mutex<HashMap<On, Arc<Accel<'static>>>>,
+}
+
+impl Scene {
+    fn with(geometry: Geometry, scene: Option<raycast::Scene>) -> Self {
+        Scene {
+            geometry,
+            scene,
+            accels: Mutex::default(),
+        }
+    }
+
+    /// The geometry committed for `on`, committed now if it is not yet.
+    fn accel(&self, on: On) -> PyResult<Arc<Accel<'static>>> {
+        if let Some(accel) = self.accels.lock().expect("accels lock").get(&on) {
+            return Ok(accel.clone());
+        }
+        let accel = Arc::new(
+            match on.gpu {
+                true => gpu()?.commit(&self.geometry, on.precision),
+                false => Cpu.commit(&self.geometry, on.precision),
+            }
+            .map_err(to_py)?,
+        );
+        self.accels
+            .lock()
+            .expect("accels lock")
+            .insert(on, accel.clone());
+        Ok(accel)
+    }
+
+    fn added(&mut self, id: raycast::Result<u32>) -> PyResult<u32> {
+        self.accels.get_mut().expect("accels lock").clear();
+        id.map_err(to_py)
+    }
 }
 
 #[pymethods]
 impl Scene {
     #[new]
     fn new() -> Self {
-        Scene {
-            inner: RayScene::new(),
-        }
+        Scene::with(Geometry::new(), None)
     }
 
     /// A scene file's objects (and its camera, for `render`).
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<Self> {
         let scene = raycast::Scene::load(&path).map_err(to_py)?;
-        Ok(Scene {
-            inner: RayScene::from_scene(scene),
-        })
+        Ok(Scene::with(Geometry::from_scene(&scene), Some(scene)))
     }
 
     fn add_triangles(
@@ -138,15 +180,18 @@ impl Scene {
             .map_err(|_| PyValueError::new_err("triangles: expected a contiguous array"))?;
         let v: Vec<[f64; 3]> = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let t: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        self.inner.add_mesh(&v, &t).map_err(to_py)
+        let id = self.geometry.add_mesh(&v, &t);
+        self.added(id)
     }
 
     fn add_sphere(&mut self, center: [f64; 3], radius: f64) -> PyResult<u32> {
-        self.inner.add_sphere(center, radius).map_err(to_py)
+        let id = self.geometry.add_sphere(center, radius);
+        self.added(id)
     }
 
     fn add_plane(&mut self, point: [f64; 3], normal: [f64; 3]) -> PyResult<u32> {
-        self.inner.add_plane(point, normal).map_err(to_py)
+        let id = self.geometry.add_plane(point, normal);
+        self.added(id)
     }
 
     fn cast<'py>(
@@ -157,11 +202,9 @@ impl Scene {
         precision: &str,
         device: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let (mode, gpu) = mode(device, precision)?;
+        let accel = self.accel(on(device, precision)?)?;
         let rays = ray_list(&rays, width)?;
-        let hits = py
-            .detach(|| self.inner.cast(gpu, mode, rays))
-            .map_err(to_py)?;
+        let hits = py.detach(|| accel.intersect(rays)).map_err(to_py)?;
         match hits {
             AnyHits::F32(h) => hits_dict(py, h),
             AnyHits::F64(h) => hits_dict(py, h),
@@ -178,10 +221,10 @@ impl Scene {
         device: &str,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let (t_near, t_far) = t_range;
-        let (mode, gpu) = mode(device, precision)?;
+        let accel = self.accel(on(device, precision)?)?;
         let rays = ray_list(&rays, width)?;
         let hit = py
-            .detach(|| self.inner.occluded(gpu, mode, rays, t_near, t_far))
+            .detach(|| accel.occluded(rays, t_near, t_far))
             .map_err(to_py)?;
         Ok(PyArray1::from_vec(py, hit))
     }
@@ -193,15 +236,13 @@ impl Scene {
         precision: &str,
         device: &str,
     ) -> PyResult<Bound<'py, PyArray1<u32>>> {
-        let (mode, gpu) = mode(device, precision)?;
+        let accel = self.accel(on(device, precision)?)?;
         let rays = ray_list(&rays, None)?;
-        let counts = py
-            .detach(|| self.inner.count(gpu, mode, rays))
-            .map_err(to_py)?;
+        let counts = py.detach(|| accel.count(rays)).map_err(to_py)?;
         Ok(PyArray1::from_vec(py, counts))
     }
 
-    /// Renders the scene's camera: id, distance and normal images as flat arrays and the
+    /// Renders the scene file's camera: id, distance and normal images as flat arrays and the
     /// image size; with `lit` (the course's ray tracer) or a shade hook file `shader`, also the
     /// colours and the rays the hook cast.
     #[pyo3(signature = (precision, device, lit=false, shader=None))]
@@ -213,16 +254,25 @@ impl Scene {
         lit: bool,
         shader: Option<std::path::PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let (mode, gpu) = mode(device, precision)?;
-        let shade = raycast::gpu::hooks::requested(lit, shader.as_deref()).map_err(to_py)?;
-        let request = raycast::render::Request {
-            shade,
-            ..raycast::render::Request::default()
+        let on = on(device, precision)?;
+        let scene = self.scene.as_ref().ok_or_else(|| {
+            PyValueError::new_err(
+                "render: the scene has no camera (load a scene file with raycast.load)",
+            )
+        })?;
+        let options = RenderOptions {
+            precision: Some(on.precision),
+            shade: raycast::gpu::hooks::requested(lit, shader.as_deref()).map_err(to_py)?,
+            ..RenderOptions::default()
         };
-        let scene = self.inner.scene();
-        let images = py
-            .detach(|| raycast::render::render_request(scene, mode, gpu, None, &request))
-            .map_err(to_py)?;
+        let images = match on.gpu {
+            true => {
+                let gpu = gpu()?;
+                py.detach(|| gpu.render(scene, &options))
+            }
+            false => py.detach(|| Cpu.render(scene, &options)),
+        }
+        .map_err(to_py)?;
         let d = PyDict::new(py);
         if let Some(color) = images.color() {
             d.set_item("color", PyArray1::from_vec(py, flat(color.to_vec())))?;
@@ -232,8 +282,8 @@ impl Scene {
         d.set_item("width", w)?;
         d.set_item("height", h)?;
         match images {
-            raycast::render::AnyImages::F32(i) => images_into(py, &d, i)?,
-            raycast::render::AnyImages::F64(i) => images_into(py, &d, i)?,
+            AnyImages::F32(i) => images_into(py, &d, i)?,
+            AnyImages::F64(i) => images_into(py, &d, i)?,
         }
         Ok(d)
     }

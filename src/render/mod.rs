@@ -4,10 +4,12 @@
 pub mod adaptive;
 mod files;
 mod mode;
+mod options;
 pub mod supersample;
 
 pub use files::{Spec, Summary};
 pub use mode::{DEFAULT_ALGORITHM, Device, Mode, Precision};
+pub use options::{Cpu, RenderOptions};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -82,6 +84,21 @@ impl AnyImages {
         match self {
             AnyImages::F32(i) => i.coverage.as_ref(),
             AnyImages::F64(i) => i.coverage.as_ref(),
+        }
+    }
+
+    /// The GPU kernel's time in seconds, where the render was timed and the device can tell.
+    pub fn kernel_s(&self) -> Option<f64> {
+        match self {
+            AnyImages::F32(i) => i.kernel_s,
+            AnyImages::F64(i) => i.kernel_s,
+        }
+    }
+
+    pub(crate) fn set_kernel_s(&mut self, kernel_s: Option<f64>) {
+        match self {
+            AnyImages::F32(i) => i.kernel_s = kernel_s,
+            AnyImages::F64(i) => i.kernel_s = kernel_s,
         }
     }
 }

@@ -315,3 +315,72 @@ pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
         raycast::rays::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
     }
 }
+
+/// A geometry cast at in whichever mode a test names, committed afresh for each call
+/// (`raycast::query::commit_mode`).
+#[derive(Default)]
+pub struct Target {
+    pub geometry: raycast::Geometry,
+}
+
+impl Target {
+    pub fn new() -> Target {
+        Target::default()
+    }
+
+    pub fn from_scene(scene: Scene) -> Target {
+        Target {
+            geometry: raycast::Geometry::from_scene(&scene),
+        }
+    }
+
+    fn commit<'g>(
+        &self,
+        gpu: Option<&'g Gpu>,
+        mode: raycast::render::Mode,
+    ) -> raycast::Result<raycast::Accel<'g>> {
+        raycast::query::commit_mode(gpu, &self.geometry, mode)
+    }
+
+    pub fn cast<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+    ) -> raycast::Result<raycast::AnyHits> {
+        self.commit(gpu, mode)?.intersect(rays)
+    }
+
+    pub fn occluded<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+        t_near: f64,
+        t_far: f64,
+    ) -> raycast::Result<Vec<bool>> {
+        self.commit(gpu, mode)?.occluded(rays, t_near, t_far)
+    }
+
+    pub fn count<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+    ) -> raycast::Result<Vec<u32>> {
+        self.commit(gpu, mode)?.count(rays)
+    }
+}
+
+impl std::ops::Deref for Target {
+    type Target = raycast::Geometry;
+    fn deref(&self) -> &raycast::Geometry {
+        &self.geometry
+    }
+}
+
+impl std::ops::DerefMut for Target {
+    fn deref_mut(&mut self) -> &mut raycast::Geometry {
+        &mut self.geometry
+    }
+}

@@ -478,8 +478,9 @@ pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::rays::Ray> {
     rays
 }
 
-/// Measures `n` incoherent rays cast at `loaded` in `mode` through [`RayScene::cast`]: one
-/// warm-up cast (which builds, uploads and compiles), then `runs` timed ones, wall time.
+/// Measures `n` incoherent rays cast at `loaded` in `mode` ([`raycast::Accel::intersect`]): one
+/// warm-up cast (after the commit, which builds and uploads; it compiles), then `runs` timed
+/// ones, wall time.
 fn measure_rays(
     loaded: &Loaded,
     mode: Mode,
@@ -489,14 +490,15 @@ fn measure_rays(
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
     let rays = incoherent_rays(&loaded.scene, n);
-    let scene = raycast::query::RayScene::from_scene(loaded.scene.clone());
     let gpu = gpu.filter(|_| mode.device == Device::Gpu);
     reset_peak_rss();
-    let warm_up = scene.cast(gpu, mode, &rays[..])?;
+    let geometry = raycast::Geometry::from_scene(&loaded.scene);
+    let accel = raycast::query::commit_mode(gpu, &geometry, mode)?;
+    let warm_up = accel.intersect(&rays[..])?;
     tick();
     let mut times = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
-        let (cast, time) = render::timed(|| scene.cast(gpu, mode, &rays[..]));
+        let (cast, time) = render::timed(|| accel.intersect(&rays[..]));
         cast?;
         times.push(time.as_secs_f64());
         tick();

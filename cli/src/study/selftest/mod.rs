@@ -30,7 +30,6 @@ use raycast::kernel::layout::GpuReal;
 use raycast::math::{Float, Real};
 use raycast::output::{Pictures, pictures};
 use raycast::prepare::{Prepared, bvh::Search};
-use raycast::query::RayScene;
 use raycast::rays::{AnyHits, Hits, Ray};
 use raycast::render::{self, AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
@@ -841,15 +840,12 @@ fn ray_list(ctx: &Ctx, kind: RayKind, precision: Precision, planted: bool) -> Re
     }
     let scene = random(2);
     let rays = kind.rays(scene.camera.eye.to_array());
-    let scene = RayScene::from_scene(scene);
-    let cast = |device, precision| {
-        let mode = Mode {
-            device,
-            precision,
-            algorithm: Robust,
-        };
-        let gpu = (device == Device::Gpu).then_some(ctx.gpu);
-        scene.cast(gpu, mode, &rays[..])
+    let geometry = raycast::Geometry::from_scene(&scene);
+    let cast = |device, precision| match device {
+        Device::Gpu => ctx.gpu.commit(&geometry, precision)?.intersect(&rays[..]),
+        Device::Cpu => raycast::Cpu
+            .commit(&geometry, precision)?
+            .intersect(&rays[..]),
     };
     let mut ours = cast(Device::Gpu, precision)?;
     if planted {

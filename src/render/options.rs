@@ -1,0 +1,154 @@
+//! The render entry of the public API: [`Gpu::render`] and [`Cpu::render`] take a scene and
+//! [`RenderOptions`], the same for both devices, and return its [`AnyImages`].
+
+use super::{AnyImages, Device, Mode, Precision, Request, render_streamed, supersample};
+use crate::algorithm::Algorithm;
+use crate::error::Result;
+use crate::gpu::Gpu;
+use crate::gpu::hooks::ShadeHook;
+use crate::gpu::kernel::UserKernel;
+use crate::images::Outputs;
+use crate::scene::Scene;
+
+/// The CPU reference: the kernel's search mirrored in Rust (`src/cpu/`), in f32 or f64, on all
+/// cores. It needs no adapter and runs no shader but the course's ray tracer's mirror.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Cpu;
+
+/// How to render: the same options for [`Gpu::render`] and [`Cpu::render`].
+///
+/// ```no_run
+/// use raycast::{Gpu, Precision, RenderOptions, Scene};
+/// let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+/// let options = RenderOptions { precision: Some(Precision::F64), ..Default::default() };
+/// let images = Gpu::new()?.render(&scene, &options)?;
+/// # Ok::<(), raycast::Error>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// `None`: the device's own. On the GPU, adaptive precision (f64's hits and ids at close
+    /// to f32's cost) where the render runs one kernel of the robust set without a hook, else
+    /// f32; on the CPU, f64.
+    pub precision: Option<Precision>,
+    /// The intersection formulas: robust (default) or the lecture's textbook ones.
+    pub algorithm: Algorithm,
+    /// The images wanted. The GPU's f32 and f64 kernels compute only these; adaptive
+    /// precision and the CPU compute every one.
+    pub outputs: Outputs,
+    /// Samples per pixel, a perfect square (1: one ray through each pixel's centre). Above 1
+    /// the images are reduced to one pixel each with their [`crate::images::Coverage`].
+    pub samples_per_pixel: u32,
+    /// A shade hook colouring [`crate::Images::color`] (with `outputs.color`): any hook on the
+    /// GPU in f32 or f64; on the CPU only the course's ray tracer
+    /// ([`crate::gpu::hooks::raytrace`]), by its mirror.
+    pub shade: Option<ShadeHook>,
+    /// A complete kernel run instead of the assembled one (GPU, f32 or f64).
+    pub kernel: Option<UserKernel>,
+    /// Measure the GPU kernel's time ([`crate::Images::kernel_s`]) where the device has
+    /// timestamp queries.
+    pub timed: bool,
+}
+
+impl Default for RenderOptions {
+    /// The device's precision, the robust set, every output, one sample per pixel, no hook.
+    fn default() -> Self {
+        RenderOptions {
+            precision: None,
+            algorithm: Algorithm::Robust,
+            outputs: Outputs::ALL,
+            samples_per_pixel: 1,
+            shade: None,
+            kernel: None,
+            timed: false,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// The mode these options render in on `device`, the default precision resolved.
+    pub(crate) fn mode(&self, device: Device) -> Mode {
+        let default = match device {
+            Device::Cpu => Precision::F64,
+            Device::Gpu if self.adaptive_fits() => Precision::Adaptive,
+            Device::Gpu => Precision::F32,
+        };
+        Mode {
+            device,
+            precision: self.precision.unwrap_or(default),
+            algorithm: self.algorithm,
+        }
+    }
+
+    /// Whether adaptive precision can run these options: one kernel of the robust set, no
+    /// hook.
+    fn adaptive_fits(&self) -> bool {
+        self.algorithm == Algorithm::Robust && self.shade.is_none() && self.kernel.is_none()
+    }
+
+    fn request(&self) -> Request {
+        Request {
+            outputs: self.outputs,
+            shade: self.shade.clone(),
+            kernel: self.kernel.clone(),
+        }
+    }
+
+    fn render(&self, scene: &Scene, mode: Mode, gpu: Option<&Gpu>) -> Result<AnyImages> {
+        let request = self.request();
+        if self.samples_per_pixel == 1 {
+            let (mut images, kernel_s) =
+                super::dispatch(scene, mode, gpu, None, &request, self.timed)?;
+            images.set_kernel_s(kernel_s);
+            return Ok(images);
+        }
+        supersample::supersample_request(scene, mode, gpu, self.samples_per_pixel, None, &request)
+    }
+}
+
+impl Gpu {
+    /// Renders `scene`'s camera on this GPU.
+    ///
+    /// ```no_run
+    /// use raycast::{Gpu, RenderOptions, Scene};
+    /// let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+    /// let images = Gpu::new()?.render(&scene, &RenderOptions::default())?;
+    /// println!("{} pixels hit", images.id().iter().filter(|&&id| id >= 0).count());
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
+    pub fn render(&self, scene: &Scene, options: &RenderOptions) -> Result<AnyImages> {
+        options.render(scene, options.mode(Device::Gpu), Some(self))
+    }
+
+    /// Renders `scene`'s camera in bands of at most `rows` rows, handing each band to `band`
+    /// from the top as soon as it is read back, so that one band is held at a time: for
+    /// images larger than memory. GPU, f32 or f64, one sample per pixel.
+    pub fn render_bands(
+        &self,
+        scene: &Scene,
+        options: &RenderOptions,
+        rows: u32,
+        band: &mut dyn FnMut(AnyImages) -> Result<()>,
+    ) -> Result<()> {
+        let mut mode = options.mode(Device::Gpu);
+        if options.precision.is_none() {
+            mode.precision = Precision::F32;
+        }
+        render_streamed(scene, mode, self, &options.request(), rows.max(1), band).map(|_| ())
+    }
+}
+
+impl Cpu {
+    /// Renders `scene`'s camera by the CPU reference.
+    ///
+    /// ```
+    /// use raycast::{Cpu, RenderOptions, Scene};
+    /// let mut scene = Scene::load("scenes/course/sphere-and-plane.json".as_ref())?;
+    /// scene.camera.resolution = [64, 36];
+    /// let images = Cpu.render(&scene, &RenderOptions::default())?;
+    /// assert_eq!(images.id()[18 * 64 + 32], 0); // the centre pixel sees the sphere
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
+    pub fn render(&self, scene: &Scene, options: &RenderOptions) -> Result<AnyImages> {
+        options.render(scene, options.mode(Device::Cpu), None)
+    }
+}
