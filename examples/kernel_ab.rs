@@ -113,7 +113,7 @@ fn time_kernels<R: GpuReal>(
     let mut variants: Vec<Variant> = (o.kernels.iter())
         .map(|k| match k.as_str() {
             "builtin" => base,
-            file => kernel::load(Path::new(file))
+            file => kernel::UserKernel::load(Path::new(file))
                 .and_then(|user| user.for_variant(base))
                 .unwrap_or_else(|e| panic!("{file}: {e}")),
         })

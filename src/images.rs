@@ -36,7 +36,7 @@ pub struct Images<T> {
     /// any.
     pub hook_rays: Option<u64>,
     /// How much of each pixel its samples covered, when the images were supersampled
-    /// (`--spp`, [`crate::render::supersample::reduce`]); `None` for one ray per pixel.
+    /// ([`crate::RenderOptions::samples_per_pixel`] above 1); `None` for one ray per pixel.
     pub coverage: Option<Coverage>,
     /// The GPU kernel's time in seconds, for a render asked to be timed
     /// ([`crate::RenderOptions::timed`]) on a device with timestamp queries.

@@ -3,54 +3,67 @@
 //! A ray caster whose per-pixel work runs as a WGSL compute shader on any Vulkan GPU, or on
 //! Mesa's lavapipe on a plain CPU.
 //!
-//! The data flows one way, through one path for every mode (docs/architecture.md):
-//!
-//! ```text
-//! scene file --Scene::load--> Scene (validated, f64)
-//!   --prepare::Prepared--> camera frame, camera-relative primitives in the kernel's precision, BVH
-//!   --gpu::run(Job) | cpu::render_prepared--> Images (id, distance, normal)
-//!   --output::write(Encoding, Camera)--> png / ppm / npy / npz / exr / depth16 files + camera.json
-//! ```
-//!
-//! [`render::render`] does all of it for a [`render::Mode`] (device, precision, algorithm):
+//! Two devices with the same methods: [`Gpu`] (the WGSL kernels on a wgpu adapter) and [`Cpu`]
+//! (the CPU reference, the kernels mirrored in Rust). Each renders a [`Scene`] (a camera and
+//! objects) with [`RenderOptions`], and commits a [`Geometry`] (objects alone) as an [`Accel`]
+//! that rays are cast at, Embree's commit-then-query:
 //!
 //! ```no_run
-//! use raycast::render::{self, Precision, Device, Mode};
-//! use raycast::{Algorithm, Scene, gpu::Gpu, output::{Encoding, Format}};
-//! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+//! use raycast::{Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
-//! let mode = Mode { device: Device::Gpu, precision: Precision::F32, algorithm: Algorithm::Robust };
-//! let images = render::render(&scene, mode, Some(&gpu), None)?;
-//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
-//! # Ok::<(), raycast::Error>(())
-//! ```
-//!
-//! The stages one by one, typed by precision:
-//!
-//! ```no_run
-//! use raycast::{Algorithm, Scene, gpu::{self, Gpu, Job}, math::Float};
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
-//! let gpu = Gpu::new()?;
-//! let variant = gpu.scene_variant(&scene, Float::F32, Algorithm::Robust);
-//! let prepared = gpu::prepare::<f32>(&scene, &variant)?;
-//! let rendered = gpu::run(&gpu, &prepared, Job::new(variant).timed(true))?;
-//! println!("{} hits, kernel {:?} s", rendered.images.id.iter().filter(|&&id| id >= 0).count(),
-//!     rendered.stages.kernel_s);
+//! let images = gpu.render(&scene, &RenderOptions::default())?;
+//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
+//!
+//! let accel = gpu.commit(&Geometry::from_scene(&scene), Precision::F32)?;
+//! let ray = Ray { origin: [0.0, 0.1, 1.0], direction: [0.0, 0.0, -1.0] };
+//! let hits = accel.intersect(&[ray])?;
+//! println!("object {} at t = {:?}", hits.id()[0], hits.t_f64()[0]);
 //! # Ok::<(), raycast::Error>(())
 //! ```
+//!
+//! The layers beneath (preparation, the kernel variants, the CPU mirror, the mode dispatch) are
+//! public only with the `internals` feature, for raycast's own tools; docs/architecture.md maps
+//! them.
 
-pub mod algorithm;
-pub mod cpu;
-pub mod error;
-pub mod gpu;
+// Without `internals`, what only raycast's own tools use is unused here; the workspace builds
+// and lints the library with it, where dead code is still found.
+#![cfg_attr(
+    not(feature = "internals"),
+    allow(dead_code, unused_imports, unused_macros)
+)]
+
+/// Declares modules public with the `internals` feature (raycast's own command line, studies,
+/// tests and examples) and crate-private without it, where the crate root's re-exports are the
+/// API.
+macro_rules! internal_modules {
+    ($($name:ident),* $(,)?) => {$(
+        #[cfg(feature = "internals")]
+        pub mod $name;
+        #[cfg(not(feature = "internals"))]
+        mod $name;
+    )*};
+}
+
+/// Declares a function public with the `internals` feature and crate-private without it.
+macro_rules! internal_fn {
+    ($(#[$meta:meta])* fn $($rest:tt)*) => {
+        $(#[$meta])*
+        #[cfg(feature = "internals")]
+        pub fn $($rest)*
+        $(#[$meta])*
+        #[cfg(not(feature = "internals"))]
+        #[allow(dead_code)]
+        pub(crate) fn $($rest)*
+    };
+}
+pub(crate) use internal_fn;
+
+internal_modules!(
+    algorithm, cpu, error, gpu, kernel, math, output, prepare, query, render
+);
 pub mod images;
-pub mod kernel;
-pub mod math;
-pub mod output;
-pub mod prepare;
-pub mod query;
 pub mod rays;
-pub mod render;
 pub mod scene;
 
 // The README's Rust code, compiled and run by `cargo test` as doc tests.
@@ -61,7 +74,10 @@ pub struct ReadmeDoctests;
 pub use algorithm::Algorithm;
 pub use error::{Error, Result};
 pub use gpu::Gpu;
+pub use gpu::hooks::ShadeHook;
+pub use gpu::kernel::UserKernel;
 pub use images::{Images, Output, Outputs};
+pub use output::{Encoding, Format};
 pub use query::{Accel, Geometry};
 pub use rays::{AnyHits, Hits, Ray, RayList};
 pub use render::{AnyImages, Cpu, Precision, RenderOptions};

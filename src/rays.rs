@@ -2,7 +2,7 @@
 //! as rows of f64 or f32), the hits a nearest-hit cast finds for them ([`Hits`]: `t` in units
 //! of the ray's direction, as Open3D's `t_hit`, object id, primitive index, barycentric `u, v`
 //! and geometric normal), and the checks and measures of a list (valid rays, one origin,
-//! coherence). Casting them is [`crate::query::RayScene`]'s.
+//! coherence). Casting them is [`crate::Accel`]'s.
 
 use crate::error::{Error, Result};
 use crate::images::MISS;
@@ -53,7 +53,8 @@ pub enum RayRows<'a> {
 
 /// A caller's rays, and whether they are an image's: row-major rows of `width` rays, as a
 /// camera makes them (Open3D's `create_rays_pinhole`). The GPU traces coherent rays in packets
-/// ([`RayScene::cast`](crate::query::RayScene::cast)), an image's in tiles of two rows, as it does a camera's.
+/// ([`Accel::intersect`](crate::Accel::intersect)), an image's in tiles of two rows, as it
+/// does a camera's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayList<'a> {
     pub rays: RayRows<'a>,
@@ -266,66 +267,70 @@ const COHERENT_SPREAD: f64 = 0.02;
 /// (0.049) in 3.4x.
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
-/// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
-/// (`PACKET`), the rays lie within `COHERENT_SPREAD` of each other
-/// (`packet_spread`, origins measured against `extent`, the scene's size) and stray at most
-/// `COHERENT_ROUGHNESS` from a smooth progression along the rows (`packet_roughness`).
-pub fn coherent(list: RayList<'_>, extent: f64) -> bool {
-    let n = list.len();
-    let packets = n.div_ceil(PACKET);
-    if packets == 0 {
-        return true;
+crate::internal_fn! {
+    /// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
+    /// (`PACKET`), the rays lie within `COHERENT_SPREAD` of each other
+    /// (`packet_spread`, origins measured against `extent`, the scene's size) and stray at most
+    /// `COHERENT_ROUGHNESS` from a smooth progression along the rows (`packet_roughness`).
+    fn coherent(list: RayList<'_>, extent: f64) -> bool {
+        let n = list.len();
+        let packets = n.div_ceil(PACKET);
+        if packets == 0 {
+            return true;
+        }
+        let samples = packets.min(64);
+        let (mut spreads, mut roughness): (Vec<f64>, Vec<f64>) = (0..samples)
+            .map(|s| {
+                let first = s * packets / samples * PACKET;
+                let (members, row): (Vec<Ray>, usize) = match list.width {
+                    // The 4x2 tile whose top-left ray is nearest `first`, in two rows of 4.
+                    Some(w) if w >= 4 => {
+                        let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
+                        let members = (0..2)
+                            .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
+                            .filter(|&k| k < n)
+                            .map(|k| list.get(k))
+                            .collect();
+                        (members, 4)
+                    }
+                    _ => (
+                        (first..(first + PACKET).min(n))
+                            .map(|k| list.get(k))
+                            .collect(),
+                        PACKET,
+                    ),
+                };
+                (
+                    packet_spread(&members, extent),
+                    packet_roughness(&members, row, extent),
+                )
+            })
+            .unzip();
+        spreads.sort_by(f64::total_cmp);
+        roughness.sort_by(f64::total_cmp);
+        spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
     }
-    let samples = packets.min(64);
-    let (mut spreads, mut roughness): (Vec<f64>, Vec<f64>) = (0..samples)
-        .map(|s| {
-            let first = s * packets / samples * PACKET;
-            let (members, row): (Vec<Ray>, usize) = match list.width {
-                // The 4x2 tile whose top-left ray is nearest `first`, in two rows of 4.
-                Some(w) if w >= 4 => {
-                    let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
-                    let members = (0..2)
-                        .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
-                        .filter(|&k| k < n)
-                        .map(|k| list.get(k))
-                        .collect();
-                    (members, 4)
-                }
-                _ => (
-                    (first..(first + PACKET).min(n))
-                        .map(|k| list.get(k))
-                        .collect(),
-                    PACKET,
-                ),
-            };
-            (
-                packet_spread(&members, extent),
-                packet_roughness(&members, row, extent),
-            )
-        })
-        .unzip();
-    spreads.sort_by(f64::total_cmp);
-    roughness.sort_by(f64::total_cmp);
-    spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
 }
 
-/// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
-/// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
-/// (`gpu::shader::Variant::list_origin`). Checked in parallel runs, each stopping at its
-/// first other origin.
-pub fn one_origin(list: RayList<'_>) -> bool {
-    use rayon::prelude::*;
-    const RUN: usize = 1 << 14;
-    fn all_at<T: Sync, K: PartialEq + Sync>(rows: &[T], key: impl Fn(&T) -> K + Sync) -> bool {
-        rows.first().is_some_and(|first| {
-            let origin = key(first);
-            rows.par_chunks(RUN)
-                .all(|run| run.iter().all(|row| key(row) == origin))
-        })
-    }
-    match list.rays {
-        RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
-        RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
+crate::internal_fn! {
+    /// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
+    /// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
+    /// (`gpu::shader::Variant::list_origin`). Checked in parallel runs, each stopping at its
+    /// first other origin.
+    fn one_origin(list: RayList<'_>) -> bool {
+        use rayon::prelude::*;
+        const RUN: usize = 1 << 14;
+        fn all_at<T: Sync, K: PartialEq + Sync>(rows: &[T], key: impl Fn(&T) -> K + Sync) -> bool {
+            rows.first().is_some_and(|first| {
+                let origin = key(first);
+                rows.par_chunks(RUN)
+                    .all(|run| run.iter().all(|row| key(row) == origin))
+            })
+        }
+        match list.rays {
+            RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
+            RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
+        }
     }
 }
 

@@ -484,7 +484,7 @@ fn run(command: Command) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::CheckShader { file } => {
-            gpu::hooks::load(&file)?;
+            raycast::ShadeHook::load(&file)?;
             say(format!("{}: ok", file.display()));
             Ok(ExitCode::SUCCESS)
         }

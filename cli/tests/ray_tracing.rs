@@ -8,7 +8,7 @@ mod common;
 use std::path::Path;
 
 use raycast::Algorithm::Robust;
-use raycast::gpu::hooks::{self, ShadeHook};
+use raycast::ShadeHook;
 use raycast::images::{Images, MISS, Outputs};
 use raycast::render::{self, AnyImages, Mode, Request};
 use raycast::scene::Scene;
@@ -65,7 +65,7 @@ fn close_to_instructors(e: &ColorError) -> bool {
 
 #[test]
 fn lit_gpu_renders_match_the_instructors_in_f32_and_f64() {
-    let hook = hooks::raytrace().unwrap();
+    let hook = ShadeHook::raytrace().unwrap();
     for name in RENDERED {
         let scene = lit_scene(name);
         let expected = instructors(name);
@@ -87,7 +87,7 @@ fn lit_gpu_renders_match_the_instructors_in_f32_and_f64() {
 /// and the other two as close as the issue asks of the GPU.
 #[test]
 fn the_cpu_reference_in_f64_reproduces_the_instructors_render() {
-    let hook = hooks::raytrace().unwrap();
+    let hook = ShadeHook::raytrace().unwrap();
     for name in RENDERED {
         let scene = lit_scene(name);
         let expected = instructors(name);
@@ -112,7 +112,7 @@ fn the_cpu_reference_in_f64_reproduces_the_instructors_render() {
 /// the last bits, which moves a pixel by a level where it lands on a level's edge.
 #[test]
 fn the_gpu_in_f32_agrees_with_its_cpu_mirror() {
-    let hook = hooks::raytrace().unwrap();
+    let hook = ShadeHook::raytrace().unwrap();
     for name in RENDERED {
         let scene = lit_scene(name);
         let gpu = render(&scene, "gpu:f32:robust", &hook);
@@ -239,13 +239,13 @@ fn colours_of<T>(images: &Images<T>) -> &[[u8; 4]] {
 }
 
 fn common_hook(source: &str) -> ShadeHook {
-    hooks::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
+    ShadeHook::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The ambient-occlusion example casts exactly its 16 rays from every hit and none from a miss.
 #[test]
 fn every_ray_a_hook_casts_is_counted() {
-    let hook = hooks::load(&common::repo_path(
+    let hook = ShadeHook::load(&common::repo_path(
         "shaders/examples/ambient-occlusion.wgsl",
     ))
     .unwrap();
@@ -323,8 +323,8 @@ fn materials_lights_and_values_reach_the_hook() {
 fn only_a_hook_that_casts_rays_compiles_them_in() {
     let gpu = common::gpu();
     let scene = common::course_scene("bunny");
-    let toon = hooks::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
-    let lit = hooks::raytrace().unwrap();
+    let toon = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
+    let lit = ShadeHook::raytrace().unwrap();
     assert!(!toon.traces && lit.traces);
     let base = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
     assert!(base.uses_packets(), "lavapipe has subgroups");

@@ -10,7 +10,7 @@ use std::process::Output;
 use std::time::{Duration, Instant};
 
 use raycast::Algorithm::{self, Robust, Textbook};
-use raycast::gpu::hooks::{self, ShadeHook};
+use raycast::ShadeHook;
 use raycast::images::{Images, MISS, Outputs};
 use raycast::kernel::layout::GpuReal;
 use raycast::scene::Scene;
@@ -37,7 +37,7 @@ fn write(dir: &Path, name: &str, source: &str) -> PathBuf {
 
 /// A hook checked from its text (the label is only for messages).
 fn hook(source: &str) -> ShadeHook {
-    hooks::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
+    ShadeHook::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Renders only the hook's colour.
@@ -359,7 +359,7 @@ fn examples_match_their_golden_images() {
     scene.camera.resolution = [w, h];
     let bless = std::env::var_os("RAYCAST_BLESS").is_some();
     for example in ["fog", "checker", "toon"] {
-        let hook = hooks::load(&common::repo_path(&format!(
+        let hook = ShadeHook::load(&common::repo_path(&format!(
             "shaders/examples/{example}.wgsl"
         )))
         .unwrap_or_else(|e| panic!("{e}"));
@@ -402,7 +402,7 @@ fn examples_match_their_golden_images() {
 fn hooked_kernels_of_every_lane_count_agree() {
     let mut scene = common::course_scene("bunny");
     scene.camera.resolution = [96, 54];
-    let hook = hooks::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
+    let hook = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
     let gpu = common::gpu();
     let base = gpu
         .scene_variant(&scene, raycast::math::Float::F32, Robust)

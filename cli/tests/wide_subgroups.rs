@@ -127,7 +127,7 @@ fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
 /// the same colours but where `pow` lands a pixel on a level's edge, the same rays.
 fn lit_renders_agree() {
     let gpu = discrete_like();
-    let hook = raycast::gpu::hooks::raytrace().unwrap();
+    let hook = raycast::ShadeHook::raytrace().unwrap();
     let path = common::repo_path("scenes/ray-tracing/bunny.json");
     let mut scene = Scene::load(&path).unwrap();
     scene.camera.resolution = [160, 90];

@@ -4,6 +4,6 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(source) = std::str::from_utf8(data) {
-        let _ = raycast::gpu::hooks::check(source, "fuzz.wgsl".as_ref());
+        let _ = raycast::ShadeHook::check(source, "fuzz.wgsl".as_ref());
     }
 });

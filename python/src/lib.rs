@@ -12,7 +12,9 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::rays::{RayList, RayRows};
-use raycast::{Accel, AnyHits, AnyImages, Cpu, Geometry, Gpu, Hits, Precision, Ray, RenderOptions};
+use raycast::{
+    Accel, AnyHits, AnyImages, Cpu, Geometry, Gpu, Hits, Precision, Ray, RenderOptions, ShadeHook,
+};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
 fn gpu() -> PyResult<&'static Gpu> {
@@ -262,7 +264,7 @@ impl Scene {
         })?;
         let options = RenderOptions {
             precision: Some(on.precision),
-            shade: raycast::gpu::hooks::requested(lit, shader.as_deref()).map_err(to_py)?,
+            shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
             ..RenderOptions::default()
         };
         let images = match on.gpu {
@@ -286,6 +288,21 @@ impl Scene {
             AnyImages::F64(i) => images_into(py, &d, i)?,
         }
         Ok(d)
+    }
+}
+
+/// The hook `render` asks for: the course's ray tracer (`lit`) or a hook file, not both.
+fn shade_hook(lit: bool, shader: Option<&std::path::Path>) -> raycast::Result<Option<ShadeHook>> {
+    match (lit, shader) {
+        (true, Some(_)) => Err(raycast::Error::Argument {
+            option: "lit".into(),
+            message:
+                "is the shade hook shaders/examples/raytrace.wgsl; give it or shader, not both"
+                    .into(),
+        }),
+        (true, None) => ShadeHook::raytrace().map(Some),
+        (false, Some(path)) => ShadeHook::load(path).map(Some),
+        (false, None) => Ok(None),
     }
 }
 

@@ -56,7 +56,7 @@ pub struct ShadeHook {
     pub source: Arc<str>,
     pub key: SourceKey,
     /// `shade` casts rays of its own, directly or through the file's other functions
-    /// (`RAY_FUNCTIONS`): its kernel compiles them in ([`Variant::hook_rays`]).
+    /// (`trace`, `occluded`): its kernel compiles them in (`Variant::hook_rays`).
     pub traces: bool,
 }
 
@@ -66,18 +66,15 @@ pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.
 /// Where [`RAYTRACE`] lives, for messages.
 pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
 
-/// `RAYTRACE`, checked.
-pub fn raytrace() -> Result<ShadeHook> {
-    check(RAYTRACE, Path::new(RAYTRACE_FILE))
-}
 
-/// The hook a command asks for: `--lit` ([`raytrace`]) or `--shader FILE` ([`load`]), or none;
+/// The hook a command asks for: `--lit` ([`ShadeHook::raytrace`]) or `--shader FILE`
+/// ([`ShadeHook::load`]), or none;
 /// both at once is `lit_and_shader`'s error.
 pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
     match (lit, shader) {
         (true, Some(_)) => Err(lit_and_shader()),
-        (true, None) => raytrace().map(Some),
-        (false, Some(path)) => load(path).map(Some),
+        (true, None) => ShadeHook::raytrace().map(Some),
+        (false, Some(path)) => ShadeHook::load(path).map(Some),
         (false, None) => Ok(None),
     }
 }
@@ -91,22 +88,35 @@ pub(crate) fn lit_and_shader() -> Error {
 }
 
 impl ShadeHook {
+    /// The course's ray tracer as shipped (shaders/examples/raytrace.wgsl), the one hook the
+    /// CPU reference mirrors (src/cpu/raytrace.rs): what `--lit` runs.
+    pub fn raytrace() -> Result<ShadeHook> {
+        ShadeHook::check(RAYTRACE, Path::new(RAYTRACE_FILE))
+    }
+
+    /// Reads and [`ShadeHook::check`]s the hook file at `path`.
+    pub fn load(path: &Path) -> Result<ShadeHook> {
+        let source = std::fs::read_to_string(path)
+            .map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
+        ShadeHook::check(&source, path)
+    }
+
+    /// Checks a hook's `source` (read from `file`, which labels errors: `FILE:LINE:COLUMN`) and
+    /// registers it. The file defines `fn shade(hit: ShadeHit) -> vec4<f32>`
+    /// (shaders/hooks.wgsl declares `ShadeHit`), and may cast rays with `trace` and `occluded`.
+    pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
+        check(source, file)
+    }
+
     /// Whether the CPU reference mirrors this hook: it is [`RAYTRACE`], text for text.
     pub(crate) fn has_cpu_mirror(&self) -> bool {
         &*self.source == RAYTRACE
     }
 }
 
-/// Reads and [`check`]s the hook file at `path`.
-pub fn load(path: &Path) -> Result<ShadeHook> {
-    let source =
-        std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
-    check(&source, path)
-}
-
 /// Checks a hook's `source` (read from `file`, which labels errors) and registers it (module
 /// docs).
-pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
+fn check(source: &str, file: &Path) -> Result<ShadeHook> {
     let located = |offset: usize, len: usize, message: String| {
         shader_error(file, source, offset, len, message)
     };
@@ -710,7 +720,7 @@ mod tests {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();
             if path.extension().is_some_and(|e| e == "wgsl") {
-                if let Err(e) = load(&path) {
+                if let Err(e) = ShadeHook::load(&path) {
                     panic!("{e}");
                 }
                 names.push(path.file_stem().unwrap().to_string_lossy().into_owned());

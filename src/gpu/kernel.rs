@@ -40,11 +40,15 @@ struct Interface {
     workgroup_size: [u32; 3],
 }
 
-/// Reads and `check`s the kernel file at `path`.
-pub fn load(path: &Path) -> Result<UserKernel> {
-    let source =
-        std::fs::read_to_string(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
-    check(&source, path)
+impl UserKernel {
+    /// Reads and checks the kernel file at `path`: a complete kernel, run instead of the
+    /// assembled one, that declares the assembled kernel's bindings (`raycast render
+    /// --emit-shader` writes one to start from).
+    pub fn load(path: &Path) -> Result<UserKernel> {
+        let source = std::fs::read_to_string(path)
+            .map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
+        check(&source, path)
+    }
 }
 
 /// Validates a kernel's `source` (read from `file`, which labels errors) with naga, finds its
@@ -154,22 +158,24 @@ fn mismatch(theirs: &Interface, ours: &Interface) -> Option<String> {
 }
 
 impl UserKernel {
-    /// `variant`, running this kernel: an error when its bindings or workgroup size differ from
-    /// those of the assembled kernel for `variant` (module docs).
-    pub fn for_variant(&self, variant: Variant) -> Result<Variant> {
-        let theirs = assembled_interface(&variant)?;
-        if let Some(why) = mismatch(&theirs, &self.interface) {
-            return Err(Error::Argument {
-                option: format!("--kernel {}", self.file.display()),
-                message: format!(
-                    "{why} (a kernel emitted for another scene, precision or --outputs? write one for this render with --emit-shader)"
-                ),
-            });
+    crate::internal_fn! {
+        /// `variant`, running this kernel: an error when its bindings or workgroup size differ from
+        /// those of the assembled kernel for `variant` (module docs).
+        fn for_variant(&self, variant: Variant) -> Result<Variant> {
+            let theirs = assembled_interface(&variant)?;
+            if let Some(why) = mismatch(&theirs, &self.interface) {
+                return Err(Error::Argument {
+                    option: format!("--kernel {}", self.file.display()),
+                    message: format!(
+                        "{why} (a kernel emitted for another scene, precision or --outputs? write one for this render with --emit-shader)"
+                    ),
+                });
+            }
+            Ok(Variant {
+                kernel: Some(self.key),
+                ..variant
+            })
         }
-        Ok(Variant {
-            kernel: Some(self.key),
-            ..variant
-        })
     }
 }
 

@@ -933,7 +933,7 @@ mod tests {
     #[test]
     fn each_module_is_included_once() {
         let hook = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
-        let hook = super::super::hooks::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
+        let hook = super::super::hooks::ShadeHook::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
         let variant = Variant {
             bvh: true,
             ..Variant::new(Float::F64, Algorithm::Robust)

@@ -81,7 +81,7 @@ impl PixelCoverage {
     /// The 8-bit RGBA of `color.png`: premultiplied `round(C / N)`, alpha `round(255 H / N)`;
     /// with a `background`, `over` it: `round((C + bg (N - H)) / N)` and alpha 255. Exact (module
     /// docs).
-    pub fn to_rgba8(&self, background: Option<[u8; 3]>) -> [u8; 4] {
+    pub fn to_rgba8(self, background: Option<[u8; 3]>) -> [u8; 4] {
         let n = self.spp as u64;
         let h = self.hits as u64;
         debug_assert!(h <= n);

@@ -287,7 +287,7 @@ impl Spec {
         let request = Request {
             outputs: self.encoding.outputs,
             shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
-            kernel: self.kernel.as_deref().map(gpu::kernel::load).transpose()?,
+            kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
         };
         let gpu = match (self.mode.device, gpu) {
             (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),

@@ -46,12 +46,14 @@ impl AnyImages {
         }
     }
 
-    /// Images of `s x s` samples per pixel reduced to one pixel each, with their coverage
-    /// ([`supersample::reduce`]).
-    pub fn reduce(&self, s: u32) -> AnyImages {
-        match self {
-            AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
-            AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
+    crate::internal_fn! {
+        /// Images of `s x s` samples per pixel reduced to one pixel each, with their coverage
+        /// ([`supersample::reduce`]).
+        fn reduce(&self, s: u32) -> AnyImages {
+            match self {
+                AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
+                AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
+            }
         }
     }
 

@@ -27,8 +27,9 @@ impl Device {
     }
 }
 
-/// The precision of a render: one [`Float`] throughout, or adaptive (robust f32, with the
-/// pixels it cannot be sure of cast again in f64; see [`crate::render::adaptive`]).
+/// The precision of a render or a query: f32 or f64 throughout, or adaptive (robust f32, with
+/// the pixels or rays it cannot be sure of cast again in f64: f64's hits and ids at close to
+/// f32's cost; docs/robustness.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Precision {
     F32,

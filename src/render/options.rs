@@ -40,7 +40,7 @@ pub struct RenderOptions {
     pub samples_per_pixel: u32,
     /// A shade hook colouring [`crate::Images::color`] (with `outputs.color`): any hook on the
     /// GPU in f32 or f64; on the CPU only the course's ray tracer
-    /// ([`crate::gpu::hooks::raytrace`]), by its mirror.
+    /// ([`ShadeHook::raytrace`]), by its mirror.
     pub shade: Option<ShadeHook>,
     /// A complete kernel run instead of the assembled one (GPU, f32 or f64).
     pub kernel: Option<UserKernel>,

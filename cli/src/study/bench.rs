@@ -794,7 +794,7 @@ mod tests {
         }
         // The CPU runs the ray tracer's mirror and no other hook.
         let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
-        let other = raycast::gpu::hooks::check(source, Path::new("other.wgsl")).unwrap();
+        let other = raycast::ShadeHook::check(source, Path::new("other.wgsl")).unwrap();
         let cpu = |shade: ShadeHook| Options {
             modes: vec!["cpu:f32".parse().unwrap()],
             shade: Some(shade),
@@ -807,11 +807,7 @@ mod tests {
                 .to_string()
                 .starts_with("--shader")
         );
-        assert!(
-            cpu(raycast::gpu::hooks::raytrace().unwrap())
-                .check()
-                .is_ok()
-        );
+        assert!(cpu(raycast::ShadeHook::raytrace().unwrap()).check().is_ok());
     }
 
     #[test]

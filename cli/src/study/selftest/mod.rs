@@ -929,7 +929,7 @@ const LIT_SIZE: [u32; 2] = [320, 180];
 /// level where it lands on a level's edge; with fusion, hits move too, so the bound is the
 /// course's bar against the instructor's renders.
 fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
-    let hook = gpu::hooks::raytrace()?;
+    let hook = raycast::ShadeHook::raytrace()?;
     let mut scene = data::scene("scenes/ray-tracing/bunny.json")?;
     scene.camera.resolution = LIT_SIZE;
     let variant = (ctx.gpu.scene_variant(&scene, Float::F32, Robust))
