@@ -1,5 +1,9 @@
 //! The one error type of the library. Every variant but [`Error::Shader`] renders as a single
 //! line that names the file, field or line at fault; the CLI prints it and exits with code 2.
+//!
+//! Arguments are named as the API names them (`precision`, `samples_per_pixel`), in
+//! [`Error::Argument::option`]'s first word and in backticks within messages; a tool renames
+//! them to its own spelling with [`Error::spelled`] (the command line's `--precision`, `--spp`).
 
 use std::path::PathBuf;
 
@@ -27,18 +31,22 @@ pub enum Error {
     /// A file or folder could not be read or written.
     #[error("{}: {message}", path.display())]
     Io { path: PathBuf, message: String },
-    /// A command-line value is out of range (`option` names it, e.g. `--size`).
+    /// An argument's value is out of range or does not fit the others: `option` names it by
+    /// its API name, with the value where it helps (`samples_per_pixel 5`).
     #[error("{option}: {message}")]
     Argument { option: String, message: String },
     /// A user shader (`--shader`, `check-shader`) does not compile or does not fit the hook:
     /// a compiler-style block, `FILE:LINE:COLUMN: error: MESSAGE`, then the source line and a
     /// caret under the column (which counts characters from 1).
-    #[error("{}:{line}:{column}: error: {message}\n{excerpt}", file.display())]
+    #[error("{}:{line}:{column}: error: {message}{hint}\n{excerpt}", file.display())]
     Shader {
         file: PathBuf,
         line: usize,
         column: usize,
+        /// The compiler's message or the check's, quoting code in backticks.
         message: String,
+        /// The library's advice after it, naming arguments in backticks (empty where none).
+        hint: String,
         /// The source line and the caret line.
         excerpt: String,
     },
@@ -51,11 +59,106 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
+    /// This error with the arguments it names spelled as a tool spells them: `spelling`
+    /// gives the spelling of an API name (`precision`) where the tool has one
+    /// (`--precision`). It renames the first word of [`Error::Argument::option`] and every
+    /// name written in backticks in an argument's or a device's message, or in a shader
+    /// error's hint (its message quotes code).
+    pub fn spelled(self, spelling: &dyn Fn(&str) -> Option<String>) -> Error {
+        let text = |t: String| respell(&t, spelling);
+        match self {
+            Error::Argument { option, message } => {
+                let (name, rest) = option.split_once(' ').unwrap_or((&option, ""));
+                let option = match (spelling(name), rest) {
+                    (Some(flag), "") => flag,
+                    (Some(flag), rest) => format!("{flag} {rest}"),
+                    (None, _) => option.clone(),
+                };
+                let message = text(message);
+                Error::Argument { option, message }
+            }
+            Error::Device(message) => Error::Device(text(message)),
+            Error::Shader {
+                file,
+                line,
+                column,
+                message,
+                hint,
+                excerpt,
+            } => Error::Shader {
+                file,
+                line,
+                column,
+                message,
+                hint: text(hint),
+                excerpt,
+            },
+            other => other,
+        }
+    }
+
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, err: impl std::fmt::Display) -> Self {
         Error::Io {
             path: path.into(),
             message: err.to_string(),
         }
+    }
+}
+
+/// `text` with each backticked name that `spelling` knows replaced by its spelling, without the
+/// backticks.
+fn respell(text: &str, spelling: &dyn Fn(&str) -> Option<String>) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(open) = rest.find('`') {
+        let Some(len) = rest[open + 1..].find('`') else {
+            break;
+        };
+        let name = &rest[open + 1..open + 1 + len];
+        out.push_str(&rest[..open]);
+        match spelling(name) {
+            Some(flag) => out.push_str(&flag),
+            None => out.push_str(&rest[open..open + len + 2]),
+        }
+        rest = &rest[open + len + 2..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// An argument named in a message: `` `name` value `` for an option `name value`.
+pub(crate) fn named(option: &str) -> String {
+    match option.split_once(' ') {
+        Some((name, rest)) => format!("`{name}` {rest}"),
+        None => format!("`{option}`"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arguments_are_respelled_where_the_tool_has_a_spelling() {
+        let flag = |name: &str| match name {
+            "precision" => Some("--precision".to_string()),
+            "samples_per_pixel" => Some("--spp".to_string()),
+            _ => None,
+        };
+        let e = Error::Argument {
+            option: "samples_per_pixel 5".into(),
+            message: "runs with `precision` f32, not `f16` or `precision".into(),
+        };
+        assert_eq!(
+            e.spelled(&flag).to_string(),
+            "--spp 5: runs with --precision f32, not `f16` or `precision"
+        );
+        let e = Error::Argument {
+            option: "rays[0] direction".into(),
+            message: "must not be zero".into(),
+        };
+        assert_eq!(e.spelled(&flag).to_string(), "rays[0] direction: must not be zero");
+        assert_eq!(named("samples_per_pixel 4"), "`samples_per_pixel` 4");
     }
 }

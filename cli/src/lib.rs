@@ -6,3 +6,29 @@ pub mod compare;
 pub mod progress;
 pub mod study;
 pub mod text;
+
+/// The option of this command line that sets what the library calls `name` (an argument of
+/// its API: `RenderOptions::samples_per_pixel`, say), with the value it implies where the name
+/// is a choice (`Gpu`).
+pub fn flag(name: &str) -> Option<String> {
+    let flag = match name {
+        "precision" => "--precision",
+        "device" => "--device",
+        "Gpu" => "--device gpu",
+        "lit" | "ShadeHook::raytrace" => "--lit",
+        "shade" | "shader" => "--shader",
+        "kernel" => "--kernel",
+        "samples_per_pixel" => "--spp",
+        "formats" => "--format",
+        "outputs" => "--outputs",
+        "background" => "--background",
+        "band_rows" => "--band-rows",
+        "emit_shader" => "--emit-shader",
+        "eye" => "--eye",
+        "look_at" => "--look-at",
+        "up" => "--up",
+        "fov" => "--fov",
+        _ => return None,
+    };
+    Some(flag.to_string())
+}

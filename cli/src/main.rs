@@ -321,15 +321,17 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            report(&e);
+            report(e);
             ExitCode::from(2)
         }
     }
 }
 
 /// Prints an error on stderr: one `error: ` line, or a shader error's own block (which says
-/// `error:` after its location, as compilers do).
-fn report(e: &raycast::Error) {
+/// `error:` after its location, as compilers do), with the arguments it names spelled as
+/// options of this command line.
+fn report(e: raycast::Error) {
+    let e = e.spelled(&raycast_cli::flag);
     match e {
         raycast::Error::Shader { .. } => eprintln!("{e}"),
         _ => eprintln!("error: {e}"),
@@ -588,7 +590,7 @@ fn render(spec: &render::Spec, watch: bool) -> Result<()> {
         // Taken before rendering: a change during the render triggers the next one.
         let before = stamps(&files);
         if let Err(e) = render_once() {
-            report(&e);
+            report(e);
         }
         let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
         eprintln!("watching {} for changes (Ctrl-C ends)", names.join(", "));

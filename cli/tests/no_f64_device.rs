@@ -25,8 +25,10 @@ fn gpu_without_f64() -> Gpu {
 fn f64_without_shader_f64_is_a_clear_error() {
     let gpu = gpu_without_f64();
     let scene = common::course_scene("triangle");
+    // As the command line prints it (the library names `precision`).
     let err = common::gpu_scene::<f64>(&gpu, &scene, Textbook)
         .unwrap_err()
+        .spelled(&raycast_cli::flag)
         .to_string();
     assert!(
         err.contains("SHADER_F64") && err.contains("--precision f32"),

@@ -25,8 +25,17 @@ fn gpu() -> PyResult<&'static Gpu> {
 }
 
 /// `raycast::Error` as the Python exception for it: bad arguments raise ValueError, the rest
-/// RuntimeError.
+/// RuntimeError; the arguments it names spelled as this package's.
 fn to_py(e: raycast::Error) -> PyErr {
+    let e = e.spelled(&|name| {
+        let spelled = match name {
+            "Gpu" => "device=\"gpu\"",
+            "ShadeHook::raytrace" => "lit=True",
+            "shade" => "shader",
+            _ => return None,
+        };
+        Some(spelled.to_string())
+    });
     match e {
         raycast::Error::Argument { .. }
         | raycast::Error::SceneSyntax { .. }

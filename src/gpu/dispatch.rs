@@ -884,7 +884,7 @@ fn check_limits<R: GpuReal>(
     let nodes = prepared.bvh().map_or(0, |b| b.nodes.len());
     if R::PRECISION == Float::F64 && !gpu.has_f64() {
         return Err(Error::Device(format!(
-            "--precision f64: the adapter {} has no f64 shader support (SHADER_F64); use --precision f32",
+            "`precision` f64: the adapter {} has no f64 shader support (SHADER_F64); use `precision` f32",
             gpu.info().name
         )));
     }

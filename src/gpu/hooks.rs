@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use super::shader::{self, Variant};
-use super::source::{SourceKey, error_chain, register, shader_error, span_range};
+use super::source::{SourceKey, error_chain, register, shader_error, span_range, with_hint};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::math::Float;
@@ -79,11 +79,11 @@ pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> 
     }
 }
 
-/// The error of `--lit` given with `--shader`.
+/// The error of `lit` (the course's ray tracer) asked for with a `shader` file.
 pub(crate) fn lit_and_shader() -> Error {
     Error::Argument {
-        option: "--lit".into(),
-        message: format!("is the shade hook {RAYTRACE_FILE}; give it or --shader, not both"),
+        option: "lit".into(),
+        message: format!("is the shade hook {RAYTRACE_FILE}; give it or `shader`, not both"),
     }
 }
 
@@ -563,15 +563,8 @@ fn check_in_kernel(key: SourceKey, traces: bool, source: &str, file: &Path) -> R
             shader_error(file, source, offset - start, len, message)
         } else {
             let line = kernel[..offset.min(kernel.len())].matches('\n').count() + 1;
-            shader_error(
-                file,
-                source,
-                0,
-                0,
-                format!(
-                    "{message} (line {line} of the kernel it is appended to; see --emit-shader)"
-                ),
-            )
+            let hint = format!(" (line {line} of the kernel it is appended to; see `emit_shader`)");
+            with_hint(shader_error(file, source, 0, 0, message), hint)
         }
     };
     super::source::validate_located(&kernel, &fail)?;

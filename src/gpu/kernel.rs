@@ -56,7 +56,10 @@ impl UserKernel {
 pub(crate) fn check(source: &str, file: &Path) -> Result<UserKernel> {
     let (module, info) = shader::validate(source, file)?;
     let interface = interface(&module, &info)
-        .ok_or_else(|| source::shader_error(file, source, 0, 0, no_entry_point()))?;
+        .ok_or_else(|| {
+            let error = source::shader_error(file, source, 0, 0, no_entry_point());
+            source::with_hint(error, WHOLE_KERNEL.into())
+        })?;
     let (key, source) = source::register(source);
     Ok(UserKernel {
         file: file.to_owned(),
@@ -68,10 +71,13 @@ pub(crate) fn check(source: &str, file: &Path) -> Result<UserKernel> {
 
 fn no_entry_point() -> String {
     format!(
-        "no `@compute fn {}`: a kernel file is a whole kernel, as --emit-shader writes it",
+        "no `@compute fn {}`: a kernel file is a whole kernel",
         shader::ENTRY_POINT
     )
 }
+
+/// What [`no_entry_point`] advises.
+const WHOLE_KERNEL: &str = ", as `emit_shader` writes it";
 
 /// The bindings and workgroup size of `module`'s compute entry point `main`, `None` without
 /// one.
@@ -96,7 +102,7 @@ fn assembled_interface(variant: &Variant) -> Result<Interface> {
     };
     let source = shader::kernel_source(&assembled)?;
     let (module, info) = shader::validate(&source, Path::new("kernel"))?;
-    interface(&module, &info).ok_or_else(|| Error::Device(format!("kernel: {}", no_entry_point())))
+    interface(&module, &info).ok_or_else(|| Error::Device(format!("kernel: {}{WHOLE_KERNEL}", no_entry_point())))
 }
 
 /// Why a kernel with `ours` does not fit a host that binds `theirs`, if it does not.
@@ -165,9 +171,9 @@ impl UserKernel {
             let theirs = assembled_interface(&variant)?;
             if let Some(why) = mismatch(&theirs, &self.interface) {
                 return Err(Error::Argument {
-                    option: format!("--kernel {}", self.file.display()),
+                    option: format!("kernel {}", self.file.display()),
                     message: format!(
-                        "{why} (a kernel emitted for another scene, precision or --outputs? write one for this render with --emit-shader)"
+                        "{why} (a kernel emitted for another scene, precision or `outputs`? write one for this render with `emit_shader`)"
                     ),
                 });
             }
@@ -214,7 +220,7 @@ mod tests {
         let Err(Error::Argument { option, message }) = kernel.for_variant(base) else {
             panic!("a spheres-only kernel fits every kind");
         };
-        assert_eq!(option, "--kernel s.wgsl");
+        assert_eq!(option, "kernel s.wgsl");
         assert!(message.contains("@binding(2)"), "{message}");
         assert!(!message.contains('\n'), "{message}");
         let f64 = Variant::new(Float::F64, Algorithm::Robust);

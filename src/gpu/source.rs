@@ -175,6 +175,21 @@ pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
     parts.join(": ")
 }
 
+/// `error`, a shader error, with the library's advice `hint` after its message.
+pub(crate) fn with_hint(error: Error, hint: String) -> Error {
+    match error {
+        Error::Shader { hint: _, file, line, column, message, excerpt } => Error::Shader {
+            file,
+            line,
+            column,
+            message,
+            hint,
+            excerpt,
+        },
+        other => other,
+    }
+}
+
 /// An [`Error::Shader`] at byte `offset` of `source` (clamped to it), underlining `len` bytes.
 pub(crate) fn shader_error(
     file: &Path,
@@ -208,6 +223,7 @@ pub(crate) fn shader_error(
         line: source[..offset].matches('\n').count() + 1,
         column,
         message,
+        hint: String::new(),
         excerpt: format!("{line_text}\n{pad}{}", "^".repeat(underlined)),
     }
 }

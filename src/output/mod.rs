@@ -141,21 +141,21 @@ impl Encoding {
         };
         if outputs.color && !png {
             return refuse(
-                "--outputs color",
-                "color is written as color.png only; add png to --format",
+                "outputs color",
+                "color is written as color.png only; add png to `formats`",
             );
         }
         if formats.contains(&Format::Depth16) && !outputs.distance {
             return refuse(
-                "--format depth16",
-                "depth16.png holds depths; add distance to --outputs",
+                "formats depth16",
+                "depth16.png holds depths; add distance to `outputs`",
             );
         }
         let arrays = outputs.id || outputs.distance || outputs.normal;
         if let Some(f) = formats.iter().find(|f| f.whole_only() && !arrays) {
             return refuse(
-                &format!("--format {}", f.name()),
-                "holds ids, distances and normals; --outputs asks for none of them",
+                &format!("formats {}", f.name()),
+                "holds ids, distances and normals; `outputs` asks for none of them",
             );
         }
         Ok(Encoding {

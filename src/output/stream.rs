@@ -62,12 +62,12 @@ pub(crate) struct BandWriter {
 impl BandWriter {
     /// A writer for a render of `camera` (at its resolution) into `dir`; files open with the
     /// first band. Formats written whole only ([`Format::whole_only`]) are an error naming
-    /// `--format`.
+    /// `formats`.
     pub(crate) fn new(dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<BandWriter> {
         if let Some(f) = encoding.formats.iter().find(|f| f.whole_only()) {
             return Err(Error::Argument {
-                option: format!("--format {}", f.name()),
-                message: "is written whole, not in bands of rows (--band-rows, or images above 16,777,216 pixels)".into(),
+                option: format!("formats {}", f.name()),
+                message: "is written whole, not in bands of rows (`band_rows`, or images above 16,777,216 pixels)".into(),
             });
         }
         let [width, height] = camera.resolution;

@@ -181,15 +181,15 @@ impl Spec {
         let gpu = self.mode.device == Device::Gpu;
         if self.emit_shader.is_some() && !gpu {
             return refuse(
-                "--emit-shader",
-                "the CPU reference runs no shader; use --device gpu",
+                "emit_shader",
+                "the CPU reference runs no shader; use `device` gpu",
             );
         }
         if self.lit && self.shader.is_some() {
             return Err(gpu::hooks::lit_and_shader());
         }
         if self.lit && self.mode.precision == Precision::Adaptive {
-            return refuse("--lit", "runs with --precision f32 or f64, not adaptive");
+            return refuse("lit", "runs with `precision` f32 or f64, not adaptive");
         }
         // The CPU runs the course's ray tracer by its mirror, and no other hook.
         let mirrored = self.lit && !gpu;
@@ -197,14 +197,14 @@ impl Spec {
         if self.shaded() {
             if self.encoding.background.is_some() {
                 return refuse(
-                    "--background",
+                    "background",
                     "a shade hook colours the background itself (it is called for misses too)",
                 );
             }
             if !self.encoding.outputs.color {
                 return refuse(
-                    if self.lit { "--lit" } else { "--shader" },
-                    "the hook colours color.png, which is not asked for; add png to --format and color to --outputs",
+                    if self.lit { "lit" } else { "shader" },
+                    "the hook colours color.png, which is not asked for; add png to `formats` and color to `outputs`",
                 );
             }
         }
@@ -212,14 +212,14 @@ impl Spec {
             && self.band_rows.is_some()
         {
             return refuse(
-                &format!("--format {}", f.name()),
-                "is written whole, not in bands of rows (--band-rows)",
+                &format!("formats {}", f.name()),
+                "is written whole, not in bands of rows (`band_rows`)",
             );
         }
         if self.band_rows.is_some() && !self.streamable() {
             return refuse(
-                "--band-rows",
-                "bands are rendered on the GPU in f32 or f64, without --spp or --kernel",
+                "band_rows",
+                "bands are rendered on the GPU in f32 or f64, without `samples_per_pixel` or `kernel`",
             );
         }
         Ok(())

@@ -113,10 +113,10 @@ pub struct Request {
     /// reference compute every output.
     pub outputs: Outputs,
     /// The user's shade hook, which colours `color.png` when `outputs.color` (GPU, f32 or f64
-    /// only; any other mode is an [`Error::Argument`] naming `--shader`).
+    /// only; any other mode is an [`Error::Argument`] naming `shade`).
     pub shade: Option<ShadeHook>,
     /// A complete kernel to run instead of the assembled one (GPU, f32 or f64 only; any
-    /// other mode is an [`Error::Argument`] naming `--kernel`). It must declare the bindings
+    /// other mode is an [`Error::Argument`] naming `kernel`). It must declare the bindings
     /// of the kernel this request would assemble ([`UserKernel::for_variant`]).
     pub kernel: Option<UserKernel>,
 }
@@ -244,7 +244,7 @@ fn dispatch(
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,
             _ => {
                 return Err(Error::Argument {
-                    option: "--precision adaptive".into(),
+                    option: "precision adaptive".into(),
                     message: "runs on the GPU with the robust algorithm set".into(),
                 });
             }
@@ -301,11 +301,11 @@ pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
 fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
     let refuse = |option: &str| {
         let message = if mode.device == Device::Cpu {
-            "the CPU reference runs no shader but the course's ray tracer (--lit); use --device gpu"
-        } else if option == "--kernel" {
-            "runs with --precision f32 or f64 (adaptive precision runs two kernels)"
+            "the CPU reference runs no shader but the course's ray tracer (`ShadeHook::raytrace`); use `Gpu`"
+        } else if option == "kernel" {
+            "runs with `precision` f32 or f64 (adaptive precision runs two kernels)"
         } else {
-            "runs with --precision f32 or f64, not adaptive"
+            "runs with `precision` f32 or f64, not adaptive"
         };
         Err(Error::Argument {
             option: option.into(),
@@ -314,10 +314,10 @@ fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
     };
     let kernels = mode.device == Device::Gpu && mode.precision != Precision::Adaptive;
     if kernel && !kernels {
-        return refuse("--kernel");
+        return refuse("kernel");
     }
     if shade && !kernels {
-        return refuse("--shader");
+        return refuse("shade");
     }
     Ok(())
 }

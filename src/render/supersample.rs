@@ -210,7 +210,7 @@ fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec
 }
 
 /// Renders `scene` in `mode` with `spp` samples per pixel (a perfect square, else an
-/// [`Error::Argument`] naming `--spp`) and reduces it (module docs): images with their
+/// [`Error::Argument`] naming `samples_per_pixel`) and reduces it (module docs): images with their
 /// [`Coverage`]. `spp = 1` is a plain [`render::render`] with coverage. The fine render is held
 /// whole: `spp` times the memory of a plain one.
 pub fn supersample(
@@ -242,8 +242,11 @@ pub(crate) fn supersample_request(
     let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
     let fine = fine.map_err(|e| match e {
         Error::Argument { option, message } => Error::Argument {
-            option: format!("--spp {spp}"),
-            message: format!("the render of {s}x{s} samples per pixel: {option}: {message}"),
+            option: format!("samples_per_pixel {spp}"),
+            message: format!(
+                "the render of {s}x{s} samples per pixel: {}: {message}",
+                crate::error::named(&option)
+            ),
         },
         other => other,
     })?;
@@ -251,16 +254,16 @@ pub(crate) fn supersample_request(
 }
 
 /// The scene whose pixels are the samples of `scene` at `spp` samples per pixel (module docs),
-/// and `s = sqrt(spp)`; an [`Error::Argument`] naming `--spp` when `spp` is not a perfect
+/// and `s = sqrt(spp)`; an [`Error::Argument`] naming `samples_per_pixel` when `spp` is not a perfect
 /// square or the sample image would be too large.
 pub fn sample_scene(scene: &Scene, spp: u32) -> Result<(Scene, u32)> {
     let s = side(spp).map_err(|message| Error::Argument {
-        option: "--spp".into(),
+        option: "samples_per_pixel".into(),
         message,
     })?;
     let [nx, ny] = scene.camera.resolution;
     let too_big = || Error::Argument {
-        option: format!("--spp {spp}"),
+        option: format!("samples_per_pixel {spp}"),
         message: format!("{nx}x{ny} pixels times {s}x{s} samples overflow the image size"),
     };
     let mut fine = scene.clone();

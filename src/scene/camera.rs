@@ -208,9 +208,9 @@ impl CameraOverrides {
     /// The values checked: finite, within the scene's limits, a field of view in (0, 180).
     fn check(&self) -> Result<()> {
         for (option, v) in [
-            ("--eye", self.eye),
-            ("--look-at", self.look_at),
-            ("--up", self.up),
+            ("eye", self.eye),
+            ("look_at", self.look_at),
+            ("up", self.up),
         ] {
             if let Some(v) = v
                 && !(v.is_finite() && v.abs().max_element() <= MAX_MAGNITUDE)
@@ -222,13 +222,13 @@ impl CameraOverrides {
             }
         }
         if self.up == Some(DVec3::ZERO) {
-            return Err(Self::refuse("--up", "must be a non-zero vector"));
+            return Err(Self::refuse("up", "must be a non-zero vector"));
         }
         if let Some(fov) = self.fov
             && !(fov > 0.0 && fov < 180.0)
         {
             return Err(Self::refuse(
-                "--fov",
+                "fov",
                 format!("must be between 0 and 180 degrees, both excluded (got {fov})"),
             ));
         }
@@ -248,7 +248,7 @@ impl CameraOverrides {
             c.look = target - c.eye;
             if c.look == DVec3::ZERO {
                 return Err(Self::refuse(
-                    "--look-at",
+                    "look_at",
                     "is the eye: no direction to look in",
                 ));
             }
@@ -259,10 +259,10 @@ impl CameraOverrides {
         if c.look.normalize().cross(c.up.normalize()).length() <= 1e-12 {
             // The option that set the last of the two directions.
             let given = [
-                ("--up", self.up.is_some()),
-                ("--look-at", self.look_at.is_some()),
+                ("up", self.up.is_some()),
+                ("look_at", self.look_at.is_some()),
             ];
-            let option = given.iter().find(|(_, g)| *g).map_or("--eye", |(o, _)| o);
+            let option = given.iter().find(|(_, g)| *g).map_or("eye", |(o, _)| o);
             return Err(Self::refuse(
                 option,
                 "leaves the up direction parallel to the viewing direction",
@@ -270,12 +270,12 @@ impl CameraOverrides {
         }
         if let Some(degrees) = self.fov {
             if c.projection == Projection::Orthographic {
-                return Err(Self::refuse("--fov", "needs a perspective camera"));
+                return Err(Self::refuse("fov", "needs a perspective camera"));
             }
             c.lens = Lens::Fov { degrees };
             if let Some(x) = c.oversized_plane() {
                 return Err(Self::refuse(
-                    "--fov",
+                    "fov",
                     format!(
                         "gives an image plane of size {x:e}, beyond the supported {MAX_MAGNITUDE:e}"
                     ),
@@ -316,7 +316,7 @@ impl CameraOverrides {
             depth_white: default_depth_white(eye, bounds),
         };
         if framed.look == DVec3::ZERO {
-            return Err(Self::refuse("--eye", "is the point looked at"));
+            return Err(Self::refuse("eye", "is the point looked at"));
         }
         // The eye and the field of view are the framed camera's already.
         let settings = CameraOverrides {

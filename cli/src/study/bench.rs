@@ -804,6 +804,7 @@ mod tests {
             cpu(other)
                 .check()
                 .unwrap_err()
+                .spelled(&crate::flag)
                 .to_string()
                 .starts_with("--shader")
         );
