@@ -13,35 +13,60 @@ pub enum Error {
     /// The scene JSON is not well-formed or does not match the format.
     #[error("{}:{line}:{column}: {message}", file.display())]
     SceneSyntax {
+        /// The scene file.
         file: PathBuf,
+        /// The line, from 1.
         line: usize,
+        /// The column, from 1.
         column: usize,
+        /// What is wrong there.
         message: String,
     },
     /// A scene value is out of its valid range (`field` is a path such as `objects[2].radius`).
     #[error("{}: {field}: {message}", file.display())]
     SceneValue {
+        /// The scene file.
         file: PathBuf,
+        /// The path of the value within the file.
         field: String,
+        /// What is wrong with it.
         message: String,
     },
     /// A mesh file is missing, unreadable or corrupt.
     #[error("{}: {message}", file.display())]
-    Mesh { file: PathBuf, message: String },
+    Mesh {
+        /// The mesh file.
+        file: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A file or folder could not be read or written.
     #[error("{}: {message}", path.display())]
-    Io { path: PathBuf, message: String },
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's reason.
+        message: String,
+    },
     /// An argument's value is out of range or does not fit the others: `option` names it by
     /// its API name, with the value where it helps (`samples_per_pixel 5`).
     #[error("{option}: {message}")]
-    Argument { option: String, message: String },
+    Argument {
+        /// The argument (and its value, where it helps).
+        option: String,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A user shader (`--shader`, `check-shader`) does not compile or does not fit the hook:
     /// a compiler-style block, `FILE:LINE:COLUMN: error: MESSAGE`, then the source line and a
     /// caret under the column (which counts characters from 1).
     #[error("{}:{line}:{column}: error: {message}{hint}\n{excerpt}", file.display())]
     Shader {
+        /// The shader file, as given.
         file: PathBuf,
+        /// The line, from 1.
         line: usize,
+        /// The column, from 1, in characters.
         column: usize,
         /// The compiler's message or the check's, quoting code in backticks.
         message: String,

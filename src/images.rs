@@ -11,15 +11,20 @@ pub const MISS: i32 = -1;
 /// The outputs of one pixel (a miss: id [`MISS`], distance `+inf`, normal zero).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pixel<T> {
+    /// Object index, or [`MISS`].
     pub id: i32,
+    /// Distance from the ray's origin to the hit.
     pub distance: T,
+    /// Unit surface normal at the hit.
     pub normal: [T; 3],
 }
 
 /// Per-pixel render outputs in precision `T` (`f32` from the GPU, `f32` or `f64` from the CPU).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Images<T> {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
     /// Object index, or [`MISS`].
     pub id: Vec<i32>,
@@ -81,6 +86,7 @@ impl<T: Real> Images<T> {
         self.id.len()
     }
 
+    /// Whether there are no pixels.
     pub fn is_empty(&self) -> bool {
         self.id.is_empty()
     }
@@ -134,9 +140,13 @@ impl FromStr for Output {
 /// palette `color.png` and supersampling need the ids.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Outputs {
+    /// The object ids (`id.png`, `id.npy`).
     pub id: bool,
+    /// The distances (`depth.png`, `distance.npy`, `depth16.png`).
     pub distance: bool,
+    /// The normals (`normal.png`, `normal.npy`).
     pub normal: bool,
+    /// The colours (`color.png`): a shade hook's, or the ids' palette.
     pub color: bool,
 }
 

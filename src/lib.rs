@@ -30,7 +30,8 @@
 // and lints the library with it, where dead code is still found.
 #![cfg_attr(
     not(feature = "internals"),
-    allow(dead_code, unused_imports, unused_macros)
+    allow(dead_code, unused_imports, unused_macros),
+    warn(missing_docs)
 )]
 
 /// Declares modules public with the `internals` feature (raycast's own command line, studies,

@@ -44,6 +44,19 @@ use glam::DVec3;
 /// Objects to cast rays at, without a camera: triangle meshes, spheres and planes, each with
 /// its id (its index, in the order added). [`Gpu::commit`] and [`Cpu::commit`] prepare it for
 /// queries.
+///
+/// ```
+/// use raycast::{Cpu, Geometry, Precision, Ray};
+/// let mut geometry = Geometry::new();
+/// let sphere = geometry.add_sphere([0.0, 0.0, -3.0], 1.0)?;
+/// let accel = Cpu.commit(&geometry, Precision::F64)?;
+/// let ray = Ray { origin: [0.0; 3], direction: [0.0, 0.0, -1.0] };
+/// let hits = accel.intersect(&[ray])?;
+/// assert_eq!(hits.id()[0], sphere as i32);
+/// assert!((hits.t_f64()[0] - 2.0).abs() < 1e-12);
+/// assert_eq!(accel.count(&[ray])?, [2]); // in and out
+/// # Ok::<(), raycast::Error>(())
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
     objects: Vec<Object>,
@@ -168,6 +181,17 @@ impl std::fmt::Debug for Accel<'_> {
 impl Gpu {
     /// Prepares `geometry` for queries on this GPU in `precision` (robust algorithm set): the
     /// BVH built and the buffers uploaded now, once.
+    ///
+    /// ```no_run
+    /// use raycast::{Geometry, Gpu, Precision, Ray};
+    /// let mut geometry = Geometry::new();
+    /// geometry.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+    /// let gpu = Gpu::new()?;
+    /// let accel = gpu.commit(&geometry, Precision::Adaptive)?; // borrows `gpu`
+    /// let down = Ray { origin: [0.25, 0.25, 1.0], direction: [0.0, 0.0, -1.0] };
+    /// assert_eq!(accel.occluded(&[down], 0.0, 2.0)?, [true]);
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn commit(&self, geometry: &Geometry, precision: Precision) -> Result<Accel<'_>> {
         Accel::new(geometry, Some(self), Device::Gpu, precision)
     }

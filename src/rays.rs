@@ -13,7 +13,9 @@ use crate::math::{Real, Vec3, length, normalize};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Ray {
+    /// Where the ray starts.
     pub origin: [f64; 3],
+    /// Its direction, of any non-zero length: `t` is measured in units of it.
     pub direction: [f64; 3],
 }
 
@@ -47,7 +49,9 @@ fn huge_pages<T>(v: &Vec<T>) {
 /// f32 widens exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayRows<'a> {
+    /// Rays in f64.
     F64(&'a [Ray]),
+    /// Rows of `origin, direction` in f32.
     F32(&'a [[f32; 6]]),
 }
 
@@ -57,7 +61,9 @@ pub enum RayRows<'a> {
 /// does a camera's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayList<'a> {
+    /// The rays.
     pub rays: RayRows<'a>,
+    /// The width of the image they are the pixels of, row-major; `None`: a plain list.
     pub width: Option<usize>,
 }
 
@@ -77,6 +83,7 @@ impl<'a> RayList<'a> {
         }
     }
 
+    /// Whether there are no rays.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -218,6 +225,7 @@ impl<T: Real> Hits<T> {
         self.id.len().max(self.count.len())
     }
 
+    /// Whether there are no rays.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -226,11 +234,14 @@ impl<T: Real> Hits<T> {
 /// The hits of a cast in the precision it ran in: f32 for f32 and adaptive casts, f64 for f64.
 #[derive(Clone, Debug, PartialEq)]
 pub enum AnyHits {
+    /// From f32 and adaptive casts.
     F32(Hits<f32>),
+    /// From f64 casts.
     F64(Hits<f64>),
 }
 
 impl AnyHits {
+    /// The object each ray hit, or [`crate::images::MISS`].
     pub fn id(&self) -> &[i32] {
         match self {
             AnyHits::F32(h) => &h.id,

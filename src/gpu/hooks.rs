@@ -53,8 +53,13 @@ pub(crate) const RAY_FUNCTIONS: [&str; 2] = ["trace", "occluded"];
 pub struct ShadeHook {
     /// The file it came from, as given (for messages).
     pub file: PathBuf,
+    /// Its text.
     pub source: Arc<str>,
+    /// Its key in the registry of sources, which kernel variants carry.
+    #[cfg(feature = "internals")]
     pub key: SourceKey,
+    #[cfg(not(feature = "internals"))]
+    pub(crate) key: SourceKey,
     /// `shade` casts rays of its own, directly or through the file's other functions
     /// (`trace`, `occluded`): its kernel compiles them in (`Variant::hook_rays`).
     pub traces: bool,

@@ -28,8 +28,13 @@ use crate::error::{Error, Result};
 pub struct UserKernel {
     /// The file it came from, as given (for messages).
     pub file: PathBuf,
+    /// Its text.
     pub source: Arc<str>,
+    /// Its key in the registry of sources, which kernel variants carry.
+    #[cfg(feature = "internals")]
     pub key: SourceKey,
+    #[cfg(not(feature = "internals"))]
+    pub(crate) key: SourceKey,
     interface: Interface,
 }
 

@@ -39,8 +39,11 @@ pub(crate) const PACKET_LANES: u32 = 8;
 
 /// An adapter with an open device and queue, and the kernels compiled on it so far.
 pub struct Gpu {
+    /// The adapter the device was opened on.
     pub adapter: wgpu::Adapter,
+    /// The open device, for a caller's own buffers and pipelines too.
     pub device: wgpu::Device,
+    /// The device's queue.
     pub queue: wgpu::Queue,
     pipelines: Mutex<HashMap<Variant, dispatch::Compiled>>,
     /// Why the device was lost, once it has been (set by wgpu's device-lost callback).
@@ -242,6 +245,7 @@ impl Gpu {
         }
     }
 
+    /// The adapter's name, backend, driver and device type.
     pub fn info(&self) -> wgpu::AdapterInfo {
         self.adapter.get_info()
     }

@@ -104,6 +104,7 @@ pub fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
 /// what, and which depth.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Encoding {
+    /// The file formats written.
     pub formats: Vec<Format>,
     /// The outputs written; `color` only with png (`color.png`).
     pub outputs: Outputs,

@@ -33,7 +33,9 @@ use crate::scene::{Camera, Scene};
 /// Images in whichever precision they were rendered in.
 #[derive(Clone, Debug, PartialEq)]
 pub enum AnyImages {
+    /// From f32 and adaptive renders.
     F32(Images<f32>),
+    /// From f64 renders.
     F64(Images<f64>),
 }
 

@@ -32,8 +32,11 @@ impl Device {
 /// f32's cost; docs/robustness.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Precision {
+    /// Single precision throughout.
     F32,
+    /// Double precision throughout (on GPUs with `SHADER_F64`).
     F64,
+    /// Robust f32, the uncertain pixels or rays cast again in f64 (the robust set only).
     Adaptive,
 }
 

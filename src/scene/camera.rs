@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 /// Perspective (rays from the eye) or orthographic (parallel rays from the image plane).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Projection {
+    /// Rays from the eye.
     Perspective,
+    /// Parallel rays from the image plane.
     Orthographic,
 }
 
@@ -18,18 +20,31 @@ pub enum Projection {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lens {
     /// The course's: the image plane's size in scene units, whatever the resolution.
-    Size { width: f64, height: f64 },
+    Size {
+        /// Width in scene units.
+        width: f64,
+        /// Height in scene units.
+        height: f64,
+    },
     /// A vertical field of view in degrees (in (0, 180)); the width follows the resolution's
     /// aspect ratio, so pixels stay square at any `--size`.
-    Fov { degrees: f64 },
+    Fov {
+        /// The vertical field of view.
+        degrees: f64,
+    },
     /// Pixel intrinsics (OpenCV's convention: pixel (column j, row i) has its centre at
     /// (j, i)) for an image of `resolution` pixels. Another resolution keeps the same image
     /// plane, with the intrinsics scaled to its pixels.
     Intrinsics {
+        /// Focal length in pixels, horizontally.
         fx: f64,
+        /// Focal length in pixels, vertically.
         fy: f64,
+        /// Principal point, column.
         cx: f64,
+        /// Principal point, row.
         cy: f64,
+        /// The image size the intrinsics are for.
         resolution: [u32; 2],
     },
 }
@@ -37,7 +52,9 @@ pub enum Lens {
 /// The validated camera.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
+    /// Perspective or orthographic.
     pub projection: Projection,
+    /// The eye's position.
     pub eye: DVec3,
     /// The viewing direction (not a point).
     pub look: DVec3,
@@ -46,6 +63,7 @@ pub struct Camera {
     /// The distance from the eye to the image plane, where rays have t = 1: nothing nearer is
     /// drawn (the course's `d`; a field-of-view or intrinsics camera's `near`).
     pub focal_length: f64,
+    /// How the image plane's extent is given.
     pub lens: Lens,
     /// Pixels `[nx, ny]`.
     pub resolution: [u32; 2],
@@ -56,7 +74,9 @@ pub struct Camera {
 /// The image plane at the camera's resolution, in scene units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImagePlane {
+    /// Width in scene units.
     pub width: f64,
+    /// Height in scene units.
     pub height: f64,
     /// Where the image's centre is on the plane, from the point straight ahead of the eye,
     /// along the frame's right and up vectors: zero but for intrinsics whose principal point
@@ -180,8 +200,11 @@ impl Camera {
 /// replace those of the scene's camera or of a mesh's default view.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraOverrides {
+    /// The eye's position.
     pub eye: Option<DVec3>,
+    /// The point looked at.
     pub look_at: Option<DVec3>,
+    /// The up direction.
     pub up: Option<DVec3>,
     /// Vertical field of view, degrees.
     pub fov: Option<f64>,

@@ -36,21 +36,30 @@ pub type Triangle = [Vec3<f64>; 3];
 /// A scene object. Its id is its index in [`Scene::objects`]; a soup is one object.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Object {
+    /// A sphere.
     Sphere {
+        /// Its centre.
         center: Vec3<f64>,
+        /// Its radius, positive.
         radius: f64,
     },
-    /// `normal` is unit length (normalised on load).
+    /// A plane.
     Plane {
+        /// A point on it.
         point: Vec3<f64>,
+        /// Its normal, unit length (normalised on load).
         normal: Vec3<f64>,
     },
+    /// A single triangle.
     Triangle {
+        /// Its corners, whose order gives its normal.
         corners: Triangle,
     },
     /// A triangle mesh loaded from `path`.
     Soup {
+        /// The mesh file, as the scene names it (`<memory>` for one given in code).
         path: PathBuf,
+        /// Its triangles.
         triangles: Vec<Triangle>,
     },
 }
@@ -58,7 +67,9 @@ pub enum Object {
 /// A validated scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
+    /// The camera that renders it.
     pub camera: Camera,
+    /// The objects, their ids their indices.
     pub objects: Vec<Object>,
     /// Materials and lights, as the course's ray-tracing scenes give them: validated and kept,
     /// but the ray caster renders geometry only (ids, distances, normals).
@@ -69,12 +80,17 @@ pub struct Scene {
 /// coefficients, each component finite and at least 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// The name objects refer to it by.
     pub name: String,
-    /// Ambient, diffuse, specular and mirror coefficients.
+    /// Ambient coefficients.
     pub ka: Vec3<f64>,
+    /// Diffuse coefficients.
     pub kd: Vec3<f64>,
+    /// Specular coefficients.
     pub ks: Vec3<f64>,
+    /// Mirror coefficients.
     pub km: Vec3<f64>,
+    /// The Blinn-Phong exponent.
     pub phong_exponent: f64,
 }
 
@@ -83,11 +99,16 @@ pub struct Material {
 pub enum Light {
     /// Light arriving along `direction` (non-zero) from infinitely far.
     Directional {
+        /// The direction the light travels in.
         direction: Vec3<f64>,
+        /// Its RGB intensity.
         color: Vec3<f64>,
     },
+    /// Light from a point.
     Point {
+        /// Where the light is.
         position: Vec3<f64>,
+        /// Its RGB intensity.
         color: Vec3<f64>,
     },
 }
@@ -95,7 +116,9 @@ pub enum Light {
 /// The materials and lights of a scene, and each object's material.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Lighting {
+    /// The materials, in the file's order.
     pub materials: Vec<Material>,
+    /// The lights.
     pub lights: Vec<Light>,
     /// Per object of [`Scene::objects`], the index in `materials` of the material it names.
     pub object_materials: Vec<Option<usize>>,
