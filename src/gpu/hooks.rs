@@ -2,7 +2,7 @@
 //! (`shaders/hooks.wgsl` declares `ShadeHit`), called by the kernel once per pixel to colour
 //! `color.png` (`raycast render --shader FILE`; `raycast check-shader FILE` checks only).
 //!
-//! [`check`] runs before any pipeline is made, in this order:
+//! [`ShadeHook::check`] runs before any pipeline is made, in this order:
 //! 1. naga parses and validates the user's text on its own, with the `ShadeHit` prelude
 //!    appended after it (WGSL allows use before declaration at module scope), so the lines and
 //!    columns naga reports are the user's;
