@@ -89,37 +89,21 @@ impl Error {
     /// (`--precision`). It renames the first word of [`Error::Argument::option`] and every
     /// name written in backticks in an argument's or a device's message, or in a shader
     /// error's hint (its message quotes code).
-    pub fn spelled(self, spelling: &dyn Fn(&str) -> Option<String>) -> Error {
-        let text = |t: String| respell(&t, spelling);
-        match self {
+    pub fn spelled(mut self, spelling: &dyn Fn(&str) -> Option<String>) -> Error {
+        let text = |t: &mut String| *t = respell(t, spelling);
+        match &mut self {
             Error::Argument { option, message } => {
-                let (name, rest) = option.split_once(' ').unwrap_or((&option, ""));
-                let option = match (spelling(name), rest) {
-                    (Some(flag), "") => flag,
-                    (Some(flag), rest) => format!("{flag} {rest}"),
-                    (None, _) => option.clone(),
-                };
-                let message = text(message);
-                Error::Argument { option, message }
+                let (name, rest) = option.split_once(' ').unwrap_or((option, ""));
+                if let Some(flag) = spelling(name) {
+                    *option = [flag.as_str(), rest].join(if rest.is_empty() { "" } else { " " });
+                }
+                text(message);
             }
-            Error::Device(message) => Error::Device(text(message)),
-            Error::Shader {
-                file,
-                line,
-                column,
-                message,
-                hint,
-                excerpt,
-            } => Error::Shader {
-                file,
-                line,
-                column,
-                message,
-                hint: text(hint),
-                excerpt,
-            },
-            other => other,
+            Error::Device(message) => text(message),
+            Error::Shader { hint, .. } => text(hint),
+            _ => {}
         }
+        self
     }
 
     /// An I/O error on `path`.

@@ -176,18 +176,11 @@ pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
 }
 
 /// `error`, a shader error, with the library's advice `hint` after its message.
-pub(crate) fn with_hint(error: Error, hint: String) -> Error {
-    match error {
-        Error::Shader { hint: _, file, line, column, message, excerpt } => Error::Shader {
-            file,
-            line,
-            column,
-            message,
-            hint,
-            excerpt,
-        },
-        other => other,
+pub(crate) fn with_hint(mut error: Error, advice: String) -> Error {
+    if let Error::Shader { hint, .. } = &mut error {
+        *hint = advice;
     }
+    error
 }
 
 /// An [`Error::Shader`] at byte `offset` of `source` (clamped to it), underlining `len` bytes.
