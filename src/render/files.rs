@@ -14,6 +14,7 @@ use std::time::Duration;
 
 use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
 use super::{Progress, adaptive, check_kernels, render_streamed, supersample, timed};
+use super::mode::default_precision;
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
@@ -144,15 +145,8 @@ impl Spec {
             || self.emit_shader.is_some()
             || self.band_rows.is_some()
             || (huge && self.spp.is_none());
-        let precision = match device {
-            Device::Cpu => device.default_precision(),
-            Device::Gpu if single_kernel || self.mode.algorithm != Algorithm::Robust => {
-                Precision::F32
-            }
-            Device::Gpu => Precision::Adaptive,
-        };
         Mode {
-            precision,
+            precision: default_precision(device, self.mode.algorithm, single_kernel),
             ..self.mode
         }
     }

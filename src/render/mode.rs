@@ -27,6 +27,18 @@ impl Device {
     }
 }
 
+/// The precision a GPU or CPU render takes when none is asked for: on the GPU adaptive
+/// precision (f64's hits and ids at close to f32's cost) where it can run, which is with the
+/// robust set and not where the render needs a `single_kernel` (a hook, a kernel file, bands),
+/// else f32; on the CPU f64.
+pub(crate) fn default_precision(device: Device, algorithm: Algorithm, single_kernel: bool) -> Precision {
+    match device {
+        Device::Gpu if single_kernel || algorithm != Algorithm::Robust => Precision::F32,
+        Device::Gpu => Precision::Adaptive,
+        Device::Cpu => device.default_precision(),
+    }
+}
+
 /// The precision of a render or a query: f32 or f64 throughout, or adaptive (robust f32, with
 /// the pixels or rays it cannot be sure of cast again in f64: f64's hits and ids at close to
 /// f32's cost; docs/robustness.md).

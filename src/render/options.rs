@@ -1,6 +1,7 @@
 //! The render entry of the public API: [`Gpu::render`] and [`Cpu::render`] take a scene and
 //! [`RenderOptions`], the same for both devices, and return its [`AnyImages`].
 
+use super::mode::default_precision;
 use super::{AnyImages, Device, Mode, Precision, Request, render_streamed, supersample};
 use crate::algorithm::Algorithm;
 use crate::error::Result;
@@ -45,7 +46,7 @@ pub struct RenderOptions {
     /// A complete kernel run instead of the assembled one (GPU, f32 or f64).
     pub kernel: Option<UserKernel>,
     /// Measure the GPU kernel's time ([`crate::Images::kernel_s`]) where the device has
-    /// timestamp queries.
+    /// timestamp queries (renders of one sample per pixel).
     pub timed: bool,
 }
 
@@ -67,22 +68,13 @@ impl Default for RenderOptions {
 impl RenderOptions {
     /// The mode these options render in on `device`, the default precision resolved.
     pub(crate) fn mode(&self, device: Device) -> Mode {
-        let default = match device {
-            Device::Cpu => Precision::F64,
-            Device::Gpu if self.adaptive_fits() => Precision::Adaptive,
-            Device::Gpu => Precision::F32,
-        };
+        let single_kernel = self.shade.is_some() || self.kernel.is_some();
         Mode {
             device,
-            precision: self.precision.unwrap_or(default),
+            precision: (self.precision)
+                .unwrap_or_else(|| default_precision(device, self.algorithm, single_kernel)),
             algorithm: self.algorithm,
         }
-    }
-
-    /// Whether adaptive precision can run these options: one kernel of the robust set, no
-    /// hook.
-    fn adaptive_fits(&self) -> bool {
-        self.algorithm == Algorithm::Robust && self.shade.is_none() && self.kernel.is_none()
     }
 
     fn request(&self) -> Request {
