@@ -1,0 +1,377 @@
+//! `raycast bench`: one JSON line per configuration with every key, consistent numbers, and
+//! the failure contract (exit 2, one stderr line) for a bad scene and `--runs 0`.
+
+use crate::common;
+
+use std::process::Output;
+
+use common::repo_path;
+use raycast::Algorithm;
+use raycast::prepare::bvh::Bvh;
+
+/// Every key of a `--json` line, in order.
+const KEYS: [&str; 29] = [
+    "scene",
+    "mode",
+    "accel",
+    "bvh",
+    "size",
+    "rays",
+    "hook",
+    "secondary_rays",
+    "triangles",
+    "spheres",
+    "planes",
+    "runs",
+    "load_s",
+    "build_s",
+    "compile_s",
+    "upload_s",
+    "trace_s",
+    "trace_gpu_s",
+    "mrays_per_s",
+    "mrays_per_s_wall",
+    "secondary_mrays_per_s",
+    "mrays_from",
+    "hit_fraction",
+    "peak_rss_mb",
+    "bytes_per_triangle",
+    "bvh_nodes",
+    "adapter",
+    "driver",
+    "cpu",
+];
+
+fn bench(args: &[&str]) -> Output {
+    common::raycast()
+        .arg("bench")
+        .args(args)
+        .output()
+        .expect("the raycast binary runs")
+}
+
+/// Checks the failure contract and returns the one stderr line.
+fn fails(args: &[&str]) -> String {
+    let out = bench(args);
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(out.status.code(), Some(2), "stderr:\n{stderr}");
+    assert!(out.stdout.is_empty(), "nothing on stdout on failure");
+    assert_eq!(stderr.lines().count(), 1, "one stderr line, got:\n{stderr}");
+    stderr
+}
+
+fn number(row: &serde_json::Value, key: &str) -> f64 {
+    row[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} is a number in {row}"))
+}
+
+#[test]
+fn json_lines_per_configuration_with_consistent_numbers() {
+    let scene_path = repo_path("scenes/course/bunny.json");
+    let scene_arg = scene_path.to_str().unwrap();
+    let out = bench(&[
+        scene_arg,
+        "--size",
+        "64x36",
+        "--runs",
+        "2",
+        "--json",
+        "--accel",
+        "bvh,brute-force",
+    ]);
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        out.status.success(),
+        "stderr:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect();
+    assert_eq!(rows.len(), 2, "one line per configuration:\n{stdout}");
+
+    let scene = raycast::Scene::load(&scene_path).unwrap();
+    let nodes = Bvh::build(&scene, Algorithm::Robust).nodes.len();
+    for (row, accel) in rows.iter().zip(["bvh", "brute-force"]) {
+        let keys: Vec<&str> = row
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
+        assert_eq!(keys, KEYS, "keys in order");
+        assert_eq!(row["scene"], scene_arg);
+        assert_eq!(row["mode"], "gpu:f32:robust");
+        assert_eq!(row["accel"], accel);
+        assert_eq!(row["bvh"], accel == "bvh");
+        assert_eq!(row["size"], serde_json::json!([64, 36]));
+        assert_eq!(row["rays"], 64 * 36);
+        assert_eq!(row["runs"], 2);
+        assert_eq!(row["triangles"], 1000);
+        assert_eq!(row["spheres"], 0);
+        for key in ["load_s", "build_s", "compile_s", "upload_s", "trace_s"] {
+            assert!(number(row, key) > 0.0, "{key} > 0 in {row}");
+        }
+        // lavapipe has timestamp queries.
+        let gpu_s = number(row, "trace_gpu_s");
+        assert!(gpu_s > 0.0);
+        assert_eq!(row["mrays_from"], "gpu_timestamps");
+        let rays = (64 * 36) as f64;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b;
+        assert!(close(number(row, "mrays_per_s"), rays / gpu_s * 1e-6));
+        assert!(close(
+            number(row, "mrays_per_s_wall"),
+            rays / number(row, "trace_s") * 1e-6
+        ));
+        let hit = number(row, "hit_fraction");
+        assert!(hit > 0.0 && hit <= 1.0);
+        assert!(number(row, "peak_rss_mb") > 1.0);
+        assert!(!row["adapter"].as_str().unwrap().is_empty());
+        assert!(!row["driver"].as_str().unwrap().is_empty());
+        for key in ["hook", "secondary_rays", "secondary_mrays_per_s"] {
+            assert!(row[key].is_null(), "no hook, no {key}: {row}");
+        }
+
+        // The documented formula: (T * 40 + 4 * (S + P + T) + Bvh::bytes()) / T in f32 on the GPU.
+        let (t, s, p) = (1000.0, 0.0, number(row, "planes"));
+        let bvh_bytes = if accel == "bvh" {
+            assert_eq!(row["bvh_nodes"], nodes);
+            64.0 * nodes as f64 + 4.0 * (s + t)
+        } else {
+            assert!(row["bvh_nodes"].is_null());
+            0.0
+        };
+        let expected = (t * 40.0 + 4.0 * (s + p + t) + bvh_bytes) / t;
+        assert!(close(number(row, "bytes_per_triangle"), expected), "{row}");
+    }
+    let load: Vec<f64> = rows.iter().map(|r| number(r, "load_s")).collect();
+    assert_eq!(load[0], load[1], "the scene is loaded once");
+}
+
+/// With the course's ray tracer every frame casts secondary rays, reported over the frame's
+/// time; the GPU and the CPU mirror count the same rays.
+#[test]
+fn a_lit_frame_reports_its_secondary_rays() {
+    let scene = repo_path("scenes/ray-tracing/sphere-packing.json");
+    let out = bench(&[
+        scene.to_str().unwrap(),
+        "--size",
+        "64x36",
+        "--runs",
+        "1",
+        "--json",
+        "--lit",
+        "--mode",
+        "gpu:f32,cpu:f32",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let rows: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        assert_eq!(row["hook"], "shaders/examples/raytrace.wgsl", "{row}");
+        let secondary = number(row, "secondary_rays");
+        // At least a shadow ray to each of its two lights from every pixel: the plane fills
+        // the background.
+        assert!(secondary >= 2.0 * 64.0 * 36.0, "{row}");
+        let seconds = match row["mrays_from"].as_str() {
+            Some("gpu_timestamps") => number(row, "trace_gpu_s"),
+            _ => number(row, "trace_s"),
+        };
+        let expected = secondary / seconds * 1e-6;
+        let got = number(row, "secondary_mrays_per_s");
+        assert!((got - expected).abs() <= 1e-9 * expected, "{row}");
+    }
+    let counts: Vec<f64> = rows.iter().map(|r| number(r, "secondary_rays")).collect();
+    assert!(
+        (counts[0] - counts[1]).abs() <= 1e-4 * counts[1],
+        "{counts:?}"
+    );
+}
+
+#[test]
+fn a_cpu_mode_has_no_upload_nor_gpu_time() {
+    let scene = repo_path("scenes/course/sphere-packing.json");
+    let out = bench(&[
+        scene.to_str().unwrap(),
+        "--size",
+        "32x18",
+        "--runs",
+        "1",
+        "--json",
+        "--mode",
+        "cpu:f64",
+    ]);
+    assert!(out.status.success());
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let row: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(row["mode"], "cpu:f64:robust");
+    for key in ["upload_s", "compile_s", "trace_gpu_s", "adapter", "driver"] {
+        assert!(row[key].is_null(), "{key} is null on the CPU: {row}");
+    }
+    assert_eq!(row["mrays_from"], "wall");
+    assert_eq!(row["mrays_per_s"], row["mrays_per_s_wall"]);
+    assert!(number(&row, "trace_s") > 0.0);
+}
+
+#[test]
+fn the_table_names_the_adapter_and_each_configuration() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let out = bench(&[scene.to_str().unwrap(), "--size", "32x18", "--runs", "1"]);
+    assert!(out.status.success());
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.starts_with("adapter: "), "{stdout}");
+    assert!(stdout.contains(", driver: "), "{stdout}");
+    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| gpu:")).collect();
+    assert_eq!(rows.len(), 1, "{stdout}");
+    assert!(rows[0].contains("auto (bvh)"), "{stdout}");
+}
+
+#[test]
+fn a_bad_scene_path_exits_2_with_one_line() {
+    let line = fails(&["no/such/scene.json", "--json"]);
+    assert!(line.starts_with("error: "), "{line}");
+    assert!(line.contains("no/such/scene.json"), "{line}");
+}
+
+#[test]
+fn zero_runs_are_rejected() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let line = fails(&[scene.to_str().unwrap(), "--runs", "0"]);
+    assert!(line.contains("--runs"), "{line}");
+}
+
+#[test]
+fn adaptive_precision_is_rejected() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let line = fails(&[scene.to_str().unwrap(), "--mode", "gpu:adaptive"]);
+    assert!(line.starts_with("error: --mode: "), "{line}");
+}
+
+/// `--rays N`: N incoherent rays cast as a list, on the GPU and the CPU, each row's hits those
+/// of the same rays cast here.
+#[test]
+fn incoherent_rays_are_cast_as_a_list() {
+    let path = repo_path("scenes/course/bunny.json");
+    let out = bench(&[
+        path.to_str().unwrap(),
+        "--rays",
+        "5000",
+        "--runs",
+        "1",
+        "--json",
+        "--mode",
+        "gpu:f32,cpu:f64",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let scene = raycast::Scene::load(&path).unwrap();
+    let rays = raycast_cli::study::bench::incoherent_rays(&scene, 5000);
+    let lists = common::Target::from_scene(scene);
+    let hits = lists
+        .cast(None, "cpu:f64".parse().unwrap(), &rays[..])
+        .unwrap();
+    let hit = hits.id().iter().filter(|&&id| id >= 0).count() as f64 / 5000.0;
+    assert!(hit > 0.1, "the rays see the room: {hit}");
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        assert_eq!(row["rays"], 5000);
+        assert_eq!(row["size"], serde_json::json!([5000, 1]));
+        assert_eq!(row["mrays_from"], "wall");
+        assert!(row["trace_gpu_s"].is_null());
+        assert_eq!(number(row, "hit_fraction"), hit, "{}", row["mode"]);
+    }
+}
+
+#[test]
+fn ray_lists_refuse_hooks_accelerations_and_counts_out_of_range() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let scene = scene.to_str().unwrap();
+    for extra in [
+        &["--rays", "10", "--lit"][..],
+        &["--rays", "10", "--accel", "bvh"][..],
+    ] {
+        let line = fails(&[&[scene][..], extra].concat());
+        assert!(line.starts_with("error: --rays: "), "{extra:?}: {line}");
+    }
+    for n in ["0", "-3", "67108865"] {
+        let line = fails(&[scene, "--rays", n]);
+        assert!(
+            line.starts_with(&format!("error: invalid value '{n}' for '--rays")),
+            "{line}"
+        );
+    }
+}
+
+/// bench renders frames whole: a size beyond what a render would stream in bands is refused
+/// before anything is printed, rather than run out of memory.
+#[test]
+fn frames_too_large_to_render_whole_are_refused() {
+    let scene = repo_path("scenes/course/bunny.json");
+    let line = fails(&[scene.to_str().unwrap(), "--size", "8192x4097"]);
+    assert!(line.starts_with("error: --size: 8192x4097: "), "{line}");
+}
+
+/// `raycast workload`: the peers' torus (its size by `--triangles`) and spheres as scene files
+/// that load, with the peers' camera; an unknown name writes nothing.
+#[test]
+fn workloads_are_scene_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let workload = |args: &[&str]| {
+        common::raycast()
+            .arg("workload")
+            .args(args)
+            .arg("-o")
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    for args in [
+        &["torus", "--triangles", "5000", "--size", "64x36"][..],
+        &["spheres"],
+        &["lit-bunny"],
+    ] {
+        let out = workload(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let torus = raycast::Scene::load(&dir.path().join("torus.json")).unwrap();
+    let [nu, nv] = raycast_cli::study::workload::torus_grid(5000);
+    assert_eq!(torus.triangle_count(), 2 * nu * nv);
+    assert_eq!(torus.camera.resolution, [64, 36]);
+    let spheres = raycast::Scene::load(&dir.path().join("spheres.json")).unwrap();
+    assert_eq!(spheres.primitive_counts(), [100, 0, 0]);
+    assert_eq!(spheres.camera.resolution, [1920, 1080]);
+    let lit = raycast::Scene::load(&dir.path().join("bunny.json")).unwrap();
+    assert_eq!(
+        lit,
+        raycast::Scene::load(&repo_path("scenes/ray-tracing/bunny.json")).unwrap()
+    );
+
+    let empty = tempfile::tempdir().unwrap();
+    let out = common::raycast()
+        .args(["workload", "cube", "-o"])
+        .arg(empty.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
+    assert_eq!(common::file_names(empty.path()), Vec::<String>::new());
+}

@@ -1,0 +1,80 @@
+//! scripts/gpu-check.sh end to end on lavapipe, as on a GPU machine without a Rust toolchain:
+//! the script packs itself, the stripped binary and the Vulkan loader into an empty folder,
+//! and runs from there (`--quick` sizes), writing report.md and report.json.
+
+use crate::common;
+
+use std::process::Command;
+
+#[test]
+fn gpu_check_runs_from_a_packed_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let kit = dir.path().join("kit");
+    let pack = Command::new("bash")
+        .arg(common::repo_path("scripts/gpu-check.sh"))
+        .args(["--pack"])
+        .arg(&kit)
+        .arg(env!("CARGO_BIN_EXE_raycast"))
+        .output()
+        .unwrap();
+    assert!(
+        pack.status.success(),
+        "{}",
+        String::from_utf8_lossy(&pack.stderr)
+    );
+    assert_eq!(common::file_names(&kit), ["gpu-check.sh", "lib", "raycast"]);
+    let size = |p: &std::path::Path| std::fs::metadata(p).unwrap().len();
+    assert!(size(&kit.join("raycast")) < size(env!("CARGO_BIN_EXE_raycast").as_ref()));
+
+    let out = dir.path().join("report");
+    let run = Command::new(kit.join("gpu-check.sh"))
+        .args(["--quick", "--out"])
+        .arg(&out)
+        .arg(kit.join("raycast"))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains(" 0 failed, ") && stdout.contains("failed steps: none"),
+        "{stdout}"
+    );
+
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    for (step, result) in report["steps"].as_object().unwrap() {
+        assert_eq!(result["exit"], 0, "{step}");
+    }
+    let bench = &report["bench"];
+    let torus = bench["torus"].as_array().unwrap();
+    let modes: Vec<&str> = torus.iter().map(|r| r["mode"].as_str().unwrap()).collect();
+    assert_eq!(modes, ["gpu:f32:robust", "gpu:f64:robust"]);
+    for r in torus {
+        assert_eq!(r["triangles"], 518_400);
+        assert_eq!(r["rays"], 640 * 360);
+        // The peers' torus, seen by their camera, covers 34.5% of the picture.
+        let hit = r["hit_fraction"].as_f64().unwrap();
+        assert!((hit - 0.345).abs() < 0.002, "{hit}");
+    }
+    assert_eq!(bench["big"][0]["triangles"], 200_704);
+    assert_eq!(bench["spheres"][0]["spheres"], 100);
+    assert_eq!(bench["incoherent"][0]["rays"], 100_000);
+    assert!(bench["lit"][0]["secondary_rays"].as_u64().unwrap() > 0);
+    for cost in ["f64_over_f32_kernel", "adaptive_over_f32_render"] {
+        assert!(report["cost"][cost].as_f64().unwrap() > 0.0, "{cost}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for part in [
+        "## raycast info",
+        "## raycast selftest",
+        "## Benchmarks",
+        "lit course bunny",
+    ] {
+        assert!(md.contains(part), "report.md lacks {part}");
+    }
+}

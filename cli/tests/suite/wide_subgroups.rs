@@ -1,0 +1,182 @@
+//! The packet traversal as GPUs with subgroups wider than 8 run it. llvmpipe's subgroups are 8
+//! invocations, so every other test runs the `EIGHT_LANES` kernels (butterfly votes, several
+//! rays a lane); NVIDIA's are 32, AMD's 32 or 64, Intel's up to 32, and their kernels vote by
+//! `subgroupAny` and `subgroupAdd` and keep a copy of the packet's stack in each run of 8
+//! lanes. With `LP_NATIVE_VECTOR_WIDTH=512` lavapipe's subgroups are 16 invocations, so this
+//! test runs itself again in a child process with it set (Mesa reads it when it starts) and
+//! checks there that those kernels give the CPU reference's answers: camera renders bit for bit
+//! in f32, ids in f64 and adaptive precision, ray lists from one origin and from many, and a
+//! hook that casts rays against its CPU mirror. Its
+//! device is opened as on a discrete GPU, without host-mapped buffers: rays, images and hits go
+//! through staging buffers.
+
+use crate::common;
+
+use std::process::Command;
+use std::sync::OnceLock;
+
+use common::Target;
+use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::cpu;
+use raycast::gpu::shader::Variant;
+use raycast::math::Float;
+use raycast::prepare::bvh::Search;
+use raycast::rays::{Hits, RayList, one_origin};
+use raycast::scene::Scene;
+
+use common::assert_same_bits;
+
+/// Set in the child process, which does the checking.
+const WIDTH_VAR: &str = "LP_NATIVE_VECTOR_WIDTH";
+const TEST: &str = "sixteen_lane_subgroups_give_the_cpu_answers";
+
+#[test]
+fn sixteen_lane_subgroups_give_the_cpu_answers() {
+    if std::env::var_os(WIDTH_VAR).is_none() {
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let status = Command::new(exe)
+            .args(["--exact", TEST, "--nocapture", "--test-threads", "1"])
+            .env(WIDTH_VAR, "512")
+            .env("NODEVICE_SELECT", "1")
+            .status()
+            .expect("the test binary runs again");
+        assert!(status.success(), "with 16-lane subgroups: {status}");
+        return;
+    }
+    let gpu = discrete_like();
+    let info = gpu.info();
+    assert_eq!(
+        (info.subgroup_min_size, info.subgroup_max_size),
+        (16, 16),
+        "{WIDTH_VAR}=512 gives lavapipe subgroups of 16"
+    );
+    let packets = gpu.variant(Float::F32, Robust);
+    assert!(packets.packets && !packets.eight_lanes && packets.lane_rays() == 1);
+    assert!(!gpu.host_memory(), "staging buffers, as on a discrete GPU");
+    for (name, scene) in scenes() {
+        for algorithm in [Robust, Textbook] {
+            camera_renders_agree(&name, &scene, algorithm);
+        }
+        let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
+        let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
+        assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
+    }
+    for seed in [2, 3] {
+        ray_lists_agree(seed);
+    }
+    lit_renders_agree();
+}
+
+/// lavapipe opened with the features raycast asks of any GPU, not the host-mapped buffers it
+/// asks of a CPU adapter.
+fn discrete_like() -> &'static raycast::gpu::Gpu {
+    static GPU: OnceLock<raycast::gpu::Gpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        let adapter = common::gpu().adapter.clone();
+        let descriptor = wgpu::DeviceDescriptor {
+            required_features: adapter.features() & raycast::gpu::OPTIONAL_FEATURES,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+            .expect("the adapter opens a second device");
+        raycast::gpu::Gpu::from_parts(adapter, device, queue)
+    })
+}
+
+/// Random scenes of spheres, triangles and planes, the course bunny, and the extreme scenes.
+fn scenes() -> Vec<(String, Scene)> {
+    let mut s: Vec<(String, Scene)> = (0..3)
+        .map(|seed| {
+            let name = format!("random-{seed}");
+            (name, common::random_scene(seed, [80, 60]))
+        })
+        .collect();
+    let mut bunny = common::course_scene("bunny");
+    bunny.camera.resolution = [160, 90];
+    s.push(("bunny".into(), bunny));
+    for (path, scene) in common::extreme_scenes() {
+        s.push((common::scene_name(&path), scene));
+    }
+    s
+}
+
+/// The GPU's packets and per-ray traversal give the CPU BVH's f32 render bit for bit, and the
+/// f64 BVH render the CPU's ids.
+fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
+    let gpu = discrete_like();
+    let variant = |precision, packets| Variant {
+        bvh: true,
+        packets,
+        ..gpu.scene_variant(scene, precision, algorithm)
+    };
+    let cpu32 = cpu::render_with::<f32>(scene, algorithm, Search::Bvh);
+    for packets in [true, false] {
+        let gpu32 = common::gpu_variant::<f32>(gpu, scene, variant(Float::F32, packets));
+        let what = format!("{name} {algorithm} f32, packets {packets}");
+        assert_same_bits(&gpu32.unwrap(), &cpu32, &what);
+    }
+    let gpu64 = common::gpu_variant::<f64>(gpu, scene, variant(Float::F64, true)).unwrap();
+    let cpu64 = cpu::render_with::<f64>(scene, algorithm, Search::Bvh);
+    assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
+}
+
+/// The course's ray tracer (a hook that casts rays, its kernel per ray, its colours and ray
+/// count through staging buffers) against its CPU mirror, in f32 and over several dispatches:
+/// the same colours but where `pow` lands a pixel on a level's edge, the same rays.
+fn lit_renders_agree() {
+    let gpu = discrete_like();
+    let hook = raycast::ShadeHook::raytrace().unwrap();
+    let path = common::repo_path("scenes/ray-tracing/bunny.json");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.camera.resolution = [160, 90];
+    let variant = gpu
+        .scene_variant(&scene, Float::F32, Robust)
+        .with_shade(hook.key, hook.traces)
+        .with_outputs(raycast::images::Outputs::ALL);
+    let lit = common::gpu_tiles::<f32>(gpu, &scene, variant, 16).unwrap();
+    let prepared = raycast::prepare::Prepared::<f32>::new(&scene, Robust, Search::Auto);
+    let (colours, rays) = cpu::raytrace::render(&prepared);
+    let e = raycast_cli::compare::color_error(lit.color.as_deref().unwrap(), &colours);
+    assert!(e.exact >= 0.999 && e.max <= 1, "lit bunny: {e:?}");
+    let gpu_rays = lit.hook_rays.unwrap_or_else(|| panic!("a count"));
+    assert!(
+        gpu_rays.abs_diff(rays) as f64 <= 1e-4 * rays as f64,
+        "{gpu_rays} against {rays}"
+    );
+}
+
+/// A pinhole camera's rays (one origin: `LIST_ORIGIN`), the same rays each moved a little along
+/// itself (many origins), both as an image's rows and as a plain list: in packets on the GPU,
+/// the CPU's hits bit for bit in f32, and its f64 ids in f64 and adaptive precision.
+fn ray_lists_agree(seed: u64) {
+    let gpu = discrete_like();
+    let scene = common::random_scene(seed, [4, 4]);
+    let eye = scene.camera.eye.to_array();
+    let scene = Target::from_scene(scene);
+    let w = 90;
+    let pinhole = common::pinhole_rays(eye, w, 50, 0.2);
+    let along = common::moved_along(&pinhole, 1e-3);
+    let f32_mode = "gpu:f32".parse().unwrap();
+    let cpu_mode = "cpu:f32".parse().unwrap();
+    let exact_mode = "cpu:f64".parse().unwrap();
+    for (origins, rays) in [("one origin", &pinhole), ("many origins", &along)] {
+        assert_eq!(one_origin(RayList::from(rays)), rays == &pinhole);
+        let cpu = common::f32_hits(scene.cast(None, cpu_mode, rays).unwrap());
+        let exact = scene.cast(None, exact_mode, rays).unwrap();
+        for (way, list) in [("image", RayList::image(rays, w)), ("list", rays.into())] {
+            let label = format!("seed {seed}, {origins}, {way}");
+            let on_gpu = common::f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
+            let hit = on_gpu.id.iter().filter(|&&id| id >= 0).count();
+            assert!(hit > 100, "{hit} rays hit ({label})");
+            for k in 0..rays.len() {
+                let get = |h: &Hits<f32>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
+                assert_eq!(get(&on_gpu), get(&cpu), "ray {k}, {label}");
+            }
+            for mode in ["gpu:f64", "gpu:adaptive"] {
+                let hits = scene.cast(Some(gpu), mode.parse().unwrap(), list).unwrap();
+                assert_eq!(hits.id(), exact.id(), "{label}, {mode} ids");
+            }
+        }
+    }
+}

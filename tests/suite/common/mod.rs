@@ -1,0 +1,386 @@
+//! Shared test helpers: one GPU device per test binary (tests/suite/ and cli/tests/suite/), course data paths, picture diffs.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use raycast::Algorithm;
+use raycast::gpu::Gpu;
+use raycast::gpu::hooks::ShadeHook;
+use raycast::gpu::shader::Variant;
+use raycast::images::{Images, Outputs};
+use raycast::kernel::layout::GpuReal;
+use raycast::scene::Scene;
+
+/// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
+/// loudly: they are never skipped.
+pub fn gpu() -> &'static Gpu {
+    static GPU: OnceLock<Gpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        if std::env::var_os("NODEVICE_SELECT").is_none() {
+            // SAFETY: tests that touch the environment only do it here, under the OnceLock,
+            // before the Vulkan loader starts; Mesa reads it once at instance creation.
+            unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+        }
+        Gpu::new()
+            .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter (lavapipe is enough): {e}"))
+    })
+}
+
+/// `scene` rendered on `gpu` by the kernel `variant` (the scene prepared for it).
+pub fn gpu_variant<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+) -> raycast::Result<Images<R>> {
+    raycast::render::on_gpu::<R>(gpu, scene, variant, false).map(|(images, _)| images)
+}
+
+/// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
+pub fn gpu_scene<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+) -> raycast::Result<Images<R>> {
+    gpu_variant(
+        gpu,
+        scene,
+        gpu.scene_variant(scene, R::PRECISION, algorithm),
+    )
+}
+
+/// [`gpu_scene`] computing only `outputs`, with the shade hook `shade` for the colour.
+pub fn gpu_outputs<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    outputs: Outputs,
+    shade: Option<&ShadeHook>,
+) -> raycast::Result<Images<R>> {
+    let mut variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
+    if let Some(hook) = shade {
+        variant = variant.with_shade(hook.key, hook.traces);
+    }
+    gpu_variant(gpu, scene, variant.with_outputs(outputs))
+}
+
+/// [`gpu_variant`] in dispatches of at most `max_rows` image rows.
+pub fn gpu_tiles<R: GpuReal>(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    max_rows: u32,
+) -> raycast::Result<Images<R>> {
+    let prepared = raycast::gpu::prepare::<R>(scene, &variant)?;
+    let job = raycast::gpu::Job::new(variant).rows(max_rows);
+    raycast::gpu::run(gpu, &prepared, job).map(|r| r.images)
+}
+
+/// The names of the entries of `dir`, sorted.
+pub fn file_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    names
+}
+
+/// The repository's root: the library's folder, above the command line's (cli/).
+pub fn repo_root() -> &'static Path {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    match env!("CARGO_PKG_NAME") {
+        "raycast-cli" => manifest.parent().expect("cli/ is in the repository"),
+        _ => manifest,
+    }
+}
+
+pub fn repo_path(relative: &str) -> PathBuf {
+    repo_root().join(relative)
+}
+
+/// The `raycast` command, run in the repository's root (the command line's tests only).
+#[allow(dead_code)]
+pub fn raycast() -> std::process::Command {
+    let Some(exe) = option_env!("CARGO_BIN_EXE_raycast") else {
+        panic!("only the command line's tests (cli/tests) run the command");
+    };
+    let mut command = std::process::Command::new(exe);
+    command.current_dir(repo_root());
+    command
+}
+
+// The self-test's seeded scenes and rays, shared with these tests.
+#[allow(dead_code)]
+#[path = "../../../cli/src/study/selftest/scenes.rs"]
+mod selftest_scenes;
+#[allow(unused_imports)]
+pub use selftest_scenes::COURSE_SCENES;
+
+pub fn course_scene(name: &str) -> raycast::Scene {
+    raycast::Scene::load(&repo_path(&format!("scenes/course/{name}.json"))).unwrap()
+}
+
+/// A course reference render as raw 8-bit channels (RGB or grey, as stored).
+pub fn course_render(name: &str, kind: &str) -> Vec<u8> {
+    let path = repo_path(&format!("tests/data/course/{name}.{kind}.png"));
+    let img = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    match kind {
+        "depth" => img.into_luma8().into_raw(),
+        _ => img.into_rgb8().into_raw(),
+    }
+}
+
+/// How two 8-bit pictures of `channels` channels differ, per pixel.
+#[derive(Debug, Default)]
+pub struct PixelDiff {
+    pub pixels: usize,
+    /// Pixels with any channel different.
+    pub differing: usize,
+    /// Largest channel difference.
+    pub max_level: u8,
+}
+
+pub fn diff(a: &[u8], b: &[u8], channels: usize, mask: Option<&[bool]>) -> PixelDiff {
+    assert_eq!(a.len(), b.len());
+    let mut d = PixelDiff::default();
+    for (k, (pa, pb)) in a.chunks(channels).zip(b.chunks(channels)).enumerate() {
+        if mask.is_some_and(|m| !m[k]) {
+            continue;
+        }
+        d.pixels += 1;
+        let level = pa
+            .iter()
+            .zip(pb)
+            .map(|(x, y)| x.abs_diff(*y))
+            .max()
+            .unwrap();
+        if level > 0 {
+            d.differing += 1;
+        }
+        d.max_level = d.max_level.max(level);
+    }
+    d
+}
+
+/// Saves actual and expected pictures side by side under tests/failures/ (ignored by git)
+/// and returns the folder, so a failing comparison can be looked at.
+pub fn save_failure(
+    name: &str,
+    actual: &[u8],
+    expected: &[u8],
+    w: u32,
+    h: u32,
+    channels: usize,
+) -> PathBuf {
+    let dir = repo_path("tests/failures");
+    std::fs::create_dir_all(&dir).unwrap();
+    let color = if channels == 1 {
+        image::ExtendedColorType::L8
+    } else {
+        image::ExtendedColorType::Rgb8
+    };
+    let diff: Vec<u8> = actual
+        .iter()
+        .zip(expected)
+        .map(|(a, e)| if a == e { 0 } else { 255 })
+        .collect();
+    for (suffix, data) in [
+        ("actual", actual),
+        ("expected", expected),
+        ("diff", &diff[..]),
+    ] {
+        image::save_buffer(dir.join(format!("{name}.{suffix}.png")), data, w, h, color).unwrap();
+    }
+    dir
+}
+
+#[allow(unused_imports)]
+pub use selftest_scenes::{
+    Rng, incoherent_rays, moved_along, pinhole_rays, random_scene, sphere_mesh,
+};
+
+/// The scene files (`*.json`) of the repository folder `dir`, sorted by name.
+pub fn scene_files(dir: &str) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(repo_path(dir))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    paths
+}
+
+/// Every scene of `scenes/extremes/`, sorted by file name: (path, scene).
+pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
+    scene_files("scenes/extremes")
+        .into_iter()
+        .map(|p| {
+            let scene = raycast::Scene::load(&p).unwrap();
+            (p, scene)
+        })
+        .collect()
+}
+
+/// The file stem of `path`, as a scene name.
+pub fn scene_name(path: &Path) -> String {
+    path.file_stem().unwrap().to_string_lossy().into_owned()
+}
+
+/// Waits until `ready` holds while `child` runs (polling every 5 ms, at most a minute); fails
+/// if the child ends first.
+pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() -> bool) {
+    let start = std::time::Instant::now();
+    while !ready() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the render ended before {what}"
+        );
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "no {what} in a minute"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// Asserts that `dir` holds no file (or does not exist): a failed render wrote nothing.
+pub fn assert_no_files(dir: &Path) {
+    if dir.exists() {
+        assert_eq!(file_names(dir), Vec::<String>::new(), "{}", dir.display());
+    }
+}
+
+/// `raycast render` of the course bunny, arguments to follow.
+pub fn render_bunny() -> std::process::Command {
+    let mut command = raycast();
+    command
+        .arg("render")
+        .arg(repo_path("scenes/course/bunny.json"));
+    command
+}
+
+/// How many temporary files (`.NAME.tmp-PID`) `dir` holds (0 if it does not exist).
+pub fn temporary_files(dir: &Path) -> usize {
+    match dir.exists() {
+        true => file_names(dir)
+            .iter()
+            .filter(|n| n.contains(".tmp-"))
+            .count(),
+        false => 0,
+    }
+}
+
+/// The default adapter's device, opened with the limits `limits` makes of the adapter's.
+pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gpu::Gpu {
+    pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions::default())
+            .await
+            .unwrap();
+        let descriptor = wgpu::DeviceDescriptor {
+            required_limits: limits(adapter.limits()),
+            ..Default::default()
+        };
+        let (device, queue) = adapter.request_device(&descriptor).await.unwrap();
+        raycast::gpu::Gpu::from_parts(adapter, device, queue)
+    })
+}
+
+/// `a` and `b` hold the same bits: NaNs (robust f32 normals on the `range-*` scenes) included,
+/// which `==` would call different.
+pub fn assert_same_bits<T: raycast::math::Real>(
+    a: &raycast::images::Images<T>,
+    b: &raycast::images::Images<T>,
+    what: &str,
+) {
+    let bits = |i: &raycast::images::Images<T>| {
+        let distance: Vec<u64> = i.distance.iter().map(|d| d.to_f64().to_bits()).collect();
+        let normal: Vec<u64> = i
+            .normal
+            .iter()
+            .flatten()
+            .map(|c| c.to_f64().to_bits())
+            .collect();
+        (i.width, i.height, i.id.clone(), distance, normal)
+    };
+    assert!(bits(a) == bits(b), "{what}");
+}
+
+/// The hits of an f32 (or adaptive) cast.
+pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
+    match h {
+        raycast::rays::AnyHits::F32(h) => h,
+        raycast::rays::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
+    }
+}
+
+/// A geometry cast at in whichever mode a test names, committed afresh for each call
+/// (`raycast::query::commit_mode`).
+#[derive(Default)]
+pub struct Target {
+    pub geometry: raycast::Geometry,
+}
+
+impl Target {
+    pub fn new() -> Target {
+        Target::default()
+    }
+
+    pub fn from_scene(scene: Scene) -> Target {
+        Target {
+            geometry: raycast::Geometry::from_scene(&scene),
+        }
+    }
+
+    fn commit<'g>(
+        &self,
+        gpu: Option<&'g Gpu>,
+        mode: raycast::render::Mode,
+    ) -> raycast::Result<raycast::Accel<'g>> {
+        raycast::query::commit_mode(gpu, &self.geometry, mode)
+    }
+
+    pub fn cast<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+    ) -> raycast::Result<raycast::AnyHits> {
+        self.commit(gpu, mode)?.intersect(rays)
+    }
+
+    pub fn occluded<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+        t_near: f64,
+        t_far: f64,
+    ) -> raycast::Result<Vec<bool>> {
+        self.commit(gpu, mode)?.occluded(rays, t_near, t_far)
+    }
+
+    pub fn count<'a>(
+        &self,
+        gpu: Option<&Gpu>,
+        mode: raycast::render::Mode,
+        rays: impl Into<raycast::RayList<'a>>,
+    ) -> raycast::Result<Vec<u32>> {
+        self.commit(gpu, mode)?.count(rays)
+    }
+}
+
+impl std::ops::Deref for Target {
+    type Target = raycast::Geometry;
+    fn deref(&self) -> &raycast::Geometry {
+        &self.geometry
+    }
+}
+
+impl std::ops::DerefMut for Target {
+    fn deref_mut(&mut self) -> &mut raycast::Geometry {
+        &mut self.geometry
+    }
+}
