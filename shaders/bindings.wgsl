@@ -148,9 +148,8 @@ fn stored_ray(stored: StoredRay) -> Ray {
 // The BVH over spheres and triangles (src/prepare/bvh.rs): 64-byte nodes in chunks of
 // 2^CHUNK_BITS nodes like the triangles, bound as NODE_ELEMENTS elements a node. A packet's lane
 // l loads element l of a node it visits (visit_shared), as a vec2<u32>: one load a lane, where
-// llvmpipe runs each storage load of a per-lane offset as a loop over the lanes (two words
-// loaded a lane as two u32: the torus took 1.02x to 1.05x, the 100 spheres 1.06x to 1.09x the
-// time).
+// llvmpipe runs each storage load of a per-lane offset as a loop over the lanes, so two u32
+// would be two loops (docs/performance.md#why-packets-share-fetches-by-hand).
 // Elsewhere a vec4<u32> per lane: four loads a node.
 #if PACKETS
 alias NodeElement = vec2<u32>;

@@ -83,9 +83,9 @@ fn packet_tile_offset(local: u32) -> vec2<u32> {
 // What a packet kernel's invocation knows of itself. With EIGHT_LANES (llvmpipe) its index in
 // the workgroup is its subgroup's index and its lane: llvmpipe numbers the invocations of a
 // workgroup by a counter, derives local_invocation_id from it by 24 scalar integer divisions
-// by the workgroup's size per subgroup (Mesa 25.0), and local_invocation_index from that: with
-// them the 100 spheres took 1.04x to 1.08x, the torus 1.01x to 1.02x the time. Subgroups of
-// exactly 8 fill the 64 invocations 8 by 8, so the two give every invocation its own index.
+// by the workgroup's size per subgroup (Mesa 25.0), and local_invocation_index from that, all
+// of which this spares. Subgroups of exactly 8 fill the 64 invocations 8 by 8, so the two give
+// every invocation its own index.
 struct Invocation {
     @builtin(workgroup_id) group: vec3<u32>,
 #if EIGHT_LANES
@@ -133,9 +133,8 @@ fn write_ray(ray: Ray, hit: Hit, index: u32, write: bool) {
         return;
     }
     // Normal in xyz, t in w. A miss writes its id only (the host knows what a miss reads as):
-    // each store to a lane's own address is a loop of scalar stores on llvmpipe, and leaving
-    // out the miss's seven took the torus's list kernel from 0.288 to 0.284 s (and the id
-    // stored last 0.273 -> 0.272 s).
+    // each store to a lane's own address is a loop of scalar stores on llvmpipe, so a miss
+    // spares seven of them (docs/performance.md#specialization).
     var surface = vec4<real>(0.0);
     if (hit.object >= 0) {
         let details = hit_details(ray, hit);
@@ -161,7 +160,7 @@ struct ListEntry {
 
 // The entry of invocation `local` of (flat) workgroup `group` in an image's list (rows of
 // params.nx rays): each workgroup covers 8x8 rays in 4x2 tiles, as the camera's packets do
-// (on the torus 1.05-1.08x as fast as 8 rays of one row). An invocation beyond the image's
+// (closer rays than a row's 8, so fewer nodes to visit). An invocation beyond the image's
 // right edge is given the last ray of its row.
 fn grid_entry(group: u32, local: u32) -> ListEntry {
     let blocks = (params.nx + 7u) / 8u;
@@ -191,7 +190,7 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
     // One copy of the output code, as for the camera's rays (main below); each ray taken from
-    // `rays` rather than loaded again (0.97x the time on the torus).
+    // `rays` rather than loaded again, another loop of loads over the lanes.
     for (var r = 0u; r < LANE_RAYS; r++) {
         let entry = list_entry(invocation, groups, local_index(invocation) + 8u * r);
         write_ray(lane_ray(rays, r), lane_hit(hits, r), entry.slot, entry.exists);
@@ -252,7 +251,7 @@ fn main(
 #if PACKETS
 // One workgroup per 8x8 pixels, as below, numbered in one dimension: subgroups are then
 // consecutive invocations, which Vulkan does not promise for 2-D workgroups. Its 4x2 tiles
-// (packet_tile_offset) traced 1.07x as fast on the torus as one row of 8 pixels. Every
+// (packet_tile_offset) hold closer rays than a row of 8 pixels, so fewer nodes to visit. Every
 // invocation runs to the end, since its subgroup fetches nodes together: one beyond the image
 // casts the nearest pixel inside it and writes nothing.
 @compute @workgroup_size(64)
@@ -273,9 +272,8 @@ fn main(invocation: Invocation) {
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
     // The outputs of the lane's rays in a loop, so that the kernel holds one copy of their
-    // code (normals, shading hooks) rather than one per ray: with eight rays a lane written
-    // out a cold f32 render of the bunny at 1920x1080 took 5.0 to 6.5 s to compile, with the
-    // loop 3.2 to 3.7 s, and the kernels as long to run (docs/performance.md).
+    // code (normals, shading hooks) rather than one per ray: eight copies took LLVM far longer
+    // to compile and ran no faster (docs/performance.md#eight-rays-a-lane).
     for (var r = 0u; r < LANE_RAYS; r++) {
         let pixel = packet_pixel(invocation, local_index(invocation) + 8u * r);
         write_pixel(pixel_ray(pixel.i, pixel.j), lane_hit(hits, r), pixel.i, pixel.j, pixel.index, pixel.inside);

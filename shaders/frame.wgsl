@@ -10,8 +10,8 @@ fn camera_ray(frame: Frame, projection: u32, nx: u32, ny: u32, i: u32, j: u32) -
 #if RAYS_FROM_ORIGIN
     // A perspective camera whose eye is the kernel's origin (frame.eye is +0; Variant's
     // rays_from_origin): the origin as a constant lets the compiler drop every `p - ray.origin`
-    // of the tests (the same values: p - 0 is p) and keep no origin in registers. The torus
-    // traced 1.03x as fast, the 100 spheres 0.99x (builds timed interleaved, 8 and 10 rounds).
+    // of the tests (the same values: p - 0 is p) and keep no origin in registers
+    // (docs/performance.md#specialization).
     ray.origin = vec3<real>(0.0);
     ray.direction = us * frame.u + vs * frame.v - frame.focal_length * frame.w;
 #else

@@ -144,8 +144,7 @@ fn primitive_key(hit: Hit) -> u32 {
 
 // A ray list's view of its nearest hit: the normal, the t it reports and the barycentrics (u, v)
 // of a triangle (the hit point is (1 - u - v) a + u b + v c; zero on spheres and planes). A
-// triangle's corners are loaded once for all three: with three loads the torus's list kernel
-// took 1.04x as long.
+// triangle's corners are loaded once for all three: each load is a loop over the lanes.
 struct HitDetails {
     normal: vec3<real>,
     t: real,
@@ -161,8 +160,8 @@ fn hit_details(ray: Ray, hit: Hit) -> HitDetails {
         // A caller's rays and corners given in f32 reach the kernel unrounded (RayScene's
         // kernel eye), so the plane's t is the f32 answer within about an ulp; decisions keep
         // the test's t. Camera renders keep it too: there the corners are rounded to
-        // camera-relative f32, which dominates at grazing angles (torus: 5.9e-6 relative at
-        // most against f64 either way), and the plane's t cost 2.7% of the torus kernel.
+        // camera-relative f32, which dominates at grazing angles either way, so the plane's t
+        // would cost them time for nothing (docs/performance.md#ray-lists).
         t = plane_t(ray, tri, t);
 #endif
         return HitDetails(triangle_normal(tri), t, triangle_uv(ray, shear_of(ray.direction), tri));

@@ -24,9 +24,9 @@ fn intersect_plane(ray: Ray, plane: Plane, min_t: real) -> real {
     let t = dot(plane.point - ray.origin, plane.normal) / denominator;
 #if CERTAINTY
     // The point's and the origin's rounding, EPS (|p| + |o|), over |t d.n|; for a caller's ray
-    // off the kernel's origin that is the origin's size (origin_size), 0 for a camera's. Rays
-    // from 1e-3 above a plane 37 from the origin, started near their hit, were certain and
-    // wrong on 31% of rays without it.
+    // off the kernel's origin that is the origin's size (origin_size), 0 for a camera's.
+    // Without it, rays started near their hit on a plane far from the origin were called
+    // certain and wrong (docs/robustness.md, "Adaptive precision").
     let t_condition = 1.0 + length_d / abs(denominator) + 4.0 * origin_size(ray) / abs(t * denominator);
     let t_certain = start_certain(t, min_t, t_condition);
 #endif

@@ -23,8 +23,8 @@ fn intersect_sphere(ray: Ray, sphere: Sphere, min_t: real) -> real {
     // than that error (a sphere thinner than an ulp of its distance), by its square,
     // 121 EPS^2 |f|^2: the last term.
     // |f| plus what the centre's rounding adds beyond it (origin_size): the size f's error
-    // scales with. Without it, rays from 2e-3 beside a small sphere 37 from the kernel's
-    // origin were certain and wrong on 45% of rays grazing its silhouette.
+    // scales with. Without it, rays grazing a small sphere far from the kernel's origin were
+    // called certain and wrong (docs/robustness.md, "Adaptive precision").
     let f_size = sqrt(dot(f, f)) + 2.0 * origin_size(ray);
     let ff = f_size * f_size;
     let disc_certain = is_certain(r2 - l2, r2 + 2.0 * l2 + 24.0 * sqrt(l2) * f_size + 128.0 * EPS * ff);

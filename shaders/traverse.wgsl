@@ -39,8 +39,7 @@ const BOX_SLACK: real = 1.52587890625e-5;  // 2^-16
 // What the traversal needs of the ray: whether a direction component is zero (its slab is all
 // or nothing: box_entry_axis_parallel) and the inverse of the nonzero ones. One flag, not the
 // three components' (box_entry_axis_parallel finds those again): three masks held through the
-// whole traversal, where registers are short, made the torus take 1.012x and the 100 spheres
-// 1.027x the time (emitted kernels timed interleaved, same bits).
+// whole traversal, where registers are short, cost time to no use.
 struct RayInverse {
     axis_parallel: bool,
     inv: vec3<real>,
@@ -71,10 +70,9 @@ const BOX_ENTRY_SHRINK: real = 0.999969482421875;  // 1 - 2 BOX_SLACK = 1 - 2^-1
 // Where the ray enters the box (shrunk by BOX_ENTRY_SHRINK, at least min_t), or NO_HIT when it
 // misses the box, leaves it before min_t, or enters it beyond t_max. Each slab's near and far
 // distances are the smaller and larger of its planes' (the same values as choosing the planes
-// by the direction's sign, which kept three more masks live through the traversal: the torus
-// traced 1.01x to 1.02x as fast without). With the selects and one scaling instead of a
-// widening of both ends, the torus traced 1.12x and the 100 spheres 1.04x as fast as with the
-// axis-parallel test for every ray (same bits).
+// by the direction's sign, which kept three more masks live through the traversal). Selects
+// and one scaling, rather than min/max and a widening of both ends, make the box test less
+// than half its instructions on llvmpipe (docs/performance.md#why-packets-share-fetches-by-hand).
 fn box_entry(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> real {
     let lo_r = vec3<real>(lo);
     let hi_r = vec3<real>(hi);
@@ -127,8 +125,8 @@ fn is_closer_ordered(t: real, object: u32, index: u32, base: u32, best: Hit) -> 
 }
 
 // The object of primitive `index` of a kind (`base`: the kind's offset in `objects`): its
-// leaf's, `leaf`, where all the leaf's primitives have one, without a load per candidate (the
-// torus traced 1.02x as fast).
+// leaf's, `leaf`, where all the leaf's primitives have one, without a load per candidate (a
+// loop over the lanes on llvmpipe).
 fn object_of(leaf: u32, index: u32, base: u32) -> u32 {
     if (leaf != MIXED_OBJECTS) {
         return leaf;
@@ -248,9 +246,8 @@ fn fetch_shared(node: u32) -> NodeWords {
 // Whether any ray of the packet (the subgroup) has `b`, and how many. With EIGHT_LANES
 // (subgroups of exactly 8 invocations, all running here: llvmpipe) by three butterfly steps of
 // shuffles by a constant xor, which llvmpipe compiles to a few permutes; it compiles
-// subgroupAny and subgroupAdd (Mesa 25.0) to a loop over the lanes with a branch per lane.
-// Sums of 8 constant-lane broadcasts made the torus 1.12x as fast as the built-ins, the
-// butterflies 1.01x (spheres 1.03x) faster again.
+// subgroupAny and subgroupAdd (Mesa 25.0) to a loop over the lanes with a branch per lane
+// (docs/performance.md#why-packets-share-fetches-by-hand).
 #if EIGHT_LANES
 fn packet_any(b: bool) -> bool {
     return packet_count(b) != 0u;
@@ -284,9 +281,8 @@ fn packet_sum(u: u32) -> u32 {
 // values), held in registers, `low` and `high`: entry i in lane i % 8 of register i / 8, up
 // to 40 entries (MAX_DEPTH in src/prepare/bvh.rs); in subgroups wider than 8 lanes each run
 // of 8 holds a copy. llvmpipe compiles a push to a per-lane array, indexed by a count it
-// cannot tell is uniform, to a scatter over the lanes and a pop to a gather: with an array
-// the torus took 1.03x to 1.05x and the 100 spheres 1.01x the time (emitted kernels timed
-// interleaved, 11 to 15 rounds, the same ids), and 1.02x with the registers in a struct.
+// cannot tell is uniform, to a scatter over the lanes and a pop to a gather, which registers
+// spare (docs/performance.md#why-packets-share-fetches-by-hand).
 
 // Puts `node` at entry `sp` (the same in every lane).
 fn packet_push(low: ptr<function, vec4<u32>>, high: ptr<function, u32>, sp: u32, node: u32) {
@@ -326,8 +322,7 @@ fn packet_next(go0: bool, go1: bool, votes0: u32, votes1: u32, reference0: u32, 
 // same in every lane): to the child wanted, or where both are, to child 0 if `first0`, else
 // child 1, with the other pushed (`low`, `high`, `sp`: packet_push); where neither is, to the
 // next waiting node. Sets `node`; false when no node is left. The pop is a loop left at once:
-// llvmpipe compiled this form 1.02x (torus) and 1.02x (spheres) faster than an
-// `else if (sp > 0u)` beside a `break`.
+// llvmpipe compiled this form to faster code than an `else if (sp > 0u)` beside a `break`.
 fn packet_step(go0: bool, go1: bool, first0: bool, reference0: u32, reference1: u32, low: ptr<function, vec4<u32>>, high: ptr<function, u32>, sp: ptr<function, u32>, node: ptr<function, u32>) -> bool {
     if (go0 && go1) {
         packet_push(low, high, *sp, select(reference0, reference1, first0));
@@ -353,8 +348,8 @@ fn packet_step(go0: bool, go1: bool, first0: bool, reference0: u32, reference1: 
 #if !F64
 #if SPHERES
 // Sphere k, which the whole subgroup tests: lanes 0 to 3 load a component of its vec4 each and
-// broadcasts from constant lanes hand them to every lane (as shared_triangle; 1.03x as fast
-// on the 100 spheres as one sphere loaded per lane and shuffled).
+// broadcasts from constant lanes hand them to every lane (as shared_triangle), where a
+// shuffle by a lane index would be a loop over the lanes.
 fn shared_sphere(k: u32) -> Sphere {
     let x = spheres[k][lane & 3u];
     let center = vec3<real>(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u));
@@ -364,10 +359,9 @@ fn shared_sphere(k: u32) -> Sphere {
 #if TRIANGLES
 // Triangle k, which the whole subgroup tests: lane l loads its pair l (lanes 5 to 7 the
 // fifth again), and broadcasts from constant lanes hand every lane all five: one loop of
-// loads over the lanes on llvmpipe. (A shuffle by the loop's index compiles to a loop over
-// the lanes; a real per lane traced the torus 1.06x as fast as one triangle loaded per lane
-// and shuffled, and the pairs, which need no second loop for a ninth real, 1.017x as fast
-// again, f64 kernels, which load whole triangles per lane, 1.064x.)
+// loads over the lanes on llvmpipe, where a shuffle by the loop's index would be a loop of
+// its own and a ninth real a second loop of loads
+// (docs/performance.md#why-packets-share-fetches-by-hand).
 fn shared_triangle(k: u32) -> Triangle {
     let x = triangle_pair(k, min(lane & 7u, 4u));
     return triangle_of_pairs(subgroupBroadcast(x, 0u), subgroupBroadcast(x, 1u), subgroupBroadcast(x, 2u), subgroupBroadcast(x, 3u), subgroupBroadcast(x, 4u));
@@ -378,10 +372,9 @@ fn shared_triangle(k: u32) -> Triangle {
 // The primitives of the leaf children a packet tests after a visit (those of `take0`,
 // `take1` that some ray of it enters), leaf 0's then leaf 1's, as one run that a single loop
 // walks (run_primitive): the kernel then holds one site of each primitive test rather than
-// one per child, which made the two-ray kernels twice the code: a cold f32 render of the bunny
-// at 1920x1080 took 1.63x the time of 638577a's one-ray kernels, 1.22x with one run, and the
-// kernels' times stayed within 3% (docs/performance.md, "Two rays a lane"). A loop over the
-// two children around each leaf's loop, whose trip count is at most 2, cost the torus 1.04x.
+// one per child, which made the two-ray kernels twice the code and slow to compile, for no
+// faster trace. A loop over the two children around each leaf's loop, whose trip count is at
+// most 2, may be unrolled, and traced slower (docs/performance.md#eight-rays-a-lane).
 struct LeafRun {
     length0: u32, // leaf 0's primitives in the run
     length: u32,
@@ -408,7 +401,7 @@ fn run_primitive(run: LeafRun, i: u32) -> u32 {
 // it (`wanted`): in f32 every lane does, spreading the subgroup's shared load (lane_sphere,
 // lane_triangle: shared_sphere, shared_triangle); in f64 each lane loads what it tests: f64
 // broadcasts (which Vulkan allows only with shaderSubgroupExtendedTypes) made llvmpipe's f64
-// kernel 2.1x slower.
+// kernel slower (docs/performance.md#tried-and-not-kept).
 fn loads_primitive(wanted: bool) -> bool {
 #if F64
     return wanted;
@@ -479,8 +472,7 @@ fn test_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real, k: u32, lea
 // reached by every invocation of the subgroup together (see main in entry.wgsl). A waiting
 // node is visited when popped, without checking first whether some ray still needs it: its
 // boxes are tested against every ray's nearest hit anyway, and keeping each ray's entry
-// distance on the stack to check cost more than the visits it saved (the torus traced 1.02x,
-// the 100 spheres 1.08x as fast without).
+// distance on the stack to check cost more than the visits it saved.
 fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     let ri = ray_inverse(ray);
     let shear = shear_of(ray.direction);
@@ -526,8 +518,8 @@ fn traced(ray: Ray) -> Traced {
 
 // A lane's LANE_RAYS rays and their nearest hits, a field each. The code for them is written
 // once per ray by the host (`#each_ray` blocks, `$r` the ray's number): llvmpipe kept arrays
-// indexed in loops over the rays in memory, and eight rays a lane so written traced the torus
-// in 2.27x the time of two, four 1.06x, against 0.74x and 0.80x written out.
+// indexed in loops over the rays in memory, which made more rays a lane slower, not faster
+// (docs/performance.md#eight-rays-a-lane).
 struct LaneRays {
 #each_ray
     r$r: Ray,
@@ -541,8 +533,7 @@ struct LaneHits {
 }
 
 // Hit r and ray r of a lane's (r the same in every lane), for code that runs in a loop over the
-// rays: fields chosen by branches, where an array indexed by r would be kept in memory (with
-// one, the 100 spheres' kernel took 1.12x the time).
+// rays: fields chosen by branches, where an array indexed by r would be kept in memory.
 fn lane_hit(hits: LaneHits, r: u32) -> Hit {
     var hit = hits.h0;
 #each_ray
@@ -663,7 +654,7 @@ fn larger3(a: vec3<real>, b: vec3<real>) -> vec3<real> {
 // smallest and the largest of the same expression at the intervals' corners; box_entry's
 // entry and exit, the larger and smaller of such distances (and scaled by a positive constant),
 // are then bounded by the corners' too. One such test per child and visit instead of each
-// ray's own (docs/performance.md, "Packet intervals"). The camera's rays all start at the
+// ray's own (docs/performance.md#packet-intervals). The camera's rays all start at the
 // kernel's origin (RAYS_FROM_ORIGIN), so two of each plane's four products are the same.
 fn interval_entry(lo: vec3<f32>, hi: vec3<f32>, packet: PacketInterval, min_t: real, t_max: real) -> real {
     let o_lo = vec3<real>(packet.origin_lo);
@@ -687,8 +678,7 @@ fn interval_entry(lo: vec3<f32>, hi: vec3<f32>, packet: PacketInterval, min_t: r
 // components straddle zero on an axis, their inverses span from large negative to large
 // positive values and that axis's slab bounds nothing, so a packet through the middle of a view
 // along an axis (or of rays jittered about it) would visit every box its other axes allow. Such
-// a packet tests each box per ray instead (with intervals alone the torus seen from above
-// traced at 0.9x the rate of 0138f3d's per-ray tests, against 1.36x from the peers' camera).
+// a packet tests each box per ray instead (docs/performance.md#packet-intervals).
 fn is_loose(packet: PacketInterval) -> bool {
     return packet.unbounded || any((packet.inverse_lo < vec3<f32>(0.0)) & (packet.inverse_hi > vec3<f32>(0.0)));
 }
@@ -711,10 +701,9 @@ fn packet_earliest(lane_t0: real, lane_t1: real) -> vec2<real> {
 // Whether every ray of a packet tests the primitives of a leaf (`count`) the packet enters,
 // rather than those whose own box test enters it: robust spheres, whose test costs about what
 // a box test does and whose error is far below the boxes' growth, so it finds no hit its box
-// would have skipped (with each ray's box test first the 100 spheres took 1.13x the time).
-// Not the textbook formulas, which do find such hits (docs/performance.md, "BVH"), nor the
-// certainty pass, which records every test; nor triangles, whose test costs more (every ray
-// testing them took the 5.12M-triangle torus 1.18x the time).
+// would have skipped, and a box test first would cost what it saves. Not the textbook
+// formulas, which do find such hits (docs/performance.md#bvh), nor the certainty pass, which
+// records every test; nor triangles, whose test costs more (docs/performance.md#packet-intervals).
 fn tests_every_ray(count: u32) -> bool {
 #if ROBUST
 #if !CERTAINTY
@@ -735,11 +724,9 @@ fn enters_leaf(lo: vec4<u32>, hi: vec4<u32>, count: u32, traced: Traced, min_t: 
 // boxes once for the whole packet, against its rays' interval (interval_entry), and goes to
 // the child the packet enters first; only a leaf the packet enters is tested per ray, each
 // ray testing its primitives where it enters the leaf's box (enters_leaf). Each ray keeps its
-// own nearest hit, so the answer is the per-ray traversal's. Against each ray testing both
-// boxes at every visit (and votes for the order) the camera kernels took 0.79x the time on the
-// 100 spheres and 0.84x on the torus, the torus's f64 kernel 0.86x and its ray-list kernel
-// 0.87x (emitted kernels timed interleaved, the same ids; docs/performance.md, "Packet
-// intervals"). Four rays a lane took 0.80x the time of two (the torus) before.
+// own nearest hit, so the answer is the per-ray traversal's. One box test per child for the
+// whole packet, rather than each ray's and votes for the order, is what makes a visit cheap
+// enough to share among many rays (docs/performance.md#packet-intervals).
 fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>) {
     var lane_interval = PacketInterval(vec3<f32>(F32_MAX), vec3<f32>(-F32_MAX), vec3<f32>(F32_MAX), vec3<f32>(-F32_MAX), false);
     var lane_cull: real = 0.0;
@@ -753,8 +740,8 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
     var packet = packet_interval(lane_interval);
 #if LIST_ORIGIN
     // The rays' one origin as one value rather than the butterflies' bounds of equal values:
-    // the compiler then finds each plane's four products in interval_entry to be two (the
-    // torus's list kernel took 0.91x the time).
+    // the compiler then finds each plane's four products in interval_entry to be two
+    // (docs/performance.md#ray-lists-from-one-origin).
     let origin = listed_origin();
     packet.origin_lo = f32_below(origin);
     packet.origin_hi = f32_above(origin);

@@ -12,7 +12,7 @@
 // which keeps the sign, and a fused multiply-add would give the same value. So an edge shared
 // by two triangles gets exactly opposite signs from both, on any driver. The three are
 // checked together and the f64 arithmetic is behind one branch that almost no triangle takes:
-// written per edge, llvmpipe computed it for every test (the torus traced 1.03x as fast).
+// written per edge, llvmpipe computed it for every test.
 fn edges_exact(a: vec3<real>, b: vec3<real>, c: vec3<real>, d: vec3<real>, approx: vec3<real>) -> vec3<real> {
     let close = !(abs(approx) > 2.0 * EPS * (abs(a * b) + abs(c * d)));
     if (!any(close)) {
@@ -37,8 +37,8 @@ fn has_repeated_corner(tri: Triangle) -> bool {
 // ((|x1|+|z1|)|y2| + |x1|(|y2|+|z2|) + the same of y1 x2), doubled here, plus the
 // second-order term. (The product (|x1|+|z1|)(|y2|+|z2|) used before counted |z1||z2| too,
 // no error term at all, and much the largest for a small triangle far along the ray: it left
-// 18.4% of the torus's pixels uncertain.) Computed only where a decision needs it: most rays
-// miss most triangles by a wide margin.
+// many of the torus's pixels uncertain; docs/robustness.md.) Computed only where a decision
+// needs it: most rays miss most triangles by a wide margin.
 fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>, origin: real) -> vec3<real> {
     let ax = abs(xs);
     let ay = abs(ys);
@@ -59,9 +59,9 @@ fn edge_scales(xs: vec3<real>, ys: vec3<real>, zs: vec3<real>, origin: real) -> 
 
 // The condition factor of the test's t (certainty.wgsl's t_error): 1 / cos of the angle
 // between the ray and the triangle's plane normal. The edge functions' rounding shifts
-// t = T / det by up to about that many EPS relative: 490 EPS at cos 0.002 on the torus, where
-// a factor of 1 let the adaptive pass call 1.8% of grazing start decisions certain that f64
-// reversed. Scaled first (no overflow or underflow of the products); a degenerate normal or a
+// t = T / det by up to about that many EPS relative, and a factor of 1 let the adaptive pass
+// call grazing start decisions certain that f64 reversed (docs/robustness.md). Scaled first
+// (no overflow or underflow of the products); a degenerate normal or a
 // ray in the plane gives NaN or inf, which decide() takes as uncertain.
 fn grazing_condition(ray: Ray, tri: Triangle) -> real {
     let n = cross(tri.b - tri.a, tri.c - tri.a);
@@ -73,7 +73,7 @@ fn grazing_condition(ray: Ray, tri: Triangle) -> real {
 
 // The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the
 // ray's frame (ray along +z through the origin; `shear` is shear_of(ray.direction), computed
-// once per ray: 1.05x on the torus) and decide with 2D edge functions, which neighbouring
+// once per ray, not per triangle) and decide with 2D edge functions, which neighbouring
 // triangles evaluate with exactly opposite signs on a shared edge.
 // The triangle's corners in the ray's sheared frame (ray along +z through the origin) and its
 // edge functions: u of edge b-c, v of edge c-a, w of edge a-b (the weights of a, b and c).
@@ -173,9 +173,9 @@ fn intersect_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real) -> rea
 // from the f32 corners and ray: their differences and products are exact there, so the
 // normal's components and the two dot products round once each in f64. The test's own
 // t = T / det weighs the corners' depths by edge functions that each carry f32 rounding, which
-// a grazing ray magnifies by up to 1 / cos: at cos 0.002 on the torus 2.9e-5 relative off the
-// exact t, here 1.6e-7 (the three f32 roundings at the end: f64 division is not correctly
-// rounded on lavapipe, f32 division is). A degenerate triangle (zero normal in f64: NaN) or a
+// a grazing ray magnifies by up to 1 / cos; here only the three f32 roundings at the end are
+// left (f64 division is not correctly rounded on lavapipe, f32 division is;
+// docs/performance.md#ray-lists). A degenerate triangle (zero normal in f64: NaN) or a
 // ray in its plane keeps `t`.
 fn plane_t(ray: Ray, tri: Triangle, t: real) -> real {
     let a = vec3<f64>(tri.a);

@@ -21,8 +21,8 @@ pub struct Ray {
 
 /// Asks Linux to back the unused capacity of `v` with transparent huge pages (where they are
 /// enabled "always" or "madvise", Debian's default): the hits of 2M rays are 66 MB of fresh
-/// memory each cast, and their first touches in 4 KiB pages took 0.022 s of reading them,
-/// 0.011 s in 2 MiB pages. Elsewhere, and for vectors under a few huge pages, nothing.
+/// memory each cast, whose first touches cost far less in 2 MiB pages than in 4 KiB ones
+/// (docs/performance.md#ray-lists). Elsewhere, and for vectors under a few huge pages, nothing.
 fn huge_pages<T>(v: &Vec<T>) {
     #[cfg(target_os = "linux")]
     {
@@ -44,8 +44,8 @@ fn huge_pages<T>(v: &Vec<T>) {
 }
 
 /// A caller's rays as held: [`Ray`]s, or rows of six f32s (origin, direction), numpy's float32
-/// arrays as Open3D takes them, read without converting the list first (2M rays: 0.02 s of a
-/// 0.35 s cast went to widening numpy's copy). Each is read as a [`Ray`] (`RayList::get`);
+/// arrays as Open3D takes them, read without converting the list first (numpy's widening
+/// copy was a share of a cast worth saving). Each is read as a [`Ray`] (`RayList::get`);
 /// f32 widens exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayRows<'a> {
@@ -263,19 +263,16 @@ impl AnyHits {
 const PACKET: usize = 8;
 
 /// How far apart the rays of sampled packets may be (see [`packet_spread`]) for the list to be
-/// traced in packets: on the torus, directions jittered by 0.01 still traced 1.1x as fast in
-/// packets, by 0.03 1.2x as fast one by one (packets of 8 rays, each ray testing every box).
-/// The 1080p peer camera's rays spread 0.002 in a 4x2 tile and 0.005 over 8 of a row.
+/// traced in packets: between a jitter of 0.01, where packets still won on the torus, and
+/// 0.03, where one by one did (docs/performance.md#ray-lists). The 1080p peer camera's rays
+/// spread 0.002 in a 4x2 tile and 0.005 over 8 of a row.
 const COHERENT_SPREAD: f64 = 0.02;
 
 /// How far the sampled packets' rays may stray from a smooth progression (see
 /// [`packet_roughness`]) for the list to be traced in packets. The GPU's packets (64 rays on
-/// lavapipe) test each box against the interval of their rays (docs/performance.md, "Packet
-/// intervals"), which jitter widens far beyond the rays' own paths, while a camera's smooth
-/// spread leaves it tight. The torus's 2M peer-camera rays through Python (2026-11-26), their
-/// unit directions jittered by a normal deviate per component: by 0.002 (roughness 0.0095)
-/// they traced in packets in 0.6x the time of one by one, by 0.005 (0.024) in 1.2x, by 0.01
-/// (0.049) in 3.4x.
+/// lavapipe) test each box against the interval of their rays, which jitter widens far beyond
+/// the rays' own paths, while a camera's smooth spread leaves it tight. On the torus, packets
+/// still won at a roughness of 0.0095 and lost at 0.024 (docs/performance.md#ray-lists).
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
 crate::internal_fn! {
@@ -402,7 +399,7 @@ fn out_of_range(x: f64) -> String {
 
 /// Every ray finite and of a non-zero direction, the first bad one named. GPU casts check as
 /// they write the list ([`is_valid`] in [`crate::gpu::dispatch`], calling this only to name
-/// a bad ray): a pass of its own over 2M rays cost 0.01 s, a pass over their memory.
+/// a bad ray): a pass of its own would read the whole list's memory once more.
 pub(crate) fn check_rays(rays: RayList<'_>) -> Result<()> {
     match (0..rays.len()).find(|&k| !is_valid(&rays.get(k))) {
         Some(k) => check_ray(k, &rays.get(k)),

@@ -650,11 +650,11 @@ fn list_groups(gpu: &Gpu, groups: u32) -> [u32; 2] {
 }
 
 /// Writes consecutive entries of a list: the index of the first and their bytes (a whole
-/// number of entries: a call per entry took the torus's 2M rays 1.08x as long).
+/// number of entries: a call per entry was slower).
 type EntryFill<'f> = dyn Fn(usize, &mut [u8]) + Sync + 'f;
 
-/// Writes `count` entries of `entry` bytes at the start of `buffer`, in parallel (2M rays took
-/// 0.05 s on one core): into its own memory where the host maps the kernel's buffers
+/// Writes `count` entries of `entry` bytes at the start of `buffer`, in parallel (on one core
+/// it is a visible share of a cast): into its own memory where the host maps the kernel's buffers
 /// ([`Gpu::host_memory`]; the GPU is idle between dispatches), else into the queue's staging
 /// memory, copied at the next submission.
 fn fill_buffer(
@@ -1337,8 +1337,8 @@ fn read_tile<R: GpuReal>(
 }
 
 /// Appends the hits of one dispatch to `hits` in one parallel pass over the kernel's outputs
-/// (2M rays: a pass per result took 0.012-0.019 s, this one 0.007-0.011 s). The kernel writes
-/// a miss's id only: the rest is the miss's values here.
+/// (a pass per result reads each hit's memory again). The kernel writes a miss's id only: the
+/// rest is the miss's values here.
 fn read_hit_values<R: GpuReal>(
     hits: &mut Hits<R>,
     ids: &[i32],

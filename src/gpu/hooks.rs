@@ -420,7 +420,7 @@ fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)
 /// The kernel's global names (any variant; the hook's own two left out) and what each names,
 /// read from the declarations at the top level of every shader file whatever its `#if`s (and
 /// of the host's generated module), so that no kernel is assembled or parsed: parsing a few
-/// dozen variants with naga took 0.13-0.16 s of every hook's check. A test checks that they
+/// dozen variants with naga was most of every hook's check. A test checks that they
 /// hold every name, of the same kind, that naga finds in every variant a device may build.
 fn kernel_names() -> &'static HashMap<String, &'static str> {
     static NAMES: OnceLock<HashMap<String, &'static str>> = OnceLock::new();

@@ -126,8 +126,8 @@ impl Gpu {
     crate::internal_fn! {
         /// Whether the kernel's list and output buffers are mapped by the host directly rather
         /// than copied through staging buffers: on a CPU adapter (lavapipe), whose device memory is
-        /// the host's, where copying a 2M-ray list in and its hits out took a third as long as
-        /// tracing them. (On a discrete GPU it would make the kernel read host memory.)
+        /// the host's, where copying a list in and its hits out costs a large share of tracing
+        /// them. (On a discrete GPU it would make the kernel read host memory.)
         fn host_memory(&self) -> bool {
             self.device
                 .features()
@@ -207,8 +207,8 @@ impl Gpu {
     }
 
     /// A buffer as `desc` describes (never mapped at creation), one the last job left if one
-    /// is of its size and usage: repeated casts of 2M rays on lavapipe took 1.2x as long with
-    /// fresh buffers (first touches of their memory). Its contents are whatever that job left.
+    /// is of its size and usage: on lavapipe the first touches of a fresh buffer's memory slow
+    /// repeated casts (docs/performance.md#ray-lists). Its contents are whatever that job left.
     pub(crate) fn transient_buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
         let mut spare = self.spare.lock().unwrap_or_else(PoisonError::into_inner);
         let fits = |b: &wgpu::Buffer| b.size() == desc.size && b.usage() == desc.usage;

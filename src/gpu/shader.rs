@@ -110,9 +110,8 @@ pub struct Variant {
     pub chunk_bits: u8,
     /// Entries of the BVH traversal's stack (`BVH_STACK`): [`crate::prepare::bvh::MAX_DEPTH`]
     /// until the dispatch sizes it to the prepared tree ([`crate::prepare::bvh::Bvh::stack_entries`]).
-    /// WGSL zero-fills the stack of every invocation: with 40 entries instead of the 8 their
-    /// tree needs the 100 spheres took 1.01x to 1.06x the time on llvmpipe, the torus 1.01x
-    /// instead of 24.
+    /// WGSL zero-fills the stack of every invocation, so entries the tree cannot use cost time
+    /// (docs/performance.md#why-packets-share-fetches-by-hand).
     pub bvh_stack: u8,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
     /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
@@ -351,8 +350,8 @@ impl Variant {
     /// subgroups of exactly 8, eight (one subgroup in eight then casts the rays of its whole
     /// workgroup, 8x8 pixels of the camera's), or two with the certainty pass, which keeps each
     /// ray's record in private state and swaps the second's in around its work; else one.
-    /// With packet intervals eight rays a lane traced the 100 spheres in 0.83x and the torus in
-    /// 0.85x the time of four (docs/performance.md, "Eight rays a lane").
+    /// With packet intervals a visit costs the same whatever the packet's size, so the more
+    /// rays share it the better (docs/performance.md#eight-rays-a-lane).
     /// At most `lane_rays_limit` ([`Variant::for_rays`]).
     pub fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
@@ -369,9 +368,8 @@ impl Variant {
     /// This variant for a render of `rays` rays in one process: at most two rays a lane below
     /// `FOUR_LANE_RAYS` rays (the certainty pass one), four below `EIGHT_LANE_RAYS`, else
     /// eight (the certainty pass two). Each ray a lane lengthens the kernel that llvmpipe
-    /// translates in every process, even with Mesa's shader cache warm: a 64x64 render of the bunny took 0.15 s with two rays a lane, 0.20 s with
-    /// four and 0.28 s with eight (through `--kernel`, 2026-11-26), while eight rays gain on
-    /// four only some 15% of the trace (docs/performance.md, "Rays a lane by render size").
+    /// translates in every process, even with Mesa's shader cache warm, which only a render of
+    /// many rays repays (docs/performance.md#rays-a-lane-by-render-size).
     /// `raycast bench`, Python's casts and ray lists keep eight: they trace the same kernel
     /// many times.
     pub fn for_rays(self, rays: u64) -> Variant {

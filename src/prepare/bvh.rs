@@ -25,14 +25,12 @@ pub const MAX_DEPTH: usize = 40;
 // shaders/traverse.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
-/// `worth_it` for scenes with triangles too). Measured with `cli/examples/bvh_crossover.rs`
-/// (random spheres at 640x360, GPU f32 robust, interleaved medians) on lavapipe, Mesa 25.0.7,
-/// 2 cores, six runs: BVH / brute-force kernel time 0.93 to 1.09 at 16 spheres (break-even),
-/// 0.72 to 0.98 at 32, 0.52 to 0.64 at 64 (docs/specializations.md).
+/// `worth_it` for scenes with triangles too): the smallest count at which the BVH was faster
+/// in every run of `cli/examples/bvh_crossover.rs`, set before packets lowered the break-even
+/// (docs/performance.md#bvh, docs/specializations.md).
 pub const CROSSOVER: usize = 32;
 /// The same for triangles, which cross over four times sooner: a (watertight) triangle test
-/// costs about four sphere tests. Measured as for [`CROSSOVER`]: BVH / brute force 0.63 to 1.02
-/// at 4 triangles (break-even in most runs), 0.71 to 0.88 at 8, 0.59 to 0.81 at 16.
+/// costs about four sphere tests. Chosen as [`CROSSOVER`] was.
 pub const TRIANGLE_CROSSOVER: usize = 8;
 
 /// How the nearest hit is searched for among spheres and triangles.
@@ -102,7 +100,7 @@ pub(crate) const MANY_LEAF: u32 = 1 << 30;
 /// A leaf's `count` without [`MANY_LEAF`]: its primitives in these bits, and from
 /// [`LEAF_OBJECT_SHIFT`] up the object all of them belong to, or [`MIXED_OBJECTS`]. The kernel
 /// then takes a candidate's object id from the node it already holds instead of loading it
-/// for every hit (1.02x on the torus; shaders/traverse.wgsl).
+/// for every hit, lane by lane on llvmpipe (shaders/traverse.wgsl `object_of`).
 pub(crate) const LEAF_COUNT: u32 = 0xF;
 pub(crate) const LEAF_OBJECT_SHIFT: u32 = 4;
 /// The leaf's primitives belong to several objects (or to one whose id does not fit).
@@ -140,25 +138,20 @@ const GROWTH: f64 = 1.0 / 262_144.0;
 const BINS: usize = 16;
 /// Nodes with more primitives are always split (unless they cannot be).
 const MAX_LEAF: usize = 8;
-/// SAH cost of visiting a node, relative to one primitive test. Measured with `raycast bench`
-/// on the 518,400-triangle torus (lavapipe, packets, at 3162c2b): at 3 rather than 1 the BVH
-/// has 119,395 nodes instead of 287,440 (70.7 bytes per triangle instead of 91.5 with the
-/// triangles of then) and builds in 0.35 s instead of 0.45 s, tracing as fast (0.36 s both);
-/// at 5 leaves reach `MAX_LEAF` and tracing slows by 2-3%. (At 2 and 4 the torus took 1.014x
-/// and 1.007x the time once a node was one load a lane: still the best.)
+/// SAH cost of visiting a node, relative to one primitive test. At 3 rather than 1 the
+/// torus's tree has far fewer nodes and builds faster, and traces as fast; at 5 leaves reach
+/// `MAX_LEAF` and tracing slows, and no other cost tried traced faster (docs/performance.md#bvh).
 const TRAVERSAL_COST: f64 = 3.0;
 /// [`TRAVERSAL_COST`] for the spheres' subtree, where a primitive test is cheaper: the 100
-/// spheres of `benches/peers.sh` traced 1.02x to 1.06x as fast at 1.5 than at 3 (four runs of
-/// one process timing both trees, 11 to 21 rounds), about as fast at 0.5 and 1, and took 1.06x
-/// the time at 6.
+/// spheres of `benches/peers.sh` traced faster at 1.5 than at 3 or 6, and about as fast at 0.5
+/// and 1 (docs/performance.md#bvh).
 const SPHERE_TRAVERSAL_COST: f64 = 1.5;
 /// Nodes with more primitives are built with their two halves in parallel.
 const PARALLEL_ITEMS: usize = 4096;
 /// Trees over at most this many primitives of a kind search every axis for each node's split;
 /// larger ones only the axis the centroids spread widest on ([`Binning::candidates`]). A small
-/// tree builds in milliseconds either way, and the three axes' trees traced the 100 spheres
-/// of `benches/peers.sh` faster; the 518,400-triangle torus's builds in 0.71x to 0.74x the time
-/// with one axis and traces at 0.96x to 0.97x the rate.
+/// tree builds in milliseconds either way and traces a little faster with three axes; a large
+/// one builds much faster with one, for a slightly slower trace (docs/performance.md#bvh).
 const ALL_AXES_ITEMS: usize = 1 << 16;
 
 /// One interior node: the boxes of its two children and where they are. 64 bytes, read in the
@@ -232,7 +225,7 @@ pub struct Bvh {
     pub sphere_order: Vec<u32>,
     pub triangle_order: Vec<u32>,
     /// [`Bvh::depth`], found once when the tree is built: every dispatch asks for it
-    /// ([`Bvh::stack_entries`]), and walking 119,412 nodes made a one-ray cast take 1 ms.
+    /// ([`Bvh::stack_entries`]), and walking every node for it would dominate a one-ray cast.
     pub depth: usize,
 }
 
@@ -380,8 +373,7 @@ impl Bins {
 
 /// Where the bins lie: along one axis ([`Binning::over`]), over the centroid bounds, `used`
 /// equal parts: `BINS`, or one per item below that. Fewer bins offer fewer split planes, but
-/// on the torus the tree barely changed (119,412 nodes instead of 119,395, the same trace
-/// time) and built 0.84x as long.
+/// on the torus the tree barely changed and built faster (docs/performance.md#bvh).
 #[derive(Clone, Copy)]
 struct Binning {
     used: usize,
@@ -394,10 +386,9 @@ struct Binning {
 impl Binning {
     /// The binnings a node of `items` items whose centroids span `cb` takes its split from:
     /// along every axis they spread on where `all_axes`, else along the one they spread widest
-    /// on (the first of equals); none where they do not spread. Binning all three axes built
-    /// the torus's tree in 1.4x the time and traced it only 1.03x as fast (the spheres 1.014x,
-    /// the bunny 1.02x; `raycast bench` of both trees in turn, 6 to 8 rounds, 2026-11-26): with
-    /// few items a node's cost is its split search, three axes' sweeps of the bins in f64.
+    /// on (the first of equals); none where they do not spread. With few items a node's cost
+    /// is its split search, three axes' sweeps of the bins in f64, so for a large tree every
+    /// axis costs far more build than it saves trace (docs/performance.md#bvh).
     fn candidates(cb: &Aabb, items: usize, all_axes: bool) -> impl Iterator<Item = Binning> {
         let used = items.clamp(2, BINS);
         let extent = [0, 1, 2].map(|k| cb.hi[k] - cb.lo[k]);
@@ -705,8 +696,7 @@ impl Bvh {
         match (sphere_tree, triangle_tree) {
             // One kind, in more than a leaf: its root is the tree's, flattened first. Under a
             // root of the two kinds every packet would first visit a node whose other child
-            // is empty: the 100 spheres traced 1.09x and the torus 1.025x as fast without
-            // (`raycast bench` of both builds in turn, 8 rounds, the same kernel).
+            // is empty: a visit for nothing (docs/performance.md#bvh).
             (Some((b, t @ Tree::Inner(_))), None) => {
                 flatten(b, &t, sphere_kind, &mut nodes);
             }

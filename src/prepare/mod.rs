@@ -254,7 +254,7 @@ impl<T: Real> Primitives<T> {
 
     /// The primitives in the scene's order, or in `bvh`'s. The triangles are rounded straight
     /// into the BVH's order, one pass over them rather than a rounding and then a permutation
-    /// (on the 518,400-triangle torus `Prepared::with_bvh` took 0.84x the time).
+    /// (docs/performance.md#bvh).
     fn ordered(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Primitives<T> {
         let origin = kernel_origin(scene, algorithm);
         let ids = ObjectIds::of(scene);

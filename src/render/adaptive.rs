@@ -45,10 +45,9 @@ impl Adaptive {
 }
 
 /// The most uncertain pixels [`render_adaptive`] casts again on the CPU, where the GPU has
-/// f64: the CPU reference casts them in a few tens of milliseconds (2 cores), less than
-/// compiling the GPU's f64 kernel takes (about 0.1 s on lavapipe with Mesa's shader cache
-/// warm, seconds cold). The course's scenes and the peers' torus re-cast 0.04% to 0.06% of
-/// their pixels at 1920x1080.
+/// f64: the CPU reference casts that many in less time than compiling the GPU's f64 kernel
+/// takes, and renders at 1920x1080 re-cast far fewer (docs/robustness.md, "Adaptive
+/// precision").
 pub const CPU_RECAST_PIXELS: usize = 1 << 16;
 
 /// Whether `uncertain` pixels (or rays) are cast again on `gpu` rather than on the CPU: where
