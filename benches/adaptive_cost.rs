@@ -1,7 +1,7 @@
 //! Cost and re-cast fraction of adaptive precision against robust f32 and f64, side by side:
 //! median wall time of N warm GPU renders per mode, modes interleaved run by run.
 //!
-//!     cargo run --release --example adaptive_cost -- SCENE... [--runs N]
+//!     cargo run --release -p raycast-benches --bin adaptive_cost -- SCENE... [--runs N]
 
 use std::time::Instant;
 

@@ -1,5 +1,5 @@
 //! Traversal statistics of the BVH on a scene's primary rays (CPU, f32, robust): box tests and
-//! primitive tests per ray. `cargo run --release --example bvh_stats SCENE`.
+//! primitive tests per ray. `cargo run --release -p raycast-benches --bin bvh_stats SCENE`.
 use std::sync::Arc;
 
 use raycast::Algorithm::Robust;

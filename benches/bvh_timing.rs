@@ -1,6 +1,6 @@
 //! Times the stages of a render, with the BVH traversed per ray and by subgroup packets, and
 //! brute force when `--brute` is given, interleaved so the figures are comparable:
-//! `cargo run --release --example bvh_timing SCENE [--brute]`.
+//! `cargo run --release -p raycast-benches --bin bvh_timing SCENE [--brute]`.
 use std::time::Instant;
 
 use raycast::gpu::shader::Variant;

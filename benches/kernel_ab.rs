@@ -1,5 +1,5 @@
 //! Times kernels against each other on one prepared scene, the way docs/performance.md's
-//! kernel steps were measured: `cargo run --release --example kernel_ab SCENE [--f64]
+//! kernel steps were measured: `cargo run --release -p raycast-benches --bin kernel_ab SCENE [--f64]
 //! [--rounds N] [--no-check] KERNEL...`, each KERNEL `builtin` (the kernel `render` assembles)
 //! or a WGSL file as `render --kernel` takes one (`render --emit-shader` writes the assembled
 //! one, to edit). The kernels run in turn, in alternating order, every round (one warm-up

@@ -2,7 +2,7 @@
 //! triangle count, file size and the best and median wall times (the best is the least disturbed
 //! by other load on the machine; the file is in the page cache after the first run).
 //!
-//!     cargo run --release --example load_mesh -- MESH... [--runs N]
+//!     cargo run --release -p raycast-benches --bin load_mesh -- MESH... [--runs N]
 
 use std::time::Instant;
 

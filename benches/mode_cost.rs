@@ -1,7 +1,7 @@
 //! Side-by-side cost of the kernel variants: median wall time of N warm GPU renders per mode
 //! (textbook/robust x f32/f64), modes interleaved run by run so machine load affects all alike.
 //!
-//!     cargo run --release --example mode_cost -- SCENE... [--size WxH] [--runs N]
+//!     cargo run --release -p raycast-benches --bin mode_cost -- SCENE... [--size WxH] [--runs N]
 
 use std::time::Instant;
 

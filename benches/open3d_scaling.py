@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Open3D's scaling curve on the tori and camera of `cli/examples/bvh_scaling` (not in CI: Open3D
+"""Open3D's scaling curve on the tori and camera of `benches/bvh_scaling.rs` (not in CI: Open3D
 is large), to set beside raycast's (docs/performance.md, "Scaling"). Needs numpy and open3d,
 e.g. in the peers' venv of benches/peers.sh:
 

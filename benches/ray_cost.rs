@@ -3,7 +3,7 @@
 //! origin, vertical fov 40) at a mesh, in each mode given. Prints the median seconds of --runs
 //! casts and Mrays/s; compare with `raycast bench` on the same scene (target/bench/torus.json).
 //!
-//!     cargo run --release --example ray_cost -- target/bench/torus.obj [--runs 5] [MODE...]
+//!     cargo run --release -p raycast-benches --bin ray_cost -- target/bench/torus.obj [--runs 5] [MODE...]
 //!
 //! How the rays are given: `--flat` as a plain list rather than an image's rows (packets of 8
 //! consecutive rays instead of 4x2 tiles), `--jitter S` with each direction component moved by

@@ -8,10 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
-# The docs build without warnings: the API as docs.rs shows it (no features), then every
-# crate's library with the inner layers.
+# The docs build without warnings: the API as docs.rs shows it (no features), then the
+# library with the inner layers and the command line's library.
 RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps -p raycast
-RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --workspace --lib
+RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-cli
+# The measurement programs (benches/, outside the default members) compile; the check shares
+# the dependencies' metadata the docs were built with.
+cargo check --quiet -p raycast-benches
 echo "test.sh: docs done at ${SECONDS} s" >&2
 venv=target/py-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"

@@ -26,7 +26,7 @@ pub const MAX_DEPTH: usize = 40;
 const _: () = assert!(MAX_DEPTH <= 40);
 /// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
 /// `worth_it` for scenes with triangles too): the smallest count at which the BVH was faster
-/// in every run of `cli/examples/bvh_crossover.rs`, set before packets lowered the break-even
+/// in every run of `benches/bvh_crossover.rs`, set before packets lowered the break-even
 /// (docs/performance.md#bvh, docs/specializations.md).
 pub const CROSSOVER: usize = 32;
 /// The same for triangles, which cross over four times sooner: a (watertight) triangle test

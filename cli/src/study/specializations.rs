@@ -623,7 +623,7 @@ fn crossover_section(rows: &[CrossoverRow]) -> String {
          Random spheres (radius 0.1 to 0.5), and random triangles (corners within 0.5 of a \
          centre), in a 4 x 2.4 x 4 box, rendered at 640x360 by the brute-force and the BVH \
          kernels, interleaved, median of the same number of rounds as above \
-         (`cargo run --release -p raycast-cli --example bvh_crossover` prints this table from 5 rounds). \
+         (`cargo run --release -p raycast-benches --bin bvh_crossover` prints this table from 5 rounds). \
          The BVH is faster from {} for spheres and from {} for triangles (the smallest \
          n from which it stays faster). `raycast render` builds one when \
          spheres / {} + triangles / {} >= 1 (`bvh::CROSSOVER`, `bvh::TRIANGLE_CROSSOVER`).\n\n{}",

@@ -1,6 +1,6 @@
 //! The BVH's scaling curve: tori of 10k to 5M triangles covering the same part of the screen,
 //! rendered at 1920x1080 through the BVH (GPU, f32, robust), one warm-up then the median of
-//! three runs. `cargo run --release -p raycast-cli --example bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
+//! three runs. `cargo run --release -p raycast-benches --bin bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
 use std::path::Path;
 
 use raycast::Algorithm::Robust;

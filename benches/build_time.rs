@@ -1,5 +1,5 @@
 //! Times the preparation of a scene (BVH build, then the whole `Prepared::new`), `--runs`
-//! times each, and prints the medians: `cargo run --release -p raycast-cli --example build_time SCENE [RUNS]`.
+//! times each, and prints the medians: `cargo run --release -p raycast-benches --bin build_time SCENE [RUNS]`.
 use std::time::Instant;
 
 use raycast::prepare::Prepared;

@@ -1,7 +1,7 @@
 //! Where a BVH starts to pay: random spheres, and random triangles, n = 2 .. 256, rendered at
 //! 640x360 by the brute-force and the BVH kernels (GPU, f32, robust), interleaved, median of
 //! five GPU times each (`raycast_cli::study::specializations::crossover`, also a section of
-//! `raycast specializations`). `cargo run --release -p raycast-cli --example bvh_crossover`.
+//! `raycast specializations`). `cargo run --release -p raycast-benches --bin bvh_crossover`.
 
 fn main() {
     let gpu = raycast::gpu::Gpu::new().unwrap();
