@@ -158,3 +158,55 @@ fn the_python_package_depends_on_no_command_line_crate() {
         );
     }
 }
+
+/// The library's inner layers, as `src/lib.rs` lists them in `internal_modules!(...)`.
+fn internal_modules() -> BTreeSet<String> {
+    let lib =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs")).unwrap();
+    let start = lib
+        .find("internal_modules!(\n")
+        .expect("lib.rs lists its inner layers");
+    let list = &lib[start + "internal_modules!(\n".len()..];
+    let list = &list[..list.find(')').unwrap()];
+    list.split(',')
+        .map(|m| m.trim().to_owned())
+        .filter(|m| !m.is_empty())
+        .collect()
+}
+
+/// The Python package is a client of the public API: it names none of the inner layers, though
+/// it enables `internals` so that it links the library the tests compiled (python/Cargo.toml).
+#[test]
+fn the_python_package_uses_the_public_api_only() {
+    let internal = internal_modules();
+    assert!(
+        internal.contains("gpu") && internal.contains("cpu"),
+        "{internal:?}"
+    );
+    let mut files = Vec::new();
+    sources(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("python/src"),
+        &mut files,
+    );
+    assert!(!files.is_empty());
+    let mut named = Vec::new();
+    for file in files {
+        let text = code(&std::fs::read_to_string(&file).unwrap()).replace("raycast::", "crate::");
+        for module in imports(&text, &internal) {
+            named.push(format!("{}: raycast::{module}", file.display()));
+        }
+    }
+    assert!(
+        named.is_empty(),
+        "inner layers named:\n{}",
+        named.join("\n")
+    );
+}
+
+#[test]
+fn the_public_api_reader_sees_grouped_imports() {
+    let internal = internal_modules();
+    let text = code("use raycast::{Gpu, gpu::Job};\nuse raycast::scene::Scene;")
+        .replace("raycast::", "crate::");
+    assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
+}
