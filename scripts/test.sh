@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# The whole test suite: the Rust crate's tests (`cargo test`, arguments passed on) and docs, then the
-# Python package (python/) built by maturin into a virtual environment, target/py-venv, and
-# its pytest suite. Needs a Vulkan adapter (lavapipe is enough: scripts/install-vulkan.sh),
-# Python 3.9+ with venv and pip, and PyPI for maturin, pytest, numpy and OpenEXR (which reads
-# render.exr in python/tests/test_files.py).
+# The whole test suite: the Rust tests (`cargo test`, arguments passed on) and docs, then the
+# Python package's pytest suite in a virtual environment, target/py-venv. Needs a Vulkan adapter
+# (lavapipe is enough: scripts/install-vulkan.sh), Python 3.9+ with venv and pip, and PyPI for
+# pytest, numpy and OpenEXR (which reads render.exr in python/tests/test_files.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# What `cargo test` builds and the Python extension, in one build: one set of features, so the
+# dependencies they share are compiled once (maturin's own build would compile them again).
+cargo build --quiet --lib --bins --tests --examples
 cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
 # The docs build without warnings: the API as docs.rs shows it (no features), then the
@@ -16,16 +18,21 @@ RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p rayca
 # the dependencies' metadata the docs were built with.
 cargo check --quiet -p raycast-benches
 echo "test.sh: docs done at ${SECONDS} s" >&2
+# The Python package as maturin lays it out (python/raycast/ with the extension inside it),
+# from the extension built above. `pip install ./python` builds the same in release.
+package=target/py-package
+rm -rf "$package"
+mkdir -p "$package"
+cp -R python/raycast "$package/"
+case "$(uname -s)" in
+Darwin) extension=target/debug/lib_raycast.dylib ;;
+MINGW* | MSYS* | CYGWIN*) extension=target/debug/_raycast.dll ;;
+*) extension=target/debug/lib_raycast.so ;;
+esac
+suffix=$([ "${extension##*.}" = dll ] && echo pyd || echo abi3.so)
+cp "$extension" "$package/raycast/_raycast.$suffix"
 venv=target/py-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet maturin pytest numpy OpenEXR
-# The extension is built in the dev profile (the test profile's settings), in the workspace's
-# target folder, so it reuses the dependencies `cargo test` compiled; pip's own build would
-# compile them all again in release.
-wheels=target/wheels/test
-rm -rf "$wheels"
-"$venv/bin/maturin" build --quiet --profile dev --manifest-path python/Cargo.toml --out "$wheels"
-"$venv/bin/pip" install --quiet --force-reinstall --no-deps "$wheels"/*.whl
-echo "test.sh: Python package built at ${SECONDS} s" >&2
-"$venv/bin/python" -m pytest -q python/tests
+"$venv/bin/pip" install --quiet pytest numpy OpenEXR
+PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
 echo "test.sh: Python tests done at ${SECONDS} s" >&2
