@@ -759,7 +759,8 @@ mod tests {
         let mut listed: Vec<String> = MODULES.iter().map(|(n, _)| n.to_string()).collect();
         listed.sort();
         assert_eq!(on_disk, listed, "shaders/ and MODULES differ");
-        for (name, _) in MODULES {
+        use rayon::prelude::*;
+        MODULES.par_iter().for_each(|(name, _)| {
             // The traversal module needs the BVH's bindings.
             let variants = all_variants().into_iter();
             for variant in variants.filter(|v| *name != "traverse" || v.uses_bvh()) {
@@ -769,7 +770,7 @@ mod tests {
                     panic!("{e}");
                 }
             }
-        }
+        });
     }
 
     /// The host binds buffers by name, so nothing but naga and wgpu would notice two resources
