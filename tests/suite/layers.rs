@@ -174,8 +174,8 @@ fn internal_modules() -> BTreeSet<String> {
         .collect()
 }
 
-/// The Python package is a client of the public API: it names none of the inner layers, though
-/// it enables `internals` so that it links the library the tests compiled (python/Cargo.toml).
+/// The Python package is a client of the public API: it names none of the inner layers (the
+/// suite's build enables `internals` for the command line, so the compiler would not tell).
 #[test]
 fn the_python_package_uses_the_public_api_only() {
     let internal = internal_modules();
