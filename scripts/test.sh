@@ -24,13 +24,9 @@ package=target/py-package
 rm -rf "$package"
 mkdir -p "$package"
 cp -R python/raycast "$package/"
-case "$(uname -s)" in
-Darwin) extension=target/debug/lib_raycast.dylib ;;
-MINGW* | MSYS* | CYGWIN*) extension=target/debug/_raycast.dll ;;
-*) extension=target/debug/lib_raycast.so ;;
-esac
-suffix=$([ "${extension##*.}" = dll ] && echo pyd || echo abi3.so)
-cp "$extension" "$package/raycast/_raycast.$suffix"
+extension=target/debug/lib_raycast.so
+[ "$(uname -s)" = Darwin ] && extension=target/debug/lib_raycast.dylib
+cp "$extension" "$package/raycast/_raycast.abi3.so"
 venv=target/py-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 "$venv/bin/pip" install --quiet pytest numpy OpenEXR
