@@ -67,6 +67,13 @@ pub mod images;
 pub mod rays;
 pub mod scene;
 
+// The tests that reach below the API (the kernel variants, the mirror, preparation), a module
+// per topic in the library's own test binary; they name the crate `raycast` as a client would.
+#[cfg(test)]
+extern crate self as raycast;
+#[cfg(test)]
+mod tests;
+
 // The README's Rust code, compiled and run by `cargo test` as doc tests.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

@@ -1,6 +1,6 @@
 //! The command line's integration tests: one binary (one process, one lavapipe device), a module per topic.
 
-#[path = "../../../tests/suite/common/mod.rs"]
+#[path = "../../../src/tests/common/mod.rs"]
 mod common;
 
 mod adaptive;

@@ -2,7 +2,7 @@
 //! must return (an error or a value) within 10 seconds, without panicking. The inputs are in
 //! tests/data/fuzz/TARGET/, named by what they broke.
 
-use crate::common;
+use super::common;
 
 use std::path::Path;
 use std::sync::mpsc;

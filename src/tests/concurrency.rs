@@ -1,7 +1,7 @@
 //! One `Gpu` shared by 8 threads, each rendering a different scene (and mode), gives exactly the
 //! images of the same renders one after another.
 
-use crate::common;
+use super::common;
 
 use common::{COURSE_SCENES, course_scene};
 use raycast::gpu::Gpu;

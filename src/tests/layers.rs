@@ -62,7 +62,7 @@ fn graph() -> BTreeMap<String, BTreeSet<String>> {
     for entry in std::fs::read_dir(&src).unwrap() {
         let path = entry.unwrap().path();
         let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-        if stem != "lib" && (path.is_dir() || path.extension().is_some_and(|e| e == "rs")) {
+        if stem != "lib" && stem != "tests" && (path.is_dir() || path.extension().is_some_and(|e| e == "rs")) {
             modules.insert(stem);
         }
     }
@@ -76,7 +76,7 @@ fn graph() -> BTreeMap<String, BTreeSet<String>> {
         let relative = file.strip_prefix(&src).unwrap();
         let top = relative.iter().next().unwrap().to_string_lossy();
         let top = top.trim_end_matches(".rs").to_owned();
-        if top == "lib" {
+        if top == "lib" || top == "tests" {
             continue;
         }
         let text = std::fs::read_to_string(&file).unwrap();

@@ -20,7 +20,7 @@
 //! - `far-sphere` at 1e5: textbook f32 gets hit/miss wrong on certain pixels (the far-sphere
 //!   ring of pbrt-v3 #265), robust f32 does not.
 
-use crate::common;
+use super::common;
 
 use std::path::{Path, PathBuf};
 

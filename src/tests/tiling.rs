@@ -3,7 +3,7 @@
 //! small image forced into many tiles, and a small mesh forced into several chunks, render
 //! exactly as in one piece.
 
-use crate::common;
+use super::common;
 
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::gpu::shader::{MAX_CHUNKS, Variant};

@@ -36,7 +36,7 @@
 //! threshold; closer pixels are "unsure", not checked, and every test asserts that there are
 //! few of them (and that there are many checked hits), so no test can pass vacuously.
 
-use crate::common;
+use super::common;
 
 use std::path::Path;
 

@@ -2,7 +2,7 @@
 //! pixel intrinsics (OpenCV's convention). The same camera described each way renders the same
 //! image; an off-centre principal point moves the image by whole pixels as it should.
 
-use crate::common;
+use super::common;
 
 use std::path::Path;
 

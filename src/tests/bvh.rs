@@ -9,7 +9,7 @@
 //! the shared-edge grids and fans where pixel rays pass exactly through edges and vertices
 //! (in f32 not the `range-*` scenes, built to leave f32's range).
 
-use crate::common;
+use super::common;
 
 use std::path::Path;
 

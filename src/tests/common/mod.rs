@@ -1,4 +1,4 @@
-//! Shared test helpers: one GPU device per test binary (tests/suite/ and cli/tests/suite/), course data paths, picture diffs.
+//! Shared test helpers: one GPU device per test binary (the library's, src/tests/, and the command line's, cli/tests/suite/), course data paths, picture diffs.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! reference bit for bit, exact answers on simple geometry, the counting and occlusion
 //! queries, adaptive precision, and bad input.
 
-use crate::common;
+use super::common;
 
 use common::Target;
 use common::{Rng, f32_hits, gpu, moved_along, pinhole_rays, random_scene, sphere_mesh};
