@@ -193,7 +193,7 @@ impl<T: Real> Vec3<T> {
 
 /// `dot(a, b)` evaluated left to right, unfused: `(a.x*b.x + a.y*b.y) + a.z*b.z`.
 #[inline]
-pub fn dot<T: Real>(a: Vec3<T>, b: Vec3<T>) -> T {
+pub(crate) fn dot<T: Real>(a: Vec3<T>, b: Vec3<T>) -> T {
     a.x * b.x + a.y * b.y + a.z * b.z
 }
 

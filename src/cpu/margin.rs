@@ -297,7 +297,7 @@ fn triangle(ray: &Ray<f64>, corners: [Vec3<f64>; 3], min_t: f64, eps: f64) -> Ca
 /// The margins of pixel (`i`, `j`) for a robust kernel running with machine epsilon `eps`
 /// (`f32::EPSILON as f64` for the f32 kernel), judged in f64 from the robust set's f64
 /// primitives and frame.
-pub fn pixel_margins(
+pub(crate) fn pixel_margins(
     frame: &Frame<f64>,
     prims: &Primitives<f64>,
     i: u32,

@@ -122,8 +122,9 @@ fn box_entry_axis_parallel<T: Real>(
 /// lies in `[origin_lo, origin_hi]` and its inverse direction in `[inverse_lo, inverse_hi]`, as
 /// f32 bounds; `unbounded` where some ray has a zero direction component or coordinates beyond
 /// `INTERVAL_LIMIT` (such a packet tests boxes per ray, not by `interval_entry`).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
-pub struct PacketInterval {
+pub(crate) struct PacketInterval {
     pub origin_lo: [f32; 3],
     pub origin_hi: [f32; 3],
     pub inverse_lo: [f32; 3],
@@ -132,12 +133,14 @@ pub struct PacketInterval {
 }
 
 /// `INTERVAL_LIMIT`: 1e30.
+#[cfg(test)]
 fn interval_limit<T: Real>() -> T {
     T::from_f64(1e30)
 }
 
 /// f32 bounds of a real below and above it (`f32_below`, `f32_above`): itself in f32; in f64
 /// its nearest f32 moved outward by 2^-22 of itself and 1e-37 where it is beyond.
+#[cfg(test)]
 fn f32_below<T: Real>(x: T) -> f32 {
     let y = x.to_f64() as f32;
     if (y as f64) > x.to_f64() {
@@ -147,6 +150,7 @@ fn f32_below<T: Real>(x: T) -> f32 {
     }
 }
 
+#[cfg(test)]
 fn f32_above<T: Real>(x: T) -> f32 {
     let y = x.to_f64() as f32;
     if (y as f64) < x.to_f64() {
@@ -157,7 +161,8 @@ fn f32_above<T: Real>(x: T) -> f32 {
 }
 
 /// The interval of one ray (`ray_interval`).
-pub fn ray_interval<T: Real>(ray: &Ray<T>, ri: &RayInverse<T>) -> PacketInterval {
+#[cfg(test)]
+pub(crate) fn ray_interval<T: Real>(ray: &Ray<T>, ri: &RayInverse<T>) -> PacketInterval {
     let o = ray.origin.to_array();
     let inv = ri.inv.to_array();
     let limit = interval_limit::<T>();
@@ -174,7 +179,8 @@ pub fn ray_interval<T: Real>(ray: &Ray<T>, ri: &RayInverse<T>) -> PacketInterval
 }
 
 /// The smallest interval holding both (`join_intervals`).
-pub fn join_intervals(a: &PacketInterval, b: &PacketInterval) -> PacketInterval {
+#[cfg(test)]
+pub(crate) fn join_intervals(a: &PacketInterval, b: &PacketInterval) -> PacketInterval {
     let lo = |x: [f32; 3], y: [f32; 3]| [0, 1, 2].map(|k| x[k].min(y[k]));
     let hi = |x: [f32; 3], y: [f32; 3]| [0, 1, 2].map(|k| x[k].max(y[k]));
     PacketInterval {
@@ -190,7 +196,8 @@ pub fn join_intervals(a: &PacketInterval, b: &PacketInterval) -> PacketInterval 
 /// when `box_entry` is NO_HIT for every ray whose `t_max` is at most `t_max`. The bounds are
 /// exact (see shaders/traverse.wgsl): each slab distance is monotonic in the origin and the
 /// inverse, so the corners of the intervals bound it.
-pub fn interval_entry<T: Real>(
+#[cfg(test)]
+pub(crate) fn interval_entry<T: Real>(
     lo: [f32; 3],
     hi: [f32; 3],
     packet: &PacketInterval,

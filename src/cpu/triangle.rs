@@ -22,7 +22,7 @@ pub fn intersect_triangle<T: Real, const ROBUST: bool>(
 /// RECHECK_F64`, which the CPU always has for f32): where the f32 value in `approx` is too
 /// close to zero for its sign to be certain, recomputed in f64, where products of f32 values
 /// are exact.
-pub fn edges_exact<T: Real>(
+pub(crate) fn edges_exact<T: Real>(
     a: Vec3<T>,
     b: Vec3<T>,
     c: Vec3<T>,
@@ -45,14 +45,17 @@ pub fn edges_exact<T: Real>(
 
 /// The triangle's corners in the ray's sheared frame and its edge functions (`Sheared` in WGSL):
 /// u of edge b-c, v of edge c-a, w of edge a-b (the weights of a, b and c).
-pub struct Sheared<T> {
+// The sheared x and y serve the kernel's certainty test (`edge_scales`), which the mirror
+// does not have (its bounds are in margin.rs); kept so that the struct reads as in WGSL.
+#[allow(dead_code)]
+pub(crate) struct Sheared<T> {
     pub xs: Vec3<T>,
     pub ys: Vec3<T>,
     pub zs: Vec3<T>,
     pub edges: Vec3<T>,
 }
 
-pub fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>) -> Sheared<T> {
+pub(crate) fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>) -> Sheared<T> {
     let Shear {
         kx, ky, kz, sx, sy, ..
     } = *shear;
@@ -77,7 +80,7 @@ pub fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>
 
 /// The watertight test of Woop, Benthin and Wald (JCGT 2013): shear the triangle into the ray's
 /// frame and decide with 2D edge functions, exactly negated on an edge shared by two triangles.
-pub fn intersect_triangle_robust<T: Real>(
+pub(crate) fn intersect_triangle_robust<T: Real>(
     ray: &Ray<T>,
     shear: &Shear<T>,
     tri: &Triangle<T>,
@@ -105,7 +108,7 @@ pub fn intersect_triangle_robust<T: Real>(
 /// Cramer's rule, as in the lecture: solves origin + t*direction = a + beta*(b - a) +
 /// gamma*(c - a), the system with columns (a - b, a - c, direction) and right-hand side
 /// a - origin.
-pub fn intersect_triangle_textbook<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
+pub(crate) fn intersect_triangle_textbook<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, min_t: T) -> T {
     let c = cramer(ray, tri);
     // Zero-area triangles and rays in the triangle's plane: no unique solution.
     if c.determinant == T::ZERO {
@@ -130,7 +133,7 @@ pub struct Cramer<T> {
     pub q: Vec3<T>,
 }
 
-pub fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
+pub(crate) fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
     let col0 = tri.a - tri.b;
     let col1 = tri.a - tri.c;
     let rhs = tri.a - ray.origin;
@@ -150,7 +153,7 @@ pub fn cramer<T: Real>(ray: &Ray<T>, tri: &Triangle<T>) -> Cramer<T> {
 /// differences and products are exact there, so a grazing ray keeps f32 accuracy, which the
 /// test's t = T / det loses by up to 1 / cos. A degenerate triangle or a ray in its plane keeps
 /// `t`. f64 kernels keep the test's t.
-pub fn plane_t<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, t: T) -> T {
+pub(crate) fn plane_t<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, t: T) -> T {
     if T::PRECISION == Float::F64 {
         return t;
     }
@@ -169,7 +172,7 @@ pub fn plane_t<T: Real>(ray: &Ray<T>, tri: &Triangle<T>, t: T) -> T {
 
 /// Barycentric (u, v) of the ray's hit on the triangle: the hit point is (1 - u - v) a + u b +
 /// v c. From the edge functions of the watertight test, or the lecture's Cramer solution.
-pub fn triangle_uv<T: Real, const ROBUST: bool>(
+pub(crate) fn triangle_uv<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     shear: &Shear<T>,
     tri: &Triangle<T>,
@@ -186,7 +189,7 @@ pub fn triangle_uv<T: Real, const ROBUST: bool>(
 
 /// Unit normal by corner order: normalize((b - a) x (c - a)), never flipped. The robust set
 /// scales first, since the squared length of a tiny triangle's normal can underflow.
-pub fn triangle_normal<T: Real, const ROBUST: bool>(tri: &Triangle<T>) -> Vec3<T> {
+pub(crate) fn triangle_normal<T: Real, const ROBUST: bool>(tri: &Triangle<T>) -> Vec3<T> {
     let n = cross(tri.b - tri.a, tri.c - tri.a);
     if ROBUST {
         let m = n.x.abs().max(n.y.abs().max(n.z.abs()));

@@ -941,7 +941,7 @@ fn surface_bytes(precision: Float) -> u64 {
 
 /// The most image rows one dispatch can cover at `width` pixels per row under `limits`
 /// (output binding size and workgroups per dimension); 0 if not even one row fits.
-pub fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Float) -> u32 {
+pub(crate) fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Float) -> u32 {
     let binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
     let by_memory = binding / (width as u64 * surface_bytes(precision));
     let by_dispatch = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;

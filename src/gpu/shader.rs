@@ -104,11 +104,11 @@ pub struct Variant {
     /// render too small to repay a longer kernel's compile ([`Variant::for_rays`]).
     pub lane_rays_limit: u8,
     /// Storage bindings the triangles, and the BVH nodes, are split into (1 to
-    /// [`MAX_CHUNKS`]): meshes larger than one binding.
+    /// `MAX_CHUNKS`): meshes larger than one binding.
     pub chunks: u8,
     /// log2 of the triangles (or nodes) per chunk.
     pub chunk_bits: u8,
-    /// Entries of the BVH traversal's stack (`BVH_STACK`): [`crate::prepare::bvh::MAX_DEPTH`]
+    /// Entries of the BVH traversal's stack (`BVH_STACK`): `prepare::bvh::MAX_DEPTH`
     /// until the dispatch sizes it to the prepared tree ([`crate::prepare::bvh::Bvh::stack_entries`]).
     /// WGSL zero-fills the stack of every invocation, so entries the tree cannot use cost time
     /// (docs/performance.md#why-packets-share-fetches-by-hand).
@@ -141,10 +141,10 @@ pub(crate) const FOUR_LANE_RAYS: u64 = 2_000_000;
 pub(crate) const EIGHT_LANE_RAYS: u64 = 8_000_000;
 
 /// The most chunks a kernel binds for triangles, and for nodes.
-pub const MAX_CHUNKS: u8 = 4;
+pub(crate) const MAX_CHUNKS: u8 = 4;
 
 /// The chunks `scene`'s triangles and BVH nodes need at `chunk_bits` (a BVH over n
-/// primitives has fewer than n nodes), at most [`MAX_CHUNKS`]: a scene needing more is refused
+/// primitives has fewer than n nodes), at most `MAX_CHUNKS`: a scene needing more is refused
 /// before rendering.
 pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
     let n = crate::prepare::bvh::bounded_count(scene).max(1) as u64;
@@ -627,7 +627,8 @@ pub fn kernel_source(variant: &Variant) -> Result<String> {
 /// without a BVH (per ray, and where they may, [`Variant::uses_packets`], by packets, with
 /// subgroup votes or on 8-lane subgroups) and in one or several chunks; the plain ones also with each output alone
 /// and with none.
-pub fn all_variants() -> Vec<Variant> {
+#[cfg(test)]
+pub(crate) fn all_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for precision in [Float::F32, Float::F64] {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
@@ -723,6 +724,7 @@ pub fn all_variants() -> Vec<Variant> {
 }
 
 /// Id, distance and normal each alone, and none of them.
+#[cfg(test)]
 const OUTPUT_SUBSETS: [Outputs; 4] = [
     Outputs {
         id: true,

@@ -204,7 +204,7 @@ pub struct GpuHookObject {
 
 /// The header of `struct HookLights` in shaders/hooks.wgsl: the count, then padding to the
 /// lights at offset 16.
-pub const HOOK_LIGHTS_HEADER: usize = 16;
+pub(crate) const HOOK_LIGHTS_HEADER: usize = 16;
 
 impl From<&crate::scene::Material> for GpuMaterial {
     fn from(m: &crate::scene::Material) -> Self {
@@ -241,7 +241,7 @@ impl From<&crate::scene::Light> for GpuLight {
 /// The hook's view of `lighting` for a scene of `objects` objects: the buffers
 /// `hook_materials`, `hook_lights` (as bytes: the count, then the lights) and `hook_objects`
 /// of shaders/hooks.wgsl, each with at least one entry (a binding is never empty).
-pub fn hook_buffers(
+pub(crate) fn hook_buffers(
     lighting: &crate::scene::Lighting,
     objects: usize,
 ) -> (Vec<GpuMaterial>, Vec<u8>, Vec<GpuHookObject>) {
@@ -266,7 +266,7 @@ pub fn hook_buffers(
 }
 
 /// The `projection` code of shaders/types.wgsl.
-pub fn projection_code(p: Projection) -> u32 {
+pub(crate) fn projection_code(p: Projection) -> u32 {
     match p {
         Projection::Perspective => 0,
         Projection::Orthographic => 1,

@@ -36,7 +36,7 @@ pub fn over(a: Rgba, b: Rgba) -> Rgba {
     ]
 }
 
-/// An opaque colour given in 8-bit levels, as a premultiplied [`Rgba`] (alpha 1).
+/// An opaque colour given in 8-bit levels, as a premultiplied `Rgba` (alpha 1).
 pub fn opaque(rgb: [u8; 3]) -> Rgba {
     [
         rgb[0] as f64 / 255.0,
@@ -46,10 +46,6 @@ pub fn opaque(rgb: [u8; 3]) -> Rgba {
     ]
 }
 
-/// `255 * x` rounded to the nearest level (ties upward), clamped to `0..=255`.
-pub fn to_level(x: f64) -> u8 {
-    (255.0 * x + 0.5).floor().clamp(0.0, 255.0) as u8
-}
 
 /// `num / den` rounded to the nearest integer, ties upward (exact, in integers).
 fn round_div(num: u64, den: u64) -> u8 {
@@ -66,7 +62,7 @@ pub struct PixelCoverage {
 }
 
 impl PixelCoverage {
-    /// The exact premultiplied colour as an [`Rgba`] in `[0, 1]` (`color_sum / (255 N)`,
+    /// The exact premultiplied colour as an `Rgba` in `[0, 1]` (`color_sum / (255 N)`,
     /// `hits / N`), rounded to f64.
     pub fn rgba(&self) -> Rgba {
         let n = self.spp as f64;
@@ -183,12 +179,7 @@ mod tests {
     }
 
     #[test]
-    fn levels_round_to_nearest() {
-        assert_eq!(to_level(0.0), 0);
-        assert_eq!(to_level(1.0), 255);
-        assert_eq!(to_level(0.5), 128); // 127.5 rounds up
-        assert_eq!(to_level(100.4 / 255.0), 100);
-        assert_eq!(to_level(100.6 / 255.0), 101);
+    fn round_div_rounds_to_nearest() {
         assert_eq!(round_div(255, 2), 128);
         assert_eq!(round_div(254, 2), 127);
         assert_eq!(round_div(10, 9), 1);

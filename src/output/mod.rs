@@ -18,12 +18,13 @@ use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
 use crate::scene::Camera;
 
-pub use color::{PixelCoverage, Rgba, color_rgba8, opaque, over, pixel_coverage, to_level};
-pub use depth::{Depth, camera_json, depth16_levels};
-pub use npy::encode_npy;
-pub use pictures::{
-    PALETTE, Picture, Pictures, depth_level, id_color, normal_color, picture_set, pictures,
-};
+pub use color::{PixelCoverage, opaque, over, pixel_coverage};
+pub(crate) use color::color_rgba8;
+pub use depth::Depth;
+pub(crate) use depth::{camera_json, depth16_levels};
+pub(crate) use npy::encode_npy;
+pub use pictures::{PALETTE, Pictures, pictures};
+pub(crate) use pictures::{Picture, id_color, picture_set};
 
 /// An output format of `raycast render --format`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

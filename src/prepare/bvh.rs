@@ -20,7 +20,7 @@ use crate::scene::{Object, Scene};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
-pub const MAX_DEPTH: usize = 40;
+pub(crate) const MAX_DEPTH: usize = 40;
 // The packet kernels hold their stack of 40 entries in five registers (`PacketStack` in
 // shaders/traverse.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
@@ -77,7 +77,7 @@ pub(crate) fn worth_it(scene: &Scene) -> bool {
 }
 
 /// How many spheres and triangles `scene` has.
-pub fn bounded_count(scene: &Scene) -> usize {
+pub(crate) fn bounded_count(scene: &Scene) -> usize {
     scene
         .objects
         .iter()
@@ -734,12 +734,12 @@ impl Bvh {
 
     /// Entries a traversal stack needs for this tree (`BVH_STACK` in the kernel): its depth, at
     /// least, since at most one node per level above the one visited is waiting; rounded up to
-    /// a multiple of 8, so that few kernels are compiled, and at most [`MAX_DEPTH`].
+    /// a multiple of 8, so that few kernels are compiled, and at most `MAX_DEPTH`.
     pub fn stack_entries(&self) -> u8 {
         stack_for_depth(self.depth())
     }
 
-    /// The deepest leaf (root at depth 0); at most [`MAX_DEPTH`].
+    /// The deepest leaf (root at depth 0); at most `MAX_DEPTH`.
     pub fn depth(&self) -> usize {
         self.depth
     }

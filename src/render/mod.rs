@@ -8,7 +8,7 @@ mod options;
 pub mod supersample;
 
 pub use files::{Spec, Summary};
-pub use mode::{DEFAULT_ALGORITHM, Device, Mode, Precision};
+pub use mode::{Device, Mode, Precision};
 pub use options::{Cpu, RenderOptions};
 
 use std::path::{Path, PathBuf};

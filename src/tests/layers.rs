@@ -62,7 +62,10 @@ fn graph() -> BTreeMap<String, BTreeSet<String>> {
     for entry in std::fs::read_dir(&src).unwrap() {
         let path = entry.unwrap().path();
         let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-        if stem != "lib" && stem != "tests" && (path.is_dir() || path.extension().is_some_and(|e| e == "rs")) {
+        if stem != "lib"
+            && stem != "tests"
+            && (path.is_dir() || path.extension().is_some_and(|e| e == "rs"))
+        {
             modules.insert(stem);
         }
     }
