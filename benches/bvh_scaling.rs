@@ -3,9 +3,8 @@
 //! three runs. `cargo run --release -p raycast-benches --bin bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
 use std::path::Path;
 
-use raycast::Algorithm::Robust;
-use raycast::math::{Float, vec3};
 use raycast::scene::{Scene, Triangle};
+use raycast::{Gpu, Precision, RenderOptions, Search, Tuning};
 
 /// A torus around the z axis (radii 1 and 0.4) of 2 * nu * nv triangles.
 fn torus(nu: usize, nv: usize) -> Vec<Triangle> {
@@ -13,7 +12,7 @@ fn torus(nu: usize, nv: usize) -> Vec<Triangle> {
         let u = std::f64::consts::TAU * (i % nu) as f64 / nu as f64;
         let v = std::f64::consts::TAU * (j % nv) as f64 / nv as f64;
         let r = 1.0 + 0.4 * v.cos();
-        vec3(r * u.cos(), r * u.sin(), 0.4 * v.sin())
+        [r * u.cos(), r * u.sin(), 0.4 * v.sin()].into()
     };
     let mut t = Vec::with_capacity(2 * nu * nv);
     for i in 0..nu {
@@ -37,11 +36,22 @@ fn main() {
     let min: usize = std::env::args()
         .nth(2)
         .map_or(0, |s| s.parse().expect("MIN_TRIANGLES"));
-    let gpu = raycast::gpu::Gpu::new().unwrap();
+    let gpu = Gpu::new().unwrap();
     println!(
         "{}",
         raycast::gpu::describe(&gpu).lines().next().unwrap_or("")
     );
+    // Through the BVH, each lane casting its most rays, as the scaling was first measured.
+    let options = RenderOptions {
+        precision: Some(Precision::F32),
+        tuning: Tuning {
+            search: Search::Bvh,
+            most_lane_rays: true,
+            ..Tuning::default()
+        },
+        timed: true,
+        ..RenderOptions::default()
+    };
     println!("| triangles | build s | kernel s | Mrays/s | bytes/triangle | vs smallest |");
     println!("|---|---|---|---|---|---|");
     let mut first = None;
@@ -63,24 +73,18 @@ fn main() {
         let scene =
             Scene::from_json(json, Path::new("torus.json"), &mut |_| Ok(mesh.clone())).unwrap();
         drop(mesh);
-        let variant = raycast::gpu::shader::Variant {
-            bvh: true,
-            ..gpu.scene_variant(&scene, Float::F32, Robust)
-        };
         let mut builds = Vec::new();
         let mut kernels = Vec::new();
+        let mut bytes = 0.0;
         for run in 0..4 {
-            let (_, s) = raycast::render::on_gpu::<f32>(&gpu, &scene, variant, true).unwrap();
+            let images = gpu.render(&scene, &options).unwrap();
+            let s = images.stages().unwrap();
             if run > 0 {
                 builds.push(s.build_s);
                 kernels.push(s.kernel_s.unwrap_or(s.trace_s));
             }
+            bytes = s.bytes_per_triangle.unwrap();
         }
-        let bvh = raycast::prepare::bvh::Bvh::build(&scene, Robust);
-        let stored = size_of::<raycast::kernel::layout::GpuTriangle<f32>>();
-        let counts = raycast_cli::study::bench::Counts::of(&scene);
-        let bytes =
-            raycast_cli::study::bench::bytes_per_triangle(counts, stored, Some(&bvh)).unwrap();
         let kernel = median(kernels);
         let base = *first.get_or_insert(kernel);
         println!(

@@ -46,6 +46,39 @@ pub struct Images<T> {
     /// The GPU kernel's time in seconds, for a render asked to be timed
     /// ([`crate::RenderOptions::timed`]) on a device with timestamp queries.
     pub kernel_s: Option<f64>,
+    /// The fraction of pixels adaptive precision cast again in f64 (`None` for other
+    /// precisions).
+    pub recast_fraction: Option<f64>,
+    /// Wall-clock seconds of each stage of a render asked to be timed
+    /// ([`crate::RenderOptions::timed`]) in f32 or f64 at one sample per pixel (`None` for
+    /// others).
+    pub stages: Option<Stages>,
+}
+
+/// Wall-clock seconds of the stages of one render ([`crate::Images::stages`]), and the GPU
+/// kernel's time. A CPU render has a build and a trace only.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stages {
+    /// Primitives rounded for the GPU, the BVH built (when the kernel uses one).
+    pub build_s: f64,
+    /// The kernel pipeline made (0 when it was cached).
+    pub compile_s: f64,
+    /// The scene's buffers laid out, created and filled on the device (0 when they were
+    /// resident already).
+    pub upload_s: f64,
+    /// Every tile dispatched and read back (on the CPU: every pixel found, and coloured).
+    pub trace_s: f64,
+    /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
+    pub kernel_s: Option<f64>,
+    /// The rays the shade hook cast (`trace`, `occluded`), where it casts any.
+    pub hook_rays: Option<u64>,
+    /// Nodes of the BVH the render went through (`None`: brute force).
+    pub bvh_nodes: Option<usize>,
+    /// Bytes of the geometry as the render held it, per triangle (`None` without triangles):
+    /// each triangle as laid out for the device (on the GPU 40 bytes in f32, 80 in f64; on the
+    /// CPU 36 and 72), an object id of 4 bytes per sphere, plane and triangle, and the BVH (64
+    /// bytes a node and 4 per sphere and triangle) where the render used one.
+    pub bytes_per_triangle: Option<f64>,
 }
 
 /// Per-pixel coverage of a supersampled render, row-major like the images.
@@ -78,6 +111,8 @@ impl<T: Real> Images<T> {
             hook_rays: None,
             coverage: None,
             kernel_s: None,
+            recast_fraction: None,
+            stages: None,
         }
     }
 

@@ -146,6 +146,13 @@ pub struct Vec3<T> {
     pub z: T,
 }
 
+/// `[x, y, z].into()`: how a client of the API writes a point (a scene's [`crate::scene::Triangle`]).
+impl<T> From<[T; 3]> for Vec3<T> {
+    fn from([x, y, z]: [T; 3]) -> Self {
+        Vec3 { x, y, z }
+    }
+}
+
 /// Builds a [`Vec3`], like WGSL's `vec3(x, y, z)`.
 #[inline]
 pub const fn vec3<T>(x: T, y: T, z: T) -> Vec3<T> {

@@ -4,6 +4,7 @@
 
 pub mod compare;
 pub mod progress;
+pub mod render;
 pub mod study;
 pub mod text;
 

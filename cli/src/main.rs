@@ -10,9 +10,9 @@ use raycast::error::Result;
 use raycast::gpu::{self, Gpu};
 use raycast::images::Output;
 use raycast::output::{self, Format};
-use raycast::prepare::bvh::Search;
-use raycast::render::{self, Device, Mode, Precision, supersample};
+use raycast::render::{self, Device, Mode, Precision};
 use raycast::scene;
+use raycast::{RenderOptions, Search};
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress};
 
@@ -83,7 +83,7 @@ enum Command {
         algorithm: Algorithm,
         /// Samples per pixel, a perfect square s*s (1, 4, 9, 16, 64, 256, ...): one at the
         /// centre of each of s x s strata; id by majority, coverage alpha. Adds alpha.npy to npy.
-        #[arg(long, value_name = "N", value_parser = supersample::parse_spp)]
+        #[arg(long, value_name = "N", value_parser = parse_spp)]
         spp: Option<u32>,
         /// Composite color.png over this opaque colour, R,G,B in 0..255 (default: transparent,
         /// premultiplied alpha).
@@ -186,7 +186,7 @@ enum Command {
         runs: u32,
         /// Comma-separated sample counts at which gpu:f32:robust is also measured (against
         /// cpu:f64:robust at 64 spp); every mode is measured at 1.
-        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = supersample::parse_spp)]
+        #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "1,4,16", value_parser = parse_spp)]
         spp: Vec<u32>,
         /// Output folder (created if missing).
         #[arg(short, long, value_name = "DIR")]
@@ -361,6 +361,22 @@ fn parse_vector(s: &str) -> std::result::Result<DVec3, String> {
     match numbers[..] {
         [x, y, z] if parts.len() == 3 => Ok(DVec3::new(x, y, z)),
         _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
+    }
+}
+
+/// `--spp`: samples per pixel, a perfect square ([`RenderOptions::check`] says why not).
+fn parse_spp(s: &str) -> std::result::Result<u32, String> {
+    let samples_per_pixel: u32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
+    let options = RenderOptions {
+        samples_per_pixel,
+        ..RenderOptions::default()
+    };
+    match options.check(Device::Cpu) {
+        Err(raycast::Error::Argument { message, .. }) => Err(message),
+        _ => Ok(samples_per_pixel),
     }
 }
 
@@ -579,7 +595,7 @@ fn render(spec: &render::Spec, watch: bool) -> Result<()> {
     // One device for every render, so kernels compiled once stay cached.
     let gpu = render::gpu_for(&[spec.mode])?;
     let render_once = || {
-        progress::cpu_rows(|p| spec.run(gpu.as_ref(), p))
+        progress::cpu_rows(|p| spec.run(gpu.as_ref(), p.as_deref()))
             .map(|s| s.lines().into_iter().for_each(say))
     };
     if !watch {

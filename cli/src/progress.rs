@@ -1,11 +1,12 @@
 //! Progress bars on stderr, drawn only where it is a terminal.
 
 use std::io::IsTerminal;
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use raycast::render::Progress;
+use raycast::Progress;
 
 /// A progress bar of `len` steps drawn with `template` on stderr, or a hidden one unless
 /// `enabled` and stderr is a terminal.
@@ -19,13 +20,14 @@ pub fn bar(enabled: bool, len: u64, template: &str) -> ProgressBar {
 
 /// Runs `work`, which may render on the CPU counting its rows in the [`Progress`] it is given;
 /// if it is still running after a second and stderr is a terminal, shows a bar of those rows.
-pub fn cpu_rows<T: Send>(work: impl FnOnce(Option<&Progress>) -> T + Send) -> T {
+pub fn cpu_rows<T: Send>(work: impl FnOnce(Option<Arc<Progress>>) -> T + Send) -> T {
     if !std::io::stderr().is_terminal() {
         return work(None);
     }
-    let progress = Progress::default();
+    let progress = Arc::new(Progress::default());
     std::thread::scope(|s| {
-        let worker = s.spawn(|| work(Some(&progress)));
+        let watched = Arc::clone(&progress);
+        let worker = s.spawn(|| work(Some(watched)));
         let start = Instant::now();
         let mut shown: Option<ProgressBar> = None;
         while !worker.is_finished() {

@@ -11,7 +11,7 @@ use wgpu::util::DeviceExt;
 use super::Gpu;
 use super::shader::{self, Casts, Variant};
 use crate::error::{Error, Result};
-use crate::images::{Images, MISS};
+use crate::images::{Images, MISS, Stages};
 use crate::kernel::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
@@ -1092,25 +1092,6 @@ fn map_buffers(gpu: &Gpu, parts: &[wgpu::BufferSlice<'_>], mode: wgpu::MapMode) 
             .map_err(|e| Error::Device(format!("GPU buffer mapping failed: {e}")))?;
     }
     Ok(())
-}
-
-/// Wall-clock seconds of the stages of one render, and the kernel's GPU time.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Stages {
-    /// Primitives rounded for the GPU, the BVH built (when the kernel uses one).
-    pub build_s: f64,
-    /// The kernel pipeline made (0 when it was cached).
-    pub compile_s: f64,
-    /// The scene's buffers laid out, created and filled on the device (0 when they were
-    /// resident already, [`Job::resident`]).
-    pub upload_s: f64,
-    /// Every tile dispatched and read back.
-    pub trace_s: f64,
-    /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
-    pub kernel_s: Option<f64>,
-    /// The rays the shade hook cast (`trace`, `occluded`), where it casts any
-    /// ([`Variant::hook_rays`]).
-    pub hook_rays: Option<u64>,
 }
 
 /// A per-pixel output buffer of the kernel (shaders/bindings.wgsl).

@@ -15,7 +15,7 @@ pub mod shader;
 pub(crate) mod source;
 
 pub use dispatch::{
-    Job, Rays, Rendered, Resident, Stages, TileSink, prepare, run, upload,
+    Job, Rays, Rendered, Resident, TileSink, prepare, run, upload,
 };
 
 use std::collections::HashMap;

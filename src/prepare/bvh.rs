@@ -24,26 +24,30 @@ pub(crate) const MAX_DEPTH: usize = 40;
 // The packet kernels hold their stack of 40 entries in five registers (`PacketStack` in
 // shaders/traverse.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
-/// From this many spheres a BVH is faster than brute force; below, no BVH is built (see
-/// `worth_it` for scenes with triangles too): the smallest count at which the BVH was faster
-/// in every run of `benches/bvh_crossover.rs`, set before packets lowered the break-even
-/// (docs/performance.md#bvh, docs/specializations.md).
-pub const CROSSOVER: usize = 32;
-/// The same for triangles, which cross over four times sooner: a (watertight) triangle test
-/// costs about four sphere tests. Chosen as [`CROSSOVER`] was.
-pub const TRIANGLE_CROSSOVER: usize = 8;
-
-/// How the nearest hit is searched for among spheres and triangles.
+/// How the nearest hit is searched for among spheres and triangles ([`crate::Tuning::search`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Search {
-    /// A BVH where it pays (`worth_it`).
+    /// Through a BVH where it pays: from [`Search::SPHERE_CROSSOVER`] spheres or
+    /// [`Search::TRIANGLE_CROSSOVER`] triangles, or a mix in between
+    /// (`spheres / SPHERE_CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`).
     #[default]
     Auto,
+    /// Always through a BVH.
     Bvh,
+    /// Every primitive tested by every ray.
     BruteForce,
 }
 
 impl Search {
+    /// From this many spheres a BVH is faster than brute force; below, [`Search::Auto`] builds
+    /// none: the smallest count at which the BVH was faster in every run of
+    /// `benches/bvh_crossover.rs`, set before packets lowered the break-even
+    /// (docs/performance.md#bvh, docs/specializations.md).
+    pub const SPHERE_CROSSOVER: usize = 32;
+    /// The same for triangles, which cross over four times sooner: a (watertight) triangle
+    /// test costs about four sphere tests. Chosen as [`Search::SPHERE_CROSSOVER`] was.
+    pub const TRIANGLE_CROSSOVER: usize = 8;
+
     /// Whether `scene` is rendered through a BVH.
     pub fn uses_bvh(self, scene: &Scene) -> bool {
         match self {
@@ -70,10 +74,11 @@ impl std::str::FromStr for Search {
 
 /// Whether `scene` has enough spheres and triangles for a BVH to pay: brute force costs the
 /// sum of its tests, so each kind counts as a fraction of its own crossover,
-/// `spheres / CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`.
+/// `spheres / SPHERE_CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`.
 pub(crate) fn worth_it(scene: &Scene) -> bool {
     let [spheres, _, triangles] = scene.primitive_counts();
-    spheres * TRIANGLE_CROSSOVER + triangles * CROSSOVER >= CROSSOVER * TRIANGLE_CROSSOVER
+    let (s, t) = (Search::SPHERE_CROSSOVER, Search::TRIANGLE_CROSSOVER);
+    spheres * t + triangles * s >= s * t
 }
 
 /// How many spheres and triangles `scene` has.
@@ -930,12 +935,12 @@ mod tests {
     #[test]
     fn a_bvh_pays_from_each_kinds_crossover() {
         for (spheres, triangles, expected) in [
-            (CROSSOVER - 1, 0, false),
-            (CROSSOVER, 0, true),
-            (0, TRIANGLE_CROSSOVER - 1, false),
-            (0, TRIANGLE_CROSSOVER, true),
-            (CROSSOVER / 2, TRIANGLE_CROSSOVER / 2, true),
-            (CROSSOVER / 2, TRIANGLE_CROSSOVER / 2 - 1, false),
+            (Search::SPHERE_CROSSOVER - 1, 0, false),
+            (Search::SPHERE_CROSSOVER, 0, true),
+            (0, Search::TRIANGLE_CROSSOVER - 1, false),
+            (0, Search::TRIANGLE_CROSSOVER, true),
+            (Search::SPHERE_CROSSOVER / 2, Search::TRIANGLE_CROSSOVER / 2, true),
+            (Search::SPHERE_CROSSOVER / 2, Search::TRIANGLE_CROSSOVER / 2 - 1, false),
         ] {
             let scene = scene_of(spheres, triangles);
             assert_eq!(

@@ -38,9 +38,9 @@ pub struct Adaptive {
 }
 
 impl Adaptive {
-    /// Fraction of pixels re-cast in f64.
+    /// Fraction of pixels re-cast in f64 ([`Images::recast_fraction`]).
     pub fn recast_fraction(&self) -> f64 {
-        self.recast as f64 / self.images.len().max(1) as f64
+        self.images.recast_fraction.unwrap_or(0.0)
     }
 }
 
@@ -106,6 +106,7 @@ pub fn render_adaptive_with(
         .filter(|&k| !certain[k as usize])
         .collect();
     let mut images = first.images;
+    images.recast_fraction = Some(uncertain.len() as f64 / certain.len().max(1) as f64);
     let recast_on_gpu = recasts_on_gpu(gpu, uncertain.len(), cpu_recast_pixels);
     let first_s = first.stages.kernel_s;
     if uncertain.is_empty() {

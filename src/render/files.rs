@@ -282,6 +282,7 @@ impl Spec {
             outputs: self.encoding.outputs,
             shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
             kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
+            ..Request::default()
         };
         let gpu = match (self.mode.device, gpu) {
             (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
@@ -390,7 +391,7 @@ impl Spec {
             )),
             (_, Some(spp), _) => {
                 let images =
-                    supersample::supersample_request(scene, mode, gpu, spp, progress, request)?;
+                    supersample::supersample_request(scene, mode, gpu, spp, progress, request, false)?;
                 Ok((images, None))
             }
         }

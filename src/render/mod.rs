@@ -9,7 +9,7 @@ pub mod supersample;
 
 pub use files::{Spec, Summary};
 pub use mode::{Device, Mode, Precision};
-pub use options::{Cpu, RenderOptions};
+pub use options::{Cpu, RenderOptions, Tuning};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -21,13 +21,13 @@ use crate::error::{Error, Result};
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
 use crate::gpu::shader::Variant;
-use crate::gpu::{self, Gpu, Job, Stages};
-use crate::images::{Coverage, Images, Outputs};
-use crate::kernel::layout::GpuReal;
+use crate::gpu::{self, Gpu, Job};
+use crate::images::{Coverage, Images, Outputs, Stages};
+use crate::kernel::layout::{GpuReal, GpuTriangle};
 use crate::math::Float;
 use crate::output::{self, Encoding};
-use crate::prepare::Prepared;
-use crate::prepare::bvh::Search;
+use crate::prepare::bvh::{Bvh, Search};
+use crate::prepare::{Prepared, Primitives};
 use crate::scene::{Camera, Scene};
 
 /// Images in whichever precision they were rendered in.
@@ -91,11 +91,27 @@ impl AnyImages {
         }
     }
 
+    /// Wall-clock seconds of the render's stages, and what its geometry held
+    /// ([`Images::stages`]).
+    pub fn stages(&self) -> Option<&Stages> {
+        match self {
+            AnyImages::F32(i) => i.stages.as_ref(),
+            AnyImages::F64(i) => i.stages.as_ref(),
+        }
+    }
+
     /// The GPU kernel's time in seconds, where the render was timed and the device can tell.
     pub fn kernel_s(&self) -> Option<f64> {
         match self {
             AnyImages::F32(i) => i.kernel_s,
             AnyImages::F64(i) => i.kernel_s,
+        }
+    }
+
+    fn clear_stages(&mut self) {
+        match self {
+            AnyImages::F32(i) => i.stages = None,
+            AnyImages::F64(i) => i.stages = None,
         }
     }
 
@@ -121,15 +137,19 @@ pub struct Request {
     /// other mode is an [`Error::Argument`] naming `kernel`). It must declare the bindings
     /// of the kernel this request would assemble ([`UserKernel::for_variant`]).
     pub kernel: Option<UserKernel>,
+    /// Overrides of the kernel's specialization (GPU and CPU, f32 or f64 only; with adaptive
+    /// precision an [`Error::Argument`] naming `tuning`).
+    pub tuning: Tuning,
 }
 
 impl Default for Request {
-    /// Every output, no hook, the assembled kernel.
+    /// Every output, no hook, the assembled kernel as raycast specializes it.
     fn default() -> Self {
         Request {
             outputs: Outputs::ALL,
             shade: None,
             kernel: None,
+            tuning: Tuning::default(),
         }
     }
 }
@@ -149,9 +169,8 @@ impl Request {
             Precision::F64 => Float::F64,
             _ => Float::F32,
         };
-        let mut variant = gpu
-            .scene_variant(scene, precision, mode.algorithm)
-            .for_rays(scene.camera.pixel_count());
+        let variant = gpu.scene_variant(scene, precision, mode.algorithm);
+        let mut variant = self.tuning.apply(variant, scene, gpu)?;
         if let Some(hook) = &self.shade {
             variant = variant.with_shade(hook.key, hook.traces);
         }
@@ -189,11 +208,13 @@ pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
     }
 }
 
-/// How far a CPU render has got, for a caller's progress display: the rows it renders and
-/// those it has finished (a GPU render leaves both at zero).
+/// How far a CPU render has got, for a caller's progress display
+/// ([`RenderOptions::progress`]); a GPU render leaves both counts at zero.
 #[derive(Debug, Default)]
 pub struct Progress {
+    /// The rows the render has.
     pub rows: AtomicU32,
+    /// The rows it has finished.
     pub rows_done: AtomicU32,
 }
 
@@ -264,21 +285,30 @@ fn dispatch(
             let variant = request.kernel_variant(gpu, scene, mode)?;
             Ok(match mode.precision {
                 Precision::F32 => {
-                    let (images, stages) = on_gpu::<f32>(gpu, scene, variant, timed)?;
+                    let (mut images, stages) = on_gpu::<f32>(gpu, scene, variant, timed)?;
+                    images.stages = timed.then_some(stages);
                     (AnyImages::F32(images), stages.kernel_s)
                 }
                 _ => {
-                    let (images, stages) = on_gpu::<f64>(gpu, scene, variant, timed)?;
+                    let (mut images, stages) = on_gpu::<f64>(gpu, scene, variant, timed)?;
+                    images.stages = timed.then_some(stages);
                     (AnyImages::F64(images), stages.kernel_s)
                 }
             })
         }
         Device::Cpu => {
             let lit = request.shade.is_some() && request.outputs.color;
-            Ok(match mode.precision {
-                Precision::F32 => AnyImages::F32(cpu_render(scene, mode.algorithm, progress, lit)),
-                _ => AnyImages::F64(cpu_render(scene, mode.algorithm, progress, lit)),
-            })
+            let search = request.tuning.search;
+            let mut images = match mode.precision {
+                Precision::F32 => {
+                    AnyImages::F32(cpu_render(scene, mode.algorithm, search, progress, lit))
+                }
+                _ => AnyImages::F64(cpu_render(scene, mode.algorithm, search, progress, lit)),
+            };
+            if !timed {
+                images.clear_stages();
+            }
+            Ok(images)
             .map(|images| (images, None))
         }
     }
@@ -296,7 +326,15 @@ pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
         mode,
         request.kernel.is_some(),
         shades.is_some() && !mirrored,
-    )
+    )?;
+    if mode.precision == Precision::Adaptive && request.tuning != Tuning::default() {
+        return Err(Error::Argument {
+            option: "tuning".into(),
+            message: "applies to `precision` f32 or f64 (adaptive precision runs two kernels)"
+                .into(),
+        });
+    }
+    Ok(())
 }
 
 /// [`check_request`] for a request with a kernel file and a colouring shade hook or not.
@@ -334,7 +372,26 @@ pub fn on_gpu<R: GpuReal>(
 ) -> Result<(Images<R>, Stages)> {
     let prepared = gpu::prepare::<R>(scene, &variant)?;
     let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
-    Ok((r.images, r.stages))
+    let triangle_bytes = size_of::<GpuTriangle<R>>();
+    Ok((r.images, with_layout(r.stages, &prepared.primitives, triangle_bytes)))
+}
+
+/// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
+const OBJECT_ID_BYTES: usize = 4;
+
+/// `stages` with the layout of `primitives` ([`Stages::bvh_nodes`],
+/// [`Stages::bytes_per_triangle`]), each triangle taking `triangle_bytes`.
+fn with_layout<T>(stages: Stages, primitives: &Primitives<T>, triangle_bytes: usize) -> Stages {
+    let p = primitives;
+    let bvh = p.bvh.as_deref().filter(|_| p.spheres.len() + p.triangles.len() > 0);
+    let t = p.triangles.len();
+    let ids = OBJECT_ID_BYTES * (p.spheres.len() + p.planes.len() + t);
+    let bytes = t * triangle_bytes + ids + bvh.map_or(0, Bvh::bytes);
+    Stages {
+        bvh_nodes: bvh.map(|b| b.nodes.len()),
+        bytes_per_triangle: (t > 0).then(|| bytes as f64 / t as f64),
+        ..stages
+    }
 }
 
 /// Images above this many pixels are rendered and written in bands of rows
@@ -396,10 +453,14 @@ pub(crate) fn render_streamed(
 fn cpu_render<T: crate::math::Real>(
     scene: &Scene,
     algorithm: Algorithm,
+    search: Search,
     progress: Option<&Progress>,
     lit: bool,
 ) -> Images<T> {
-    let prepared = Prepared::<T>::new(scene, algorithm, Search::Auto);
+    let start = Instant::now();
+    let prepared = Prepared::<T>::new(scene, algorithm, search);
+    let build_s = start.elapsed().as_secs_f64();
+    let start = Instant::now();
     let unwatched = Progress::default();
     let progress = progress.unwrap_or(&unwatched);
     progress.rows.store(prepared.frame.ny, Ordering::Relaxed);
@@ -410,6 +471,14 @@ fn cpu_render<T: crate::math::Real>(
         images.color = Some(colours);
         images.hook_rays = Some(rays);
     }
+    let stages = Stages {
+        build_s,
+        trace_s: start.elapsed().as_secs_f64(),
+        hook_rays: images.hook_rays,
+        ..Stages::default()
+    };
+    let triangle_bytes = size_of::<crate::kernel::types::Triangle<T>>();
+    images.stages = Some(with_layout(stages, &prepared.primitives, triangle_bytes));
     images
 }
 
@@ -432,4 +501,48 @@ pub fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
     let start = Instant::now();
     let value = f();
     (value, start.elapsed())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::types::{Plane, Sphere, Triangle};
+    use crate::math::vec3;
+
+    #[test]
+    fn bytes_per_triangle_count_ids_and_the_bvh() {
+        let p = vec3(0.0, 0.0, 0.0);
+        let mut primitives = Primitives::<f32> {
+            spheres: vec![Sphere { center: p, radius: 1.0 }; 2],
+            planes: vec![Plane { point: p, normal: p }; 1],
+            triangles: vec![Triangle { a: p, b: p, c: p }; 10],
+            sphere_objects: vec![0; 2],
+            plane_objects: vec![0; 1],
+            triangle_objects: vec![0; 10],
+            bvh: None,
+        };
+        // 10 * 48 + 4 * 13 = 532 bytes without a BVH.
+        let stages = with_layout(Stages::default(), &primitives, 48);
+        assert_eq!((stages.bvh_nodes, stages.bytes_per_triangle), (None, Some(53.2)));
+        primitives.bvh = Some(std::sync::Arc::new(Bvh {
+            nodes: vec![bytemuck::Zeroable::zeroed(); 3],
+            sphere_order: vec![0; 2],
+            triangle_order: vec![0; 10],
+            depth: 1,
+        }));
+        // + 3 * 64 + 4 * 12 = 240.
+        let stages = with_layout(Stages::default(), &primitives, 48);
+        assert_eq!((stages.bvh_nodes, stages.bytes_per_triangle), (Some(3), Some(77.2)));
+        primitives.triangles.clear();
+        let stages = with_layout(Stages::default(), &primitives, 48);
+        assert_eq!(stages.bytes_per_triangle, None);
+    }
+
+    #[test]
+    fn triangle_sizes_are_as_documented() {
+        assert_eq!(size_of::<GpuTriangle<f32>>(), 40);
+        assert_eq!(size_of::<GpuTriangle<f64>>(), 80);
+        assert_eq!(size_of::<Triangle<f32>>(), 36);
+        assert_eq!(size_of::<Triangle<f64>>(), 72);
+    }
 }

@@ -1,14 +1,18 @@
 //! The render entry of the public API: [`Gpu::render`] and [`Cpu::render`] take a scene and
 //! [`RenderOptions`], the same for both devices, and return its [`AnyImages`].
 
+use std::sync::Arc;
+
 use super::mode::default_precision;
-use super::{AnyImages, Device, Mode, Precision, Request, render_streamed, supersample};
+use super::{AnyImages, Device, Mode, Precision, Progress, Request, render_streamed, supersample};
 use crate::algorithm::Algorithm;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
+use crate::gpu::shader::{Kinds, MAX_LANE_RAYS, Variant};
 use crate::images::Outputs;
+use crate::prepare::bvh::Search;
 use crate::scene::Scene;
 
 /// The CPU reference: the kernel's search mirrored in Rust (`src/cpu/`), in f32 or f64, on all
@@ -25,7 +29,7 @@ pub struct Cpu;
 /// let images = Gpu::new()?.render(&scene, &options)?;
 /// # Ok::<(), raycast::Error>(())
 /// ```
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct RenderOptions {
     /// `None`: the device's own. On the GPU, adaptive precision (f64's hits and ids at close
     /// to f32's cost) where the render runs one kernel of the robust set without a hook, else
@@ -46,8 +50,55 @@ pub struct RenderOptions {
     /// A complete kernel run instead of the assembled one (GPU, f32 or f64).
     pub kernel: Option<UserKernel>,
     /// Measure the GPU kernel's time ([`crate::Images::kernel_s`]) where the device has
-    /// timestamp queries (renders of one sample per pixel).
+    /// timestamp queries (above one sample per pixel, the time of the samples' render).
     pub timed: bool,
+    /// Overrides of the kernel's automatic specialization (f32 and f64, one sample per pixel).
+    pub tuning: Tuning,
+    /// Where a CPU render counts its rows as it finishes them, for a caller's progress display.
+    pub progress: Option<Arc<Progress>>,
+}
+
+/// Overrides of the choices raycast makes for each scene, to measure what each one brings
+/// (`raycast bench`, `raycast specializations`). The default leaves every choice to raycast.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tuning {
+    /// Spheres and triangles searched through a BVH or by brute force (GPU and CPU).
+    pub search: Search,
+    /// GPU: a subgroup's rays traverse the BVH together, sharing node fetches (`Some(true)`,
+    /// refused on devices without subgroups of 8 or more invocations), or each ray alone
+    /// (`Some(false)`); `None`: the device's choice.
+    pub packets: Option<bool>,
+    /// GPU: the kernel carries code for every primitive kind, not only the scene's.
+    pub all_kinds: bool,
+    /// GPU: each lane casts its most rays (8) whatever the render's size, as a kernel run many
+    /// times should; by default a small render casts fewer, so that its kernel compiles sooner.
+    pub most_lane_rays: bool,
+}
+
+impl Tuning {
+    /// `variant`, the kernel raycast specializes for `scene` (`rays` rays), with these overrides.
+    pub(crate) fn apply(self, variant: Variant, scene: &Scene, gpu: &Gpu) -> Result<Variant> {
+        let mut variant = match self.most_lane_rays {
+            true => Variant {
+                lane_rays_limit: MAX_LANE_RAYS,
+                ..variant
+            },
+            false => variant.for_rays(scene.camera.pixel_count()),
+        };
+        variant.bvh = self.search.uses_bvh(scene);
+        if self.all_kinds {
+            variant = variant.with_kinds(Kinds::ALL);
+        }
+        match self.packets {
+            Some(true) if !gpu.has_packet_subgroups() => Err(Error::Argument {
+                option: "packets".into(),
+                message: "need subgroups of at least 8 invocations, which this device lacks"
+                    .into(),
+            }),
+            Some(packets) => Ok(Variant { packets, ..variant }),
+            None => Ok(variant),
+        }
+    }
 }
 
 impl Default for RenderOptions {
@@ -61,6 +112,8 @@ impl Default for RenderOptions {
             shade: None,
             kernel: None,
             timed: false,
+            tuning: Tuning::default(),
+            progress: None,
         }
     }
 }
@@ -77,23 +130,46 @@ impl RenderOptions {
         }
     }
 
+    /// Refuses what these options ask of `device` that it cannot do, before any render: samples
+    /// per pixel that are not a perfect square, a kernel or a shade hook other than on the GPU
+    /// in f32 or f64 (the CPU runs the course's ray tracer's mirror), tuning with adaptive
+    /// precision.
+    pub fn check(&self, device: Device) -> Result<()> {
+        supersample::side(self.samples_per_pixel).map_err(|message| Error::Argument {
+            option: "samples_per_pixel".into(),
+            message,
+        })?;
+        super::check_request(self.mode(device), &self.request())
+    }
+
     fn request(&self) -> Request {
         Request {
             outputs: self.outputs,
             shade: self.shade.clone(),
             kernel: self.kernel.clone(),
+            tuning: self.tuning,
         }
     }
 
     fn render(&self, scene: &Scene, mode: Mode, gpu: Option<&Gpu>) -> Result<AnyImages> {
         let request = self.request();
         if self.samples_per_pixel == 1 {
+            let progress = self.progress.as_deref();
             let (mut images, kernel_s) =
-                super::dispatch(scene, mode, gpu, None, &request, self.timed)?;
+                super::dispatch(scene, mode, gpu, progress, &request, self.timed)?;
             images.set_kernel_s(kernel_s);
             return Ok(images);
         }
-        supersample::supersample_request(scene, mode, gpu, self.samples_per_pixel, None, &request)
+        let progress = self.progress.as_deref();
+        supersample::supersample_request(
+            scene,
+            mode,
+            gpu,
+            self.samples_per_pixel,
+            progress,
+            &request,
+            self.timed,
+        )
     }
 }
 

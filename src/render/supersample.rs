@@ -60,15 +60,6 @@ pub fn side(spp: u32) -> std::result::Result<u32, String> {
     Ok(s)
 }
 
-/// A sample count as `--spp` takes it: a whole number that is a perfect square (see [`side`]).
-pub fn parse_spp(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
-    side(n).map(|_| n)
-}
-
 /// One reduced pixel.
 struct Pixel<T> {
     id: i32,
@@ -220,7 +211,7 @@ pub fn supersample(
     spp: u32,
     progress: Option<&render::Progress>,
 ) -> Result<AnyImages> {
-    supersample_request(scene, mode, gpu, spp, progress, &Request::default())
+    supersample_request(scene, mode, gpu, spp, progress, &Request::default(), false)
 }
 
 /// [`supersample`] producing what `request` asks for. Above one sample per pixel the ids are
@@ -232,14 +223,21 @@ pub(crate) fn supersample_request(
     spp: u32,
     progress: Option<&render::Progress>,
     request: &Request,
+    timed: bool,
 ) -> Result<AnyImages> {
+    let render = |scene: &Scene, request: &Request, s: u32| {
+        let (images, kernel_s) = render::dispatch(scene, mode, gpu, progress, request, timed)?;
+        let mut images = images.reduce(s);
+        images.set_kernel_s(kernel_s);
+        Ok(images)
+    };
     if spp == 1 {
         // Before sample_scene, which copies the scene (meshes included).
-        return Ok(render::render_request(scene, mode, gpu, progress, request)?.reduce(1));
+        return render(scene, request, 1);
     }
     let (fine_scene, s) = sample_scene(scene, spp)?;
     let fine_request = sample_request(request, spp);
-    let fine = render::render_request(&fine_scene, mode, gpu, progress, &fine_request);
+    let fine = render(&fine_scene, &fine_request, s);
     let fine = fine.map_err(|e| match e {
         Error::Argument { option, message } => Error::Argument {
             option: format!("samples_per_pixel {spp}"),
@@ -250,7 +248,7 @@ pub(crate) fn supersample_request(
         },
         other => other,
     })?;
-    Ok(fine.reduce(s))
+    Ok(fine)
 }
 
 /// The scene whose pixels are the samples of `scene` at `spp` samples per pixel (module docs),

@@ -6,11 +6,11 @@ use std::path::PathBuf;
 use super::{
     Comparison, color_error_picture, compare, distance_error_picture, exceeded, mismatch_picture,
 };
-use raycast::error::Result;
-use raycast::gpu::Gpu;
+use crate::render::{check, render, timed};
 use raycast::output::{self, EncodedFile};
-use raycast::render::{self, AnyImages, Mode};
+use raycast::render::{AnyImages, Mode};
 use raycast::scene;
+use raycast::{Gpu, RenderOptions, Result};
 
 /// What `raycast compare` is asked for.
 #[derive(Clone, Debug)]
@@ -55,22 +55,28 @@ impl Spec {
         };
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
-        let request = render::Request {
+        let options = RenderOptions {
             shade: raycast::gpu::hooks::requested(self.lit, self.shader.as_deref())?,
-            ..render::Request::default()
+            ..RenderOptions::default()
         };
         for mode in self.modes {
-            render::check_request(mode, &request)?;
+            check(mode, options.clone())?;
         }
         if let Some(dir) = &self.out_dir {
             output::check_writable(dir)?;
         }
         let [mode_a, mode_b] = self.modes;
         let render = |scene, mode| {
-            crate::progress::cpu_rows(|p| render::render_request(scene, mode, gpu, p, &request))
+            crate::progress::cpu_rows(|progress| {
+                let options = RenderOptions {
+                    progress,
+                    ..options.clone()
+                };
+                render(scene, mode, gpu, options)
+            })
         };
-        let (a, time_a) = render::timed(|| render(&scene_a, mode_a));
-        let (b, time_b) = render::timed(|| render(&scene_b, mode_b));
+        let (a, time_a) = timed(|| render(&scene_a, mode_a));
+        let (b, time_b) = timed(|| render(&scene_b, mode_b));
         let (a, b) = (a?, b?);
         let c = compare(&a, &b);
         let mut json = serde_json::json!({

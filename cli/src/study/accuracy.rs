@@ -20,14 +20,12 @@ use std::path::{Path, PathBuf};
 
 use super::{Align, Provenance, Stream, Table, cell, format_error, scene_name};
 use crate::compare;
-use raycast::algorithm::Algorithm;
-use raycast::error::{Error, Result};
-use raycast::gpu::Gpu;
+use crate::render::{render, timed};
 use raycast::images::{Images, MISS};
-use raycast::math::Real;
 use raycast::output;
-use raycast::render::{self, AnyImages, Device, Mode, Precision};
+use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
+use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
 
 /// The reference mode unless another is named: the CPU in f64 with the robust algorithms.
 pub const DEFAULT_REFERENCE: Mode = Mode {
@@ -220,7 +218,7 @@ fn warm_up(scene: &Scene, options: &Options, gpu: Option<&Gpu>) -> Result<()> {
     tiny.camera.resolution = [1, 1];
     for &mode in options.modes.iter().chain([&options.reference]) {
         if mode.device == Device::Gpu {
-            render::render(&tiny, mode, gpu, None)?;
+            render(&tiny, mode, gpu, RenderOptions::default())?;
         }
     }
     Ok(())
@@ -234,11 +232,11 @@ pub fn measure(
     modes: &[Mode],
     gpu: Option<&Gpu>,
 ) -> Result<Vec<Row>> {
-    let truth = render::render(scene, reference, gpu, None)?;
+    let truth = render(scene, reference, gpu, RenderOptions::default())?;
     modes
         .iter()
         .map(|&mode| {
-            let (images, elapsed) = render::timed(|| render::render(scene, mode, gpu, None));
+            let (images, elapsed) = timed(|| render(scene, mode, gpu, RenderOptions::default()));
             Ok(row(name, mode, &images?, &truth, elapsed.as_secs_f64()))
         })
         .collect()
@@ -273,12 +271,12 @@ pub fn lost_hits(ids: &[i32], reference: &[i32]) -> usize {
 }
 
 /// Pixels with a NaN anywhere, an infinite normal component, or an infinite distance on a hit.
-pub fn non_finite<T: Real>(images: &Images<T>) -> usize {
-    (0..images.len())
+pub fn non_finite<T: Copy + Into<f64>>(images: &Images<T>) -> usize {
+    (0..images.id.len())
         .filter(|&k| {
-            let d = images.distance[k].to_f64();
+            let d: f64 = images.distance[k].into();
             let bad_distance = d.is_nan() || (images.id[k] != MISS && d.is_infinite());
-            bad_distance || images.normal[k].iter().any(|c| !c.to_f64().is_finite())
+            bad_distance || images.normal[k].iter().any(|&c| !c.into().is_finite())
         })
         .count()
 }

@@ -4,12 +4,12 @@
 //! Per configuration ([`measure`]): one warm-up frame (which compiles the GPU kernel), then
 //! [`Options::runs`] timed frames, each with its stages timed apart and the median over the
 //! runs reported ([`Row`]):
-//! - GPU modes run [`raycast::render::on_gpu`]: primitives rounded and laid out and the BVH built
-//!   (`build_s`), the scene's buffers uploaded (`upload_s`), every tile dispatched and read
-//!   back (`trace_s`, wall clock) and the kernel's GPU time from timestamp queries
+//! - GPU modes report the render's [`raycast::Stages`]: primitives rounded and laid out and the
+//!   BVH built (`build_s`), the scene's buffers uploaded (`upload_s`), every tile dispatched
+//!   and read back (`trace_s`, wall clock) and the kernel's GPU time from timestamp queries
 //!   (`trace_gpu_s`).
-//! - CPU modes time [`Prepared::new`] (the BVH build and the layout, `build_s`) apart from
-//!   [`cpu::render_prepared`] on it (`trace_s`); nothing is uploaded.
+//! - CPU modes report the BVH build and the layout (`build_s`) apart from the render on them
+//!   (`trace_s`); nothing is uploaded.
 //!
 //! With a shade hook (`--shader`, `--lit`) every frame also colours `color.png`; a hook that
 //! casts rays reports them too, as secondary rays a second (`secondary_mrays_per_s`, over the
@@ -19,25 +19,15 @@
 //! measured here (`raycast tradeoff` times it as a whole).
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicU32;
 use std::time::Instant;
 
 use serde::Serialize;
 
 use super::{Stream, Table, format_seconds, median, plural};
-use raycast::algorithm::Algorithm;
-use raycast::cpu;
-use raycast::error::{Error, Result};
-use raycast::gpu::hooks::ShadeHook;
-use raycast::gpu::{self, Gpu};
-use raycast::images::{Images, MISS};
-use raycast::kernel::layout::GpuTriangle;
-use raycast::kernel::types;
-use raycast::math::{Float, Real};
-use raycast::prepare::Prepared;
-use raycast::prepare::bvh::{Bvh, Search};
+use raycast::images::MISS;
 use raycast::render::{self, Device, Mode, Precision};
 use raycast::scene::{Object, Scene};
+use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 
 /// `--runs` unless given.
 pub const DEFAULT_RUNS: usize = 5;
@@ -51,9 +41,6 @@ pub const DEFAULT_MODE: Mode = Mode {
 
 /// The most rays `--rays` casts: their list and hits fit a few GiB.
 pub const MAX_RAYS: usize = 1 << 26;
-
-/// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
-const OBJECT_ID_BYTES: usize = 4;
 
 /// What to measure.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,9 +104,8 @@ impl Options {
                 ),
             });
         }
-        let request = self.request();
         for &mode in &self.modes {
-            render::check_request(mode, &request)?;
+            crate::render::check(mode, self.render_options(Search::Auto))?;
         }
         match self.rays {
             Some(n) if n == 0 || n > MAX_RAYS => Err(Error::Argument {
@@ -138,11 +124,18 @@ impl Options {
         }
     }
 
-    /// What every frame renders: every output, with the hook.
-    fn request(&self) -> render::Request {
-        render::Request {
+    /// What every frame renders with `accel`: every output, with the hook, timed, each lane
+    /// casting its most rays as a kernel traced many times should.
+    fn render_options(&self, accel: Search) -> RenderOptions {
+        RenderOptions {
             shade: self.shade.clone(),
-            ..render::Request::default()
+            timed: true,
+            tuning: Tuning {
+                search: accel,
+                most_lane_rays: true,
+                ..Tuning::default()
+            },
+            ..RenderOptions::default()
         }
     }
 
@@ -196,30 +189,6 @@ impl Counts {
     }
 }
 
-/// Bytes per triangle of the primitive layout a render traces, `None` without triangles:
-///
-/// `(T * triangle_bytes + 4 * (S + P + T) + bvh_bytes) / T`
-///
-/// with `S`, `P`, `T` the sphere, plane and triangle counts, `triangle_bytes` the size of one
-/// triangle as the render stores it (on the GPU `GpuTriangle`: 40 bytes in f32, 80 in f64; on
-/// the CPU `types::Triangle`: 36 in f32, 72 in f64), `4 * (S + P + T)` the object-id
-/// buffer (one `u32` per primitive) and `bvh_bytes` [`Bvh::bytes`] (64 bytes per node plus a
-/// 4-byte order entry per sphere and triangle) when the render uses a BVH, else 0. On the GPU
-/// these are the device buffers of bindings 3, 4, 9 and 10 (less the 4 bytes per plane the
-/// order buffer also holds).
-pub fn bytes_per_triangle(counts: Counts, triangle_bytes: usize, bvh: Option<&Bvh>) -> Option<f64> {
-    let Counts {
-        spheres: s,
-        planes: p,
-        triangles: t,
-    } = counts;
-    if t == 0 {
-        return None;
-    }
-    let bytes = t * triangle_bytes + OBJECT_ID_BYTES * (s + p + t) + bvh.map_or(0, Bvh::bytes);
-    Some(bytes as f64 / t as f64)
-}
-
 /// One configuration's measurement: `raycast bench --json` prints it as one JSON line, keys in
 /// this order. Times are in seconds, medians over the timed runs unless said otherwise.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -247,10 +216,10 @@ pub struct Row {
     pub runs: usize,
     /// [`Scene::load`] once, before every configuration (the same value on every row).
     pub load_s: f64,
-    /// BVH build (when used) and primitive layout: [`gpu::Stages::build_s`] on the GPU,
-    /// [`Prepared::new`] on the CPU.
+    /// BVH build (when used) and primitive layout ([`raycast::Stages::build_s`]).
     pub build_s: f64,
-    /// The warm-up frame's kernel compilation ([`gpu::Stages::compile_s`]); `None` on the CPU.
+    /// The warm-up frame's kernel compilation ([`raycast::Stages::compile_s`]); `None` on the
+    /// CPU.
     pub compile_s: Option<f64>,
     /// The scene's buffers created and filled on the device; `None` on the CPU.
     pub upload_s: Option<f64>,
@@ -276,7 +245,8 @@ pub struct Row {
     /// configuration where the kernel allows; on lavapipe this includes the "device" buffers);
     /// `None` where there is no /proc.
     pub peak_rss_mb: Option<f64>,
-    /// See [`bytes_per_triangle`]; `None` without triangles.
+    /// The geometry's bytes per triangle as the render held it
+    /// ([`raycast::Stages::bytes_per_triangle`]); `None` without triangles.
     pub bytes_per_triangle: Option<f64>,
     /// BVH nodes (64 bytes each), when a BVH is used.
     pub bvh_nodes: Option<usize>,
@@ -288,7 +258,7 @@ pub struct Row {
     pub cpu: Option<String>,
 }
 
-/// Per-run stage times.
+/// Per-run stage times, and what the frame's geometry held.
 #[derive(Clone, Copy, Debug, Default)]
 struct Run {
     build_s: f64,
@@ -298,85 +268,34 @@ struct Run {
     kernel_s: Option<f64>,
     hits: usize,
     hook_rays: Option<u64>,
+    bvh_nodes: Option<usize>,
+    bytes_per_triangle: Option<f64>,
 }
 
-/// One frame in `mode` (never adaptive) with `accel` and `request`'s hook, its stages timed
-/// apart.
+/// One frame in `mode` (never adaptive) with `accel` and `options`' hook, its stages timed
+/// apart ([`raycast::Stages`]).
 fn run_once(
     scene: &Scene,
     mode: Mode,
     accel: Search,
     gpu: Option<&Gpu>,
-    request: &render::Request,
+    options: &Options,
 ) -> Result<Run> {
-    match (mode.device, mode.precision) {
-        (Device::Gpu, precision) => {
-            let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
-            let precision = match precision {
-                Precision::F64 => Float::F64,
-                _ => Float::F32,
-            };
-            let mut variant = gpu::shader::Variant {
-                bvh: accel.uses_bvh(scene),
-                ..gpu.scene_variant(scene, precision, mode.algorithm)
-            };
-            if let Some(hook) = &request.shade {
-                variant = variant.with_shade(hook.key, hook.traces);
-            }
-            let variant = variant.with_outputs(request.kernel_outputs());
-            let (hits, stages) = match precision {
-                Float::F32 => {
-                    let (images, stages) =
-                        raycast::render::on_gpu::<f32>(gpu, scene, variant, true)?;
-                    (hits(&images), stages)
-                }
-                Float::F64 => {
-                    let (images, stages) =
-                        raycast::render::on_gpu::<f64>(gpu, scene, variant, true)?;
-                    (hits(&images), stages)
-                }
-            };
-            Ok(Run {
-                build_s: stages.build_s,
-                compile_s: stages.compile_s,
-                upload_s: Some(stages.upload_s),
-                trace_s: stages.trace_s,
-                kernel_s: stages.kernel_s,
-                hits,
-                hook_rays: stages.hook_rays,
-            })
-        }
-        (Device::Cpu, precision) => {
-            // check_request lets only the ray tracer's mirror through.
-            let lit = request.shade.is_some();
-            Ok(match precision {
-                Precision::F32 => cpu_once::<f32>(scene, mode.algorithm, accel, lit),
-                _ => cpu_once::<f64>(scene, mode.algorithm, accel, lit),
-            })
-        }
-    }
-}
-
-/// One CPU frame, and with `lit` its colours by the ray tracer's mirror in the same time.
-fn cpu_once<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Search, lit: bool) -> Run {
-    let start = Instant::now();
-    let prepared = Prepared::<T>::new(scene, algorithm, accel);
-    let build_s = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let images = cpu::render_prepared(&prepared, &AtomicU32::new(0));
-    let hook_rays = lit.then(|| cpu::raytrace::render(&prepared).1);
-    let trace_s = start.elapsed().as_secs_f64();
-    Run {
-        build_s,
-        trace_s,
-        hits: hits(&images),
-        hook_rays,
-        ..Run::default()
-    }
-}
-
-fn hits<T>(images: &Images<T>) -> usize {
-    images.id.iter().filter(|&&id| id != MISS).count()
+    let images = crate::render::render(scene, mode, gpu, options.render_options(accel))?;
+    let stages = images
+        .stages()
+        .expect("f32 and f64 renders report their stages");
+    Ok(Run {
+        build_s: stages.build_s,
+        compile_s: stages.compile_s,
+        upload_s: (mode.device == Device::Gpu).then_some(stages.upload_s),
+        trace_s: stages.trace_s,
+        kernel_s: stages.kernel_s,
+        hits: images.id().iter().filter(|&&id| id != MISS).count(),
+        hook_rays: stages.hook_rays,
+        bvh_nodes: stages.bvh_nodes,
+        bytes_per_triangle: stages.bytes_per_triangle,
+    })
 }
 
 /// Measures `loaded` in `mode` with `accel`: one warm-up frame, then `runs` timed ones (module
@@ -386,16 +305,16 @@ pub fn measure(
     (mode, accel): (Mode, Search),
     runs: usize,
     gpu: Option<&Gpu>,
-    request: &render::Request,
+    options: &Options,
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
     let scene = &loaded.scene;
     reset_peak_rss();
-    let warm_up = run_once(scene, mode, accel, gpu, request)?;
+    let warm_up = run_once(scene, mode, accel, gpu, options)?;
     tick();
     let mut timed = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
-        timed.push(run_once(scene, mode, accel, gpu, request)?);
+        timed.push(run_once(scene, mode, accel, gpu, options)?);
         tick();
     }
     let peak_rss_mb = render::peak_rss_mib();
@@ -419,15 +338,6 @@ pub fn measure(
     };
     let mrays_per_s = mrays(frame_s);
     let counts = Counts::of(scene);
-    let uses_bvh = accel.uses_bvh(scene) && (counts.spheres + counts.triangles) > 0;
-    // Built again outside the timed runs, to count what the render held.
-    let bvh = uses_bvh.then(|| Bvh::build(scene, mode.algorithm));
-    let triangle_bytes = match (mode.device, mode.precision) {
-        (Device::Gpu, Precision::F64) => size_of::<GpuTriangle<f64>>(),
-        (Device::Gpu, _) => size_of::<GpuTriangle<f32>>(),
-        (Device::Cpu, Precision::F32) => size_of::<types::Triangle<f32>>(),
-        (Device::Cpu, _) => size_of::<types::Triangle<f64>>(),
-    };
     let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);
     let last = timed.last().expect("at least one run");
     let secondary_rays = last.hook_rays;
@@ -435,10 +345,10 @@ pub fn measure(
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
         accel: accel_name(accel).to_owned(),
-        bvh: uses_bvh,
+        bvh: last.bvh_nodes.is_some(),
         size: scene.camera.resolution,
         rays,
-        hook: (request.shade.as_ref()).map(|h| h.file.display().to_string()),
+        hook: (options.shade.as_ref()).map(|h| h.file.display().to_string()),
         secondary_rays,
         triangles: counts.triangles,
         spheres: counts.spheres,
@@ -456,8 +366,8 @@ pub fn measure(
         mrays_from,
         hit_fraction: last.hits as f64 / rays.max(1) as f64,
         peak_rss_mb,
-        bytes_per_triangle: bytes_per_triangle(counts, triangle_bytes, bvh.as_ref()),
-        bvh_nodes: bvh.as_ref().map(|b| b.nodes.len()),
+        bytes_per_triangle: last.bytes_per_triangle,
+        bvh_nodes: last.bvh_nodes,
         adapter: on_gpu.as_ref().map(|i| i.name.clone()),
         driver: on_gpu.map(|i| i.driver_info),
         cpu: cpu_model(),
@@ -565,11 +475,10 @@ pub fn run(
     let mut rows = Vec::with_capacity(configurations.len());
     for config in configurations {
         bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
-        let request = options.request();
         let mut tick = || bar.inc(1);
         let row = match options.rays {
             Some(n) => measure_rays(loaded, config.0, n, options.runs, gpu, &mut tick)?,
-            None => measure(loaded, config, options.runs, gpu, &request, &mut tick)?,
+            None => measure(loaded, config, options.runs, gpu, options, &mut tick)?,
         };
         bar.suspend(|| on_row(&row));
         rows.push(row);
@@ -809,38 +718,6 @@ mod tests {
                 .starts_with("--shader")
         );
         assert!(cpu(raycast::ShadeHook::raytrace().unwrap()).check().is_ok());
-    }
-
-    #[test]
-    fn bytes_per_triangle_formula() {
-        let counts = Counts {
-            spheres: 2,
-            planes: 1,
-            triangles: 10,
-        };
-        // 10 * 48 + 4 * 13 = 532 bytes without a BVH.
-        assert_eq!(bytes_per_triangle(counts, 48, None), Some(53.2));
-        let bvh = Bvh {
-            nodes: vec![bytemuck::Zeroable::zeroed(); 3],
-            sphere_order: vec![0; 2],
-            triangle_order: vec![0; 10],
-            depth: 1,
-        };
-        // + 3 * 64 + 4 * 12 = 240.
-        assert_eq!(bytes_per_triangle(counts, 48, Some(&bvh)), Some(77.2));
-        let none = Counts {
-            triangles: 0,
-            ..counts
-        };
-        assert_eq!(bytes_per_triangle(none, 48, None), None);
-    }
-
-    #[test]
-    fn triangle_sizes_are_as_documented() {
-        assert_eq!(size_of::<GpuTriangle<f32>>(), 40);
-        assert_eq!(size_of::<GpuTriangle<f64>>(), 80);
-        assert_eq!(size_of::<types::Triangle<f32>>(), 36);
-        assert_eq!(size_of::<types::Triangle<f64>>(), 72);
     }
 
     #[test]

@@ -4,30 +4,28 @@
 //! For every scene, each specialization is timed with the kernel specialized and with that one
 //! specialization turned off, everything else as `raycast render` would run it (GPU, f32, robust,
 //! the scene's own resolution):
-//! - primitive kinds: only the scene's kinds compiled in, against every kind ([`Kinds::ALL`]);
+//! - primitive kinds: only the scene's kinds compiled in, against every kind
+//!   ([`Tuning::all_kinds`]);
 //! - BVH against brute force (brute force skipped above [`BRUTE_FORCE_LIMIT`] triangles);
 //! - subgroup packets against per-ray BVH traversal (where the scene uses a BVH);
 //! - outputs: distance only against id, distance and normal.
 //!
 //! The distinct kernels of a scene are run in turn, round after round (one warm-up round, which
 //! also compiles them, then `runs` timed rounds), so drifts of the machine's load fall on all of
-//! them alike; each time is the median of its rounds' kernel GPU times ([`Stages::kernel_s`],
+//! them alike; each time is the median of its rounds' kernel GPU times ([`raycast::Stages::kernel_s`],
 //! timestamp queries), or of the wall trace times where the device has no timestamps.
 //!
 //! [`crossover`] measures where a BVH starts to pay (random spheres and triangles, n = 2 to 256),
-//! the measurement behind [`raycast::prepare::bvh::CROSSOVER`].
+//! the measurement behind the crossover of [`Search::Auto`].
 
 use std::path::{Path, PathBuf};
 
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
-use raycast::Algorithm;
-use raycast::error::{Error, Result};
-use raycast::gpu::shader::{Kinds, Variant};
-use raycast::gpu::{Gpu, Stages};
-use raycast::images::Outputs;
-use raycast::math::{Float, vec3};
+use raycast::math::vec3;
 use raycast::output;
+use raycast::render::Precision;
 use raycast::scene::Scene;
+use raycast::{Error, Gpu, Outputs, RenderOptions, Result, Search, Tuning};
 
 /// Above this many triangles brute force is not timed (the torus's 518,400 would take minutes
 /// a frame on lavapipe).
@@ -88,11 +86,18 @@ impl Row {
     }
 }
 
+/// A kernel as the study runs it: GPU, f32, robust, `tuning` and `outputs` as given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Kernel {
+    pub tuning: Tuning,
+    pub outputs: Outputs,
+}
+
 /// What to run for one row: the kernel with and without the specialization (`None`: not run).
 struct Plan {
     specialization: Specialization,
-    with: Option<Variant>,
-    without: Option<Variant>,
+    with: Option<Kernel>,
+    without: Option<Kernel>,
     default_with: Option<bool>,
     note: Option<String>,
 }
@@ -112,25 +117,46 @@ impl Plan {
 /// The rows to measure for `scene`, from the kernel `raycast render` runs for it by default
 /// (GPU, f32, robust, id, distance and normal).
 fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
-    let base = gpu
-        .scene_variant(scene, Float::F32, Algorithm::Robust)
-        .for_rays(scene.camera.pixel_count());
-    let toggle = |on: Variant, off: Variant, default_with: bool, spec| Plan {
+    let [spheres, planes, triangles] = scene.primitive_counts();
+    let auto_bvh = Search::Auto.uses_bvh(scene);
+    // The search as raycast chooses it, named, so that the base kernel is one of the BVH row's.
+    let search = if auto_bvh {
+        Search::Bvh
+    } else {
+        Search::BruteForce
+    };
+    let base = Kernel {
+        tuning: Tuning {
+            search,
+            ..Tuning::default()
+        },
+        outputs: Outputs::ALL,
+    };
+    let tuned = |tuning: Tuning| Kernel { tuning, ..base };
+    let toggle = |on: Kernel, off: Kernel, default_with: bool, spec| Plan {
         specialization: spec,
         with: Some(on),
         without: Some(off),
         default_with: Some(default_with),
         note: None,
     };
-    let [spheres, _, triangles] = scene.primitive_counts();
     let mut plans = Vec::new();
-    plans.push(if base.kinds == Kinds::ALL {
+    plans.push(if spheres > 0 && planes > 0 && triangles > 0 {
         Plan::not_applicable(Specialization::Kinds, "the scene has every kind")
     } else {
-        let all = base.with_kinds(Kinds::ALL);
+        let all = tuned(Tuning {
+            all_kinds: true,
+            ..base.tuning
+        });
         toggle(base, all, true, Specialization::Kinds)
     });
-    let bvh = Variant { bvh: true, ..base };
+    let with_search = |search| {
+        tuned(Tuning {
+            search,
+            ..base.tuning
+        })
+    };
+    let bvh = with_search(Search::Bvh);
     plans.push(if spheres + triangles == 0 {
         Plan::not_applicable(Specialization::Bvh, "no spheres or triangles")
     } else if triangles > BRUTE_FORCE_LIMIT {
@@ -142,10 +168,10 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             ..toggle(bvh, base, true, Specialization::Bvh)
         }
     } else {
-        let brute = Variant { bvh: false, ..base };
-        toggle(bvh, brute, base.uses_bvh(), Specialization::Bvh)
+        let brute = with_search(Search::BruteForce);
+        toggle(bvh, brute, auto_bvh, Specialization::Bvh)
     });
-    plans.push(if !base.uses_bvh() {
+    plans.push(if !auto_bvh {
         Plan::not_applicable(Specialization::Packets, "no BVH for this scene")
     } else if !gpu.has_packet_subgroups() {
         Plan::not_applicable(
@@ -153,20 +179,20 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             "no subgroups of 8 or more invocations on this device",
         )
     } else {
-        let on = Variant {
-            packets: true,
-            ..base
-        };
-        let off = Variant {
-            packets: false,
-            ..base
-        };
-        toggle(on, off, base.packets, Specialization::Packets)
+        // The device's choice is packets: the base kernel is the row's "with".
+        let off = tuned(Tuning {
+            packets: Some(false),
+            ..base.tuning
+        });
+        toggle(base, off, true, Specialization::Packets)
     });
-    let distance = base.with_outputs(Outputs {
-        distance: true,
-        ..Outputs::NONE
-    });
+    let distance = Kernel {
+        outputs: Outputs {
+            distance: true,
+            ..Outputs::NONE
+        },
+        ..base
+    };
     plans.push(Plan {
         default_with: None,
         ..toggle(distance, base, false, Specialization::Outputs)
@@ -181,10 +207,18 @@ pub fn has_kernel_times(gpu: &Gpu) -> bool {
         .contains(wgpu::Features::TIMESTAMP_QUERY)
 }
 
-/// The time of one render with `variant`, in seconds: the kernel's GPU time, or the wall trace
+/// The time of one render with `kernel`, in seconds: the kernel's GPU time, or the wall trace
 /// time without timestamps.
-fn time_once(gpu: &Gpu, scene: &Scene, variant: Variant) -> Result<f64> {
-    let (_, stages): (_, Stages) = raycast::render::on_gpu::<f32>(gpu, scene, variant, true)?;
+fn time_once(gpu: &Gpu, scene: &Scene, kernel: Kernel) -> Result<f64> {
+    let options = RenderOptions {
+        precision: Some(Precision::F32),
+        outputs: kernel.outputs,
+        tuning: kernel.tuning,
+        timed: true,
+        ..RenderOptions::default()
+    };
+    let images = gpu.render(scene, &options)?;
+    let stages = images.stages().expect("an f32 render reports its stages");
     Ok(stages.kernel_s.unwrap_or(stages.trace_s))
 }
 
@@ -202,7 +236,7 @@ pub struct Timing {
 pub fn interleaved_times(
     gpu: &Gpu,
     scene: &Scene,
-    variants: &[Variant],
+    variants: &[Kernel],
     runs: usize,
 ) -> Result<Vec<Timing>> {
     let mut times = vec![Vec::with_capacity(runs); variants.len()];
@@ -238,14 +272,14 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 /// every kernel timed.
 pub fn scene_rows(gpu: &Gpu, named: &NamedScene, runs: usize) -> Result<(Vec<Row>, Vec<f64>)> {
     let plans = plans(gpu, &named.scene);
-    let mut variants: Vec<Variant> = Vec::new();
+    let mut variants: Vec<Kernel> = Vec::new();
     for v in plans.iter().flat_map(|p| [p.with, p.without]).flatten() {
         if !variants.contains(&v) {
             variants.push(v);
         }
     }
     let times = interleaved_times(gpu, &named.scene, &variants, runs)?;
-    let ms = |v: Option<Variant>| {
+    let ms = |v: Option<Kernel>| {
         let k = variants.iter().position(|x| Some(*x) == v)?;
         Some(1e3 * times[k].median_s)
     };
@@ -564,8 +598,15 @@ pub fn crossover(
             } else {
                 random_triangles(n, &mut rng)
             };
-            let base = gpu.scene_variant(&scene, Float::F32, Algorithm::Robust);
-            let variants = [false, true].map(|bvh| Variant { bvh, ..base });
+            // Each lane casting its most rays, as the crossover was measured.
+            let variants = [Search::BruteForce, Search::Bvh].map(|search| Kernel {
+                tuning: Tuning {
+                    search,
+                    most_lane_rays: true,
+                    ..Tuning::default()
+                },
+                outputs: Outputs::ALL,
+            });
             let t = interleaved_times(gpu, &scene, &variants, runs)?;
             rows.push(CrossoverRow {
                 kind,
@@ -629,8 +670,8 @@ fn crossover_section(rows: &[CrossoverRow]) -> String {
          spheres / {} + triangles / {} >= 1 (`bvh::CROSSOVER`, `bvh::TRIANGLE_CROSSOVER`).\n\n{}",
         from("spheres"),
         from("triangles"),
-        raycast::prepare::bvh::CROSSOVER,
-        raycast::prepare::bvh::TRIANGLE_CROSSOVER,
+        Search::SPHERE_CROSSOVER,
+        Search::TRIANGLE_CROSSOVER,
         crossover_table(rows)
     )
 }

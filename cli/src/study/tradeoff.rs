@@ -6,7 +6,7 @@
 //! What is measured, per scene ([`measure`]):
 //! - The reference, [`REFERENCE`] (`cpu:f64:robust`), is rendered once at one sample per pixel,
 //!   and, when some row has more than one, once at [`REFERENCE_SPP`] samples per pixel
-//!   (reduced as `--spp` does, [`supersample::reduce`]).
+//!   (reduced as `--spp` does, [`raycast::RenderOptions::samples_per_pixel`]).
 //! - Every mode of [`Options::modes`] is measured at one sample per pixel and compared with
 //!   the plain reference: this is the error of the arithmetic and the algorithms, at the same
 //!   ray positions.
@@ -36,13 +36,11 @@ use super::{
     plural,
 };
 use crate::compare;
-use raycast::algorithm::Algorithm;
-use raycast::error::{Error, Result};
-use raycast::gpu::Gpu;
+use crate::render::render;
 use raycast::output::{self, EncodedFile};
-use raycast::render::supersample;
-use raycast::render::{self, AnyImages, Device, Mode, Precision};
+use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
+use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
 
 pub use plot::{LogAxis, plot};
 
@@ -156,14 +154,15 @@ impl Row {
     }
 }
 
-/// Checks the sample counts (perfect squares, see [`supersample::side`]) and that `gpu` can run
-/// every mode.
+/// Checks the sample counts (perfect squares, see [`RenderOptions::check`]) and that `gpu` can
+/// run every mode.
 fn check(options: &Options, gpu: Option<&Gpu>) -> Result<()> {
-    for &n in &options.spp {
-        supersample::side(n).map_err(|message| Error::Argument {
-            option: "--spp".into(),
-            message,
-        })?;
+    for &samples_per_pixel in &options.spp {
+        let spp = RenderOptions {
+            samples_per_pixel,
+            ..RenderOptions::default()
+        };
+        crate::render::check(SUPERSAMPLED_MODE, spp)?;
     }
     let supported = accuracy::default_modes(gpu);
     if let Some(m) = options.modes.iter().find(|m| !supported.contains(m)) {
@@ -208,14 +207,18 @@ fn measure_scene(
 ) -> Result<Vec<Row>> {
     let scene = &s.scene;
     bar.set_message(format!("{}: reference {REFERENCE}", s.name));
-    let reference = render::render(scene, REFERENCE, gpu, None)?;
+    let reference = render(scene, REFERENCE, gpu, RenderOptions::default())?;
     bar.inc(1);
     let fine_reference = if plan.iter().any(|&(_, n)| n > 1) {
         bar.set_message(format!(
             "{}: reference {REFERENCE} at {REFERENCE_SPP} spp",
             s.name
         ));
-        let r = supersample::supersample(scene, REFERENCE, gpu, REFERENCE_SPP, None)?;
+        let fine = RenderOptions {
+            samples_per_pixel: REFERENCE_SPP,
+            ..RenderOptions::default()
+        };
+        let r = render(scene, REFERENCE, gpu, fine)?;
         bar.inc(1);
         Some(r)
     } else {
@@ -279,33 +282,22 @@ struct Frame {
     recast_fraction: Option<f64>,
 }
 
-/// Renders `scene` in `mode` at `spp` samples per pixel (reduced as `--spp` does).
+/// Renders `scene` in `mode` at `spp` samples per pixel (reduced as `--spp` does), timed.
 fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Result<Frame> {
-    if spp == 1 {
-        if let (Precision::Adaptive, Device::Gpu, Some(g)) = (mode.precision, mode.device, gpu)
-            && mode.algorithm == Algorithm::Robust
-        {
-            let a = raycast::render::adaptive::render_adaptive_timed(g, scene)?;
-            let recast_fraction = Some(a.recast_fraction());
-            return Ok(Frame {
-                images: AnyImages::F32(a.images),
-                kernel_s: a.kernel_s,
-                recast_fraction,
-            });
-        }
-        let (images, kernel_s) = render::render_timed(scene, mode, gpu)?;
-        return Ok(Frame {
-            images,
-            kernel_s,
-            recast_fraction: None,
-        });
-    }
-    let (fine, s) = supersample::sample_scene(scene, spp)?;
-    let (images, kernel_s) = render::render_timed(&fine, mode, gpu)?;
+    let options = RenderOptions {
+        samples_per_pixel: spp,
+        timed: true,
+        ..RenderOptions::default()
+    };
+    let images = render(scene, mode, gpu, options)?;
+    let recast_fraction = match &images {
+        AnyImages::F32(i) => i.recast_fraction,
+        AnyImages::F64(i) => i.recast_fraction,
+    };
     Ok(Frame {
-        images: images.reduce(s),
-        kernel_s,
-        recast_fraction: None,
+        kernel_s: images.kernel_s(),
+        images,
+        recast_fraction,
     })
 }
 
