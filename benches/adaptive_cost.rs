@@ -43,11 +43,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             time(0, &mut || {
                 let variant = gpu.scene_variant(&scene, Float::F32, Robust);
-                on_gpu::<f32>(&gpu, &scene, variant, false).map(|_| ())
+                on_gpu::<f32>(&gpu, &scene, variant, false, None).map(|_| ())
             })?;
             time(1, &mut || {
                 let variant = gpu.scene_variant(&scene, Float::F64, Robust);
-                on_gpu::<f64>(&gpu, &scene, variant, false).map(|_| ())
+                on_gpu::<f64>(&gpu, &scene, variant, false, None).map(|_| ())
             })?;
             time(2, &mut || {
                 raycast::render::adaptive::certainty_pass(&gpu, &scene, false).map(|_| ())

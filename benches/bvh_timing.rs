@@ -66,7 +66,8 @@ fn main() {
     let [w, h] = scene.camera.resolution;
     for round in 0..5 {
         for (name, variant) in &variants {
-            let (_, s) = raycast::render::on_gpu::<f32>(&gpu, &scene, *variant, true).unwrap();
+            let (_, s) =
+                raycast::render::on_gpu::<f32>(&gpu, &scene, *variant, true, None).unwrap();
             let k = s.kernel_s.unwrap_or(f64::NAN);
             println!(
                 "{round} {name:8} build {:.3} upload {:.3} trace {:.3} kernel {:.3} s: {:.1} Mrays/s",

@@ -80,10 +80,12 @@ mod tests;
 pub struct ReadmeDoctests;
 
 pub use algorithm::Algorithm;
+pub use cpu::margin::Margins;
 pub use error::{Error, Result};
 pub use gpu::Gpu;
 pub use gpu::hooks::ShadeHook;
 pub use gpu::kernel::UserKernel;
+pub use gpu::probe::FusionReport;
 pub use images::{Images, Output, Outputs, Stages};
 pub use output::{Encoding, Format};
 pub use prepare::bvh::Search;

@@ -45,8 +45,8 @@ use crate::prepare::Primitives;
 /// Safety factor `K` over the first-order error bounds.
 pub const K: f64 = 2.0;
 
-/// Margins of one pixel: each at least 1 means that decision is certain in the kernel's
-/// precision.
+/// Margins of one pixel ([`crate::Cpu::f32_margins`]): each at least 1 means that decision is
+/// certain in the kernel's precision.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Margins {
     /// Whether the pixel hits anything.
@@ -56,6 +56,8 @@ pub struct Margins {
 }
 
 impl Margins {
+    /// Whether both decisions are certain: an f32 render must make them as exact arithmetic
+    /// does.
     pub fn certain(&self) -> bool {
         self.hit >= 1.0 && self.id >= 1.0
     }

@@ -326,7 +326,7 @@ pub fn describe(gpu: &Gpu) -> String {
         "max invocations per workgroup: {}\n",
         limits.max_compute_invocations_per_workgroup
     );
-    let fusion = probe::fusion_probe(gpu).map_or_else(|e| e.to_string(), |r| r.describe());
+    let fusion = gpu.fusion_probe().map_or_else(|e| e.to_string(), |r| r.describe());
     s += &format!("f32 a*b - c*d: {fusion}\n");
     s
 }

@@ -26,6 +26,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 /// differ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FusionReport {
+    /// Inputs evaluated.
     pub samples: usize,
     /// Results equal to the unfused evaluation `(a*b) - (c*d)`.
     pub unfused: usize,
@@ -34,6 +35,7 @@ pub struct FusionReport {
 }
 
 impl FusionReport {
+    /// The verdict and the counts, in one line.
     pub fn describe(&self) -> String {
         let verdict = if self.unfused == self.samples {
             "not fused"
@@ -72,8 +74,17 @@ fn probe_inputs(samples: usize) -> Vec<[f32; 4]> {
         .collect()
 }
 
+impl Gpu {
+    /// Whether this device fuses `a*b - c*d` into a multiply-add (hardware drivers may;
+    /// lavapipe never does), which decides how closely its f32 renders can match the CPU
+    /// reference's: it runs a small probe kernel.
+    pub fn fusion_probe(&self) -> Result<FusionReport> {
+        fusion_probe(self)
+    }
+}
+
 /// Runs the probe kernel on `gpu`.
-pub fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
+fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
     let inputs = probe_inputs(4096);
     let device = &gpu.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -283,14 +283,15 @@ fn dispatch(
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
+            let rows = request.tuning.tile_rows;
             Ok(match mode.precision {
                 Precision::F32 => {
-                    let (mut images, stages) = on_gpu::<f32>(gpu, scene, variant, timed)?;
+                    let (mut images, stages) = on_gpu::<f32>(gpu, scene, variant, timed, rows)?;
                     images.stages = timed.then_some(stages);
                     (AnyImages::F32(images), stages.kernel_s)
                 }
                 _ => {
-                    let (mut images, stages) = on_gpu::<f64>(gpu, scene, variant, timed)?;
+                    let (mut images, stages) = on_gpu::<f64>(gpu, scene, variant, timed, rows)?;
                     images.stages = timed.then_some(stages);
                     (AnyImages::F64(images), stages.kernel_s)
                 }
@@ -362,16 +363,21 @@ fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
     Ok(())
 }
 
-/// Renders `scene` with the kernel `variant` (prepared for it), timing the stages and, with
-/// `timed`, the kernel.
+/// Renders `scene` with the kernel `variant` (prepared for it) in tiles of at most `rows` rows,
+/// timing the stages and, with `timed`, the kernel.
 pub fn on_gpu<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     variant: Variant,
     timed: bool,
+    rows: Option<u32>,
 ) -> Result<(Images<R>, Stages)> {
     let prepared = gpu::prepare::<R>(scene, &variant)?;
-    let r = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
+    let mut job = Job::new(variant).timed(timed);
+    if let Some(rows) = rows {
+        job = job.rows(rows);
+    }
+    let r = gpu::run(gpu, &prepared, job)?;
     let triangle_bytes = size_of::<GpuTriangle<R>>();
     Ok((r.images, with_layout(r.stages, &prepared.primitives, triangle_bytes)))
 }

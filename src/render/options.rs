@@ -6,12 +6,14 @@ use std::sync::Arc;
 use super::mode::default_precision;
 use super::{AnyImages, Device, Mode, Precision, Progress, Request, render_streamed, supersample};
 use crate::algorithm::Algorithm;
+use crate::cpu::margin::{Margins, margins};
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
-use crate::gpu::shader::{Kinds, MAX_LANE_RAYS, Variant};
+use crate::gpu::shader::{Kinds, MAX_LANE_RAYS, Variant, chunks_for};
 use crate::images::Outputs;
+use crate::prepare::Prepared;
 use crate::prepare::bvh::Search;
 use crate::scene::Scene;
 
@@ -72,7 +74,12 @@ pub struct Tuning {
     pub all_kinds: bool,
     /// GPU: each lane casts its most rays (8) whatever the render's size, as a kernel run many
     /// times should; by default a small render casts fewer, so that its kernel compiles sooner.
-    pub most_lane_rays: bool,
+    pub most_lane_rays: bool,    /// GPU: at most this many spheres and triangles (a power of two) in each storage binding,
+    /// as on a device with smaller bindings; `None`: as many as this device's bindings hold.
+    pub triangles_per_binding: Option<u32>,
+    /// GPU: at most this many image rows per dispatch, as for an image too large for one;
+    /// `None`: as many as the device's limits allow.
+    pub tile_rows: Option<u32>,
 }
 
 impl Tuning {
@@ -88,6 +95,21 @@ impl Tuning {
         variant.bvh = self.search.uses_bvh(scene);
         if self.all_kinds {
             variant = variant.with_kinds(Kinds::ALL);
+        }
+        if let Some(n) = self.triangles_per_binding {
+            let most = 1u32 << variant.chunk_bits;
+            if !n.is_power_of_two() || n > most {
+                return Err(Error::Argument {
+                    option: format!("triangles_per_binding {n}"),
+                    message: format!("a power of two up to {most}, what this device's bindings hold"),
+                });
+            }
+            let bits = n.ilog2() as u8;
+            variant = Variant {
+                chunks: chunks_for(scene, bits),
+                chunk_bits: bits,
+                ..variant
+            };
         }
         match self.packets {
             Some(true) if !gpu.has_packet_subgroups() => Err(Error::Argument {
@@ -206,6 +228,15 @@ impl Gpu {
 }
 
 impl Cpu {
+    /// Each pixel's decision margins for a render of `scene` in f32 with the robust
+    /// algorithms, row-major: how far its hit or miss, and which object is nearest, lie from
+    /// where f32 rounding could decide otherwise (src/cpu/margin.rs). Where both are at least 1
+    /// ([`Margins::certain`]) an f32 render must agree with exact arithmetic.
+    pub fn f32_margins(&self, scene: &Scene) -> Vec<Margins> {
+        let prepared = Prepared::<f64>::new(scene, Algorithm::Robust, Search::BruteForce);
+        margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64)
+    }
+
     /// Renders `scene`'s camera by the CPU reference.
     ///
     /// ```

@@ -21,7 +21,6 @@
 use std::path::{Path, PathBuf};
 
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
-use raycast::math::vec3;
 use raycast::output;
 use raycast::render::Precision;
 use raycast::scene::Scene;
@@ -725,11 +724,12 @@ fn random_triangles(n: usize, rng: &mut Rng) -> Scene {
         .map(|_| {
             let c = rng.centre();
             let mut corner = || {
-                vec3(
+                [
                     c[0] + rng.range(-0.5, 0.5),
                     c[1] + rng.range(-0.5, 0.5),
                     c[2] + rng.range(-0.5, 0.5),
-                )
+                ]
+                .into()
             };
             [corner(), corner(), corner()]
         })

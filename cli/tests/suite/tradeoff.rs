@@ -175,7 +175,7 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     scene.camera.resolution = [48, 27];
     let plain = common::gpu_scene::<f32>(gpu, &scene, Robust).unwrap();
     let variant = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
-    let (timed, stages) = render::on_gpu::<f32>(gpu, &scene, variant, true).unwrap();
+    let (timed, stages) = render::on_gpu::<f32>(gpu, &scene, variant, true, None).unwrap();
     let kernel_s = stages.kernel_s;
     assert_eq!(plain, timed);
     assert_eq!(kernel_s.is_some(), timestamps);

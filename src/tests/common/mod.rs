@@ -33,7 +33,7 @@ pub fn gpu_variant<R: GpuReal>(
     scene: &Scene,
     variant: Variant,
 ) -> raycast::Result<Images<R>> {
-    raycast::render::on_gpu::<R>(gpu, scene, variant, false).map(|(images, _)| images)
+    raycast::render::on_gpu::<R>(gpu, scene, variant, false, None).map(|(images, _)| images)
 }
 
 /// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.

@@ -21,18 +21,14 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::compare::color_error;
+use crate::render::render;
 use raycast::Algorithm::{self, Robust, Textbook};
-use raycast::cpu::{self, margin::margins};
-use raycast::error::{Error, Result};
-use raycast::gpu::{self, Gpu, Job, shader::Variant};
-use raycast::images::{Images, MISS, Outputs};
-use raycast::kernel::layout::GpuReal;
-use raycast::math::{Float, Real};
+use raycast::images::{Images, MISS};
 use raycast::output::{Pictures, pictures};
-use raycast::prepare::{Prepared, bvh::Search};
 use raycast::rays::{AnyHits, Hits, Ray};
-use raycast::render::{self, AnyImages, Device, Mode, Precision};
+use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
+use raycast::{Cpu, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 
 /// How far a bounded f32 distance may be from CPU f64's, relative, where both hit one object.
 pub const F32_DISTANCE_BOUND: f64 = 1e-5;
@@ -228,9 +224,9 @@ pub struct Adapter {
 }
 
 impl Adapter {
-    /// Probes `gpu` for fusion ([`raycast::gpu::probe`]) and describes it.
+    /// Probes `gpu` for fusion ([`Gpu::fusion_probe`]) and describes it.
     pub fn probe(gpu: &Gpu) -> Result<Adapter> {
-        let fusion = gpu::probe::fusion_probe(gpu)?;
+        let fusion = gpu.fusion_probe()?;
         let f64_support = gpu.has_f64();
         // Without f64 shaders the robust f32 kernel leaves out the f64 rechecks (edge signs,
         // a triangle's t) that the CPU mirror always makes.
@@ -492,7 +488,7 @@ fn picture_diff(a: &[u8], b: &[u8], channels: usize) -> (usize, u8) {
 /// within one level (the course's own renders are f64, truncated to 8 bits).
 fn course(ctx: &Ctx, name: &str, planted: bool) -> Result<Verdict> {
     let scene = data::course_scene(name)?;
-    let mut images = render::render(&scene, ADAPTIVE, Some(ctx.gpu), None)?;
+    let mut images = render(&scene, ADAPTIVE, Some(ctx.gpu), RenderOptions::default())?;
     if planted {
         plant_any(&mut images);
     }
@@ -519,42 +515,93 @@ fn random(seed: u64) -> Scene {
     scenes::random_scene(seed, [64, 48])
 }
 
-/// `scene` by the kernel `variant`.
-fn gpu_images<R: GpuReal>(gpu: &Gpu, scene: &Scene, variant: Variant) -> Result<Images<R>> {
-    render::on_gpu::<R>(gpu, scene, variant, false).map(|(images, _)| images)
+/// `scene` on the GPU in f32 (robust) with `tuning` and the hook `shade`, each lane casting its
+/// most rays whatever the image's size.
+fn gpu_f32(
+    gpu: &Gpu,
+    scene: &Scene,
+    tuning: Tuning,
+    shade: Option<ShadeHook>,
+) -> Result<Images<f32>> {
+    let options = RenderOptions {
+        precision: Some(Precision::F32),
+        shade,
+        tuning: Tuning {
+            most_lane_rays: true,
+            ..tuning
+        },
+        ..RenderOptions::default()
+    };
+    f32_images(gpu.render(scene, &options)?)
+}
+
+/// `scene` by the CPU reference in f32 (robust), searching with `search`.
+fn cpu_f32(scene: &Scene, search: Search) -> Result<Images<f32>> {
+    let options = RenderOptions {
+        precision: Some(Precision::F32),
+        tuning: Tuning {
+            search,
+            ..Tuning::default()
+        },
+        ..RenderOptions::default()
+    };
+    f32_images(Cpu.render(scene, &options)?)
+}
+
+/// `scene` by the CPU reference in f64 (robust): the truth.
+fn cpu_f64(scene: &Scene) -> Result<Images<f64>> {
+    let options = RenderOptions {
+        precision: Some(Precision::F64),
+        ..RenderOptions::default()
+    };
+    match Cpu.render(scene, &options)? {
+        AnyImages::F64(images) => Ok(images),
+        AnyImages::F32(_) => Err(Error::Device("an f64 render returned f32 images".into())),
+    }
+}
+
+fn f32_images(images: AnyImages) -> Result<Images<f32>> {
+    match images {
+        AnyImages::F32(images) => Ok(images),
+        AnyImages::F64(_) => Err(Error::Device("an f32 render returned f64 images".into())),
+    }
 }
 
 /// f32 through the BVH, in packets or ray by ray, judged by the adapter's [`F32Rule`].
 fn random_f32(ctx: &Ctx, seed: u64, packets: bool, planted: bool) -> Result<Verdict> {
     let scene = random(seed);
-    let base = ctx.gpu.scene_variant(&scene, Float::F32, Robust);
-    if packets && !base.packets {
+    if packets && !ctx.gpu.has_packet_subgroups() {
         return Ok(Verdict::skip("this adapter has no subgroups for packets"));
     }
-    let variant = Variant {
-        bvh: true,
-        packets,
-        ..base
+    let tuning = Tuning {
+        search: Search::Bvh,
+        packets: Some(packets),
+        ..Tuning::default()
     };
-    let mut images = gpu_images::<f32>(ctx.gpu, &scene, variant)?;
+    let mut images = gpu_f32(ctx.gpu, &scene, tuning, None)?;
     if planted {
         plant(&mut images.id);
     }
-    Ok(judge_f32(ctx, &scene, &images))
+    judge_f32(ctx, &scene, &images)
 }
 
 /// An f32 camera render through the BVH by the adapter's rule: CPU f64 on every certain pixel,
 /// and where the rule is exact CPU f32 bit for bit too.
-fn judge_f32(ctx: &Ctx, scene: &Scene, images: &Images<f32>) -> Verdict {
+fn judge_f32(ctx: &Ctx, scene: &Scene, images: &Images<f32>) -> Result<Verdict> {
     judge_f32_with(ctx, scene, images, Search::Bvh)
 }
 
 /// [`judge_f32`] of a render that searched with `accel` (the CPU f32 reference searches so too).
-fn judge_f32_with(ctx: &Ctx, scene: &Scene, images: &Images<f32>, accel: Search) -> Verdict {
-    let f64_side = MarginCheck::of(scene, images);
-    match ctx.rule {
+fn judge_f32_with(
+    ctx: &Ctx,
+    scene: &Scene,
+    images: &Images<f32>,
+    accel: Search,
+) -> Result<Verdict> {
+    let f64_side = MarginCheck::of(scene, images)?;
+    Ok(match ctx.rule {
         F32Rule::Exact => {
-            let cpu = cpu::render_with::<f32>(scene, Robust, accel);
+            let cpu = cpu_f32(scene, accel)?;
             let differ = differing_bits(images, &cpu);
             Verdict::new(
                 format!(
@@ -574,13 +621,13 @@ fn judge_f32_with(ctx: &Ctx, scene: &Scene, images: &Images<f32>, accel: Search)
             MarginCheck::tolerance(),
             f64_side.pass(),
         ),
-    }
+    })
 }
 
 /// Pixels whose id, distance or normal bits differ.
-fn differing_bits<T: Real>(a: &Images<T>, b: &Images<T>) -> usize {
-    let bits = |x: T| x.to_f64().to_bits();
-    (0..a.len())
+fn differing_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>) -> usize {
+    let bits = |x: T| x.into().to_bits();
+    (0..a.id.len())
         .filter(|&k| {
             a.id[k] != b.id[k]
                 || bits(a.distance[k]) != bits(b.distance[k])
@@ -590,7 +637,7 @@ fn differing_bits<T: Real>(a: &Images<T>, b: &Images<T>) -> usize {
 }
 
 /// Robust f32 against CPU f64: hit/miss and id on every pixel whose f32 margins are certain
-/// ([`raycast::cpu::margin`]), distances within [`F32_DISTANCE_BOUND`] where both hit one object.
+/// ([`Cpu::f32_margins`]), distances within [`F32_DISTANCE_BOUND`] where both hit one object.
 struct MarginCheck {
     /// Certain pixels whose hit/miss or id differs.
     wrong: usize,
@@ -604,10 +651,9 @@ impl MarginCheck {
         format!("0 certain px; distance within {F32_DISTANCE_BOUND:.0e}")
     }
 
-    fn of(scene: &Scene, images: &Images<f32>) -> MarginCheck {
-        let truth = cpu::render::<f64>(scene, Robust);
-        let prepared = Prepared::<f64>::new(scene, Robust, Search::BruteForce);
-        let m = margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64);
+    fn of(scene: &Scene, images: &Images<f32>) -> Result<MarginCheck> {
+        let truth = cpu_f64(scene)?;
+        let m = Cpu.f32_margins(scene);
         let (mut wrong, mut uncertain, mut worst) = (0, 0, 0.0f64);
         for (k, margin) in m.iter().enumerate() {
             let (a, b) = (images.id[k], truth.id[k]);
@@ -619,11 +665,11 @@ impl MarginCheck {
                 worst = worst.max((images.distance[k] as f64 - d).abs() / d);
             }
         }
-        MarginCheck {
+        Ok(MarginCheck {
             wrong,
             uncertain,
             worst,
-        }
+        })
     }
 
     fn measured(&self) -> String {
@@ -648,11 +694,12 @@ fn ids_as_cpu_f64(
     if !ctx.runs(gpu_mode(precision, Robust)) {
         return Ok(Verdict::skip(NO_F64));
     }
-    let mut images = render::render(scene, gpu_mode(precision, Robust), Some(ctx.gpu), None)?;
+    let mode = gpu_mode(precision, Robust);
+    let mut images = render(scene, mode, Some(ctx.gpu), RenderOptions::default())?;
     if planted {
         plant_any(&mut images);
     }
-    let truth = cpu::render::<f64>(scene, Robust);
+    let truth = cpu_f64(scene)?;
     let differ = (images.id().iter().zip(&truth.id))
         .filter(|(a, b)| a != b)
         .count();
@@ -665,21 +712,20 @@ fn ids_as_cpu_f64(
 
 /// Robust f32 of a file scene by the kernel a render picks for it, judged by the adapter's rule.
 fn scene_f32(ctx: &Ctx, scene: &Scene, planted: bool) -> Result<Verdict> {
-    let variant = ctx.gpu.scene_variant(scene, Float::F32, Robust);
-    let mut images = gpu_images::<f32>(ctx.gpu, scene, variant)?;
+    let mut images = gpu_f32(ctx.gpu, scene, Tuning::default(), None)?;
     if planted {
         plant(&mut images.id);
     }
-    Ok(judge_f32_with(ctx, scene, &images, Search::Auto))
+    judge_f32_with(ctx, scene, &images, Search::Auto)
 }
 
 /// (ids, distances, normals) widened to f64.
 type Widened = (Vec<i32>, Vec<f64>, Vec<[f64; 3]>);
 
 fn widen(images: AnyImages) -> Widened {
-    fn of<T: Real>(i: Images<T>) -> Widened {
-        let distance = i.distance.iter().map(|d| d.to_f64()).collect();
-        let normal = i.normal.iter().map(|n| n.map(T::to_f64)).collect();
+    fn of<T: Copy + Into<f64>>(i: Images<T>) -> Widened {
+        let distance = i.distance.iter().map(|&d| d.into()).collect();
+        let normal = i.normal.iter().map(|n| n.map(T::into)).collect();
         (i.id, distance, normal)
     }
     match images {
@@ -710,8 +756,13 @@ const INVARIANT_MODES: [Mode; 4] = [
 /// The base scene and `scene`, rendered in `mode`; the planted fault goes into `scene`'s.
 fn render_pair(ctx: &Ctx, scene: &Scene, mode: Mode, planted: bool) -> Result<[Widened; 2]> {
     let base = data::extreme("dyadic-base")?;
-    let base = widen(render::render(&base, mode, Some(ctx.gpu), None)?);
-    let mut ours = render::render(scene, mode, Some(ctx.gpu), None)?;
+    let base = widen(render(
+        &base,
+        mode,
+        Some(ctx.gpu),
+        RenderOptions::default(),
+    )?);
+    let mut ours = render(scene, mode, Some(ctx.gpu), RenderOptions::default())?;
     if planted {
         plant_any(&mut ours);
     }
@@ -929,21 +980,26 @@ const LIT_SIZE: [u32; 2] = [320, 180];
 /// level where it lands on a level's edge; with fusion, hits move too, so the bound is the
 /// course's bar against the instructor's renders.
 fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
-    let hook = raycast::ShadeHook::raytrace()?;
+    let hook = ShadeHook::raytrace()?;
     let mut scene = data::scene("scenes/ray-tracing/bunny.json")?;
     scene.camera.resolution = LIT_SIZE;
-    let variant = (ctx.gpu.scene_variant(&scene, Float::F32, Robust))
-        .with_shade(hook.key, hook.traces)
-        .with_outputs(Outputs::ALL);
-    let lit = gpu_images::<f32>(ctx.gpu, &scene, variant)?;
+    let lit = gpu_f32(ctx.gpu, &scene, Tuning::default(), Some(hook.clone()))?;
     let mut colours = lit
         .color
         .ok_or_else(|| Error::Device("the hook returned no colours".into()))?;
     if planted && let Some(c) = colours.first_mut() {
         c[0] ^= 0x80;
     }
-    let prepared = Prepared::<f32>::new(&scene, Robust, Search::Auto);
-    let (mirror, mirror_rays) = cpu::raytrace::render(&prepared);
+    let options = RenderOptions {
+        precision: Some(Precision::F32),
+        shade: Some(hook),
+        ..RenderOptions::default()
+    };
+    let mirrored = f32_images(Cpu.render(&scene, &options)?)?;
+    let mirror = mirrored
+        .color
+        .ok_or_else(|| Error::Device("the CPU mirror returned no colours".into()))?;
+    let mirror_rays = mirrored.hook_rays.unwrap_or(0);
     let e = color_error(&colours, &mirror);
     let rays = lit.hook_rays.unwrap_or(0);
     let ray_error = rays.abs_diff(mirror_rays) as f64 / mirror_rays.max(1) as f64;
@@ -968,12 +1024,19 @@ fn lit_bunny(ctx: &Ctx, planted: bool) -> Result<Verdict> {
     })
 }
 
+/// Packets vote by butterflies where subgroups are exactly this many lanes wide.
+const PACKET_LANES: u32 = 8;
+
+/// Whether this adapter's packets take the eight-lane path (subgroups exactly 8 wide).
+fn eight_lanes(gpu: &Gpu) -> bool {
+    gpu.has_packet_subgroups() && gpu.info().subgroup_max_size == PACKET_LANES
+}
+
 /// The packet traversal this adapter's subgroups select: eight lanes a packet by butterfly
 /// votes where subgroups are 8 wide, by `subgroupAny` and `subgroupAdd` where wider.
 fn packet_path(gpu: &Gpu) -> String {
-    let general = gpu.variant(Float::F32, Robust);
     let lanes = gpu.info().subgroup_max_size;
-    match (general.packets, general.eight_lanes) {
+    match (gpu.has_packet_subgroups(), eight_lanes(gpu)) {
         (false, _) => "no subgroups: ray by ray".into(),
         (true, true) => format!("eight-lane packets ({lanes}-lane subgroups)"),
         (true, false) => format!("wide packets ({lanes}-lane subgroups)"),
@@ -982,11 +1045,11 @@ fn packet_path(gpu: &Gpu) -> String {
 
 /// A line saying that the wide packet path does not run here, where it does not.
 fn wide_path_skipped<'a>(gpu: &Gpu) -> Option<Planned<'a>> {
-    let general = gpu.variant(Float::F32, Robust);
-    if general.packets && !general.eight_lanes {
+    let packets = gpu.has_packet_subgroups();
+    if packets && !eight_lanes(gpu) {
         return None;
     }
-    let why = match general.packets {
+    let why = match packets {
         true => format!(
             "needs subgroups wider than 8 lanes; this adapter's are {}",
             gpu.info().subgroup_max_size
@@ -1011,23 +1074,21 @@ const STREAM_CHUNK: u32 = 1 << 6;
 /// a BVH, whose node bindings split the same way, the kernel compiles several times faster).
 fn streaming(ctx: &Ctx, planted: bool) -> Result<Verdict> {
     let scene = random(RANDOM_SEEDS[1]);
-    let bits = STREAM_CHUNK.ilog2() as u8;
-    let variant = Variant {
-        bvh: false,
-        chunks: gpu::shader::chunks_for(&scene, bits),
-        chunk_bits: bits,
-        ..ctx.gpu.scene_variant(&scene, Float::F32, Robust)
-    };
-    if variant.chunks < 2 {
+    let [spheres, _, triangles] = scene.primitive_counts();
+    if spheres + triangles <= STREAM_CHUNK as usize {
         return Err(Error::Device(format!(
             "the scene fits one binding of {STREAM_CHUNK}: nothing streams"
         )));
     }
-    let prepared = gpu::prepare::<f32>(&scene, &variant)?;
-    let job = Job::new(variant).rows(STREAM_ROWS);
-    let mut images = gpu::run(ctx.gpu, &prepared, job)?.images;
+    let tuning = Tuning {
+        search: Search::BruteForce,
+        triangles_per_binding: Some(STREAM_CHUNK),
+        tile_rows: Some(STREAM_ROWS),
+        ..Tuning::default()
+    };
+    let mut images = gpu_f32(ctx.gpu, &scene, tuning, None)?;
     if planted {
         plant(&mut images.id);
     }
-    Ok(judge_f32_with(ctx, &scene, &images, Search::BruteForce))
+    judge_f32_with(ctx, &scene, &images, Search::BruteForce)
 }

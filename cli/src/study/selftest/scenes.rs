@@ -3,7 +3,6 @@
 
 use std::path::Path;
 
-use raycast::math::vec3;
 use raycast::rays::Ray;
 use raycast::scene::{Scene, Triangle};
 
@@ -95,11 +94,12 @@ pub fn sphere_mesh(c: [f64; 3], r: f64, slices: usize, stacks: usize) -> Vec<Tri
     let p = |i: usize, j: usize| {
         let theta = std::f64::consts::PI * j as f64 / stacks as f64;
         let phi = 2.0 * std::f64::consts::PI * (i % slices) as f64 / slices as f64;
-        vec3(
+        [
             c[0] + r * theta.sin() * phi.cos(),
             c[1] + r * theta.cos(),
             c[2] + r * theta.sin() * phi.sin(),
-        )
+        ]
+        .into()
     };
     let mut t = Vec::new();
     for j in 0..stacks {
