@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use raycast::Algorithm::Robust;
-use raycast::gpu::Gpu;
+use raycast::Gpu;
 use raycast::math::Float;
 use raycast::render::on_gpu;
 

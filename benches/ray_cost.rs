@@ -118,7 +118,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         false => RayList::image(&rays, WIDTH),
     };
     for mode in modes {
-        let parsed: raycast::render::Mode = mode.parse()?;
+        let parsed: raycast::Mode = mode.parse()?;
         let accel = raycast::query::commit_mode(Some(&gpu), &geometry, parsed)?;
         accel.intersect(list)?;
         let mut seconds: Vec<f64> = (0..runs.max(1))

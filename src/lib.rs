@@ -61,9 +61,10 @@ macro_rules! internal_fn {
 pub(crate) use internal_fn;
 
 internal_modules!(
-    algorithm, cpu, error, gpu, kernel, math, output, prepare, query, render
+    algorithm, cpu, error, gpu, kernel, math, prepare, query, render
 );
 pub mod images;
+pub mod output;
 pub mod rays;
 pub mod scene;
 
@@ -89,7 +90,10 @@ pub use gpu::probe::FusionReport;
 pub use images::{Images, Output, Outputs, Stages};
 pub use output::{Encoding, Format};
 pub use prepare::bvh::Search;
-pub use query::{Accel, Geometry};
+pub use query::{Accel, Geometry, commit_mode};
 pub use rays::{AnyHits, Hits, Ray, RayList};
-pub use render::{AnyImages, Cpu, Precision, Progress, RenderOptions, Tuning};
+pub use render::{
+    AnyImages, Cpu, Device, Mode, Precision, Progress, RenderFiles, RenderOptions, STREAM_PIXELS,
+    Summary, Tuning, peak_rss_mib,
+};
 pub use scene::Scene;

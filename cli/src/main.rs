@@ -5,14 +5,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use glam::DVec3;
-use raycast::Algorithm;
-use raycast::error::Result;
-use raycast::gpu::{self, Gpu};
 use raycast::images::Output;
 use raycast::output::{self, Format};
-use raycast::render::{self, Device, Mode, Precision};
 use raycast::scene;
-use raycast::{RenderOptions, Search};
+use raycast::{Algorithm, Device, Gpu, Mode, Precision, RenderOptions, Result, Search};
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress};
 
@@ -300,9 +296,7 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     // Stopped by a signal, remove the files being written first: output is all or nothing.
-    let stop = || {
-        raycast::output::pending::abandon(INTERRUPTED, "error: interrupted; no partial file left")
-    };
+    let stop = || raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left");
     if let Err(e) = ctrlc::set_handler(stop) {
         eprintln!("error: cannot install the interrupt handler: {e}");
         return ExitCode::from(1);
@@ -431,7 +425,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 up,
                 fov,
             };
-            let spec = render::Spec {
+            let spec = raycast::RenderFiles {
                 scene,
                 size,
                 mode,
@@ -517,7 +511,7 @@ fn run(command: Command) -> Result<ExitCode> {
             lit,
             rays,
         } => {
-            let shade = gpu::hooks::requested(lit, shader.as_deref())?;
+            let shade = raycast::ShadeHook::requested(lit, shader.as_deref())?;
             let options = study::bench::Options {
                 runs: runs as usize,
                 modes: mode,
@@ -530,7 +524,7 @@ fn run(command: Command) -> Result<ExitCode> {
         }
         Command::Info => {
             let gpu = Gpu::new()?;
-            say(gpu::describe(&gpu).trim_end());
+            say(gpu.describe().trim_end());
             Ok(ExitCode::SUCCESS)
         }
         Command::Workload {
@@ -583,7 +577,7 @@ fn selftest(options: &study::selftest::Options, json: bool) -> Result<ExitCode> 
 }
 
 /// Renders once, or with `watch` again whenever a file it reads changes, for ever.
-fn render(spec: &render::Spec, watch: bool) -> Result<()> {
+fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
     // From the options alone: watched_files() would load the scene and its meshes.
     if watch && spec.scene.is_none() && spec.shader.is_none() && spec.kernel.is_none() {
         return Err(raycast::Error::Argument {
@@ -593,7 +587,7 @@ fn render(spec: &render::Spec, watch: bool) -> Result<()> {
     }
     spec.check()?;
     // One device for every render, so kernels compiled once stay cached.
-    let gpu = render::gpu_for(&[spec.mode])?;
+    let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
     let render_once = || {
         progress::cpu_rows(|p| spec.run(gpu.as_ref(), p.as_deref()))
             .map(|s| s.lines().into_iter().for_each(say))
@@ -630,7 +624,7 @@ fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
 }
 
 fn compare(spec: &compare::Spec) -> Result<ExitCode> {
-    let gpu = render::gpu_for(&spec.modes)?;
+    let gpu = raycast_cli::render::gpu_for(&spec.modes)?;
     let outcome = spec.run(gpu.as_ref())?;
     say(&outcome.json);
     for path in &outcome.written {

@@ -3,8 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use raycast::render::{Device, Mode};
 use raycast::{AnyImages, Cpu, Error, Gpu, RenderOptions, Result, Scene};
+use raycast::{Device, Mode};
 
 /// `options` with `mode`'s precision and algorithm.
 pub fn options(mode: Mode, options: RenderOptions) -> RenderOptions {
@@ -32,6 +32,14 @@ pub fn render(
         (Device::Gpu, Some(gpu)) => gpu.render(scene, &options),
         (Device::Gpu, None) => Err(Error::Device("a GPU render needs a device".into())),
         (Device::Cpu, _) => Cpu.render(scene, &options),
+    }
+}
+
+/// A GPU device when one of `modes` needs it.
+pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
+    match modes.iter().any(|m| m.device == Device::Gpu) {
+        true => Gpu::new().map(Some),
+        false => Ok(None),
     }
 }
 

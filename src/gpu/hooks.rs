@@ -72,10 +72,16 @@ pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.
 pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
 
 
-/// The hook a command asks for: `--lit` ([`ShadeHook::raytrace`]) or `--shader FILE`
-/// ([`ShadeHook::load`]), or none;
-/// both at once is `lit_and_shader`'s error.
-pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
+impl ShadeHook {
+    /// The hook a tool asks for: `lit` ([`ShadeHook::raytrace`]) or a `shader` file
+    /// ([`ShadeHook::load`]), or none; both at once is an error naming both.
+    pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
+        requested(lit, shader)
+    }
+}
+
+/// [`ShadeHook::requested`].
+pub(crate) fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
     match (lit, shader) {
         (true, Some(_)) => Err(lit_and_shader()),
         (true, None) => ShadeHook::raytrace().map(Some),

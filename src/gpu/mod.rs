@@ -114,13 +114,11 @@ impl Gpu {
         self.device.features().contains(wgpu::Features::SHADER_F64)
     }
 
-    crate::internal_fn! {
-        /// Whether the packet traversal runs here: subgroups, of at least the 8 invocations it
-        /// shares a node fetch among (shaders/traverse.wgsl, `visit_shared`).
-        fn has_packet_subgroups(&self) -> bool {
-            self.device.features().contains(wgpu::Features::SUBGROUP)
-                && self.info().subgroup_min_size >= PACKET_LANES
-        }
+    /// Whether the BVH is traversed by packets here ([`crate::Tuning::packets`]): subgroups of
+    /// at least the 8 invocations a packet shares each node fetch among.
+    pub fn has_packet_subgroups(&self) -> bool {
+        self.device.features().contains(wgpu::Features::SUBGROUP)
+            && self.info().subgroup_min_size >= PACKET_LANES
     }
 
     crate::internal_fn! {
@@ -295,8 +293,14 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>, wanted: Option<String>) -> Resul
     Ok(adapters.into_iter().min_by_key(rank).expect("non-empty"))
 }
 
-/// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
-pub fn describe(gpu: &Gpu) -> String {
+impl Gpu {
+    /// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
+    pub fn describe(&self) -> String {
+        describe(self)
+    }
+}
+
+fn describe(gpu: &Gpu) -> String {
     let info = gpu.info();
     let features = gpu.device.features();
     let limits = gpu.device.limits();

@@ -21,11 +21,16 @@ use super::pictures::id_color;
 use crate::images::{Images, MISS};
 use crate::math::Real;
 
+// Rgba, over, opaque and PixelCoverage::rgba are the f64 reference formulas that the tests
+// hold `PixelCoverage::to_rgba8`'s integer arithmetic to.
+
 /// A premultiplied RGBA colour, each component in `[0, 1]`: `[r*a, g*a, b*a, a]`.
+#[cfg(test)]
 pub type Rgba = [f64; 4];
 
 /// Porter-Duff "over" of premultiplied colours: `a` in front of `b`.
 /// `c_o = c_a + c_b (1 - alpha_a)` per colour channel, `alpha_o = alpha_a + alpha_b (1 - alpha_a)`.
+#[cfg(test)]
 pub fn over(a: Rgba, b: Rgba) -> Rgba {
     let k = 1.0 - a[3];
     [
@@ -37,6 +42,7 @@ pub fn over(a: Rgba, b: Rgba) -> Rgba {
 }
 
 /// An opaque colour given in 8-bit levels, as a premultiplied `Rgba` (alpha 1).
+#[cfg(test)]
 pub fn opaque(rgb: [u8; 3]) -> Rgba {
     [
         rgb[0] as f64 / 255.0,
@@ -45,7 +51,6 @@ pub fn opaque(rgb: [u8; 3]) -> Rgba {
         1.0,
     ]
 }
-
 
 /// `num / den` rounded to the nearest integer, ties upward (exact, in integers).
 fn round_div(num: u64, den: u64) -> u8 {
@@ -64,6 +69,7 @@ pub struct PixelCoverage {
 impl PixelCoverage {
     /// The exact premultiplied colour as an `Rgba` in `[0, 1]` (`color_sum / (255 N)`,
     /// `hits / N`), rounded to f64.
+    #[cfg(test)]
     pub fn rgba(&self) -> Rgba {
         let n = self.spp as f64;
         [

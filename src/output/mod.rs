@@ -6,7 +6,7 @@ mod color;
 mod depth;
 mod exr;
 mod npy;
-pub mod pending;
+pub(crate) mod pending;
 mod pictures;
 pub(crate) mod stream;
 
@@ -18,12 +18,17 @@ use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
 use crate::scene::Camera;
 
-pub use color::{PixelCoverage, opaque, over, pixel_coverage};
-pub(crate) use color::color_rgba8;
+#[cfg(test)]
+pub(crate) use color::{PixelCoverage, opaque, over};
+pub(crate) use color::{color_rgba8, pixel_coverage};
 pub use depth::Depth;
 pub(crate) use depth::{camera_json, depth16_levels};
 pub(crate) use npy::encode_npy;
-pub use pictures::{PALETTE, Pictures, pictures};
+pub use pending::abandon;
+#[cfg(test)]
+pub(crate) use pictures::PALETTE;
+pub use pictures::Pictures;
+pub(crate) use pictures::pictures;
 pub(crate) use pictures::{Picture, id_color, picture_set};
 
 /// An output format of `raycast render --format`.
@@ -81,7 +86,9 @@ impl FromStr for Format {
 
 /// One output file: its name in the output folder and its bytes.
 pub struct EncodedFile {
+    /// The file's name.
     pub name: &'static str,
+    /// What it holds.
     pub bytes: Vec<u8>,
 }
 

@@ -48,7 +48,9 @@ pub fn normal_color(id: i32, n: [f64; 3]) -> [u8; 3] {
 /// The three course pictures as 8-bit channels, row-major from the top row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pictures {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
     /// RGB, 3 bytes a pixel.
     pub id: Vec<u8>,

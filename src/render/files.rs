@@ -1,5 +1,5 @@
 //! A render to files, as `raycast render` asks for it: which scene, which mode, how many
-//! samples, which shader, where to write. [`Spec::run`] decides how the render goes:
+//! samples, which shader, where to write. [`RenderFiles::run`] decides how the render goes:
 //!
 //! - on the GPU in f32 or f64 without `--spp` or a kernel file, images above
 //!   [`STREAM_PIXELS`] pixels, or any with `band_rows`, are rendered and written in bands of
@@ -24,14 +24,15 @@ use crate::scene::{self, CameraOverrides, Object, Scene};
 
 /// Everything a render to files is asked for.
 #[derive(Clone, Debug)]
-pub struct Spec {
+pub struct RenderFiles {
     /// The scene file; `None`: the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Overrides the scene's resolution.
     pub size: Option<[u32; 2]>,
+    /// The device, precision and algorithm set.
     pub mode: Mode,
     /// No precision was asked for: on the GPU the render takes the default,
-    /// [`Spec::resolved_mode`], and `mode.precision` is not read.
+    /// [`RenderFiles::resolved_mode`], and `mode.precision` is not read.
     pub default_precision: bool,
     /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
     pub spp: Option<u32>,
@@ -47,6 +48,7 @@ pub struct Spec {
     pub kernel: Option<PathBuf>,
     /// The output folder, created if missing.
     pub out_dir: PathBuf,
+    /// The files' formats and what they hold.
     pub encoding: Encoding,
     /// Also write the kernel the render ran (its first pass, for adaptive precision) here.
     pub emit_shader: Option<PathBuf>,
@@ -59,8 +61,11 @@ pub struct Spec {
 pub struct Summary {
     /// The scene file, or "the default scene".
     pub scene: String,
+    /// The image's size.
     pub size: [u32; 2],
+    /// The mode it ran in, its precision resolved.
     pub mode: Mode,
+    /// Samples per pixel, when supersampled.
     pub spp: Option<u32>,
     /// The shade hook's file, or the shipped ray tracer's for `--lit`.
     pub shader: Option<PathBuf>,
@@ -68,6 +73,7 @@ pub struct Summary {
     pub hook_rays: Option<u64>,
     /// The adapter, or "the CPU".
     pub device: String,
+    /// Wall time of the render and the writes.
     pub elapsed: Duration,
     /// Rows per band, when rendered in bands.
     pub bands: Option<u32>,
@@ -128,8 +134,8 @@ impl Summary {
     }
 }
 
-impl Spec {
-    /// The mode the render runs in. With [`Spec::default_precision`] on the GPU: adaptive
+impl RenderFiles {
+    /// The mode the render runs in. With [`RenderFiles::default_precision`] on the GPU: adaptive
     /// precision, which reproduces f64's hits and ids (the course's pictures) at close to f32's
     /// cost; but f32 where a render needs a single kernel (`--shader`, `--kernel`,
     /// `--emit-shader`, whose kernel can then be fed back with `--kernel`, bands, or an image of
@@ -151,9 +157,9 @@ impl Spec {
         }
     }
 
-    /// This spec with its mode resolved ([`Spec::resolved_mode`]).
-    fn resolved(&self, huge: bool) -> Spec {
-        Spec {
+    /// This spec with its mode resolved ([`RenderFiles::resolved_mode`]).
+    fn resolved(&self, huge: bool) -> RenderFiles {
+        RenderFiles {
             mode: self.resolved_mode(huge),
             default_precision: false,
             ..self.clone()
@@ -416,8 +422,8 @@ mod tests {
     use super::*;
     use crate::output::Format;
 
-    fn spec(mode: &str, default_precision: bool) -> Spec {
-        Spec {
+    fn spec(mode: &str, default_precision: bool) -> RenderFiles {
+        RenderFiles {
             scene: None,
             size: None,
             mode: mode.parse().unwrap(),
@@ -436,7 +442,7 @@ mod tests {
 
     #[test]
     fn the_default_precision_is_adaptive_where_one_render_path_allows_it() {
-        let resolved = |s: &Spec, huge| s.resolved_mode(huge).to_string();
+        let resolved = |s: &RenderFiles, huge| s.resolved_mode(huge).to_string();
         let gpu = spec("gpu", true);
         assert_eq!(resolved(&gpu, false), "gpu:adaptive:robust");
         assert_eq!(
@@ -446,7 +452,7 @@ mod tests {
         assert_eq!(resolved(&spec("cpu", true), false), "cpu:f64:robust");
         // One kernel, or bands: f32.
         assert_eq!(resolved(&gpu, true), "gpu:f32:robust");
-        let with = |f: fn(&mut Spec)| {
+        let with = |f: fn(&mut RenderFiles)| {
             let mut s = gpu.clone();
             f(&mut s);
             resolved(&s, false)

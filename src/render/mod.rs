@@ -1,5 +1,5 @@
 //! One entry point for every way of rendering, in every [`Mode`] ([`render`]), and the policy
-//! of a render to files ([`Spec`]: whole or in bands, supersampled, adaptive).
+//! of a render to files ([`RenderFiles`]: whole or in bands, supersampled, adaptive).
 
 pub mod adaptive;
 mod files;
@@ -7,7 +7,7 @@ mod mode;
 mod options;
 pub mod supersample;
 
-pub use files::{Spec, Summary};
+pub use files::{RenderFiles, Summary};
 pub use mode::{Device, Mode, Precision};
 pub use options::{Cpu, RenderOptions, Tuning};
 
@@ -56,6 +56,14 @@ impl AnyImages {
                 AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
                 AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
             }
+        }
+    }
+
+    /// The course's id, depth and normal pictures of these images.
+    pub fn pictures(&self) -> output::Pictures {
+        match self {
+            AnyImages::F32(i) => output::pictures(i),
+            AnyImages::F64(i) => output::pictures(i),
         }
     }
 

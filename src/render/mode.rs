@@ -102,8 +102,11 @@ pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
 /// and the robust set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mode {
+    /// Where it renders.
     pub device: Device,
+    /// In which precision.
     pub precision: Precision,
+    /// With which intersection formulas.
     pub algorithm: Algorithm,
 }
 

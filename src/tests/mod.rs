@@ -11,4 +11,5 @@ mod extremes;
 mod fuzz_regressions;
 mod layers;
 mod rays;
+mod supersample;
 mod tiling;

@@ -8,8 +8,8 @@ use super::{
 };
 use crate::render::{check, render, timed};
 use raycast::output::{self, EncodedFile};
-use raycast::render::{AnyImages, Mode};
 use raycast::scene;
+use raycast::{AnyImages, Mode};
 use raycast::{Gpu, RenderOptions, Result};
 
 /// What `raycast compare` is asked for.
@@ -56,7 +56,7 @@ impl Spec {
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
         let options = RenderOptions {
-            shade: raycast::gpu::hooks::requested(self.lit, self.shader.as_deref())?,
+            shade: raycast::ShadeHook::requested(self.lit, self.shader.as_deref())?,
             ..RenderOptions::default()
         };
         for mode in self.modes {
@@ -107,10 +107,7 @@ impl Spec {
 /// `mismatch.png` over side b's normals, `distance_error.png`, and where both sides have a
 /// `color.png`, `color_error.png`.
 fn pictures(c: &Comparison, a: &AnyImages, b: &AnyImages) -> Vec<EncodedFile> {
-    let base = match b {
-        AnyImages::F32(i) => output::pictures(i).normal,
-        AnyImages::F64(i) => output::pictures(i).normal,
-    };
+    let base = b.pictures().normal;
     let mut pictures = vec![
         ("mismatch.png", mismatch_picture(c, &base)),
         ("distance_error.png", distance_error_picture(c)),

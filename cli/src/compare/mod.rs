@@ -7,8 +7,7 @@ mod pictures;
 use serde::Serialize;
 
 use raycast::images::{Images, MISS};
-use raycast::math::{Float, Real};
-use raycast::render::AnyImages;
+use raycast::{AnyImages, Precision};
 
 pub use command::{Outcome, Spec};
 pub use pictures::{color_error_picture, distance_error_picture, mismatch_picture};
@@ -117,35 +116,35 @@ struct Side<'a> {
     color: Option<&'a [[u8; 4]]>,
     distance: Vec<f64>,
     normal: Vec<[f64; 3]>,
-    precision: Float,
+    precision: Precision,
 }
 
-fn side<T: Real>(images: &Images<T>) -> Side<'_> {
+fn side<T: Copy + Into<f64>>(images: &Images<T>, precision: Precision) -> Side<'_> {
     Side {
         id: &images.id,
         color: images.color.as_deref(),
-        distance: images.distance.iter().map(|d| d.to_f64()).collect(),
-        normal: images.normal.iter().map(|n| n.map(T::to_f64)).collect(),
-        precision: T::PRECISION,
+        distance: images.distance.iter().map(|&d| d.into()).collect(),
+        normal: images.normal.iter().map(|n| n.map(T::into)).collect(),
+        precision,
     }
 }
 
 fn any_side(images: &AnyImages) -> (Side<'_>, u32, u32) {
     match images {
-        AnyImages::F32(i) => (side(i), i.width, i.height),
-        AnyImages::F64(i) => (side(i), i.width, i.height),
+        AnyImages::F32(i) => (side(i, Precision::F32), i.width, i.height),
+        AnyImages::F64(i) => (side(i, Precision::F64), i.width, i.height),
     }
 }
 
 /// Spacing of floats of `precision` at `x` (the ulp of |x|).
-fn ulp(x: f64, precision: Float) -> f64 {
+fn ulp(x: f64, precision: Precision) -> f64 {
     let x = x.abs();
     match precision {
-        Float::F32 => {
+        Precision::F32 => {
             let f = x as f32;
             (f32::from_bits(f.to_bits() + 1) - f) as f64
         }
-        Float::F64 => f64::from_bits(x.to_bits() + 1) - x,
+        _ => f64::from_bits(x.to_bits() + 1) - x,
     }
 }
 
@@ -180,7 +179,7 @@ pub fn compare(a: &AnyImages, b: &AnyImages) -> Comparison {
     let (sa, width, height) = any_side(a);
     let (sb, wb, hb) = any_side(b);
     assert_eq!((width, height), (wb, hb), "compared images differ in size");
-    let ulp_side = if sa.precision == Float::F32 || sb.precision != Float::F32 {
+    let ulp_side = if sa.precision == Precision::F32 || sb.precision != Precision::F32 {
         &sa
     } else {
         &sb
@@ -351,8 +350,8 @@ mod tests {
 
     #[test]
     fn ulps_of_f32() {
-        assert_eq!(ulp(1.0, Float::F32), f32::EPSILON as f64);
-        assert_eq!(ulp(1.0, Float::F64), f64::EPSILON);
+        assert_eq!(ulp(1.0, Precision::F32), f32::EPSILON as f64);
+        assert_eq!(ulp(1.0, Precision::F64), f64::EPSILON);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //!
 //! ```no_run
 //! use raycast_cli::study::accuracy::{self, Options};
-//! use raycast::gpu::Gpu;
+//! use raycast::Gpu;
 //! let gpu = Gpu::new()?;
 //! let options = Options::new(accuracy::default_modes(Some(&gpu)));
 //! let scenes = ["scenes/extremes/far-sphere-1e5.json".into()];
@@ -23,9 +23,9 @@ use crate::compare;
 use crate::render::{render, timed};
 use raycast::images::{Images, MISS};
 use raycast::output;
-use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
+use raycast::{AnyImages, Device, Mode, Precision};
 
 /// The reference mode unless another is named: the CPU in f64 with the robust algorithms.
 pub const DEFAULT_REFERENCE: Mode = Mode {

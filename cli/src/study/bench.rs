@@ -25,9 +25,9 @@ use serde::Serialize;
 
 use super::{Stream, Table, format_seconds, median, plural};
 use raycast::images::MISS;
-use raycast::render::{self, Device, Mode, Precision};
 use raycast::scene::{Object, Scene};
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
+use raycast::{Device, Mode, Precision};
 
 /// `--runs` unless given.
 pub const DEFAULT_RUNS: usize = 5;
@@ -141,7 +141,7 @@ impl Options {
 
     /// Whether some configuration runs on the GPU.
     pub fn needs_gpu(&self) -> bool {
-        render::needs_gpu(&self.modes)
+        self.modes.iter().any(|m| m.device == Device::Gpu)
     }
 }
 
@@ -317,7 +317,7 @@ pub fn measure(
         timed.push(run_once(scene, mode, accel, gpu, options)?);
         tick();
     }
-    let peak_rss_mb = render::peak_rss_mib();
+    let peak_rss_mb = raycast::peak_rss_mib();
     let column = |f: fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
     let build_s = column(|r| r.build_s);
     let trace_s = column(|r| r.trace_s);
@@ -403,12 +403,12 @@ fn measure_rays(
     let gpu = gpu.filter(|_| mode.device == Device::Gpu);
     reset_peak_rss();
     let geometry = raycast::Geometry::from_scene(&loaded.scene);
-    let accel = raycast::query::commit_mode(gpu, &geometry, mode)?;
+    let accel = raycast::commit_mode(gpu, &geometry, mode)?;
     let warm_up = accel.intersect(&rays[..])?;
     tick();
     let mut times = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
-        let (cast, time) = render::timed(|| accel.intersect(&rays[..]));
+        let (cast, time) = crate::render::timed(|| accel.intersect(&rays[..]));
         cast?;
         times.push(time.as_secs_f64());
         tick();
@@ -441,7 +441,7 @@ fn measure_rays(
         secondary_mrays_per_s: None,
         mrays_from: "wall",
         hit_fraction: hits as f64 / n as f64,
-        peak_rss_mb: render::peak_rss_mib(),
+        peak_rss_mb: raycast::peak_rss_mib(),
         bytes_per_triangle: None,
         bvh_nodes: None,
         adapter: info.as_ref().map(|i| i.name.clone()),
@@ -488,16 +488,16 @@ pub fn run(
 }
 
 /// A frame is rendered whole (bench times whole frames, not bands): at most
-/// [`render::STREAM_PIXELS`] pixels.
+/// [`raycast::STREAM_PIXELS`] pixels.
 fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
     let pixels = loaded.scene.camera.pixel_count();
-    if options.rays.is_none() && pixels > render::STREAM_PIXELS {
+    if options.rays.is_none() && pixels > raycast::STREAM_PIXELS {
         let [w, h] = loaded.scene.camera.resolution;
         return Err(Error::Argument {
             option: "--size".into(),
             message: format!(
                 "{w}x{h}: bench renders each frame whole, of at most {} pixels; give a smaller --size",
-                render::STREAM_PIXELS
+                raycast::STREAM_PIXELS
             ),
         });
     }
@@ -633,7 +633,7 @@ pub fn command(
     options.check()?;
     let loaded = load(scene, size)?;
     check_size(&loaded, &options)?;
-    let gpu = render::gpu_for(&options.modes)?;
+    let gpu = crate::render::gpu_for(&options.modes)?;
     if !json {
         for line in header(&loaded, &options, gpu.as_ref()) {
             say(Stream::Stdout, &line);
@@ -723,7 +723,7 @@ mod tests {
     #[test]
     fn peak_rss_reads_proc() {
         if Path::new("/proc/self/status").exists() {
-            assert!(render::peak_rss_mib().is_some_and(|m| m > 0.0));
+            assert!(raycast::peak_rss_mib().is_some_and(|m| m > 0.0));
         }
     }
 }

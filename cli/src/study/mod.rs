@@ -22,8 +22,8 @@ pub mod workload;
 
 use std::path::{Path, PathBuf};
 
-use raycast::error::Result;
-use raycast::gpu::Gpu;
+use raycast::Gpu;
+use raycast::Result;
 use raycast::scene::Scene;
 
 /// Where a line printed by a study's command goes. Each command keeps its results apart from

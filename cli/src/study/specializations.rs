@@ -21,8 +21,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
+use raycast::Precision;
 use raycast::output;
-use raycast::render::Precision;
 use raycast::scene::Scene;
 use raycast::{Error, Gpu, Outputs, RenderOptions, Result, Search, Tuning};
 

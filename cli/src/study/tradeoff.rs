@@ -38,9 +38,9 @@ use super::{
 use crate::compare;
 use crate::render::render;
 use raycast::output::{self, EncodedFile};
-use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
+use raycast::{AnyImages, Device, Mode, Precision};
 
 pub use plot::{LogAxis, plot};
 

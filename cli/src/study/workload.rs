@@ -16,8 +16,8 @@
 use std::path::{Path, PathBuf};
 
 use super::selftest::scenes::Rng;
-use raycast::error::{Error, Result};
 use raycast::output::{EncodedFile, check_writable, write_files};
+use raycast::{Error, Result};
 
 /// The peers' torus: `nu` around the axis, `nv` around the tube.
 pub const TORUS_GRID: [usize; 2] = [720, 360];

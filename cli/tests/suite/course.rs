@@ -18,8 +18,8 @@ use crate::common;
 
 use common::*;
 use raycast::Algorithm::Textbook;
-use raycast::kernel::layout::GpuReal;
-use raycast::output::{Pictures, pictures};
+use raycast::Precision;
+use raycast::output::Pictures;
 
 struct Comparison {
     name: String,
@@ -33,10 +33,10 @@ struct Comparison {
     id_mismatches: Vec<(u32, u32)>,
 }
 
-fn compare_with_course<R: GpuReal>(name: &str) -> (Comparison, Pictures) {
+fn compare_with_course(name: &str, precision: Precision) -> (Comparison, Pictures) {
     let scene = course_scene(name);
     assert_eq!(scene.camera.resolution, [640, 360]);
-    let ours = pictures(&common::gpu_scene::<R>(gpu(), &scene, Textbook).unwrap());
+    let ours = api_render(gpu(), &scene, precision, Textbook).pictures();
     let pixels = (ours.width * ours.height) as usize;
     let id_ref = course_render(name, "id");
     let same_id: Vec<bool> = ours
@@ -52,7 +52,7 @@ fn compare_with_course<R: GpuReal>(name: &str) -> (Comparison, Pictures) {
     let depth_ref = course_render(name, "depth");
     let normal_ref = course_render(name, "normal");
     let c = Comparison {
-        name: format!("{name} ({})", R::PRECISION),
+        name: format!("{name} ({precision})"),
         pixels,
         id: diff(&ours.id, &id_ref, 3, None),
         depth: diff(&ours.depth, &depth_ref, 1, None),
@@ -110,7 +110,7 @@ fn on_crease_diagonal((i, j): (u32, u32)) -> bool {
 }
 
 fn check_scene(name: &str) {
-    let (exact, ours) = compare_with_course::<f64>(name);
+    let (exact, ours) = compare_with_course(name, Precision::F64);
     let differing = exact.id.differing + exact.depth.differing + exact.normal.differing;
     assert!(
         differing == 0,
@@ -119,7 +119,7 @@ fn check_scene(name: &str) {
         save_all(name, &ours).display()
     );
 
-    let (c, ours) = compare_with_course::<f32>(name);
+    let (c, ours) = compare_with_course(name, Precision::F32);
     let ties_possible = matches!(name, "bunny" | "inside-a-sphere");
     let off_diagonal = c
         .id_mismatches
@@ -183,7 +183,7 @@ fn two_spheres_and_plane() {
 fn course_spot_pixels() {
     let at = |name: &str, row: u32, col: u32| {
         let scene = course_scene(name);
-        let p = pictures(&common::gpu_scene::<f64>(gpu(), &scene, Textbook).unwrap());
+        let p = api_render(gpu(), &scene, Precision::F64, Textbook).pictures();
         let k = (row * p.width + col) as usize;
         (
             [p.id[3 * k], p.id[3 * k + 1], p.id[3 * k + 2]],

@@ -6,7 +6,6 @@ use crate::common;
 use common::*;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::images::{Images, MISS};
-use raycast::output::pictures;
 use raycast::render::AnyImages;
 use raycast_cli::compare::{PixelMatch, compare};
 
@@ -14,7 +13,15 @@ use raycast_cli::compare::{PixelMatch, compare};
 #[test]
 fn cpu_f64_reproduces_every_course_render_exactly() {
     for name in COURSE_SCENES {
-        let p = pictures(&raycast::cpu::render::<f64>(&course_scene(name), Textbook));
+        let options = raycast::RenderOptions {
+            precision: Some(raycast::Precision::F64),
+            algorithm: Textbook,
+            ..raycast::RenderOptions::default()
+        };
+        let p = raycast::Cpu
+            .render(&course_scene(name), &options)
+            .unwrap()
+            .pictures();
         for (kind, ours) in [("id", &p.id), ("depth", &p.depth), ("normal", &p.normal)] {
             let reference = course_render(name, kind);
             let differing = ours.iter().zip(&reference).filter(|(a, b)| a != b).count();

@@ -117,6 +117,39 @@ mod selftest_scenes;
 #[allow(unused_imports)]
 pub use selftest_scenes::COURSE_SCENES;
 
+/// `scene` rendered through the API on `gpu` in `precision` with `algorithm`, each lane casting
+/// its most rays (as the kernel variants the tests below the API build).
+pub fn api_render(
+    gpu: &Gpu,
+    scene: &Scene,
+    precision: raycast::Precision,
+    algorithm: Algorithm,
+) -> raycast::AnyImages {
+    let options = raycast::RenderOptions {
+        precision: Some(precision),
+        algorithm,
+        tuning: raycast::Tuning {
+            most_lane_rays: true,
+            ..raycast::Tuning::default()
+        },
+        ..raycast::RenderOptions::default()
+    };
+    gpu.render(scene, &options)
+        .unwrap_or_else(|e| panic!("{precision:?} {algorithm:?}: {e}"))
+}
+
+/// An orthographic camera at z = 5 looking down -z, image plane `w x h` scene units, `nx x ny`.
+pub fn ortho_json(w: f64, h: f64, nx: u32, ny: u32, objects: &str) -> String {
+    format!(
+        r#"{{"camera": {{"type": "orthographic", "eye": [0, 0, 5], "look": [0, 0, -1],
+            "up": [0, 1, 0], "focal_length": 1, "width": {w}, "height": {h},
+            "resolution": [{nx}, {ny}]}}, "objects": [{objects}]}}"#
+    )
+}
+
+/// A sphere of radius 1.3 at the origin, as a scene object.
+pub const SPHERE: &str = r#"{"type": "sphere", "center": [0, 0, 0], "radius": 1.3}"#;
+
 pub fn course_scene(name: &str) -> raycast::Scene {
     raycast::Scene::load(&repo_path(&format!("scenes/course/{name}.json"))).unwrap()
 }

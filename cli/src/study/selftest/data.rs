@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use raycast::error::{Error, Result};
 use raycast::scene::{Scene, parse_mesh};
+use raycast::{Error, Result};
 
 /// A file of the repository, by its path there.
 struct Embedded {

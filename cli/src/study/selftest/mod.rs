@@ -9,7 +9,7 @@
 //! rendered in tiles.
 //!
 //! f32 results are held to CPU f64 on every pixel whose margin is certain, distances within a
-//! stated bound ([`F32Rule::Bounded`]); where the fusion probe ([`raycast::gpu::probe`]) finds
+//! stated bound ([`F32Rule::Bounded`]); where the fusion probe ([`raycast::Gpu::fusion_probe`]) finds
 //! `a*b - c*d` unfused and the adapter has f64 shaders (for the f64 rechecks the CPU mirror
 //! makes), also to CPU f32 bit for bit ([`F32Rule::Exact`]).
 
@@ -24,10 +24,10 @@ use crate::compare::color_error;
 use crate::render::render;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::images::{Images, MISS};
-use raycast::output::{Pictures, pictures};
+use raycast::output::Pictures;
 use raycast::rays::{AnyHits, Hits, Ray};
-use raycast::render::{AnyImages, Device, Mode, Precision};
 use raycast::scene::Scene;
+use raycast::{AnyImages, Device, Mode, Precision};
 use raycast::{Cpu, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 
 /// How far a bounded f32 distance may be from CPU f64's, relative, where both hit one object.
@@ -465,10 +465,7 @@ fn plant_any(images: &mut AnyImages) {
 }
 
 fn any_pictures(images: &AnyImages) -> Pictures {
-    match images {
-        AnyImages::F32(i) => pictures(i),
-        AnyImages::F64(i) => pictures(i),
-    }
+    images.pictures()
 }
 
 /// (pixels that differ in any channel, the largest channel difference)

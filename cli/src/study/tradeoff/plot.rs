@@ -11,7 +11,7 @@ use image::{Rgb, RgbImage};
 
 use super::{REFERENCE, REFERENCE_SPP, Row};
 use crate::text::{GLYPH, draw_text, draw_text_scaled, text_width};
-use raycast::render::Device;
+use raycast::Device;
 
 const WIDTH: u32 = 1280;
 const LEFT: u32 = 84;
