@@ -4,7 +4,7 @@
 //! `raycast specializations`). `cargo run --release -p raycast-benches --bin bvh_crossover`.
 
 fn main() {
-    let gpu = raycast::gpu::Gpu::new().unwrap();
+    let gpu = raycast::Gpu::new().unwrap();
     let rows = raycast_cli::study::specializations::crossover(&gpu, 5, |_, _| {}).unwrap();
     print!(
         "{}",

@@ -7,8 +7,8 @@ use std::time::Instant;
 
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::Gpu;
-use raycast::math::Float;
-use raycast::render::{Device, Mode, render};
+use raycast::{Device, Mode, Precision};
+use raycast_cli::render::render;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
@@ -31,14 +31,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             scene.camera.resolution = [w.parse()?, h.parse()?];
         }
         let modes: Vec<Mode> = [
-            (Float::F32, Textbook),
-            (Float::F32, Robust),
-            (Float::F64, Textbook),
-            (Float::F64, Robust),
+            (Precision::F32, Textbook),
+            (Precision::F32, Robust),
+            (Precision::F64, Textbook),
+            (Precision::F64, Robust),
         ]
         .map(|(precision, algorithm)| Mode {
             device: Device::Gpu,
-            precision: precision.into(),
+            precision,
             algorithm,
         })
         .to_vec();
@@ -46,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for run in 0..=runs {
             for (m, mode) in modes.iter().enumerate() {
                 let start = Instant::now();
-                render(&scene, *mode, Some(&gpu), None)?;
+                render(&scene, *mode, Some(&gpu), Default::default())?;
                 if run > 0 {
                     times[m].push(start.elapsed().as_secs_f64());
                 }

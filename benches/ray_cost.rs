@@ -98,7 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let mut geometry = raycast::Geometry::new();
     geometry.add_mesh(&vertices, &indices)?;
-    let gpu = raycast::gpu::Gpu::new()?;
+    let gpu = raycast::Gpu::new()?;
     let mut rays = peer_rays();
     if random {
         let mut next = uniform(12345);
@@ -119,7 +119,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     for mode in modes {
         let parsed: raycast::Mode = mode.parse()?;
-        let accel = raycast::query::commit_mode(Some(&gpu), &geometry, parsed)?;
+        let accel = raycast::commit_mode(Some(&gpu), &geometry, parsed)?;
         accel.intersect(list)?;
         let mut seconds: Vec<f64> = (0..runs.max(1))
             .map(|_| {

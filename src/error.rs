@@ -167,7 +167,10 @@ mod tests {
             option: "rays[0] direction".into(),
             message: "must not be zero".into(),
         };
-        assert_eq!(e.spelled(&flag).to_string(), "rays[0] direction: must not be zero");
+        assert_eq!(
+            e.spelled(&flag).to_string(),
+            "rays[0] direction: must not be zero"
+        );
         assert_eq!(named("samples_per_pixel 4"), "`samples_per_pixel` 4");
     }
 }

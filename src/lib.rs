@@ -23,49 +23,23 @@
 //! ```
 //!
 //! The layers beneath (preparation, the kernel variants, the CPU mirror, the mode dispatch) are
-//! public only with the `internals` feature, for raycast's own tools; docs/architecture.md maps
-//! them.
+//! crate-private; docs/architecture.md maps them.
 
-// Without `internals`, what only raycast's own tools use is unused here; the workspace builds
-// and lints the library with it, where dead code is still found.
-#![cfg_attr(
-    not(feature = "internals"),
-    allow(dead_code, unused_imports, unused_macros),
-    warn(missing_docs)
-)]
+#![warn(missing_docs)]
 
-/// Declares modules public with the `internals` feature (raycast's own command line, studies,
-/// tests and examples) and crate-private without it, where the crate root's re-exports are the
-/// API.
-macro_rules! internal_modules {
-    ($($name:ident),* $(,)?) => {$(
-        #[cfg(feature = "internals")]
-        pub mod $name;
-        #[cfg(not(feature = "internals"))]
-        mod $name;
-    )*};
-}
-
-/// Declares a function public with the `internals` feature and crate-private without it.
-macro_rules! internal_fn {
-    ($(#[$meta:meta])* fn $($rest:tt)*) => {
-        $(#[$meta])*
-        #[cfg(feature = "internals")]
-        pub fn $($rest)*
-        $(#[$meta])*
-        #[cfg(not(feature = "internals"))]
-        #[allow(dead_code)]
-        pub(crate) fn $($rest)*
-    };
-}
-pub(crate) use internal_fn;
-
-internal_modules!(
-    algorithm, cpu, error, gpu, kernel, math, prepare, query, render
-);
+// The layers beneath the API, crate-private (docs/architecture.md maps them).
+mod algorithm;
+mod cpu;
+mod error;
+mod gpu;
 pub mod images;
+mod kernel;
+mod math;
 pub mod output;
+mod prepare;
+mod query;
 pub mod rays;
+mod render;
 pub mod scene;
 
 // The tests that reach below the API (the kernel variants, the mirror, preparation), a module

@@ -275,70 +275,66 @@ const COHERENT_SPREAD: f64 = 0.02;
 /// still won at a roughness of 0.0095 and lost at 0.024 (docs/performance.md#ray-lists).
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
-crate::internal_fn! {
-    /// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
-    /// (`PACKET`), the rays lie within `COHERENT_SPREAD` of each other
-    /// (`packet_spread`, origins measured against `extent`, the scene's size) and stray at most
-    /// `COHERENT_ROUGHNESS` from a smooth progression along the rows (`packet_roughness`).
-    fn coherent(list: RayList<'_>, extent: f64) -> bool {
-        let n = list.len();
-        let packets = n.div_ceil(PACKET);
-        if packets == 0 {
-            return true;
-        }
-        let samples = packets.min(64);
-        let (mut spreads, mut roughness): (Vec<f64>, Vec<f64>) = (0..samples)
-            .map(|s| {
-                let first = s * packets / samples * PACKET;
-                let (members, row): (Vec<Ray>, usize) = match list.width {
-                    // The 4x2 tile whose top-left ray is nearest `first`, in two rows of 4.
-                    Some(w) if w >= 4 => {
-                        let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
-                        let members = (0..2)
-                            .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
-                            .filter(|&k| k < n)
-                            .map(|k| list.get(k))
-                            .collect();
-                        (members, 4)
-                    }
-                    _ => (
-                        (first..(first + PACKET).min(n))
-                            .map(|k| list.get(k))
-                            .collect(),
-                        PACKET,
-                    ),
-                };
-                (
-                    packet_spread(&members, extent),
-                    packet_roughness(&members, row, extent),
-                )
-            })
-            .unzip();
-        spreads.sort_by(f64::total_cmp);
-        roughness.sort_by(f64::total_cmp);
-        spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
+/// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
+/// (`PACKET`), the rays lie within `COHERENT_SPREAD` of each other
+/// (`packet_spread`, origins measured against `extent`, the scene's size) and stray at most
+/// `COHERENT_ROUGHNESS` from a smooth progression along the rows (`packet_roughness`).
+pub(crate) fn coherent(list: RayList<'_>, extent: f64) -> bool {
+    let n = list.len();
+    let packets = n.div_ceil(PACKET);
+    if packets == 0 {
+        return true;
     }
+    let samples = packets.min(64);
+    let (mut spreads, mut roughness): (Vec<f64>, Vec<f64>) = (0..samples)
+        .map(|s| {
+            let first = s * packets / samples * PACKET;
+            let (members, row): (Vec<Ray>, usize) = match list.width {
+                // The 4x2 tile whose top-left ray is nearest `first`, in two rows of 4.
+                Some(w) if w >= 4 => {
+                    let (row, column) = (first / w / 2 * 2, (first % w).min(w - 4));
+                    let members = (0..2)
+                        .flat_map(|i| (0..4).map(move |j| (row + i) * w + column + j))
+                        .filter(|&k| k < n)
+                        .map(|k| list.get(k))
+                        .collect();
+                    (members, 4)
+                }
+                _ => (
+                    (first..(first + PACKET).min(n))
+                        .map(|k| list.get(k))
+                        .collect(),
+                    PACKET,
+                ),
+            };
+            (
+                packet_spread(&members, extent),
+                packet_roughness(&members, row, extent),
+            )
+        })
+        .unzip();
+    spreads.sort_by(f64::total_cmp);
+    roughness.sort_by(f64::total_cmp);
+    spreads[samples / 2] <= COHERENT_SPREAD && roughness[samples / 2] <= COHERENT_ROUGHNESS
 }
 
-crate::internal_fn! {
-    /// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
-    /// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
-    /// (`gpu::shader::Variant::list_origin`). Checked in parallel runs, each stopping at its
-    /// first other origin.
-    fn one_origin(list: RayList<'_>) -> bool {
-        use rayon::prelude::*;
-        const RUN: usize = 1 << 14;
-        fn all_at<T: Sync, K: PartialEq + Sync>(rows: &[T], key: impl Fn(&T) -> K + Sync) -> bool {
-            rows.first().is_some_and(|first| {
-                let origin = key(first);
-                rows.par_chunks(RUN)
-                    .all(|run| run.iter().all(|row| key(row) == origin))
-            })
-        }
-        match list.rays {
-            RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
-            RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
-        }
+/// Whether every ray of `list` starts where the first one does, bit for bit (a pinhole
+/// camera's rays, `create_rays_pinhole`'s): the GPU then reads that origin once for all
+/// (`gpu::shader::Variant::list_origin`). Checked in parallel runs, each stopping at its
+/// first other origin.
+pub(crate) fn one_origin(list: RayList<'_>) -> bool {
+    use rayon::prelude::*;
+    const RUN: usize = 1 << 14;
+    fn all_at<T: Sync, K: PartialEq + Sync>(rows: &[T], key: impl Fn(&T) -> K + Sync) -> bool {
+        rows.first().is_some_and(|first| {
+            let origin = key(first);
+            rows.par_chunks(RUN)
+                .all(|run| run.iter().all(|row| key(row) == origin))
+        })
+    }
+    match list.rays {
+        RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
+        RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
     }
 }
 

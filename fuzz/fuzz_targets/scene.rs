@@ -2,11 +2,10 @@
 //! is one triangle, so meshes cost nothing and the JSON is what is explored.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use raycast::math::vec3;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
-        let triangle = [vec3(0.0, 0.0, 0.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0)];
+        let triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]].map(Into::into);
         let _ = raycast::Scene::from_json(text, "fuzz.json".as_ref(), &mut |_| Ok(vec![triangle]));
     }
 });

@@ -503,7 +503,7 @@ def base_scene(t=(0, 0, 0), s=1.0):
 def transformed():
     base_tris = box_triangles((-0.5, -0.9375, 0), (0.5, 0.0625, 1), 4)
     # (name, translation, scale, mesh format): the cube in OBJ, ASCII PLY or binary PLY with
-    # double coordinates. Scales below 2^-20 are left to tests/suite/extremes.rs, which scales in
+    # double coordinates. Scales below 2^-20 are left to src/tests/extremes.rs, which scales in
     # memory: their shortest decimal forms do not all parse back exactly in serde_json without
     # its float_roundtrip feature, and above 2^56 the scene's numbers exceed 1e18.
     variants = [

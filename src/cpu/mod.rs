@@ -26,17 +26,21 @@ use crate::algorithm::Algorithm;
 use crate::images::{Images, MISS, Pixel};
 use crate::math::Real;
 use crate::prepare::Prepared;
-use crate::prepare::bvh::Search;
-use crate::scene::Scene;
 
 /// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`,
 /// through a BVH where it pays.
-pub fn render<T: Real>(scene: &Scene, algorithm: Algorithm) -> Images<T> {
-    render_with(scene, algorithm, Search::Auto)
+#[cfg(test)]
+pub fn render<T: Real>(scene: &crate::scene::Scene, algorithm: Algorithm) -> Images<T> {
+    render_with(scene, algorithm, crate::prepare::bvh::Search::Auto)
 }
 
 /// As [`render`], searching with `accel` (for example brute force, the BVH's oracle).
-pub fn render_with<T: Real>(scene: &Scene, algorithm: Algorithm, accel: Search) -> Images<T> {
+#[cfg(test)]
+pub fn render_with<T: Real>(
+    scene: &crate::scene::Scene,
+    algorithm: Algorithm,
+    accel: crate::prepare::bvh::Search,
+) -> Images<T> {
     render_prepared(&Prepared::new(scene, algorithm, accel), &AtomicU32::new(0))
 }
 

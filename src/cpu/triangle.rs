@@ -55,7 +55,11 @@ pub(crate) struct Sheared<T> {
     pub edges: Vec3<T>,
 }
 
-pub(crate) fn shear_triangle<T: Real>(ray: &Ray<T>, shear: &Shear<T>, tri: &Triangle<T>) -> Sheared<T> {
+pub(crate) fn shear_triangle<T: Real>(
+    ray: &Ray<T>,
+    shear: &Shear<T>,
+    tri: &Triangle<T>,
+) -> Sheared<T> {
     let Shear {
         kx, ky, kz, sx, sy, ..
     } = *shear;

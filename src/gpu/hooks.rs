@@ -56,9 +56,6 @@ pub struct ShadeHook {
     /// Its text.
     pub source: Arc<str>,
     /// Its key in the registry of sources, which kernel variants carry.
-    #[cfg(feature = "internals")]
-    pub key: SourceKey,
-    #[cfg(not(feature = "internals"))]
     pub(crate) key: SourceKey,
     /// `shade` casts rays of its own, directly or through the file's other functions
     /// (`trace`, `occluded`): its kernel compiles them in (`Variant::hook_rays`).
@@ -70,7 +67,6 @@ pub struct ShadeHook {
 pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.wgsl");
 /// Where [`RAYTRACE`] lives, for messages.
 pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
-
 
 impl ShadeHook {
     /// The hook a tool asks for: `lit` ([`ShadeHook::raytrace`]) or a `shader` file

@@ -31,9 +31,6 @@ pub struct UserKernel {
     /// Its text.
     pub source: Arc<str>,
     /// Its key in the registry of sources, which kernel variants carry.
-    #[cfg(feature = "internals")]
-    pub key: SourceKey,
-    #[cfg(not(feature = "internals"))]
     pub(crate) key: SourceKey,
     interface: Interface,
 }
@@ -60,11 +57,10 @@ impl UserKernel {
 /// entry point and registers it.
 pub(crate) fn check(source: &str, file: &Path) -> Result<UserKernel> {
     let (module, info) = shader::validate(source, file)?;
-    let interface = interface(&module, &info)
-        .ok_or_else(|| {
-            let error = source::shader_error(file, source, 0, 0, no_entry_point());
-            source::with_hint(error, WHOLE_KERNEL.into())
-        })?;
+    let interface = interface(&module, &info).ok_or_else(|| {
+        let error = source::shader_error(file, source, 0, 0, no_entry_point());
+        source::with_hint(error, WHOLE_KERNEL.into())
+    })?;
     let (key, source) = source::register(source);
     Ok(UserKernel {
         file: file.to_owned(),
@@ -107,7 +103,8 @@ fn assembled_interface(variant: &Variant) -> Result<Interface> {
     };
     let source = shader::kernel_source(&assembled)?;
     let (module, info) = shader::validate(&source, Path::new("kernel"))?;
-    interface(&module, &info).ok_or_else(|| Error::Device(format!("kernel: {}{WHOLE_KERNEL}", no_entry_point())))
+    interface(&module, &info)
+        .ok_or_else(|| Error::Device(format!("kernel: {}{WHOLE_KERNEL}", no_entry_point())))
 }
 
 /// Why a kernel with `ours` does not fit a host that binds `theirs`, if it does not.
@@ -169,24 +166,22 @@ fn mismatch(theirs: &Interface, ours: &Interface) -> Option<String> {
 }
 
 impl UserKernel {
-    crate::internal_fn! {
-        /// `variant`, running this kernel: an error when its bindings or workgroup size differ from
-        /// those of the assembled kernel for `variant` (module docs).
-        fn for_variant(&self, variant: Variant) -> Result<Variant> {
-            let theirs = assembled_interface(&variant)?;
-            if let Some(why) = mismatch(&theirs, &self.interface) {
-                return Err(Error::Argument {
-                    option: format!("kernel {}", self.file.display()),
-                    message: format!(
-                        "{why} (a kernel emitted for another scene, precision or `outputs`? write one for this render with `emit_shader`)"
-                    ),
-                });
-            }
-            Ok(Variant {
-                kernel: Some(self.key),
-                ..variant
-            })
+    /// `variant`, running this kernel: an error when its bindings or workgroup size differ from
+    /// those of the assembled kernel for `variant` (module docs).
+    pub(crate) fn for_variant(&self, variant: Variant) -> Result<Variant> {
+        let theirs = assembled_interface(&variant)?;
+        if let Some(why) = mismatch(&theirs, &self.interface) {
+            return Err(Error::Argument {
+                option: format!("kernel {}", self.file.display()),
+                message: format!(
+                    "{why} (a kernel emitted for another scene, precision or `outputs`? write one for this render with `emit_shader`)"
+                ),
+            });
         }
+        Ok(Variant {
+            kernel: Some(self.key),
+            ..variant
+        })
     }
 }
 

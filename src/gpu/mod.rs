@@ -14,9 +14,7 @@ pub mod probe;
 pub mod shader;
 pub(crate) mod source;
 
-pub use dispatch::{
-    Job, Rays, Rendered, Resident, TileSink, prepare, run, upload,
-};
+pub use dispatch::{Job, Rendered, Resident, prepare, run, upload};
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -57,54 +55,54 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    crate::internal_fn! {
-        /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
-        /// pays (`crate::prepare::bvh::worth_it`).
-        fn scene_variant(
-            &self,
-            scene: &crate::scene::Scene,
-            precision: crate::math::Float,
-            algorithm: crate::Algorithm,
-        ) -> Variant {
-            let general = self.variant(precision, algorithm);
-            Variant {
-                // Camera-relative (robust) perspective rays all start at the eye; the dispatch
-                // leaves it off for a caller's rays.
-                rays_from_origin: algorithm == crate::Algorithm::Robust
-                    && scene.camera.projection == crate::scene::Projection::Perspective,
-                bvh: crate::prepare::bvh::worth_it(scene),
-                chunks: shader::chunks_for(scene, general.chunk_bits),
-                ..general.with_kinds(shader::Kinds::of_scene(scene))
-            }
+    /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
+    /// pays (`crate::prepare::bvh::worth_it`).
+    pub(crate) fn scene_variant(
+        &self,
+        scene: &crate::scene::Scene,
+        precision: crate::math::Float,
+        algorithm: crate::Algorithm,
+    ) -> Variant {
+        let general = self.variant(precision, algorithm);
+        Variant {
+            // Camera-relative (robust) perspective rays all start at the eye; the dispatch
+            // leaves it off for a caller's rays.
+            rays_from_origin: algorithm == crate::Algorithm::Robust
+                && scene.camera.projection == crate::scene::Projection::Perspective,
+            bvh: crate::prepare::bvh::worth_it(scene),
+            chunks: shader::chunks_for(scene, general.chunk_bits),
+            ..general.with_kinds(shader::Kinds::of_scene(scene))
         }
     }
 
-    crate::internal_fn! {
-        /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
-        fn variant(&self, precision: crate::math::Float, algorithm: crate::Algorithm) -> Variant {
-            let packets = self.has_packet_subgroups();
-            Variant {
-                precision,
-                algorithm,
-                f64_available: self.has_f64(),
-                certainty: false,
-                casts: shader::Casts::Camera,
-                count: false,
-                rays_from_origin: false,
-                list_origin: false,
-                kinds: shader::Kinds::ALL,
-                bvh: false,
-                packets,
-                eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
-                lane_rays_limit: shader::MAX_LANE_RAYS,
-                chunks: 1,
-                chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
-                bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
-                outputs: crate::images::Outputs::GEOMETRY,
-                shade: None,
-                hook_rays: false,
-                kernel: None,
-            }
+    /// The general kernel variant (every primitive kind) for `precision` and `algorithm`.
+    pub(crate) fn variant(
+        &self,
+        precision: crate::math::Float,
+        algorithm: crate::Algorithm,
+    ) -> Variant {
+        let packets = self.has_packet_subgroups();
+        Variant {
+            precision,
+            algorithm,
+            f64_available: self.has_f64(),
+            certainty: false,
+            casts: shader::Casts::Camera,
+            count: false,
+            rays_from_origin: false,
+            list_origin: false,
+            kinds: shader::Kinds::ALL,
+            bvh: false,
+            packets,
+            eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
+            lane_rays_limit: shader::MAX_LANE_RAYS,
+            chunks: 1,
+            chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
+            bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
+            outputs: crate::images::Outputs::GEOMETRY,
+            shade: None,
+            hook_rays: false,
+            kernel: None,
         }
     }
 
@@ -121,16 +119,14 @@ impl Gpu {
             && self.info().subgroup_min_size >= PACKET_LANES
     }
 
-    crate::internal_fn! {
-        /// Whether the kernel's list and output buffers are mapped by the host directly rather
-        /// than copied through staging buffers: on a CPU adapter (lavapipe), whose device memory is
-        /// the host's, where copying a list in and its hits out costs a large share of tracing
-        /// them. (On a discrete GPU it would make the kernel read host memory.)
-        fn host_memory(&self) -> bool {
-            self.device
-                .features()
-                .contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
-        }
+    /// Whether the kernel's list and output buffers are mapped by the host directly rather
+    /// than copied through staging buffers: on a CPU adapter (lavapipe), whose device memory is
+    /// the host's, where copying a list in and its hits out costs a large share of tracing
+    /// them. (On a discrete GPU it would make the kernel read host memory.)
+    pub(crate) fn host_memory(&self) -> bool {
+        self.device
+            .features()
+            .contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
     }
 
     /// The largest storage binding this device allows, in bytes.
@@ -330,7 +326,9 @@ fn describe(gpu: &Gpu) -> String {
         "max invocations per workgroup: {}\n",
         limits.max_compute_invocations_per_workgroup
     );
-    let fusion = gpu.fusion_probe().map_or_else(|e| e.to_string(), |r| r.describe());
+    let fusion = gpu
+        .fusion_probe()
+        .map_or_else(|e| e.to_string(), |r| r.describe());
     s += &format!("f32 a*b - c*d: {fusion}\n");
     s
 }

@@ -44,6 +44,7 @@ impl Kinds {
         k
     }
 
+    #[cfg(test)]
     pub fn any(&self) -> bool {
         self.spheres || self.planes || self.triangles
     }
@@ -934,7 +935,8 @@ mod tests {
     #[test]
     fn each_module_is_included_once() {
         let hook = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
-        let hook = super::super::hooks::ShadeHook::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
+        let hook =
+            super::super::hooks::ShadeHook::check(hook, std::path::Path::new("hook.wgsl")).unwrap();
         let variant = Variant {
             bvh: true,
             ..Variant::new(Float::F64, Algorithm::Robust)

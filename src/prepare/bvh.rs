@@ -939,8 +939,16 @@ mod tests {
             (Search::SPHERE_CROSSOVER, 0, true),
             (0, Search::TRIANGLE_CROSSOVER - 1, false),
             (0, Search::TRIANGLE_CROSSOVER, true),
-            (Search::SPHERE_CROSSOVER / 2, Search::TRIANGLE_CROSSOVER / 2, true),
-            (Search::SPHERE_CROSSOVER / 2, Search::TRIANGLE_CROSSOVER / 2 - 1, false),
+            (
+                Search::SPHERE_CROSSOVER / 2,
+                Search::TRIANGLE_CROSSOVER / 2,
+                true,
+            ),
+            (
+                Search::SPHERE_CROSSOVER / 2,
+                Search::TRIANGLE_CROSSOVER / 2 - 1,
+                false,
+            ),
         ] {
             let scene = scene_of(spheres, triangles);
             assert_eq!(

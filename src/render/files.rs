@@ -12,9 +12,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use super::mode::default_precision;
 use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
 use super::{Progress, adaptive, check_kernels, render_streamed, supersample, timed};
-use super::mode::default_precision;
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
@@ -31,8 +31,8 @@ pub struct RenderFiles {
     pub size: Option<[u32; 2]>,
     /// The device, precision and algorithm set.
     pub mode: Mode,
-    /// No precision was asked for: on the GPU the render takes the default,
-    /// [`RenderFiles::resolved_mode`], and `mode.precision` is not read.
+    /// No precision was asked for: on the GPU the render takes the default (adaptive where it
+    /// can, f32 for a hook, a kernel or bands), and `mode.precision` is not read.
     pub default_precision: bool,
     /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
     pub spp: Option<u32>,
@@ -141,7 +141,7 @@ impl RenderFiles {
     /// `--emit-shader`, whose kernel can then be fed back with `--kernel`, bands, or an image of
     /// more than [`STREAM_PIXELS`] pixels, `huge`, which f32 streams in bands) or the textbook
     /// set, which adaptive precision does not run.
-    pub fn resolved_mode(&self, huge: bool) -> Mode {
+    pub(crate) fn resolved_mode(&self, huge: bool) -> Mode {
         if !self.default_precision {
             return self.mode;
         }
@@ -396,8 +396,9 @@ impl RenderFiles {
                 None,
             )),
             (_, Some(spp), _) => {
-                let images =
-                    supersample::supersample_request(scene, mode, gpu, spp, progress, request, false)?;
+                let images = supersample::supersample_request(
+                    scene, mode, gpu, spp, progress, request, false,
+                )?;
                 Ok((images, None))
             }
         }

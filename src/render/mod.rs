@@ -48,14 +48,12 @@ impl AnyImages {
         }
     }
 
-    crate::internal_fn! {
-        /// Images of `s x s` samples per pixel reduced to one pixel each, with their coverage
-        /// ([`supersample::reduce`]).
-        fn reduce(&self, s: u32) -> AnyImages {
-            match self {
-                AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
-                AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
-            }
+    /// Images of `s x s` samples per pixel reduced to one pixel each, with their coverage
+    /// ([`supersample::reduce`]).
+    pub(crate) fn reduce(&self, s: u32) -> AnyImages {
+        match self {
+            AnyImages::F32(i) => AnyImages::F32(supersample::reduce(i, s)),
+            AnyImages::F64(i) => AnyImages::F64(supersample::reduce(i, s)),
         }
     }
 
@@ -202,20 +200,6 @@ impl Request {
     }
 }
 
-/// Whether some of `modes` runs on the GPU.
-pub fn needs_gpu(modes: &[Mode]) -> bool {
-    modes.iter().any(|m| m.device == Device::Gpu)
-}
-
-/// A GPU device when one of `modes` needs it.
-pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
-    if needs_gpu(modes) {
-        Ok(Some(Gpu::new()?))
-    } else {
-        Ok(None)
-    }
-}
-
 /// How far a CPU render has got, for a caller's progress display
 /// ([`RenderOptions::progress`]); a GPU render leaves both counts at zero.
 #[derive(Debug, Default)]
@@ -228,6 +212,7 @@ pub struct Progress {
 
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; a CPU render counts its
 /// rows in `progress`.
+#[cfg(test)]
 pub fn render(
     scene: &Scene,
     mode: Mode,
@@ -251,6 +236,7 @@ pub fn render_request(
 /// [`render`] (without progress), also returning the GPU kernel time in seconds for a GPU
 /// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
 /// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
+#[cfg(test)]
 pub fn render_timed(
     scene: &Scene,
     mode: Mode,
@@ -317,8 +303,7 @@ fn dispatch(
             if !timed {
                 images.clear_stages();
             }
-            Ok(images)
-            .map(|images| (images, None))
+            Ok(images).map(|images| (images, None))
         }
     }
 }
@@ -387,7 +372,10 @@ pub fn on_gpu<R: GpuReal>(
     }
     let r = gpu::run(gpu, &prepared, job)?;
     let triangle_bytes = size_of::<GpuTriangle<R>>();
-    Ok((r.images, with_layout(r.stages, &prepared.primitives, triangle_bytes)))
+    Ok((
+        r.images,
+        with_layout(r.stages, &prepared.primitives, triangle_bytes),
+    ))
 }
 
 /// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
@@ -397,7 +385,10 @@ const OBJECT_ID_BYTES: usize = 4;
 /// [`Stages::bytes_per_triangle`]), each triangle taking `triangle_bytes`.
 fn with_layout<T>(stages: Stages, primitives: &Primitives<T>, triangle_bytes: usize) -> Stages {
     let p = primitives;
-    let bvh = p.bvh.as_deref().filter(|_| p.spheres.len() + p.triangles.len() > 0);
+    let bvh = p
+        .bvh
+        .as_deref()
+        .filter(|_| p.spheres.len() + p.triangles.len() > 0);
     let t = p.triangles.len();
     let ids = OBJECT_ID_BYTES * (p.spheres.len() + p.planes.len() + t);
     let bytes = t * triangle_bytes + ids + bvh.map_or(0, Bvh::bytes);
@@ -527,8 +518,20 @@ mod tests {
     fn bytes_per_triangle_count_ids_and_the_bvh() {
         let p = vec3(0.0, 0.0, 0.0);
         let mut primitives = Primitives::<f32> {
-            spheres: vec![Sphere { center: p, radius: 1.0 }; 2],
-            planes: vec![Plane { point: p, normal: p }; 1],
+            spheres: vec![
+                Sphere {
+                    center: p,
+                    radius: 1.0
+                };
+                2
+            ],
+            planes: vec![
+                Plane {
+                    point: p,
+                    normal: p
+                };
+                1
+            ],
             triangles: vec![Triangle { a: p, b: p, c: p }; 10],
             sphere_objects: vec![0; 2],
             plane_objects: vec![0; 1],
@@ -537,7 +540,10 @@ mod tests {
         };
         // 10 * 48 + 4 * 13 = 532 bytes without a BVH.
         let stages = with_layout(Stages::default(), &primitives, 48);
-        assert_eq!((stages.bvh_nodes, stages.bytes_per_triangle), (None, Some(53.2)));
+        assert_eq!(
+            (stages.bvh_nodes, stages.bytes_per_triangle),
+            (None, Some(53.2))
+        );
         primitives.bvh = Some(std::sync::Arc::new(Bvh {
             nodes: vec![bytemuck::Zeroable::zeroed(); 3],
             sphere_order: vec![0; 2],
@@ -546,7 +552,10 @@ mod tests {
         }));
         // + 3 * 64 + 4 * 12 = 240.
         let stages = with_layout(Stages::default(), &primitives, 48);
-        assert_eq!((stages.bvh_nodes, stages.bytes_per_triangle), (Some(3), Some(77.2)));
+        assert_eq!(
+            (stages.bvh_nodes, stages.bytes_per_triangle),
+            (Some(3), Some(77.2))
+        );
         primitives.triangles.clear();
         let stages = with_layout(Stages::default(), &primitives, 48);
         assert_eq!(stages.bytes_per_triangle, None);

@@ -31,7 +31,11 @@ impl Device {
 /// precision (f64's hits and ids at close to f32's cost) where it can run, which is with the
 /// robust set and not where the render needs a `single_kernel` (a hook, a kernel file, bands),
 /// else f32; on the CPU f64.
-pub(crate) fn default_precision(device: Device, algorithm: Algorithm, single_kernel: bool) -> Precision {
+pub(crate) fn default_precision(
+    device: Device,
+    algorithm: Algorithm,
+    single_kernel: bool,
+) -> Precision {
     match device {
         Device::Gpu if single_kernel || algorithm != Algorithm::Robust => Precision::F32,
         Device::Gpu => Precision::Adaptive,

@@ -74,7 +74,8 @@ pub struct Tuning {
     pub all_kinds: bool,
     /// GPU: each lane casts its most rays (8) whatever the render's size, as a kernel run many
     /// times should; by default a small render casts fewer, so that its kernel compiles sooner.
-    pub most_lane_rays: bool,    /// GPU: at most this many spheres and triangles (a power of two) in each storage binding,
+    pub most_lane_rays: bool,
+    /// GPU: at most this many spheres and triangles (a power of two) in each storage binding,
     /// as on a device with smaller bindings; `None`: as many as this device's bindings hold.
     pub triangles_per_binding: Option<u32>,
     /// GPU: at most this many image rows per dispatch, as for an image too large for one;
@@ -101,7 +102,9 @@ impl Tuning {
             if !n.is_power_of_two() || n > most {
                 return Err(Error::Argument {
                     option: format!("triangles_per_binding {n}"),
-                    message: format!("a power of two up to {most}, what this device's bindings hold"),
+                    message: format!(
+                        "a power of two up to {most}, what this device's bindings hold"
+                    ),
                 });
             }
             let bits = n.ilog2() as u8;
@@ -114,8 +117,7 @@ impl Tuning {
         match self.packets {
             Some(true) if !gpu.has_packet_subgroups() => Err(Error::Argument {
                 option: "packets".into(),
-                message: "need subgroups of at least 8 invocations, which this device lacks"
-                    .into(),
+                message: "need subgroups of at least 8 invocations, which this device lacks".into(),
             }),
             Some(packets) => Ok(Variant { packets, ..variant }),
             None => Ok(variant),

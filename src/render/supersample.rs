@@ -30,7 +30,6 @@
 //! Rendering and reducing in bands of rows would bound it; that is not done yet.
 
 use rayon::prelude::*;
-use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
@@ -204,6 +203,7 @@ fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec
 /// [`Error::Argument`] naming `samples_per_pixel`) and reduces it (module docs): images with their
 /// [`Coverage`]. `spp = 1` is a plain [`render::render`] with coverage. The fine render is held
 /// whole: `spp` times the memory of a plain one.
+#[cfg(test)]
 pub fn supersample(
     scene: &Scene,
     mode: Mode,
@@ -281,7 +281,8 @@ pub(crate) fn sample_request(request: &Request, spp: u32) -> Request {
 }
 
 /// How far a render at `spp` samples per pixel is from a high-spp reference.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[cfg(test)]
 pub struct SppError {
     pub spp: u32,
     /// Mean over all pixels of `|alpha - alpha_ref|` (alphas as exact `hits / spp`).
@@ -299,6 +300,7 @@ pub struct SppError {
 /// largest absolute alpha error and the fraction of pixels whose majority id differs. The
 /// reference stands in for the exact coverage (its own error is at most one stratum of
 /// `1 / reference_spp` per stratum the boundary crosses). `gpu` is needed for GPU modes.
+#[cfg(test)]
 pub fn spp_errors(
     scene: &Scene,
     mode: Mode,

@@ -275,7 +275,7 @@ thread_local! {
 }
 
 fn render<R: GpuReal>(scene: &Scene) -> Images<R> {
-    common::gpu_scene::<R>(gpu(), scene, ALGORITHM.get()).unwrap()
+    super::kernels::gpu_scene::<R>(gpu(), scene, ALGORITHM.get()).unwrap()
 }
 
 /// What a pixel must show.

@@ -75,7 +75,7 @@ fn sphere_cloud(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
 
 /// The extreme scenes built so that f32 overflows or underflows even in kernel units: there
 /// f32's box test and intersection tests are both meaningless (and adaptive precision re-casts
-/// every such pixel, cli/tests/suite/adaptive.rs), so the BVH has nothing exact to agree with.
+/// every such pixel, src/tests/adaptive.rs), so the BVH has nothing exact to agree with.
 fn out_of_f32_range(name: &str) -> bool {
     name.starts_with("range-")
 }
@@ -161,9 +161,9 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 packets: gpu.has_packet_subgroups(),
                 ..gpu.scene_variant(&scene, Float::F32, algorithm)
             };
-            let bvh32 = common::gpu_variant::<f32>(gpu, &scene, variant(true));
+            let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(true));
             let bvh32 = bvh32.unwrap();
-            let brute32 = common::gpu_variant::<f32>(gpu, &scene, variant(false));
+            let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(false));
             let brute32 = brute32.unwrap();
             // Where the textbook f32 formulas are wrong, as on the CPU (see above).
             let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
@@ -178,7 +178,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 packets: false,
                 ..variant(true)
             };
-            let per_ray = common::gpu_variant::<f32>(gpu, &scene, per_ray);
+            let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray);
             let per_ray = per_ray.unwrap();
             assert_same_bits(
                 &per_ray,
@@ -191,7 +191,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                     lane_rays_limit,
                     ..variant(true)
                 };
-                let lighter = common::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
+                let lighter = super::kernels::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
                 let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
                 assert_same_bits(&lighter, &cpu32, &what);
             }
@@ -204,8 +204,8 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 bvh,
                 ..gpu.scene_variant(&scene, Float::F64, algorithm)
             };
-            let bvh64 = common::gpu_variant::<f64>(gpu, &scene, variant64(true));
-            let brute64 = common::gpu_variant::<f64>(gpu, &scene, variant64(false));
+            let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(true));
+            let brute64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(false));
             assert_eq!(
                 bvh64.unwrap().id,
                 brute64.unwrap().id,

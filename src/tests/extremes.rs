@@ -15,7 +15,7 @@
 //!   adaptive and textbook f32, the same hit/miss and ids, distances exactly 2^k times the
 //!   base's, normals identical.
 //! - `far-camera`: a centimetre sphere 1e6 away, placed as an independent f64 computation says.
-//! - `range`: f32 leaves its range; checked in cli/tests/suite/adaptive.rs.
+//! - `range`: f32 leaves its range; checked in src/tests/adaptive.rs.
 //! - `degenerate`: zero-area triangles are never hit.
 //! - `far-sphere` at 1e5: textbook f32 gets hit/miss wrong on certain pixels (the far-sphere
 //!   ring of pbrt-v3 #265), robust f32 does not.
@@ -65,7 +65,7 @@ fn kind(e: &Extreme) -> &str {
 }
 
 fn gpu_render<R: raycast::kernel::layout::GpuReal>(scene: &Scene, a: Algorithm) -> Images<R> {
-    common::gpu_scene::<R>(gpu(), scene, a).unwrap()
+    super::kernels::gpu_scene::<R>(gpu(), scene, a).unwrap()
 }
 
 fn truth(scene: &Scene) -> Images<f64> {
@@ -144,7 +144,7 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
 /// units: textbook f32 computes hits at t beyond it (a distance of infinity), robust f32 sphere
 /// normals whose half-chord overflows (NaN). Guarding the normal would cost every f32 render
 /// about 1% (measured on 100 spheres); adaptive precision re-casts such pixels in f64
-/// (cli/tests/suite/adaptive.rs), so its images, like f64's, must be clean on every scene.
+/// (src/tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {

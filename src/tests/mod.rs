@@ -2,14 +2,22 @@
 //! process, one lavapipe device), sharing `common` with the command line's tests.
 
 mod common;
+mod kernels;
 
+mod adaptive;
 mod analytic;
 mod bvh;
 mod cameras;
 mod concurrency;
 mod extremes;
 mod fuzz_regressions;
+mod hooks;
 mod layers;
+mod measure;
+mod no_f64_device;
 mod rays;
+mod specialized_kernels;
 mod supersample;
 mod tiling;
+mod timing;
+mod wide_subgroups;

@@ -17,14 +17,14 @@ fn a_small_image_in_many_tiles_equals_one_tile() {
     for scene in [bunny, common::random_scene(3, [50, 41])] {
         for algorithm in [Robust, Textbook] {
             let variant = gpu.scene_variant(&scene, Float::F32, algorithm);
-            let whole = common::gpu_variant::<f32>(gpu, &scene, variant).unwrap();
+            let whole = super::kernels::gpu_variant::<f32>(gpu, &scene, variant).unwrap();
             for rows in [1, 3, 8] {
-                let tiled = common::gpu_tiles::<f32>(gpu, &scene, variant, rows).unwrap();
+                let tiled = super::kernels::gpu_tiles::<f32>(gpu, &scene, variant, rows).unwrap();
                 assert_eq!(tiled, whole, "{algorithm}, tiles of {rows} rows");
             }
             let variant = gpu.scene_variant(&scene, Float::F64, algorithm);
-            let whole = common::gpu_variant::<f64>(gpu, &scene, variant).unwrap();
-            let tiled = common::gpu_tiles::<f64>(gpu, &scene, variant, 5).unwrap();
+            let whole = super::kernels::gpu_variant::<f64>(gpu, &scene, variant).unwrap();
+            let tiled = super::kernels::gpu_tiles::<f64>(gpu, &scene, variant, 5).unwrap();
             assert_eq!(tiled, whole, "{algorithm} f64");
         }
     }
@@ -49,8 +49,8 @@ fn a_mesh_in_several_bindings_equals_one_binding() {
                     chunk_bits: bits,
                     ..one
                 };
-                let a = common::gpu_variant::<f32>(gpu, &bunny, one).unwrap();
-                let b = common::gpu_variant::<f32>(gpu, &bunny, split).unwrap();
+                let a = super::kernels::gpu_variant::<f32>(gpu, &bunny, one).unwrap();
+                let b = super::kernels::gpu_variant::<f32>(gpu, &bunny, split).unwrap();
                 assert_eq!(a, b, "{chunks} chunks of 2^{bits}, bvh {bvh}, {algorithm}");
                 assert!(a.id.iter().any(|&id| id >= 0));
             }
@@ -67,6 +67,6 @@ fn a_mesh_needing_more_bindings_than_the_kernel_has_is_refused() {
         chunk_bits: 8,
         ..gpu.scene_variant(&bunny, Float::F32, Robust)
     };
-    let err = common::gpu_variant::<f32>(gpu, &bunny, too_small).unwrap_err();
+    let err = super::kernels::gpu_variant::<f32>(gpu, &bunny, too_small).unwrap_err();
     assert!(err.to_string().contains("storage bindings"), "{err}");
 }

@@ -7,7 +7,6 @@ use std::process::Output;
 
 use common::repo_path;
 use raycast::Algorithm;
-use raycast::prepare::bvh::Bvh;
 
 /// Every key of a `--json` line, in order.
 const KEYS: [&str; 29] = [
@@ -93,7 +92,18 @@ fn json_lines_per_configuration_with_consistent_numbers() {
     assert_eq!(rows.len(), 2, "one line per configuration:\n{stdout}");
 
     let scene = raycast::Scene::load(&scene_path).unwrap();
-    let nodes = Bvh::build(&scene, Algorithm::Robust).nodes.len();
+    // The tree as the CPU reference builds it for the same scene, through the API.
+    let options = raycast::RenderOptions {
+        algorithm: Algorithm::Robust,
+        timed: true,
+        tuning: raycast::Tuning {
+            search: raycast::Search::Bvh,
+            ..raycast::Tuning::default()
+        },
+        ..raycast::RenderOptions::default()
+    };
+    let cpu = raycast::Cpu.render(&scene, &options).unwrap();
+    let nodes = cpu.stages().unwrap().bvh_nodes.unwrap();
     for (row, accel) in rows.iter().zip(["bvh", "brute-force"]) {
         let keys: Vec<&str> = row
             .as_object()
@@ -134,7 +144,7 @@ fn json_lines_per_configuration_with_consistent_numbers() {
             assert!(row[key].is_null(), "no hook, no {key}: {row}");
         }
 
-        // The documented formula: (T * 40 + 4 * (S + P + T) + Bvh::bytes()) / T in f32 on the GPU.
+        // The documented formula: (T * 40 + 4 * (S + P + T) + BVH bytes) / T in f32 on the GPU.
         let (t, s, p) = (1000.0, 0.0, number(row, "planes"));
         let bvh_bytes = if accel == "bvh" {
             assert_eq!(row["bvh_nodes"], nodes);

@@ -5,8 +5,8 @@ use crate::common;
 
 use common::*;
 use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::AnyImages;
 use raycast::images::{Images, MISS};
-use raycast::render::AnyImages;
 use raycast_cli::compare::{PixelMatch, compare};
 
 /// CPU f64 is the course's own arithmetic: all 18 pictures equal, every pixel. No GPU needed.
@@ -52,7 +52,7 @@ fn check_cpu_f32_matches_gpu(label: &str, scene: &raycast::Scene) {
 }
 
 fn check_cpu_f32_matches_gpu_with(label: &str, scene: &raycast::Scene, algorithm: Algorithm) {
-    let cpu = raycast::cpu::render::<f32>(scene, algorithm);
+    let cpu = common::cpu_render::<f32>(scene, algorithm);
     let gpu = common::gpu_scene::<f32>(gpu(), scene, algorithm).unwrap();
     let pixels = cpu.len();
     let id_differs = (0..pixels).filter(|&k| cpu.id[k] != gpu.id[k]).count();
@@ -108,7 +108,7 @@ fn gpu_f32_agrees_with_cpu_f64_on_random_scenes() {
     for seed in 1..=6 {
         let scene = random_scene(seed, [160, 120]);
         let a = AnyImages::F32(common::gpu_scene::<f32>(gpu(), &scene, Textbook).unwrap());
-        let b = AnyImages::F64(raycast::cpu::render::<f64>(&scene, Robust));
+        let b = AnyImages::F64(common::cpu_render::<f64>(&scene, Robust));
         let r = compare(&a, &b).report;
         println!("random {seed}: {}", serde_json::to_string(&r).unwrap());
         assert!(
@@ -124,7 +124,7 @@ fn gpu_f32_agrees_with_cpu_f64_on_random_scenes() {
 #[test]
 fn compare_counts_planted_differences_exactly() {
     let scene = random_scene(7, [96, 72]);
-    let truth: Images<f64> = raycast::cpu::render(&scene, Robust);
+    let truth: Images<f64> = common::cpu_render(&scene, Robust);
     let mut planted = truth.clone();
     let hits: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] != MISS).collect();
     let misses: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] == MISS).collect();

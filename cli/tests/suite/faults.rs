@@ -126,11 +126,14 @@ fn a_lost_device_is_an_error() {
     let device = gpu.device.clone();
     let mut scene = common::course_scene("sphere-and-plane");
     scene.camera.resolution = [64, 36];
-    let mode = "gpu:f32:robust".parse().unwrap();
-    assert!(raycast::render::render(&scene, mode, Some(&gpu), None).is_ok());
+    let options = raycast::RenderOptions {
+        precision: Some(raycast::Precision::F32),
+        ..raycast::RenderOptions::default()
+    };
+    assert!(gpu.render(&scene, &options).is_ok());
     device.destroy();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        raycast::render::render(&scene, mode, Some(&gpu), None)
+        gpu.render(&scene, &options)
     }));
     match result {
         Ok(Err(e)) => {

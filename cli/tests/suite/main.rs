@@ -25,4 +25,3 @@ mod specialized_kernels;
 mod streaming;
 mod supersample;
 mod tradeoff;
-mod wide_subgroups;

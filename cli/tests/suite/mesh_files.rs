@@ -8,7 +8,6 @@ use crate::common;
 use std::path::PathBuf;
 use std::process::Output;
 
-use raycast::math::Vec3;
 use raycast::scene::{Triangle, load_mesh};
 use tempfile::TempDir;
 
@@ -31,7 +30,7 @@ const FACES: [&[usize]; 5] = [
 
 /// The triangles every format must load to: faces in order, each fanned in corner order.
 fn triangles() -> Vec<Triangle> {
-    let p = |i: usize| Vec3::from_array(POINTS[i]);
+    let p = |i: usize| POINTS[i].into();
     FACES
         .iter()
         .flat_map(|f| (1..f.len() - 1).map(|k| [p(f[0]), p(f[k]), p(f[k + 1])]))
@@ -312,18 +311,17 @@ fn camera_scene(eye: [f64; 3], objects: &str) -> String {
     )
 }
 
-fn render(dir: &std::path::Path, json: &str, mode: &str) -> raycast::render::AnyImages {
+fn render(dir: &std::path::Path, json: &str, mode: &str) -> raycast::AnyImages {
     let path = dir.join("scene.json");
     std::fs::write(&path, json).unwrap();
     let scene = raycast::Scene::load(&path).unwrap();
-    let mode: raycast::render::Mode = mode.parse().unwrap();
-    let gpu = (mode.device == raycast::render::Device::Gpu).then(common::gpu);
-    raycast::render::render(&scene, mode, gpu, None).unwrap()
+    let mode: raycast::Mode = mode.parse().unwrap();
+    common::render_in(&scene, mode, raycast::RenderOptions::default()).unwrap()
 }
 
 /// Distances (f64) and whether each pixel hits.
-fn distances(images: &raycast::render::AnyImages) -> Vec<f64> {
-    use raycast::render::AnyImages;
+fn distances(images: &raycast::AnyImages) -> Vec<f64> {
+    use raycast::AnyImages;
     match images {
         AnyImages::F32(i) => i.distance.iter().map(|&d| f64::from(d)).collect(),
         AnyImages::F64(i) => i.distance.clone(),
@@ -379,7 +377,7 @@ fn a_mesh_far_from_the_origin_renders_like_one_at_the_origin() {
             &format!(r#"{{"type": "soup", "obj": "{file}"}}"#),
         );
         let images = render(dir.path(), &json, "gpu:f32:robust");
-        let raycast::render::AnyImages::F32(images) = images else {
+        let raycast::AnyImages::F32(images) = images else {
             panic!("an f32 render gives f32 images")
         };
         renders.push(images);

@@ -4,21 +4,8 @@
 
 use crate::common;
 
+use common::gpu_without_f64;
 use raycast::Algorithm::{Robust, Textbook};
-use raycast::gpu::Gpu;
-
-fn gpu_without_f64() -> Gpu {
-    let shared = common::gpu();
-    let (device, queue) =
-        pollster::block_on(shared.adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("no f64"),
-            required_features: wgpu::Features::empty(),
-            required_limits: shared.adapter.limits(),
-            ..Default::default()
-        }))
-        .unwrap();
-    Gpu::from_parts(shared.adapter.clone(), device, queue)
-}
 
 #[test]
 fn f64_without_shader_f64_is_a_clear_error() {
@@ -37,12 +24,9 @@ fn f64_without_shader_f64_is_a_clear_error() {
 
 #[test]
 fn robust_f32_without_f64_still_renders_the_course_bunny() {
+    // Its robust f32 kernel leaves out the f64 recheck (src/tests/no_f64_device.rs).
     let gpu = gpu_without_f64();
-    assert!(
-        !gpu.variant(raycast::math::Float::F32, Robust)
-            .defines()
-            .contains(&"RECHECK_F64")
-    );
+    assert!(!gpu.has_f64());
     let scene = common::course_scene("bunny");
     let without = common::gpu_scene::<f32>(&gpu, &scene, Robust).unwrap();
     let with = common::gpu_scene::<f32>(common::gpu(), &scene, Robust).unwrap();

@@ -3,13 +3,12 @@
 //! the files of the outputs asked for only. (That the kernel leaves the normal functions
 //! uncalled is checked on the naga module in `src/gpu/shader.rs`.)
 
-use crate::common;
+use crate::common::{self, Kernel};
 
 use common::file_names;
 
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::images::{Images, MISS, Outputs};
-use raycast::kernel::layout::GpuReal;
 
 fn only(id: bool, distance: bool, normal: bool) -> Outputs {
     Outputs {
@@ -20,12 +19,12 @@ fn only(id: bool, distance: bool, normal: bool) -> Outputs {
     }
 }
 
-fn bits<R: GpuReal>(values: &[R]) -> Vec<u64> {
-    values.iter().map(|v| v.to_f64().to_bits()).collect()
+fn bits<R: Kernel>(values: &[R]) -> Vec<u64> {
+    values.iter().map(|&v| v.into().to_bits()).collect()
 }
 
 /// Each output alone, and distance with normal, against the full render, for `scene`.
-fn check<R: GpuReal>(scene: &raycast::Scene, name: &str) {
+fn check<R: Kernel>(scene: &raycast::Scene, name: &str) {
     let g = common::gpu();
     for algorithm in [Textbook, Robust] {
         let full: Images<R> = common::gpu_scene(g, scene, algorithm).unwrap();
@@ -41,18 +40,25 @@ fn check<R: GpuReal>(scene: &raycast::Scene, name: &str) {
         ] {
             let part: Images<R> = common::gpu_outputs(g, scene, algorithm, outputs, None).unwrap();
             let what = format!("{name} {algorithm} {outputs:?}");
-            let miss = Images::<R>::new_miss(full.width, full.height, full.focal_length);
-            let expected_id = if outputs.id { &full.id } else { &miss.id };
-            assert_eq!(&part.id, expected_id, "id: {what}");
-            let expected = if outputs.distance { &full } else { &miss };
-            assert_eq!(
-                bits(&part.distance),
-                bits(&expected.distance),
-                "distance: {what}"
-            );
-            let expected = if outputs.normal { &full } else { &miss };
+            // What a miss holds: id MISS, distance +inf, normal zero.
+            let n = full.id.len();
+            let expected_id = if outputs.id {
+                full.id.clone()
+            } else {
+                vec![MISS; n]
+            };
+            assert_eq!(part.id, expected_id, "id: {what}");
+            let distance = match outputs.distance {
+                true => bits(&full.distance),
+                false => vec![f64::INFINITY.to_bits(); n],
+            };
+            assert_eq!(bits(&part.distance), distance, "distance: {what}");
             let flat = |i: &Images<R>| i.normal.iter().flatten().copied().collect::<Vec<R>>();
-            assert_eq!(bits(&flat(&part)), bits(&flat(expected)), "normal: {what}");
+            let normal = match outputs.normal {
+                true => bits(&flat(&full)),
+                false => vec![0f64.to_bits(); 3 * n],
+            };
+            assert_eq!(bits(&flat(&part)), normal, "normal: {what}");
         }
     }
 }

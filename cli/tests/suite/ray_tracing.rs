@@ -6,11 +6,10 @@ use crate::common;
 
 use std::path::Path;
 
-use raycast::Algorithm::Robust;
 use raycast::ShadeHook;
-use raycast::images::{Images, MISS, Outputs};
-use raycast::render::{self, AnyImages, Mode, Request};
+use raycast::images::{Images, MISS};
 use raycast::scene::Scene;
+use raycast::{AnyImages, Mode, RenderOptions};
 use raycast_cli::compare::{ColorError, color_error};
 
 /// The ray-tracing scenes the instructor published renders of.
@@ -33,12 +32,11 @@ fn instructors(name: &str) -> Vec<[u8; 4]> {
 /// `scene` rendered in `mode` with every output and the hook's colours.
 fn render(scene: &Scene, mode: &str, hook: &ShadeHook) -> AnyImages {
     let mode: Mode = mode.parse().unwrap();
-    let gpu = (mode.device == render::Device::Gpu).then(common::gpu);
-    let request = Request {
+    let options = RenderOptions {
         shade: Some(hook.clone()),
-        ..Request::default()
+        ..RenderOptions::default()
     };
-    render::render_request(scene, mode, gpu, None, &request).unwrap_or_else(|e| panic!("{e}"))
+    common::render_in(scene, mode, options).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn colours(images: &AnyImages) -> &[[u8; 4]] {
@@ -314,58 +312,4 @@ fn materials_lights_and_values_reach_the_hook() {
     }
     // The plane fills the background, so no pixel misses.
     assert_eq!(seen, [false, true, true, true]);
-}
-
-/// A hook that casts no ray compiles none of the machinery: its kernel is the one it was
-/// (packets where the device has them, no `trace`, no ray counter).
-#[test]
-fn only_a_hook_that_casts_rays_compiles_them_in() {
-    let gpu = common::gpu();
-    let scene = common::course_scene("bunny");
-    let toon = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
-    let lit = ShadeHook::raytrace().unwrap();
-    assert!(!toon.traces && lit.traces);
-    let base = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
-    assert!(base.uses_packets(), "lavapipe has subgroups");
-    let variant = |hook: &ShadeHook| {
-        base.with_shade(hook.key, hook.traces)
-            .with_outputs(Outputs::ALL)
-    };
-    let plain = variant(&toon);
-    assert!(plain.uses_packets());
-    assert!(!plain.defines().contains(&"HOOK_RAYS"));
-    // The kernel's functions and globals, by name.
-    let names = |variant| {
-        let source = raycast::gpu::shader::kernel_source(&variant).unwrap();
-        let module = naga::front::wgsl::parse_str(&source).unwrap();
-        let functions = module.functions.iter().filter_map(|(_, f)| f.name.clone());
-        let globals = module
-            .global_variables
-            .iter()
-            .filter_map(|(_, g)| g.name.clone());
-        functions.chain(globals).collect::<Vec<String>>()
-    };
-    let machinery = [
-        "trace",
-        "occluded",
-        "hook_ray",
-        "hook_rays",
-        "hook_ray_count",
-    ];
-    let plain_names = names(plain);
-    for name in machinery {
-        assert!(!plain_names.iter().any(|n| n == name), "{name}");
-    }
-    let tracing = variant(&lit);
-    assert!(tracing.defines().contains(&"HOOK_RAYS"));
-    assert!(!tracing.uses_packets());
-    let tracing_names = names(tracing);
-    for name in machinery {
-        assert!(tracing_names.iter().any(|n| n == name), "{name}");
-    }
-    // A plain render with the toon hook counts no rays.
-    let AnyImages::F32(images) = render(&small("bunny"), "gpu:f32:robust", &toon) else {
-        unreachable!()
-    };
-    assert_eq!(images.hook_rays, None);
 }

@@ -2,7 +2,7 @@
 //! column and exit code 2; exact properties of what the kernel hands the hook (normal, world
 //! position, pixel); golden images of the examples; `--watch`.
 
-use crate::common;
+use crate::common::{self, Kernel};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -11,7 +11,6 @@ use std::time::{Duration, Instant};
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::ShadeHook;
 use raycast::images::{Images, MISS, Outputs};
-use raycast::kernel::layout::GpuReal;
 use raycast::scene::Scene;
 
 fn raycast(args: &[&str]) -> Output {
@@ -40,7 +39,7 @@ fn hook(source: &str) -> ShadeHook {
 }
 
 /// Renders only the hook's colour.
-fn shaded<R: GpuReal>(scene: &Scene, algorithm: Algorithm, hook: &ShadeHook) -> Vec<[u8; 4]> {
+fn shaded<R: Kernel>(scene: &Scene, algorithm: Algorithm, hook: &ShadeHook) -> Vec<[u8; 4]> {
     let color = Outputs {
         color: true,
         ..Outputs::NONE
@@ -232,7 +231,7 @@ fn level(n: f32) -> u8 {
 }
 
 /// Checks every pixel; returns the number of misses.
-fn check_normal_as_colour<R: GpuReal>(scene: &Scene, algorithm: Algorithm, name: &str) -> usize {
+fn check_normal_as_colour<R: Kernel>(scene: &Scene, algorithm: Algorithm, name: &str) -> usize {
     let hook = hook(NORMAL_AS_COLOUR);
     let outputs = Outputs {
         normal: true,
@@ -245,7 +244,7 @@ fn check_normal_as_colour<R: GpuReal>(scene: &Scene, algorithm: Algorithm, name:
     let mut misses = 0;
     for (k, (n, c)) in images.normal.iter().zip(color).enumerate() {
         // The hook gets the normal in f32 (rounded to nearest from an f64 kernel); a miss's is 0.
-        let n = n.map(|x| x.to_f64() as f32);
+        let n = n.map(|x| x.into() as f32);
         let expected = [level(n[0]), level(n[1]), level(n[2]), 255];
         assert_eq!(*c, expected, "{name} {algorithm} pixel {k}, normal {n:?}");
         misses += usize::from(n == [0.0; 3]);
@@ -392,40 +391,6 @@ fn examples_match_their_golden_images() {
                 dir.display()
             );
         }
-    }
-}
-
-/// A hooked kernel gives the same colours, ids and surfaces with two, four and eight rays a lane
-/// (smaller renders cast fewer, `Variant::for_rays`; the tests above run eight).
-#[test]
-fn hooked_kernels_of_every_lane_count_agree() {
-    let mut scene = common::course_scene("bunny");
-    scene.camera.resolution = [96, 54];
-    let hook = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
-    let gpu = common::gpu();
-    let base = gpu
-        .scene_variant(&scene, raycast::math::Float::F32, Robust)
-        .with_shade(hook.key, hook.traces)
-        .with_outputs(Outputs::ALL);
-    let render = |lane_rays_limit| {
-        let variant = raycast::gpu::shader::Variant {
-            lane_rays_limit,
-            ..base
-        };
-        // Packets of several rays a lane on subgroups of 8 (lavapipe), one ray elsewhere.
-        let packets = base.uses_packets() && base.eight_lanes;
-        let rays = if packets { lane_rays_limit as u32 } else { 1 };
-        assert_eq!(variant.lane_rays(), rays);
-        let images: Images<f32> = common::gpu_variant(gpu, &scene, variant).unwrap();
-        images
-    };
-    let eight = render(8);
-    assert!(eight.color.as_ref().is_some_and(|c| c.len() == 96 * 54));
-    for limit in [2, 4] {
-        let fewer = render(limit);
-        let what = format!("at most {limit} rays a lane");
-        common::assert_same_bits(&fewer, &eight, &what);
-        assert!(fewer.color == eight.color, "{what}");
     }
 }
 

@@ -4,13 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use raycast::Algorithm;
-use raycast::gpu::Gpu;
-use raycast::gpu::hooks::ShadeHook;
-use raycast::gpu::shader::Variant;
-use raycast::images::{Images, Outputs};
-use raycast::kernel::layout::GpuReal;
+use raycast::images::Images;
 use raycast::scene::Scene;
+use raycast::{Algorithm, Gpu, Mode};
 
 /// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
@@ -25,55 +21,6 @@ pub fn gpu() -> &'static Gpu {
         Gpu::new()
             .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter (lavapipe is enough): {e}"))
     })
-}
-
-/// `scene` rendered on `gpu` by the kernel `variant` (the scene prepared for it).
-pub fn gpu_variant<R: GpuReal>(
-    gpu: &Gpu,
-    scene: &Scene,
-    variant: Variant,
-) -> raycast::Result<Images<R>> {
-    raycast::render::on_gpu::<R>(gpu, scene, variant, false, None).map(|(images, _)| images)
-}
-
-/// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
-pub fn gpu_scene<R: GpuReal>(
-    gpu: &Gpu,
-    scene: &Scene,
-    algorithm: Algorithm,
-) -> raycast::Result<Images<R>> {
-    gpu_variant(
-        gpu,
-        scene,
-        gpu.scene_variant(scene, R::PRECISION, algorithm),
-    )
-}
-
-/// [`gpu_scene`] computing only `outputs`, with the shade hook `shade` for the colour.
-pub fn gpu_outputs<R: GpuReal>(
-    gpu: &Gpu,
-    scene: &Scene,
-    algorithm: Algorithm,
-    outputs: Outputs,
-    shade: Option<&ShadeHook>,
-) -> raycast::Result<Images<R>> {
-    let mut variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
-    if let Some(hook) = shade {
-        variant = variant.with_shade(hook.key, hook.traces);
-    }
-    gpu_variant(gpu, scene, variant.with_outputs(outputs))
-}
-
-/// [`gpu_variant`] in dispatches of at most `max_rows` image rows.
-pub fn gpu_tiles<R: GpuReal>(
-    gpu: &Gpu,
-    scene: &Scene,
-    variant: Variant,
-    max_rows: u32,
-) -> raycast::Result<Images<R>> {
-    let prepared = raycast::gpu::prepare::<R>(scene, &variant)?;
-    let job = raycast::gpu::Job::new(variant).rows(max_rows);
-    raycast::gpu::run(gpu, &prepared, job).map(|r| r.images)
 }
 
 /// The names of the entries of `dir`, sorted.
@@ -128,14 +75,103 @@ pub fn api_render(
     let options = raycast::RenderOptions {
         precision: Some(precision),
         algorithm,
+        ..kernel_options()
+    };
+    gpu.render(scene, &options)
+        .unwrap_or_else(|e| panic!("{precision:?} {algorithm:?}: {e}"))
+}
+
+/// `scene` rendered in `mode` (the GPU's on [`gpu`]) with `options`' other settings, through
+/// the API.
+pub fn render_in(
+    scene: &Scene,
+    mode: Mode,
+    options: raycast::RenderOptions,
+) -> raycast::Result<raycast::AnyImages> {
+    let options = raycast::RenderOptions {
+        precision: Some(mode.precision),
+        algorithm: mode.algorithm,
+        ..options
+    };
+    match mode.device {
+        raycast::Device::Gpu => gpu().render(scene, &options),
+        raycast::Device::Cpu => raycast::Cpu.render(scene, &options),
+    }
+}
+
+/// Options as a kernel variant made by hand has them: each lane casting its most rays.
+pub fn kernel_options() -> raycast::RenderOptions {
+    raycast::RenderOptions {
         tuning: raycast::Tuning {
             most_lane_rays: true,
             ..raycast::Tuning::default()
         },
         ..raycast::RenderOptions::default()
+    }
+}
+
+/// The precisions a GPU kernel renders in, as image types.
+pub trait Kernel: Copy + Into<f64> + std::fmt::Debug + PartialEq + 'static {
+    const PRECISION: raycast::Precision;
+    fn of(images: raycast::AnyImages) -> Option<Images<Self>>;
+}
+
+impl Kernel for f32 {
+    const PRECISION: raycast::Precision = raycast::Precision::F32;
+    fn of(images: raycast::AnyImages) -> Option<Images<f32>> {
+        match images {
+            raycast::AnyImages::F32(i) => Some(i),
+            raycast::AnyImages::F64(_) => None,
+        }
+    }
+}
+
+impl Kernel for f64 {
+    const PRECISION: raycast::Precision = raycast::Precision::F64;
+    fn of(images: raycast::AnyImages) -> Option<Images<f64>> {
+        match images {
+            raycast::AnyImages::F64(i) => Some(i),
+            raycast::AnyImages::F32(_) => None,
+        }
+    }
+}
+
+/// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
+pub fn gpu_scene<R: Kernel>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+) -> raycast::Result<Images<R>> {
+    gpu_outputs(gpu, scene, algorithm, raycast::Outputs::ALL, None)
+}
+
+/// `scene` rendered by the CPU reference in precision `R` with `algorithm`, through the API.
+pub fn cpu_render<R: Kernel>(scene: &Scene, algorithm: Algorithm) -> Images<R> {
+    let options = raycast::RenderOptions {
+        precision: Some(R::PRECISION),
+        algorithm,
+        ..raycast::RenderOptions::default()
     };
-    gpu.render(scene, &options)
-        .unwrap_or_else(|e| panic!("{precision:?} {algorithm:?}: {e}"))
+    let images = raycast::Cpu.render(scene, &options).unwrap();
+    R::of(images).expect("images in the precision asked for")
+}
+
+/// [`gpu_scene`] computing only `outputs`, with the shade hook `shade` for the colour.
+pub fn gpu_outputs<R: Kernel>(
+    gpu: &Gpu,
+    scene: &Scene,
+    algorithm: Algorithm,
+    outputs: raycast::Outputs,
+    shade: Option<&raycast::ShadeHook>,
+) -> raycast::Result<Images<R>> {
+    let options = raycast::RenderOptions {
+        precision: Some(R::PRECISION),
+        algorithm,
+        outputs,
+        shade: shade.cloned(),
+        ..kernel_options()
+    };
+    Ok(R::of(gpu.render(scene, &options)?).expect("images in the precision asked for"))
 }
 
 /// An orthographic camera at z = 5 looking down -z, image plane `w x h` scene units, `nx x ny`.
@@ -304,8 +340,22 @@ pub fn temporary_files(dir: &Path) -> usize {
     }
 }
 
+/// The shared adapter opened again without optional features: no `SHADER_F64`.
+pub fn gpu_without_f64() -> Gpu {
+    let shared = gpu();
+    let (device, queue) =
+        pollster::block_on(shared.adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("no f64"),
+            required_features: wgpu::Features::empty(),
+            required_limits: shared.adapter.limits(),
+            ..Default::default()
+        }))
+        .unwrap();
+    Gpu::from_parts(shared.adapter.clone(), device, queue)
+}
+
 /// The default adapter's device, opened with the limits `limits` makes of the adapter's.
-pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gpu::Gpu {
+pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> Gpu {
     pollster::block_on(async {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let adapter = instance
@@ -317,24 +367,20 @@ pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> raycast::gp
             ..Default::default()
         };
         let (device, queue) = adapter.request_device(&descriptor).await.unwrap();
-        raycast::gpu::Gpu::from_parts(adapter, device, queue)
+        Gpu::from_parts(adapter, device, queue)
     })
 }
 
 /// `a` and `b` hold the same bits: NaNs (robust f32 normals on the `range-*` scenes) included,
 /// which `==` would call different.
-pub fn assert_same_bits<T: raycast::math::Real>(
-    a: &raycast::images::Images<T>,
-    b: &raycast::images::Images<T>,
-    what: &str,
-) {
-    let bits = |i: &raycast::images::Images<T>| {
-        let distance: Vec<u64> = i.distance.iter().map(|d| d.to_f64().to_bits()).collect();
+pub fn assert_same_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>, what: &str) {
+    let bits = |i: &Images<T>| {
+        let distance: Vec<u64> = i.distance.iter().map(|&d| d.into().to_bits()).collect();
         let normal: Vec<u64> = i
             .normal
             .iter()
             .flatten()
-            .map(|c| c.to_f64().to_bits())
+            .map(|&c| c.into().to_bits())
             .collect();
         (i.width, i.height, i.id.clone(), distance, normal)
     };
@@ -350,7 +396,7 @@ pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
 }
 
 /// A geometry cast at in whichever mode a test names, committed afresh for each call
-/// (`raycast::query::commit_mode`).
+/// (`raycast::commit_mode`).
 #[derive(Default)]
 pub struct Target {
     pub geometry: raycast::Geometry,
@@ -367,18 +413,14 @@ impl Target {
         }
     }
 
-    fn commit<'g>(
-        &self,
-        gpu: Option<&'g Gpu>,
-        mode: raycast::render::Mode,
-    ) -> raycast::Result<raycast::Accel<'g>> {
-        raycast::query::commit_mode(gpu, &self.geometry, mode)
+    fn commit<'g>(&self, gpu: Option<&'g Gpu>, mode: Mode) -> raycast::Result<raycast::Accel<'g>> {
+        raycast::commit_mode(gpu, &self.geometry, mode)
     }
 
     pub fn cast<'a>(
         &self,
         gpu: Option<&Gpu>,
-        mode: raycast::render::Mode,
+        mode: Mode,
         rays: impl Into<raycast::RayList<'a>>,
     ) -> raycast::Result<raycast::AnyHits> {
         self.commit(gpu, mode)?.intersect(rays)
@@ -387,7 +429,7 @@ impl Target {
     pub fn occluded<'a>(
         &self,
         gpu: Option<&Gpu>,
-        mode: raycast::render::Mode,
+        mode: Mode,
         rays: impl Into<raycast::RayList<'a>>,
         t_near: f64,
         t_far: f64,
@@ -398,7 +440,7 @@ impl Target {
     pub fn count<'a>(
         &self,
         gpu: Option<&Gpu>,
-        mode: raycast::render::Mode,
+        mode: Mode,
         rays: impl Into<raycast::RayList<'a>>,
     ) -> raycast::Result<Vec<u32>> {
         self.commit(gpu, mode)?.count(rays)

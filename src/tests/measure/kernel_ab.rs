@@ -1,5 +1,5 @@
 //! Times kernels against each other on one prepared scene, the way docs/performance.md's
-//! kernel steps were measured: `cargo run --release -p raycast-benches --bin kernel_ab SCENE [--f64]
+//! kernel steps were measured: `RAYCAST_MEASURE="SCENE [--f64]" cargo test --release -p raycast --lib kernel_ab -- --ignored --nocapture
 //! [--rounds N] [--no-check] KERNEL...`, each KERNEL `builtin` (the kernel `render` assembles)
 //! or a WGSL file as `render --kernel` takes one (`render --emit-shader` writes the assembled
 //! one, to edit). The kernels run in turn, in alternating order, every round (one warm-up
@@ -17,6 +17,8 @@
 //! (`Variant::is_ours`): compare an edited kernel with the same kernel emitted, not with
 //! `builtin`.
 use std::path::Path;
+
+use super::median;
 
 use raycast::gpu::shader::{Casts, Variant};
 use raycast::gpu::{self, Gpu, Job, kernel};
@@ -37,7 +39,7 @@ struct Options {
 fn options() -> Options {
     let usage = "usage: kernel_ab SCENE [--f64] [--list] [--rounds N] [--no-check] \
                  [--emit FILE] KERNEL...";
-    let mut args = std::env::args().skip(1);
+    let mut args = super::args().into_iter();
     let mut o = Options {
         scene: args.next().expect(usage),
         precision: Float::F32,
@@ -76,12 +78,6 @@ fn camera_rows(scene: &raycast::Scene) -> Vec<[f32; 6]> {
         .collect()
 }
 
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 /// Each kernel's kernel times, one per round after the warm-up, and with `--list` last the
 /// camera kernel's.
 fn time_kernels<R: GpuReal>(
@@ -108,7 +104,7 @@ fn time_kernels<R: GpuReal>(
     if let Some(file) = &o.emit {
         let source = raycast::gpu::shader::kernel_source(&base).unwrap();
         std::fs::write(file, source).unwrap_or_else(|e| panic!("{file}: {e}"));
-        std::process::exit(0);
+        return Vec::new(); // --emit: written, nothing to time
     }
     let mut variants: Vec<Variant> = (o.kernels.iter())
         .map(|k| match k.as_str() {
@@ -148,7 +144,9 @@ fn time_kernels<R: GpuReal>(
     times
 }
 
-fn main() {
+#[test]
+#[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib kernel_ab -- --ignored --nocapture"]
+fn kernel_ab() {
     let o = options();
     let scene = raycast::Scene::load(Path::new(&o.scene)).unwrap();
     let gpu = Gpu::new().unwrap();
@@ -157,6 +155,9 @@ fn main() {
         Float::F32 => time_kernels::<f32>(&gpu, &scene, base, &o),
         Float::F64 => time_kernels::<f64>(&gpu, &scene, base, &o),
     };
+    if o.emit.is_some() {
+        return; // the kernel was written, nothing timed
+    }
     if o.list {
         let camera = times.last().expect("the camera kernel's times");
         let ratios: Vec<f64> = times[0].iter().zip(camera).map(|(a, b)| a / b).collect();

@@ -1,13 +1,16 @@
 //! Times the preparation of a scene (BVH build, then the whole `Prepared::new`), `--runs`
-//! times each, and prints the medians: `cargo run --release -p raycast-benches --bin build_time SCENE [RUNS]`.
+//! times each, and prints the medians: `RAYCAST_MEASURE="SCENE [RUNS]" cargo test --release -p raycast --lib build_time -- --ignored --nocapture`.
 use std::time::Instant;
+
+use super::median;
 
 use raycast::prepare::Prepared;
 use raycast::prepare::bvh::{Bvh, Search};
-use raycast_cli::study::median;
 
-fn main() {
-    let mut args = std::env::args().skip(1);
+#[test]
+#[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib build_time -- --ignored --nocapture"]
+fn build_time() {
+    let mut args = super::args().into_iter();
     let path = args.next().expect("usage: build_time SCENE [RUNS]");
     let runs: usize = args
         .next()

@@ -1,7 +1,7 @@
 //! Cost and re-cast fraction of adaptive precision against robust f32 and f64, side by side:
 //! median wall time of N warm GPU renders per mode, modes interleaved run by run.
 //!
-//!     cargo run --release -p raycast-benches --bin adaptive_cost -- SCENE... [--runs N]
+//!     RAYCAST_MEASURE="SCENE... [--runs N]" cargo test --release -p raycast --lib adaptive_cost -- --ignored --nocapture
 
 use std::time::Instant;
 
@@ -10,13 +10,10 @@ use raycast::Gpu;
 use raycast::math::Float;
 use raycast::render::on_gpu;
 
-fn median(mut t: Vec<f64>) -> f64 {
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
-
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args: Vec<String> = std::env::args().skip(1).collect();
+#[test]
+#[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib adaptive_cost -- --ignored --nocapture"]
+fn adaptive_cost() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = super::args().into_iter().collect();
     let mut runs = 5;
     if let Some(i) = args.iter().position(|a| a == "--runs") {
         runs = args[i + 1].parse()?;
@@ -58,7 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Ok(())
             })?;
         }
-        let m: Vec<f64> = t.into_iter().map(median).collect();
+        let m: Vec<f64> = t.iter().map(|v| super::median(v)).collect();
         println!(
             "| {path} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2}x | {:.3}% |",
             m[0],

@@ -1,5 +1,5 @@
 //! Traversal statistics of the BVH on a scene's primary rays (CPU, f32, robust): box tests and
-//! primitive tests per ray. `cargo run --release -p raycast-benches --bin bvh_stats SCENE`.
+//! primitive tests per ray. `RAYCAST_MEASURE="SCENE" cargo test --release -p raycast --lib bvh_stats -- --ignored --nocapture`.
 use std::sync::Arc;
 
 use raycast::Algorithm::Robust;
@@ -10,8 +10,13 @@ use raycast::kernel::types::{no_hit, shear_of};
 use raycast::prepare::bvh::{Bvh, LEAF_BIT, leaf_len};
 use raycast::prepare::{Primitives, kernel_frame};
 
-fn main() {
-    let path = std::env::args().nth(1).expect("usage: bvh_stats SCENE");
+#[test]
+#[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib bvh_stats -- --ignored --nocapture"]
+fn bvh_stats() {
+    let path = super::args()
+        .into_iter()
+        .next()
+        .expect("usage: bvh_stats SCENE");
     let scene = raycast::Scene::load(path.as_ref()).unwrap();
     let bvh = Arc::new(Bvh::build(&scene, Robust));
     let prims = Primitives::<f32>::with_bvh(&scene, Robust, bvh.clone());

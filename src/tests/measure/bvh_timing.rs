@@ -1,16 +1,16 @@
 //! Times the stages of a render, with the BVH traversed per ray and by subgroup packets, and
 //! brute force when `--brute` is given, interleaved so the figures are comparable:
-//! `cargo run --release -p raycast-benches --bin bvh_timing SCENE [--brute]`.
+//! `RAYCAST_MEASURE="SCENE [--brute]" cargo test --release -p raycast --lib bvh_timing -- --ignored --nocapture`.
 use std::time::Instant;
 
 use raycast::gpu::shader::Variant;
 use raycast::math::Float;
 
-fn main() {
-    let path = std::env::args()
-        .nth(1)
-        .expect("usage: bvh_timing SCENE [--brute]");
-    let brute = std::env::args().any(|a| a == "--brute");
+#[test]
+#[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib bvh_timing -- --ignored --nocapture"]
+fn bvh_timing() {
+    let path = (super::args().into_iter().next()).expect("usage: bvh_timing SCENE [--brute]");
+    let brute = super::args().iter().any(|a| a == "--brute");
     let t = Instant::now();
     let scene = raycast::Scene::load(path.as_ref()).unwrap();
     println!("load {:.3} s", t.elapsed().as_secs_f64());
@@ -42,7 +42,7 @@ fn main() {
             },
         ),
     ];
-    if std::env::args().any(|a| a == "--probe") {
+    if super::args().iter().any(|a| a == "--probe") {
         variants.push((
             "no-f64",
             Variant {

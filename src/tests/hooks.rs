@@ -1,0 +1,100 @@
+//! Shade hooks' kernels: a hook that casts no ray compiles none of the machinery, and hooked
+//! kernels of every lane count agree.
+
+use super::common;
+
+use raycast::Algorithm::Robust;
+use raycast::ShadeHook;
+use raycast::images::{Images, Outputs};
+
+/// A hook that casts no ray compiles none of the machinery: its kernel is the one it was
+/// (packets where the device has them, no `trace`, no ray counter).
+#[test]
+fn only_a_hook_that_casts_rays_compiles_them_in() {
+    let gpu = common::gpu();
+    let scene = common::course_scene("bunny");
+    let toon = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
+    let lit = ShadeHook::raytrace().unwrap();
+    assert!(!toon.traces && lit.traces);
+    let base = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
+    assert!(base.uses_packets(), "lavapipe has subgroups");
+    let variant = |hook: &ShadeHook| {
+        base.with_shade(hook.key, hook.traces)
+            .with_outputs(Outputs::ALL)
+    };
+    let plain = variant(&toon);
+    assert!(plain.uses_packets());
+    assert!(!plain.defines().contains(&"HOOK_RAYS"));
+    // The kernel's functions and globals, by name.
+    let names = |variant| {
+        let source = raycast::gpu::shader::kernel_source(&variant).unwrap();
+        let module = naga::front::wgsl::parse_str(&source).unwrap();
+        let functions = module.functions.iter().filter_map(|(_, f)| f.name.clone());
+        let globals = module
+            .global_variables
+            .iter()
+            .filter_map(|(_, g)| g.name.clone());
+        functions.chain(globals).collect::<Vec<String>>()
+    };
+    let machinery = [
+        "trace",
+        "occluded",
+        "hook_ray",
+        "hook_rays",
+        "hook_ray_count",
+    ];
+    let plain_names = names(plain);
+    for name in machinery {
+        assert!(!plain_names.iter().any(|n| n == name), "{name}");
+    }
+    let tracing = variant(&lit);
+    assert!(tracing.defines().contains(&"HOOK_RAYS"));
+    assert!(!tracing.uses_packets());
+    let tracing_names = names(tracing);
+    for name in machinery {
+        assert!(tracing_names.iter().any(|n| n == name), "{name}");
+    }
+    // A plain render with the toon hook counts no rays.
+    let mut small = scene.clone();
+    small.camera.resolution = [96, 54];
+    let options = raycast::RenderOptions {
+        precision: Some(raycast::Precision::F32),
+        shade: Some(toon.clone()),
+        ..raycast::RenderOptions::default()
+    };
+    assert_eq!(gpu.render(&small, &options).unwrap().hook_rays(), None);
+}
+
+/// A hooked kernel gives the same colours, ids and surfaces with two, four and eight rays a lane
+/// (smaller renders cast fewer, `Variant::for_rays`; the tests above run eight).
+#[test]
+fn hooked_kernels_of_every_lane_count_agree() {
+    let mut scene = common::course_scene("bunny");
+    scene.camera.resolution = [96, 54];
+    let hook = ShadeHook::load(&common::repo_path("shaders/examples/toon.wgsl")).unwrap();
+    let gpu = common::gpu();
+    let base = gpu
+        .scene_variant(&scene, raycast::math::Float::F32, Robust)
+        .with_shade(hook.key, hook.traces)
+        .with_outputs(Outputs::ALL);
+    let render = |lane_rays_limit| {
+        let variant = raycast::gpu::shader::Variant {
+            lane_rays_limit,
+            ..base
+        };
+        // Packets of several rays a lane on subgroups of 8 (lavapipe), one ray elsewhere.
+        let packets = base.uses_packets() && base.eight_lanes;
+        let rays = if packets { lane_rays_limit as u32 } else { 1 };
+        assert_eq!(variant.lane_rays(), rays);
+        let images: Images<f32> = super::kernels::gpu_variant(gpu, &scene, variant).unwrap();
+        images
+    };
+    let eight = render(8);
+    assert!(eight.color.as_ref().is_some_and(|c| c.len() == 96 * 54));
+    for limit in [2, 4] {
+        let fewer = render(limit);
+        let what = format!("at most {limit} rays a lane");
+        common::assert_same_bits(&fewer, &eight, &what);
+        assert!(fewer.color == eight.color, "{what}");
+    }
+}

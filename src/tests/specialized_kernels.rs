@@ -1,0 +1,60 @@
+//! Kernels compiled for only the primitive kinds a scene has render exactly like the general
+//! kernel (every kind compiled in), for every combination of kinds, both algorithm sets and
+//! both precisions. (That the specialized kernel contains no code for absent kinds is checked
+//! on the naga module in `src/gpu/shader.rs`.)
+
+use super::common;
+
+use std::path::Path;
+
+use raycast::Algorithm::{Robust, Textbook};
+use raycast::gpu::shader::Kinds;
+use raycast::math::Float;
+use raycast::scene::Scene;
+
+const OBJECTS: [&str; 4] = [
+    r#"{"type": "sphere", "center": [0.3, 0.1, -3], "radius": 0.6}"#,
+    r#"{"type": "plane", "point": [0, -0.5, 0], "normal": [0, 1, 0.2]}"#,
+    r#"{"type": "triangle", "corners": [[-1, -0.2, -2.5], [0.2, -0.3, -2], [-0.5, 0.8, -3]]}"#,
+    r#"{"type": "soup", "obj": "mesh.obj"}"#,
+];
+
+fn scene(objects: &[&str]) -> Scene {
+    let json = format!(
+        r#"{{"camera": {{"eye": [0, 0, 1], "look": [0, 0, -1], "up": [0, 1, 0],
+            "focal_length": 1, "width": 1.6, "height": 1.2, "resolution": [48, 36]}},
+            "objects": [{}]}}"#,
+        objects.join(",")
+    );
+    Scene::from_json(&json, Path::new("kinds.json"), &mut |_| {
+        Ok(common::sphere_mesh([-0.6, 0.2, -4.0], 0.8, 8, 6))
+    })
+    .unwrap()
+}
+
+#[test]
+fn specialized_kernels_render_like_the_general_one() {
+    let gpu = common::gpu();
+    for bits in 0..16u32 {
+        let objects: Vec<&str> = (0..4)
+            .filter(|k| bits & (1 << k) != 0)
+            .map(|k| OBJECTS[k])
+            .collect();
+        let scene = scene(&objects);
+        let kinds = Kinds::of_scene(&scene);
+        for algorithm in [Textbook, Robust] {
+            let special32 = super::kernels::gpu_scene::<f32>(gpu, &scene, algorithm).unwrap();
+            let general = gpu.variant(Float::F32, algorithm);
+            assert_eq!(general.kinds, Kinds::ALL);
+            let general32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general).unwrap();
+            assert_eq!(special32, general32, "f32 {algorithm} {kinds:?}");
+            let special64 = super::kernels::gpu_scene::<f64>(gpu, &scene, algorithm).unwrap();
+            let general = gpu.variant(Float::F64, algorithm);
+            let general64 = super::kernels::gpu_variant::<f64>(gpu, &scene, general).unwrap();
+            assert_eq!(special64, general64, "f64 {algorithm} {kinds:?}");
+        }
+        if bits == 0 {
+            assert!(!kinds.any());
+        }
+    }
+}
