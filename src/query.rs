@@ -91,6 +91,19 @@ impl Geometry {
 
     /// Adds a triangle mesh, `triangles` indexing `vertices`, as one object; returns its id.
     /// Every coordinate must be finite and at most 1e18 in magnitude, every index in range.
+    ///
+    /// ```
+    /// use raycast::{Cpu, Geometry, Precision, Ray};
+    /// let mut geometry = Geometry::new();
+    /// let square = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    /// let id = geometry.add_mesh(&square, &[[0, 1, 2], [0, 2, 3]])?;
+    /// let accel = Cpu.commit(&geometry, Precision::F64)?;
+    /// let down = Ray { origin: [0.75, 0.25, 2.0], direction: [0.0, 0.0, -1.0] };
+    /// let hits = accel.intersect(&[down])?;
+    /// assert_eq!((hits.id()[0], hits.t_f64()[0]), (id as i32, 2.0));
+    /// assert_eq!(accel.count(&[down])?, [1]);
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn add_mesh(&mut self, vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Result<u32> {
         for (k, v) in vertices.iter().enumerate() {
             check_point(v, &format!("vertices[{k}]"))?;

@@ -142,6 +142,12 @@ impl Gpu {
     /// Without `WGPU_BACKEND` only the primary backends (Vulkan, Metal, DX12) are tried.
     /// `RAYCAST_MAX_BINDING` (bytes) caps the size of one storage binding below the adapter's
     /// own limit: less device memory per buffer, on a shared GPU for instance.
+    ///
+    /// ```no_run
+    /// let gpu = raycast::Gpu::new()?;
+    /// println!("{} (f64 shaders: {})", gpu.info().name, gpu.has_f64());
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn new() -> Result<Gpu> {
         pollster::block_on(Self::new_async())
     }

@@ -78,6 +78,12 @@ impl Gpu {
     /// Whether this device fuses `a*b - c*d` into a multiply-add (hardware drivers may;
     /// lavapipe never does), which decides how closely its f32 renders can match the CPU
     /// reference's: it runs a small probe kernel.
+    ///
+    /// ```no_run
+    /// let report = raycast::Gpu::new()?.fusion_probe()?;
+    /// println!("a*b - c*d: {}", report.describe());
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn fusion_probe(&self) -> Result<FusionReport> {
         fusion_probe(self)
     }

@@ -259,6 +259,29 @@ impl RenderFiles {
     /// Reads the scene and the shader, renders and writes every file (all or none), and the
     /// kernel with `emit_shader`. `gpu` is needed for a GPU mode; a CPU render counts its rows
     /// in `progress`.
+    ///
+    /// ```no_run
+    /// use raycast::output::{Encoding, Format};
+    /// use raycast::{Gpu, RenderFiles};
+    /// let render = RenderFiles {
+    ///     scene: Some("scenes/course/bunny.json".into()),
+    ///     size: Some([1920, 1080]),
+    ///     mode: "gpu".parse().map_err(|e| raycast::Error::Argument { option: "mode".into(), message: e })?,
+    ///     default_precision: true,
+    ///     spp: None,
+    ///     band_rows: None,
+    ///     shader: None,
+    ///     lit: false,
+    ///     kernel: None,
+    ///     out_dir: "out".into(),
+    ///     encoding: Encoding::new(&[Format::Png, Format::Npy], None)?,
+    ///     emit_shader: None,
+    ///     view: Default::default(),
+    /// };
+    /// let summary = render.run(Some(&Gpu::new()?), None)?;
+    /// println!("{}", summary.lines().join("\n"));
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<&Progress>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;

@@ -214,6 +214,17 @@ impl Gpu {
     /// Renders `scene`'s camera in bands of at most `rows` rows, handing each band to `band`
     /// from the top as soon as it is read back, so that one band is held at a time: for
     /// images larger than memory. GPU, f32 or f64, one sample per pixel.
+    ///
+    /// ```no_run
+    /// use raycast::{Gpu, RenderOptions, Scene};
+    /// let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+    /// let mut hits = 0;
+    /// Gpu::new()?.render_bands(&scene, &RenderOptions::default(), 64, &mut |band| {
+    ///     hits += band.id().iter().filter(|&&id| id >= 0).count();
+    ///     Ok(())
+    /// })?;
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn render_bands(
         &self,
         scene: &Scene,
@@ -234,6 +245,16 @@ impl Cpu {
     /// algorithms, row-major: how far its hit or miss, and which object is nearest, lie from
     /// where f32 rounding could decide otherwise (src/cpu/margin.rs). Where both are at least 1
     /// ([`Margins::certain`]) an f32 render must agree with exact arithmetic.
+    ///
+    /// ```
+    /// use raycast::{Cpu, Scene};
+    /// let mut scene = Scene::load("scenes/course/sphere-and-plane.json".as_ref())?;
+    /// scene.camera.resolution = [32, 18];
+    /// let margins = Cpu.f32_margins(&scene);
+    /// let certain = margins.iter().filter(|m| m.certain()).count();
+    /// assert!(certain > margins.len() / 2, "{certain} of {} pixels certain", margins.len());
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn f32_margins(&self, scene: &Scene) -> Vec<Margins> {
         let prepared = Prepared::<f64>::new(scene, Algorithm::Robust, Search::BruteForce);
         margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64)

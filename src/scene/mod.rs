@@ -241,6 +241,12 @@ pub(crate) fn is_mesh_file(path: &Path) -> bool {
 
 impl Scene {
     /// Reads and validates a scene file; mesh paths are relative to the file's folder.
+    ///
+    /// ```
+    /// let scene = raycast::Scene::load("scenes/course/bunny.json".as_ref())?;
+    /// assert_eq!(scene.camera.resolution, [640, 360]);
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
     pub fn load(path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let base = path.parent().unwrap_or(Path::new(""));

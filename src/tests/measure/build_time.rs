@@ -11,7 +11,7 @@ use raycast::prepare::bvh::{Bvh, Search};
 #[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib build_time -- --ignored --nocapture"]
 fn build_time() {
     let mut args = super::args().into_iter();
-    let path = args.next().expect("usage: build_time SCENE [RUNS]");
+    let path = args.next().expect("RAYCAST_MEASURE=\"SCENE [RUNS]\"");
     let runs: usize = args
         .next()
         .map_or(11, |r| r.parse().expect("RUNS: a number"));

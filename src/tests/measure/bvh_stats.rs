@@ -16,7 +16,7 @@ fn bvh_stats() {
     let path = super::args()
         .into_iter()
         .next()
-        .expect("usage: bvh_stats SCENE");
+        .expect("RAYCAST_MEASURE=\"SCENE\"");
     let scene = raycast::Scene::load(path.as_ref()).unwrap();
     let bvh = Arc::new(Bvh::build(&scene, Robust));
     let prims = Primitives::<f32>::with_bvh(&scene, Robust, bvh.clone());

@@ -9,7 +9,7 @@ use raycast::math::Float;
 #[test]
 #[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib bvh_timing -- --ignored --nocapture"]
 fn bvh_timing() {
-    let path = (super::args().into_iter().next()).expect("usage: bvh_timing SCENE [--brute]");
+    let path = (super::args().into_iter().next()).expect("RAYCAST_MEASURE=\"SCENE [--brute]\"");
     let brute = super::args().iter().any(|a| a == "--brute");
     let t = Instant::now();
     let scene = raycast::Scene::load(path.as_ref()).unwrap();

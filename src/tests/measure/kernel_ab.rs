@@ -37,8 +37,8 @@ struct Options {
 }
 
 fn options() -> Options {
-    let usage = "usage: kernel_ab SCENE [--f64] [--list] [--rounds N] [--no-check] \
-                 [--emit FILE] KERNEL...";
+    let usage = "RAYCAST_MEASURE=\"SCENE [--f64] [--list] [--rounds N] [--no-check] \
+                 [--emit FILE] KERNEL...\"";
     let mut args = super::args().into_iter();
     let mut o = Options {
         scene: args.next().expect(usage),
