@@ -10,7 +10,7 @@ pub const MISS: i32 = -1;
 
 /// The outputs of one pixel (a miss: id [`MISS`], distance `+inf`, normal zero).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pixel<T> {
+pub(crate) struct Pixel<T> {
     /// Object index, or [`MISS`].
     pub id: i32,
     /// Distance from the ray's origin to the hit.
@@ -127,7 +127,7 @@ impl<T: Real> Images<T> {
     }
 
     /// The outputs of pixel `k` (row-major index).
-    pub fn pixel(&self, k: usize) -> Pixel<T> {
+    pub(crate) fn pixel(&self, k: usize) -> Pixel<T> {
         Pixel {
             id: self.id[k],
             distance: self.distance[k],
@@ -136,7 +136,8 @@ impl<T: Real> Images<T> {
     }
 
     /// Row-major index of pixel (`row`, `col`).
-    pub fn index(&self, row: u32, col: u32) -> usize {
+    #[cfg(test)]
+    pub(crate) fn index(&self, row: u32, col: u32) -> usize {
         row as usize * self.width as usize + col as usize
     }
 }

@@ -73,7 +73,7 @@ pub struct Camera {
 
 /// The image plane at the camera's resolution, in scene units.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImagePlane {
+pub(crate) struct ImagePlane {
     /// Width in scene units.
     pub width: f64,
     /// Height in scene units.
@@ -92,7 +92,7 @@ impl Camera {
     }
 
     /// The image plane at [`Camera::resolution`].
-    pub fn image_plane(&self) -> ImagePlane {
+    pub(crate) fn image_plane(&self) -> ImagePlane {
         self.image_plane_at(self.resolution)
     }
 
@@ -212,9 +212,9 @@ pub struct CameraOverrides {
 
 /// The default view of a mesh rendered directly: from the front (+z), right (+x) and above
 /// (+y), up +y, in this direction from the centre of its bounding box.
-pub const MESH_VIEW_DIRECTION: DVec3 = DVec3::new(0.6, 0.5, 1.0);
+pub(crate) const MESH_VIEW_DIRECTION: DVec3 = DVec3::new(0.6, 0.5, 1.0);
 /// The default view's vertical field of view, degrees.
-pub const MESH_VIEW_FOV: f64 = 40.0;
+pub(crate) const MESH_VIEW_FOV: f64 = 40.0;
 
 impl CameraOverrides {
     pub(crate) fn is_empty(&self) -> bool {

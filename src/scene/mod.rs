@@ -17,9 +17,7 @@ use rayon::prelude::*;
 
 use crate::math::Vec3;
 
-pub use camera::{
-    Camera, CameraOverrides, ImagePlane, Lens, MESH_VIEW_DIRECTION, MESH_VIEW_FOV, Projection,
-};
+pub use camera::{Camera, CameraOverrides, Lens, Projection};
 pub use mesh::{load_mesh, parse_mesh};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
@@ -329,7 +327,7 @@ impl Scene {
     }
 
     /// The largest magnitude of any coordinate, radius or camera length of the scene.
-    pub fn largest_magnitude(&self) -> f64 {
+    pub(crate) fn largest_magnitude(&self) -> f64 {
         let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
         let c = &self.camera;
         let plane = c.image_plane();
