@@ -54,7 +54,8 @@ pub struct RenderOptions {
     /// Measure the GPU kernel's time ([`crate::Images::kernel_s`]) where the device has
     /// timestamp queries (above one sample per pixel, the time of the samples' render).
     pub timed: bool,
-    /// Overrides of the kernel's automatic specialization (f32 and f64, one sample per pixel).
+    /// Overrides of the choices raycast makes for the scene (f32 and f64; refused with adaptive
+    /// precision).
     pub tuning: Tuning,
     /// Where a CPU render counts its rows as it finishes them, for a caller's progress display.
     pub progress: Option<Arc<Progress>>,
