@@ -52,22 +52,22 @@ mod tests;
 // The README's Rust code, compiled and run by `cargo test` as doc tests.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
-pub struct ReadmeDoctests;
+pub(crate) struct ReadmeDoctests;
 
-pub use algorithm::Algorithm;
-pub use cpu::margin::Margins;
-pub use error::{Error, Result};
-pub use gpu::Gpu;
-pub use gpu::hooks::ShadeHook;
-pub use gpu::kernel::UserKernel;
-pub use gpu::probe::FusionReport;
-pub use images::{Images, Output, Outputs, Stages};
-pub use output::{Encoding, Format};
-pub use prepare::bvh::Search;
-pub use query::{Accel, Geometry, commit_mode};
-pub use rays::{AnyHits, Hits, Ray, RayList};
-pub use render::{
-    AnyImages, Cpu, Device, Mode, Precision, Progress, RenderFiles, RenderOptions, STREAM_PIXELS,
-    Summary, Tuning, peak_rss_mib,
+// The API: the devices and what they take and give, re-exported from the layers that define them.
+pub use crate::{
+    algorithm::Algorithm,
+    cpu::margin::Margins,
+    error::{Error, Result},
+    gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel, probe::FusionReport},
+    images::{Images, Output, Outputs, Stages},
+    output::{Encoding, Format},
+    prepare::bvh::Search,
+    query::{Accel, Geometry, commit_mode},
+    rays::{AnyHits, Hits, Ray, RayList},
+    render::files::{RenderFiles, Summary},
+    render::mode::{Device, Mode, Precision},
+    render::options::{Cpu, RenderOptions, Tuning},
+    render::{AnyImages, Progress, STREAM_PIXELS, peak_rss_mib},
+    scene::Scene,
 };
-pub use scene::Scene;

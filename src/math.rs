@@ -113,7 +113,7 @@ pub enum Float {
 
 impl Float {
     /// `"f32"` or `"f64"`, also the WGSL type name.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Float::F32 => "f32",
             Float::F64 => "f64",
@@ -155,33 +155,33 @@ impl<T> From<[T; 3]> for Vec3<T> {
 
 /// Builds a [`Vec3`], like WGSL's `vec3(x, y, z)`.
 #[inline]
-pub const fn vec3<T>(x: T, y: T, z: T) -> Vec3<T> {
+pub(crate) const fn vec3<T>(x: T, y: T, z: T) -> Vec3<T> {
     Vec3 { x, y, z }
 }
 
 impl<T: Real> Vec3<T> {
-    pub fn from_array(a: [T; 3]) -> Self {
+    pub(crate) fn from_array(a: [T; 3]) -> Self {
         vec3(a[0], a[1], a[2])
     }
     pub fn to_array(self) -> [T; 3] {
         [self.x, self.y, self.z]
     }
-    pub fn splat(s: T) -> Self {
+    pub(crate) fn splat(s: T) -> Self {
         vec3(s, s, s)
     }
     /// Rounds each component to another precision (f64 -> f32 rounds to nearest).
-    pub fn cast<U: Real>(self) -> Vec3<U> {
+    pub(crate) fn cast<U: Real>(self) -> Vec3<U> {
         vec3(
             U::from_f64(self.x.to_f64()),
             U::from_f64(self.y.to_f64()),
             U::from_f64(self.z.to_f64()),
         )
     }
-    pub fn is_finite(self) -> bool {
+    pub(crate) fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
     }
     /// Component `k` (0, 1, 2), like WGSL's `v[k]`.
-    pub fn get(self, k: usize) -> T {
+    pub(crate) fn get(self, k: usize) -> T {
         match k {
             0 => self.x,
             1 => self.y,
@@ -189,11 +189,11 @@ impl<T: Real> Vec3<T> {
         }
     }
     /// Component-wise absolute value.
-    pub fn abs(self) -> Self {
+    pub(crate) fn abs(self) -> Self {
         vec3(self.x.abs(), self.y.abs(), self.z.abs())
     }
     /// Component-wise product, WGSL's `a * b` of two vectors.
-    pub fn times(self, b: Self) -> Self {
+    pub(crate) fn times(self, b: Self) -> Self {
         vec3(self.x * b.x, self.y * b.y, self.z * b.z)
     }
 }
@@ -206,7 +206,7 @@ pub(crate) fn dot<T: Real>(a: Vec3<T>, b: Vec3<T>) -> T {
 
 /// `cross(a, b)`, each component an unfused difference of products.
 #[inline]
-pub fn cross<T: Real>(a: Vec3<T>, b: Vec3<T>) -> Vec3<T> {
+pub(crate) fn cross<T: Real>(a: Vec3<T>, b: Vec3<T>) -> Vec3<T> {
     vec3(
         a.y * b.z - a.z * b.y,
         a.z * b.x - a.x * b.z,
@@ -215,13 +215,13 @@ pub fn cross<T: Real>(a: Vec3<T>, b: Vec3<T>) -> Vec3<T> {
 }
 
 #[inline]
-pub fn length<T: Real>(a: Vec3<T>) -> T {
+pub(crate) fn length<T: Real>(a: Vec3<T>) -> T {
     dot(a, a).sqrt()
 }
 
 /// `a / length(a)`; the caller guarantees a non-zero vector.
 #[inline]
-pub fn normalize<T: Real>(a: Vec3<T>) -> Vec3<T> {
+pub(crate) fn normalize<T: Real>(a: Vec3<T>) -> Vec3<T> {
     a / length(a)
 }
 

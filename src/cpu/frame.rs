@@ -6,7 +6,7 @@ use crate::scene::Projection;
 
 /// The ray through the centre of pixel (`i`, `j`) of an `nx` x `ny` image: row `i` counts from
 /// the top, column `j` from the left. It reaches the image plane at t = 1.
-pub fn camera_ray<T: Real>(frame: &Frame<T>, i: u32, j: u32) -> Ray<T> {
+pub(crate) fn camera_ray<T: Real>(frame: &Frame<T>, i: u32, j: u32) -> Ray<T> {
     let (nx, ny) = (frame.nx, frame.ny);
     let two = T::TWO;
     let us = frame.width * (T::from_u32(j) + T::HALF) / T::from_u32(nx) - frame.width / two;

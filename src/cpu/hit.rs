@@ -3,12 +3,12 @@
 use crate::kernel::types::no_hit;
 use crate::math::Real;
 
-pub const KIND_SPHERE: u32 = 0;
-pub const KIND_PLANE: u32 = 1;
-pub const KIND_TRIANGLE: u32 = 2;
+pub(crate) const KIND_SPHERE: u32 = 0;
+pub(crate) const KIND_PLANE: u32 = 1;
+pub(crate) const KIND_TRIANGLE: u32 = 2;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit<T> {
+pub(crate) struct Hit<T> {
     pub t: T,
     /// -1: no hit.
     pub object: i32,
@@ -19,7 +19,7 @@ pub struct Hit<T> {
 
 /// Ties in t go to the lower object id, then the lower primitive index, so the answer does not
 /// depend on the order primitives are visited.
-pub fn is_closer<T: Real>(t: T, object: u32, index: u32, best: &Hit<T>) -> bool {
+pub(crate) fn is_closer<T: Real>(t: T, object: u32, index: u32, best: &Hit<T>) -> bool {
     if t == no_hit() {
         return false;
     }

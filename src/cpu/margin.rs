@@ -43,7 +43,7 @@ use crate::math::{Vec3, dot, length};
 use crate::prepare::Primitives;
 
 /// Safety factor `K` over the first-order error bounds.
-pub const K: f64 = 2.0;
+pub(crate) const K: f64 = 2.0;
 
 /// Margins of one pixel ([`crate::Cpu::f32_margins`]): each at least 1 means that decision is
 /// certain in the kernel's precision.
@@ -377,7 +377,7 @@ fn margins_of(candidates: &[Candidate], eps: f64) -> Margins {
 }
 
 /// The margins of every pixel, row-major.
-pub fn margins(frame: &Frame<f64>, prims: &Primitives<f64>, eps: f64) -> Vec<Margins> {
+pub(crate) fn margins(frame: &Frame<f64>, prims: &Primitives<f64>, eps: f64) -> Vec<Margins> {
     use rayon::prelude::*;
     (0..frame.ny)
         .into_par_iter()

@@ -7,16 +7,16 @@
 
 pub(crate) mod count;
 pub(crate) mod entry;
-pub mod frame;
+pub(crate) mod frame;
 pub(crate) mod hit;
-pub mod margin;
+pub(crate) mod margin;
 pub(crate) mod nearest;
 pub(crate) mod plane;
-pub mod raytrace;
+pub(crate) mod raytrace;
 pub(crate) mod shade;
 pub(crate) mod sphere;
-pub mod traverse;
-pub mod triangle;
+pub(crate) mod traverse;
+pub(crate) mod triangle;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -30,13 +30,13 @@ use crate::prepare::Prepared;
 /// Renders `scene` at `scene.camera.resolution` on the CPU with `algorithm` in precision `T`,
 /// through a BVH where it pays.
 #[cfg(test)]
-pub fn render<T: Real>(scene: &crate::scene::Scene, algorithm: Algorithm) -> Images<T> {
+pub(crate) fn render<T: Real>(scene: &crate::scene::Scene, algorithm: Algorithm) -> Images<T> {
     render_with(scene, algorithm, crate::prepare::bvh::Search::Auto)
 }
 
 /// As [`render`], searching with `accel` (for example brute force, the BVH's oracle).
 #[cfg(test)]
-pub fn render_with<T: Real>(
+pub(crate) fn render_with<T: Real>(
     scene: &crate::scene::Scene,
     algorithm: Algorithm,
     accel: crate::prepare::bvh::Search,
@@ -46,7 +46,7 @@ pub fn render_with<T: Real>(
 
 /// Renders a prepared scene (through its BVH if it has one), counting finished rows in
 /// `rows_done` (for a progress display).
-pub fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -> Images<T> {
+pub(crate) fn render_prepared<T: Real>(prepared: &Prepared<T>, rows_done: &AtomicU32) -> Images<T> {
     let frame = &prepared.frame;
     let prims = &prepared.primitives;
     let robust = prepared.algorithm == Algorithm::Robust;

@@ -1,7 +1,7 @@
 //! Mirror of shaders/nearest.wgsl: the nearest hit over every primitive (brute force), or the
 //! planes by brute force and the rest through the BVH (src/cpu/traverse.rs).
 
-pub use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
+pub(crate) use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;

@@ -14,7 +14,7 @@ const RAYTRACE_HITS: usize = 6;
 const RAYTRACE_FAR: f64 = f32::MAX as f64;
 
 /// `shade`.
-pub fn shade<T: Real, const ROBUST: bool>(
+pub(crate) fn shade<T: Real, const ROBUST: bool>(
     s: &mut Shading<'_, T, ROBUST>,
     hit: ShadeHit<T>,
 ) -> [T; 4] {
@@ -84,7 +84,7 @@ fn blinn_phong<T: Real, const ROBUST: bool>(
 
 /// The colours of every pixel of a prepared scene shaded by [`shade`] (`color.png`, as
 /// `pack4x8unorm` stores the GPU's), and the rays the hook cast beyond the camera's.
-pub fn render<T: Real>(prepared: &crate::prepare::Prepared<T>) -> (Vec<[u8; 4]>, u64) {
+pub(crate) fn render<T: Real>(prepared: &crate::prepare::Prepared<T>) -> (Vec<[u8; 4]>, u64) {
     use rayon::prelude::*;
     let robust = prepared.algorithm == crate::algorithm::Algorithm::Robust;
     let scene = super::shade::HookScene::new(&prepared.lighting, prepared.objects);

@@ -13,7 +13,7 @@ use crate::prepare::Prepared;
 
 /// `struct ShadeHit` of shaders/hooks.wgsl.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShadeHit<T> {
+pub(crate) struct ShadeHit<T> {
     pub position: Vec3<T>,
     pub normal: Vec3<T>,
     pub distance: T,
@@ -51,7 +51,7 @@ pub(crate) struct Light<T> {
 /// What one camera ray's hook reads and keeps: the prepared scene, its materials and lights
 /// in `T`, and the kernel's private state while the hook runs (`shading_pixel`, and the rays
 /// cast, `hook_rays`).
-pub struct Shading<'a, T, const ROBUST: bool> {
+pub(crate) struct Shading<'a, T, const ROBUST: bool> {
     prepared: &'a Prepared<T>,
     scene: &'a HookScene<T>,
     /// Column and row of the camera ray being shaded.
@@ -226,7 +226,7 @@ impl<'a, T: Real, const ROBUST: bool> Shading<'a, T, ROBUST> {
 
     /// `object_values`, which hooks call (the course's ray tracer, mirrored here, does not).
     #[allow(dead_code)]
-    pub fn object_values(&self, id: i32) -> [T; 4] {
+    pub(crate) fn object_values(&self, id: i32) -> [T; 4] {
         usize::try_from(id)
             .ok()
             .and_then(|k| self.scene.objects.get(k))

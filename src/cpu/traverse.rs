@@ -20,12 +20,12 @@ fn box_slack<T: Real>() -> T {
 }
 
 /// Whether a direction component is zero, and the inverse of the nonzero ones.
-pub struct RayInverse<T> {
+pub(crate) struct RayInverse<T> {
     pub axis_parallel: bool,
     pub inv: Vec3<T>,
 }
 
-pub fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
+pub(crate) fn ray_inverse<T: Real>(ray: &Ray<T>) -> RayInverse<T> {
     let zero = direction_zero(ray);
     let d = ray.direction.to_array();
     let inv = [0, 1, 2].map(|k| T::ONE / if zero[k] { T::ONE } else { d[k] });
@@ -57,7 +57,7 @@ fn box_entry_shrink<T: Real>() -> T {
 
 /// Where the ray enters the box (shrunk by `BOX_ENTRY_SHRINK`, at least `min_t`), or NO_HIT
 /// when it misses the box, leaves it before `min_t`, or enters it beyond `t_max`.
-pub fn box_entry<T: Real>(
+pub(crate) fn box_entry<T: Real>(
     lo: [f32; 3],
     hi: [f32; 3],
     ray: &Ray<T>,

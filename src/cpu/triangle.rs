@@ -5,7 +5,7 @@ use crate::math::{Float, Real, Vec3, cross, dot, normalize, vec3};
 
 /// `shear` is [`crate::kernel::types::shear_of`] of the ray's direction (the robust test's; the textbook
 /// one does not use it).
-pub fn intersect_triangle<T: Real, const ROBUST: bool>(
+pub(crate) fn intersect_triangle<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     shear: &Shear<T>,
     tri: &Triangle<T>,
@@ -130,7 +130,7 @@ pub(crate) fn intersect_triangle_textbook<T: Real>(ray: &Ray<T>, tri: &Triangle<
 
 /// The lecture's system solved for the barycentrics beta (of b) and gamma (of c); `q` is what t
 /// needs besides (`Cramer` in WGSL).
-pub struct Cramer<T> {
+pub(crate) struct Cramer<T> {
     pub determinant: T,
     pub beta: T,
     pub gamma: T,

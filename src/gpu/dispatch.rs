@@ -32,7 +32,7 @@ const ID_BYTES: u64 = 4;
 
 /// Which rays a [`Job`] casts.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Rays<'a> {
+pub(crate) enum Rays<'a> {
     /// The camera's ray through the centre of every pixel, in tiles of image rows.
     Camera,
     /// The camera rays of the listed pixels only (row-major indices), in list order: one
@@ -70,10 +70,10 @@ impl Rays<'_> {
 
 /// What receives the tiles of a streamed render: the first image row of the tile and its
 /// images (the tile's rows only).
-pub type TileSink<'a, R> = &'a mut dyn FnMut(u32, Images<R>) -> Result<()>;
+pub(crate) type TileSink<'a, R> = &'a mut dyn FnMut(u32, Images<R>) -> Result<()>;
 
 /// One GPU render: what [`run`] does with a prepared scene.
-pub struct Job<'a, R> {
+pub(crate) struct Job<'a, R> {
     /// The kernel: the scene's kinds, precision, algorithm, outputs, hook or user kernel,
     /// certainty test, count query. Its `source` is set by [`run`] from `rays`.
     pub variant: Variant,
@@ -92,7 +92,7 @@ pub struct Job<'a, R> {
 
 impl<'a, R> Job<'a, R> {
     /// The camera's rays through `variant`, untimed, whole.
-    pub fn new(variant: Variant) -> Self {
+    pub(crate) fn new(variant: Variant) -> Self {
         Job {
             variant,
             rays: Rays::Camera,
@@ -112,7 +112,7 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// Casts a caller's rays, hits counted from `t_near` ([`Rays::List`]).
-    pub fn rays(self, list: crate::rays::RayList<'a>, t_near: f64) -> Self {
+    pub(crate) fn rays(self, list: crate::rays::RayList<'a>, t_near: f64) -> Self {
         Job {
             rays: Rays::List { list, t_near },
             ..self
@@ -120,7 +120,7 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// At most `max_rows` image rows per dispatch.
-    pub fn rows(self, max_rows: u32) -> Self {
+    pub(crate) fn rows(self, max_rows: u32) -> Self {
         Job {
             max_rows: Some(max_rows.max(1)),
             ..self
@@ -128,12 +128,12 @@ impl<'a, R> Job<'a, R> {
     }
 
     /// Measures the kernel's GPU time.
-    pub fn timed(self, timed: bool) -> Self {
+    pub(crate) fn timed(self, timed: bool) -> Self {
         Job { timed, ..self }
     }
 
     /// Binds the scene's buffers uploaded by [`upload`] instead of uploading them.
-    pub fn resident(self, resident: &'a Resident) -> Self {
+    pub(crate) fn resident(self, resident: &'a Resident) -> Self {
         Job {
             resident: Some(resident),
             ..self
@@ -150,7 +150,7 @@ impl<'a, R> Job<'a, R> {
 }
 
 /// What [`run`] returns.
-pub struct Rendered<R> {
+pub(crate) struct Rendered<R> {
     /// The images (one row of the listed pixels for [`Rays::Pixels`]; empty when streamed or
     /// for [`Rays::List`]).
     pub images: Images<R>,
@@ -167,7 +167,7 @@ pub struct Rendered<R> {
 /// variant traverses one. A scene with more spheres and triangles than the variant's storage
 /// bindings hold is refused here, before its BVH is built ([`run`] checks the prepared
 /// buffers again).
-pub fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
+pub(crate) fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
     check_capacity(scene, variant)?;
     Ok(Prepared::new(scene, variant.algorithm, variant.search()))
 }
@@ -196,7 +196,7 @@ pub(crate) fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 /// sized to its BVH, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
 /// `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
 /// with COUNT the counts alone).
-pub fn specialized<R: GpuReal>(
+pub(crate) fn specialized<R: GpuReal>(
     variant: Variant,
     casts: Casts,
     prepared: &Prepared<R>,
@@ -219,7 +219,11 @@ pub fn specialized<R: GpuReal>(
     }
 }
 
-pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Result<Rendered<R>> {
+pub(crate) fn run<R: GpuReal>(
+    gpu: &Gpu,
+    prepared: &Prepared<R>,
+    job: Job<'_, R>,
+) -> Result<Rendered<R>> {
     gpu.check_alive()?;
     let Job {
         variant,
@@ -518,7 +522,7 @@ pub fn run<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>, job: Job<'_, R>) -> Re
 /// A prepared scene's buffers on one device ([`upload`]), for jobs that cast many times at
 /// one scene ([`Job::resident`]): uploading the torus's 18 MB took longer than casting a
 /// few rays at it.
-pub struct Resident {
+pub(crate) struct Resident {
     /// By the kernel's names (shaders/bindings.wgsl).
     buffers: Vec<(String, wgpu::Buffer)>,
     /// How they are laid out: `(chunks, chunk_bits, hooked)` of the variant.
@@ -556,7 +560,7 @@ fn layout_of(variant: &Variant) -> (u8, u8, bool) {
 }
 
 /// `prepared`'s primitives and BVH uploaded to `gpu`, laid out for `variant`.
-pub fn upload<R: GpuReal>(
+pub(crate) fn upload<R: GpuReal>(
     gpu: &Gpu,
     prepared: &Prepared<R>,
     variant: &Variant,

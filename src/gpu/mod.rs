@@ -7,14 +7,14 @@
 //! - [`layout`](crate::kernel::layout) is the byte layout of the kernel's structs;
 //! - [`dispatch`] runs a [`Job`] on a prepared scene: the one way every render reaches the GPU.
 
-pub mod dispatch;
-pub mod hooks;
-pub mod kernel;
-pub mod probe;
-pub mod shader;
+pub(crate) mod dispatch;
+pub(crate) mod hooks;
+pub(crate) mod kernel;
+pub(crate) mod probe;
+pub(crate) mod shader;
 pub(crate) mod source;
 
-pub use dispatch::{Job, Rendered, Resident, prepare, run, upload};
+pub(crate) use dispatch::{Job, Rendered, Resident, prepare, run, upload};
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -27,7 +27,7 @@ pub(crate) const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu 
      (Mesa's lavapipe runs on any CPU)";
 
 /// Features used when the adapter offers them (never required).
-pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
+pub(crate) const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::SUBGROUP)
     .union(wgpu::Features::TIMESTAMP_QUERY)
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);

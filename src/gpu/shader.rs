@@ -11,7 +11,7 @@ use crate::math::Float;
 
 /// The primitive kinds a kernel is compiled for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Kinds {
+pub(crate) struct Kinds {
     pub spheres: bool,
     pub planes: bool,
     pub triangles: bool,
@@ -19,14 +19,14 @@ pub struct Kinds {
 
 impl Kinds {
     /// Every kind: the general kernel.
-    pub const ALL: Kinds = Kinds {
+    pub(crate) const ALL: Kinds = Kinds {
         spheres: true,
         planes: true,
         triangles: true,
     };
 
     /// The kinds `scene` has (a soup counts as triangles when it has any).
-    pub fn of_scene(scene: &crate::scene::Scene) -> Kinds {
+    pub(crate) fn of_scene(scene: &crate::scene::Scene) -> Kinds {
         use crate::scene::Object;
         let mut k = Kinds {
             spheres: false,
@@ -45,14 +45,14 @@ impl Kinds {
     }
 
     #[cfg(test)]
-    pub fn any(&self) -> bool {
+    pub(crate) fn any(&self) -> bool {
         self.spheres || self.planes || self.triangles
     }
 }
 
 /// Which rays a kernel casts (`main` in shaders/entry.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Casts {
+pub(crate) enum Casts {
     /// The camera's ray through every pixel, in tiles of image rows.
     Camera,
     /// The camera's rays of listed pixels (`PIXEL_LIST`, binding `pixel_list`).
@@ -64,7 +64,7 @@ pub enum Casts {
 
 /// What a kernel is specialized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Variant {
+pub(crate) struct Variant {
     pub precision: Float,
     pub algorithm: Algorithm,
     /// The device has f64 shaders: an f32 robust kernel rechecks near-zero triangle edge
@@ -133,7 +133,7 @@ pub struct Variant {
 }
 
 /// The most rays a lane of a packet kernel casts ([`Variant::lane_rays`]).
-pub const MAX_LANE_RAYS: u8 = 8;
+pub(crate) const MAX_LANE_RAYS: u8 = 8;
 /// Renders of at least this many rays cast four rays a lane ([`Variant::for_rays`]): 1920x1080
 /// and more.
 pub(crate) const FOUR_LANE_RAYS: u64 = 2_000_000;
@@ -147,7 +147,7 @@ pub(crate) const MAX_CHUNKS: u8 = 4;
 /// The chunks `scene`'s triangles and BVH nodes need at `chunk_bits` (a BVH over n
 /// primitives has fewer than n nodes), at most `MAX_CHUNKS`: a scene needing more is refused
 /// before rendering.
-pub fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
+pub(crate) fn chunks_for(scene: &crate::scene::Scene, chunk_bits: u8) -> u8 {
     let n = crate::prepare::bvh::bounded_count(scene).max(1) as u64;
     n.div_ceil(1 << chunk_bits).min(MAX_CHUNKS as u64) as u8
 }
@@ -200,13 +200,13 @@ impl Variant {
     }
 
     /// This variant compiled for `kinds` only.
-    pub fn with_kinds(self, kinds: Kinds) -> Variant {
+    pub(crate) fn with_kinds(self, kinds: Kinds) -> Variant {
         Variant { kinds, ..self }
     }
 
     /// This variant writing only `outputs` (`color` only where a shade hook is set; without
     /// `color` the hook is dropped).
-    pub fn with_outputs(self, outputs: Outputs) -> Variant {
+    pub(crate) fn with_outputs(self, outputs: Outputs) -> Variant {
         let color = outputs.color && self.shade.is_some();
         Variant {
             outputs: Outputs { color, ..outputs },
@@ -218,7 +218,7 @@ impl Variant {
 
     /// This variant calling the shade hook registered under `key` for every pixel and writing
     /// its colour; `traces`: the hook casts rays ([`Variant::hook_rays`]).
-    pub fn with_shade(self, key: SourceKey, traces: bool) -> Variant {
+    pub(crate) fn with_shade(self, key: SourceKey, traces: bool) -> Variant {
         Variant {
             shade: Some(key),
             hook_rays: traces,
@@ -241,7 +241,7 @@ impl Variant {
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
     /// `USER_SHADE` (the shade hook is called and `out_color` written), `HOOK_RAYS` (and
     /// casts rays of its own).
-    pub fn defines(&self) -> Vec<&'static str> {
+    pub(crate) fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         if self.precision == Float::F64 {
             d.push("F64");
@@ -315,7 +315,7 @@ impl Variant {
 
 impl Variant {
     /// Whether the kernel traverses a BVH: asked for, and something bounded to put in it.
-    pub fn uses_bvh(&self) -> bool {
+    pub(crate) fn uses_bvh(&self) -> bool {
         self.bvh && (self.kinds.spheres || self.kinds.triangles)
     }
 
@@ -336,7 +336,7 @@ impl Variant {
     /// Whether the BVH is traversed by packets: asked for, through a BVH, and over image tiles,
     /// whose neighbouring pixels have coherent rays, or over a caller's rays (whose owner says
     /// whether they are coherent), for the nearest hit. Listed pixels are scattered.
-    pub fn uses_packets(&self) -> bool {
+    pub(crate) fn uses_packets(&self) -> bool {
         let coherent = match self.casts {
             Casts::Camera => true,
             Casts::Rays => !self.count,
@@ -354,7 +354,7 @@ impl Variant {
     /// With packet intervals a visit costs the same whatever the packet's size, so the more
     /// rays share it the better (docs/performance.md#eight-rays-a-lane).
     /// At most `lane_rays_limit` ([`Variant::for_rays`]).
-    pub fn lane_rays(&self) -> u32 {
+    pub(crate) fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
             // With its records swapped per ray, the certainty pass's kernel grows faster per
@@ -373,7 +373,7 @@ impl Variant {
     /// many rays repays (docs/performance.md#rays-a-lane-by-render-size).
     /// `raycast bench`, Python's casts and ray lists keep eight: they trace the same kernel
     /// many times.
-    pub fn for_rays(self, rays: u64) -> Variant {
+    pub(crate) fn for_rays(self, rays: u64) -> Variant {
         let lane_rays_limit = match rays {
             r if r < FOUR_LANE_RAYS => 2,
             r if r < EIGHT_LANE_RAYS => 4,
@@ -605,7 +605,7 @@ pub(crate) fn imports(source: &str) -> impl Iterator<Item = &str> {
     source.lines().filter_map(import_name)
 }
 
-pub use source::validate;
+pub(crate) use source::validate;
 
 /// The banner line the assembler writes above a shade hook's source.
 pub(crate) fn banner(key: SourceKey) -> String {
@@ -614,7 +614,7 @@ pub(crate) fn banner(key: SourceKey) -> String {
 
 /// The full kernel source for `variant`: the user's kernel where it names one, else the
 /// assembled one.
-pub fn kernel_source(variant: &Variant) -> Result<String> {
+pub(crate) fn kernel_source(variant: &Variant) -> Result<String> {
     if let Some(key) = variant.kernel {
         return source::registered_source(key)
             .map(|s| s.to_string())

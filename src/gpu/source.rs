@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 /// Which registered source a kernel includes (a shade hook) or is (a kernel file): a hash of
 /// the text, unique within the process (a colliding different text gets the next free value).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct SourceKey(pub u64);
+pub(crate) struct SourceKey(pub u64);
 
 fn registry() -> &'static Mutex<HashMap<SourceKey, Arc<str>>> {
     static SOURCES: OnceLock<Mutex<HashMap<SourceKey, Arc<str>>>> = OnceLock::new();
@@ -51,7 +51,7 @@ pub(crate) fn registered_source(key: SourceKey) -> Option<Arc<str>> {
 
 /// Parses and validates WGSL `source` (read from `file`, which labels errors) with naga; an
 /// error is an [`Error::Shader`] at the file's line and column.
-pub fn validate(
+pub(crate) fn validate(
     source: &str,
     file: impl AsRef<Path>,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo)> {

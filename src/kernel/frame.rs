@@ -12,7 +12,7 @@ pub(crate) const MIN_T: f64 = 1.0;
 
 /// An orthonormal camera frame and the image-plane geometry, in precision `T`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame<T> {
+pub(crate) struct Frame<T> {
     pub projection: Projection,
     pub eye: Vec3<T>,
     /// Right.
@@ -38,7 +38,7 @@ impl Frame<f64> {
     /// point) is folded into the frame, so that ray generation stays the lecture's: a
     /// perspective ray's `-d w` becomes `-d w + shift_x u + shift_y v` (so `w` is then not a unit
     /// vector), an orthographic ray's origin moves by the shift.
-    pub fn new(camera: &Camera, resolution: [u32; 2]) -> Frame<f64> {
+    pub(crate) fn new(camera: &Camera, resolution: [u32; 2]) -> Frame<f64> {
         let [u, v, w] = camera.basis().map(Vec3::from);
         let plane = camera.image_plane_at(resolution);
         let d = camera.focal_length;
@@ -70,7 +70,7 @@ impl Frame<f64> {
 
 impl<T: Real> Frame<T> {
     /// The same frame rounded to precision `U` (what the GPU receives when `U = f32`).
-    pub fn cast<U: Real>(&self) -> Frame<U> {
+    pub(crate) fn cast<U: Real>(&self) -> Frame<U> {
         Frame {
             projection: self.projection,
             eye: self.eye.cast(),

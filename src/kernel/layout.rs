@@ -15,14 +15,14 @@ use crate::math::Real;
 use crate::scene::Projection;
 
 /// A scalar the GPU kernel can run in.
-pub trait GpuReal: Real + Pod {}
+pub(crate) trait GpuReal: Real + Pod {}
 impl GpuReal for f32 {}
 impl GpuReal for f64 {}
 
 /// `struct Frame` in shaders/types.wgsl. Offsets f32 / f64.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuFrame<R> {
+pub(crate) struct GpuFrame<R> {
     pub eye: [R; 3],     // offset 0 / 0
     pub focal_length: R, // offset 12 / 24
     pub u: [R; 3],       // offset 16 / 32
@@ -36,7 +36,7 @@ pub struct GpuFrame<R> {
 /// `struct Params` in shaders/bindings.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuParams<R> {
+pub(crate) struct GpuParams<R> {
     pub frame: GpuFrame<R>,  // offset 0
     pub projection: u32,     // offset 64 / 128
     pub nx: u32,             // offset 68 / 132
@@ -53,7 +53,7 @@ pub struct GpuParams<R> {
 /// `struct Sphere` in shaders/types.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuSphere<R> {
+pub(crate) struct GpuSphere<R> {
     pub center: [R; 3], // offset 0
     pub radius: R,      // offset 12 / 24
 } // size 16 / 32
@@ -61,7 +61,7 @@ pub struct GpuSphere<R> {
 /// `struct Plane` in shaders/types.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuPlane<R> {
+pub(crate) struct GpuPlane<R> {
     pub point: [R; 3],  // offset 0
     pub _pad0: R,       // offset 12 / 24
     pub normal: [R; 3], // offset 16 / 32
@@ -72,7 +72,7 @@ pub struct GpuPlane<R> {
 /// padding, which the kernel reads as five pairs.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuTriangle<R> {
+pub(crate) struct GpuTriangle<R> {
     pub a: [R; 3], // offset 0
     pub b: [R; 3], // offset 12 / 24
     pub c: [R; 3], // offset 24 / 48
@@ -82,7 +82,7 @@ pub struct GpuTriangle<R> {
 /// `struct StoredRay` in shaders/types.wgsl: a caller's ray in kernel coordinates.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct GpuRay<R> {
+pub(crate) struct GpuRay<R> {
     pub origin: [R; 3],    // offset 0
     pub _pad0: R,          // offset 12 / 24
     pub direction: [R; 3], // offset 16 / 32
@@ -110,7 +110,7 @@ pod_for_gpu_real!(
 
 impl<R: GpuReal> GpuFrame<R> {
     /// `frame` rounded to `R` (exact when it is in `R` already).
-    pub fn new<T: Real>(frame: &Frame<T>) -> Self {
+    pub(crate) fn new<T: Real>(frame: &Frame<T>) -> Self {
         let f = frame.cast::<R>();
         GpuFrame {
             eye: f.eye.to_array(),
@@ -170,7 +170,7 @@ impl<R: GpuReal> From<&crate::kernel::types::Ray<R>> for GpuRay<R> {
 /// `struct Material` in shaders/hooks.wgsl (f32 whatever the kernel's precision, as hooks are).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct GpuMaterial {
+pub(crate) struct GpuMaterial {
     pub ka: [f32; 3],        // offset 0
     pub phong_exponent: f32, // offset 12
     pub kd: [f32; 3],        // offset 16
@@ -184,7 +184,7 @@ pub struct GpuMaterial {
 /// `struct Light` in shaders/hooks.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct GpuLight {
+pub(crate) struct GpuLight {
     pub position: [f32; 3],  // offset 0
     pub kind: u32,           // offset 12: LIGHT_DIRECTIONAL 0, LIGHT_POINT 1
     pub direction: [f32; 3], // offset 16
@@ -196,7 +196,7 @@ pub struct GpuLight {
 /// `struct HookObject` in shaders/hooks.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct GpuHookObject {
+pub(crate) struct GpuHookObject {
     pub values: [f32; 4], // offset 0
     pub material: i32,    // offset 16: -1 for none
     pub _pad: [u32; 3],

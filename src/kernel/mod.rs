@@ -3,6 +3,6 @@
 //! (`frame`), and the byte layout of every struct the host hands the GPU (`layout`, checked
 //! against naga's layout of the WGSL structs).
 
-pub mod frame;
-pub mod layout;
-pub mod types;
+pub(crate) mod frame;
+pub(crate) mod layout;
+pub(crate) mod types;

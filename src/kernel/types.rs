@@ -3,10 +3,10 @@
 
 use crate::math::{Real, Vec3};
 
-pub use crate::kernel::frame::Frame;
+pub(crate) use crate::kernel::frame::Frame;
 
 /// Returned by the `intersect_*` functions when the ray misses (valid hits have `t >= 1`).
-pub fn no_hit<T: Real>() -> T {
+pub(crate) fn no_hit<T: Real>() -> T {
     -T::ONE
 }
 
@@ -26,7 +26,7 @@ pub(crate) fn is_beyond<T: Real>(t: T, min_t: T) -> bool {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray<T> {
+pub(crate) struct Ray<T> {
     pub origin: Vec3<T>,
     pub direction: Vec3<T>,
 }
@@ -35,7 +35,7 @@ pub struct Ray<T> {
 /// axes permuted so that z is the direction's largest component, and the shear that takes the
 /// direction to +z.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Shear<T> {
+pub(crate) struct Shear<T> {
     pub kx: usize,
     pub ky: usize,
     pub kz: usize,
@@ -44,7 +44,7 @@ pub struct Shear<T> {
     pub sz: T,
 }
 
-pub fn shear_of<T: Real>(d: Vec3<T>) -> Shear<T> {
+pub(crate) fn shear_of<T: Real>(d: Vec3<T>) -> Shear<T> {
     let ad = d.abs();
     let mut kz = 2;
     if ad.x >= ad.y && ad.x >= ad.z {
@@ -69,20 +69,20 @@ pub fn shear_of<T: Real>(d: Vec3<T>) -> Shear<T> {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sphere<T> {
+pub(crate) struct Sphere<T> {
     pub center: Vec3<T>,
     pub radius: T,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Plane<T> {
+pub(crate) struct Plane<T> {
     pub point: Vec3<T>,
     /// Unit length.
     pub normal: Vec3<T>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Triangle<T> {
+pub(crate) struct Triangle<T> {
     pub a: Vec3<T>,
     pub b: Vec3<T>,
     pub c: Vec3<T>,

@@ -26,12 +26,12 @@ use crate::math::Real;
 
 /// A premultiplied RGBA colour, each component in `[0, 1]`: `[r*a, g*a, b*a, a]`.
 #[cfg(test)]
-pub type Rgba = [f64; 4];
+pub(crate) type Rgba = [f64; 4];
 
 /// Porter-Duff "over" of premultiplied colours: `a` in front of `b`.
 /// `c_o = c_a + c_b (1 - alpha_a)` per colour channel, `alpha_o = alpha_a + alpha_b (1 - alpha_a)`.
 #[cfg(test)]
-pub fn over(a: Rgba, b: Rgba) -> Rgba {
+pub(crate) fn over(a: Rgba, b: Rgba) -> Rgba {
     let k = 1.0 - a[3];
     [
         a[0] + b[0] * k,
@@ -43,7 +43,7 @@ pub fn over(a: Rgba, b: Rgba) -> Rgba {
 
 /// An opaque colour given in 8-bit levels, as a premultiplied `Rgba` (alpha 1).
 #[cfg(test)]
-pub fn opaque(rgb: [u8; 3]) -> Rgba {
+pub(crate) fn opaque(rgb: [u8; 3]) -> Rgba {
     [
         rgb[0] as f64 / 255.0,
         rgb[1] as f64 / 255.0,
@@ -60,7 +60,7 @@ fn round_div(num: u64, den: u64) -> u8 {
 /// One pixel of coverage: `hits` of `spp` samples hit an object, and `color_sum` is the sum of
 /// `palette[id % 9]` over those samples (8-bit levels).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PixelCoverage {
+pub(crate) struct PixelCoverage {
     pub spp: u32,
     pub hits: u32,
     pub color_sum: [u32; 3],
@@ -70,7 +70,7 @@ impl PixelCoverage {
     /// The exact premultiplied colour as an `Rgba` in `[0, 1]` (`color_sum / (255 N)`,
     /// `hits / N`), rounded to f64.
     #[cfg(test)]
-    pub fn rgba(&self) -> Rgba {
+    pub(crate) fn rgba(&self) -> Rgba {
         let n = self.spp as f64;
         [
             self.color_sum[0] as f64 / (255.0 * n),
@@ -83,7 +83,7 @@ impl PixelCoverage {
     /// The 8-bit RGBA of `color.png`: premultiplied `round(C / N)`, alpha `round(255 H / N)`;
     /// with a `background`, `over` it: `round((C + bg (N - H)) / N)` and alpha 255. Exact (module
     /// docs).
-    pub fn to_rgba8(self, background: Option<[u8; 3]>) -> [u8; 4] {
+    pub(crate) fn to_rgba8(self, background: Option<[u8; 3]>) -> [u8; 4] {
         let n = self.spp as u64;
         let h = self.hits as u64;
         debug_assert!(h <= n);
@@ -109,7 +109,7 @@ impl PixelCoverage {
 }
 
 /// The RGBA bytes (4 a pixel, row-major) of `color.png` for `pixels`.
-pub fn color_rgba8(
+pub(crate) fn color_rgba8(
     pixels: impl Iterator<Item = PixelCoverage>,
     background: Option<[u8; 3]>,
 ) -> Vec<u8> {
@@ -118,7 +118,7 @@ pub fn color_rgba8(
 
 /// The coverage of each pixel of `images`, row-major: their [`crate::images::Coverage`] when supersampled,
 /// else one sample per pixel (a hit covers the pixel with its palette colour, a miss not at all).
-pub fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
+pub(crate) fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
     match &images.coverage {
         Some(c) => c
             .hits

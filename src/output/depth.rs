@@ -82,7 +82,7 @@ impl Depth {
 
 /// `depth16.png`: 16-bit grey, `round(depth * scale)` (half away from zero) on a hit, 0 on a
 /// miss and where that is beyond 65535.
-pub fn depth16_levels<T: Real>(depth: &[T], scale: f64) -> Vec<u16> {
+pub(crate) fn depth16_levels<T: Real>(depth: &[T], scale: f64) -> Vec<u16> {
     depth
         .iter()
         .map(|d| {
@@ -108,7 +108,7 @@ fn rows4(m: DMat4) -> [[f64; 4]; 4] {
 /// `camera.json`: the render's size, pixel intrinsics `K` and extrinsics in OpenCV's
 /// convention (docs/cli.md#camerajson), which depth the files hold, and the camera as the
 /// scene describes it.
-pub fn camera_json(camera: &Camera, depth: Depth, depth_scale: Option<f64>) -> EncodedFile {
+pub(crate) fn camera_json(camera: &Camera, depth: Depth, depth_scale: Option<f64>) -> EncodedFile {
     let [nx, ny] = camera.resolution;
     let projection = match camera.projection {
         Projection::Perspective => "perspective",

@@ -18,16 +18,14 @@ use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
 use crate::scene::Camera;
 
+pub use self::{depth::Depth, pending::abandon, pictures::Pictures};
 #[cfg(test)]
 pub(crate) use color::{PixelCoverage, opaque, over};
 pub(crate) use color::{color_rgba8, pixel_coverage};
-pub use depth::Depth;
 pub(crate) use depth::{camera_json, depth16_levels};
 pub(crate) use npy::encode_npy;
-pub use pending::abandon;
 #[cfg(test)]
 pub(crate) use pictures::PALETTE;
-pub use pictures::Pictures;
 pub(crate) use pictures::pictures;
 pub(crate) use pictures::{Picture, id_color, picture_set};
 

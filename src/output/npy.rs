@@ -5,7 +5,7 @@ use crate::images::{Images, Outputs};
 use crate::math::{Float, Real};
 
 /// Encodes little-endian `data` with NumPy dtype `descr` (e.g. `<f4`) and `shape`.
-pub fn encode_npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
+pub(crate) fn encode_npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
     let shape = if dims.len() == 1 {
         format!("({},)", dims[0])

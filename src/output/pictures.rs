@@ -8,7 +8,7 @@ use crate::images::{Images, MISS, Outputs};
 use crate::math::Real;
 
 /// Object colours, `palette[id % 9]` (the course's).
-pub const PALETTE: [[u8; 3]; 9] = [
+pub(crate) const PALETTE: [[u8; 3]; 9] = [
     [228, 26, 28],
     [55, 126, 184],
     [77, 175, 74],
@@ -21,7 +21,7 @@ pub const PALETTE: [[u8; 3]; 9] = [
 ];
 
 /// Palette colour of an object id; black for a miss.
-pub fn id_color(id: i32) -> [u8; 3] {
+pub(crate) fn id_color(id: i32) -> [u8; 3] {
     if id == MISS {
         [0, 0, 0]
     } else {
@@ -30,7 +30,7 @@ pub fn id_color(id: i32) -> [u8; 3] {
 }
 
 /// `255 * min(1, focal_length / distance)` truncated toward zero; 0 for a miss (+inf).
-pub fn depth_level(distance: f64, focal_length: f64) -> u8 {
+pub(crate) fn depth_level(distance: f64, focal_length: f64) -> u8 {
     if !distance.is_finite() {
         return 0;
     }
@@ -38,7 +38,7 @@ pub fn depth_level(distance: f64, focal_length: f64) -> u8 {
 }
 
 /// Each channel `255 * (n * 0.5 + 0.5)` truncated toward zero (a miss has n = 0 but is black).
-pub fn normal_color(id: i32, n: [f64; 3]) -> [u8; 3] {
+pub(crate) fn normal_color(id: i32, n: [f64; 3]) -> [u8; 3] {
     if id == MISS {
         return [0, 0, 0];
     }
@@ -63,7 +63,7 @@ pub struct Pictures {
 /// Maps `images` to the course's id, depth and normal pictures. A pixel's normal picture is
 /// black where its id is a miss and its normal zero: a render without ids (`--outputs normal`)
 /// still tells hits by their unit normals.
-pub fn pictures<T: Real>(images: &Images<T>) -> Pictures {
+pub(crate) fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     let n = images.len();
     let mut p = Pictures {
         width: images.width,
@@ -103,7 +103,7 @@ pub(super) fn png(
 /// A picture file before encoding: its name and pixels, row-major from the top row,
 /// `channels` a pixel (1 grey, 3 RGB, 4 RGBA) of `bits` each: 8, or 16 (grey only), whose
 /// samples are big-endian (PNG's order).
-pub struct Picture {
+pub(crate) struct Picture {
     pub name: &'static str,
     pub width: u32,
     pub height: u32,
@@ -171,7 +171,7 @@ impl Picture {
 }
 
 /// The id, depth and normal pictures of `outputs` only, named `names` (in that order).
-pub fn picture_set<T: Real>(
+pub(crate) fn picture_set<T: Real>(
     images: &Images<T>,
     outputs: Outputs,
     names: [&'static str; 3],

@@ -95,7 +95,7 @@ pub(crate) fn bounded_count(scene: &Scene) -> usize {
 }
 
 /// Set in a child's `reference` when it is a leaf (the rest is its first primitive).
-pub const LEAF_BIT: u32 = 1 << 31;
+pub(crate) const LEAF_BIT: u32 = 1 << 31;
 /// Set in a leaf's `count` when its primitives are spheres (else triangles).
 pub(crate) const SPHERE_LEAF: u32 = 1 << 31;
 /// Set in a leaf's `count` when it holds more primitives than [`LEAF_COUNT`] counts (only a
@@ -122,7 +122,7 @@ fn leaf_word(kind: u32, len: usize, object: u32) -> u32 {
 }
 
 /// The number of primitives of a leaf from its `count`.
-pub fn leaf_len(count: u32) -> u32 {
+pub(crate) fn leaf_len(count: u32) -> u32 {
     match count & MANY_LEAF != 0 {
         true => count & (MANY_LEAF - 1),
         false => count & LEAF_COUNT,
@@ -163,7 +163,7 @@ const ALL_AXES_ITEMS: usize = 1 << 16;
 /// kernel as four `vec4<u32>` (per ray) or eight `vec2<u32>` (packets). Offsets in bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct BvhNode {
+pub(crate) struct BvhNode {
     pub lo0: [f32; 3],   // offset 0: child 0 box
     pub reference0: u32, // offset 12: node index, or LEAF_BIT | first primitive
     pub hi0: [f32; 3],   // offset 16
@@ -225,7 +225,7 @@ impl BvhNode {
 /// `*_order` lists giving each one's index in the scene's own order (ties between two
 /// primitives of one object go to the lower original index, as in brute force).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Bvh {
+pub(crate) struct Bvh {
     pub nodes: Vec<BvhNode>,
     pub sphere_order: Vec<u32>,
     pub triangle_order: Vec<u32>,
@@ -648,7 +648,7 @@ impl Bvh {
     /// The BVH over `scene`'s spheres and triangles in the kernel's coordinates for
     /// `algorithm` (camera-relative for the robust set), as [`super::Primitives`]
     /// lays them out. Spheres and triangles get separate subtrees, so every leaf holds one kind.
-    pub fn build(scene: &Scene, algorithm: Algorithm) -> Bvh {
+    pub(crate) fn build(scene: &Scene, algorithm: Algorithm) -> Bvh {
         let origin = kernel_origin(scene, algorithm);
         let eye = length(kernel_frame(scene, algorithm).eye);
         let mut spheres = Vec::new();
@@ -733,19 +733,19 @@ impl Bvh {
     }
 
     /// Bytes the BVH adds on the device: its nodes and one order entry per primitive.
-    pub fn bytes(&self) -> usize {
+    pub(crate) fn bytes(&self) -> usize {
         size_of_val(&self.nodes[..]) + 4 * (self.sphere_order.len() + self.triangle_order.len())
     }
 
     /// Entries a traversal stack needs for this tree (`BVH_STACK` in the kernel): its depth, at
     /// least, since at most one node per level above the one visited is waiting; rounded up to
     /// a multiple of 8, so that few kernels are compiled, and at most `MAX_DEPTH`.
-    pub fn stack_entries(&self) -> u8 {
+    pub(crate) fn stack_entries(&self) -> u8 {
         stack_for_depth(self.depth())
     }
 
     /// The deepest leaf (root at depth 0); at most `MAX_DEPTH`.
-    pub fn depth(&self) -> usize {
+    pub(crate) fn depth(&self) -> usize {
         self.depth
     }
 }

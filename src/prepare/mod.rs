@@ -8,7 +8,7 @@
 //!             --Primitives::new / with_bvh--> Primitives<T> (+ Arc<Bvh>)
 //! ```
 
-pub mod bvh;
+pub(crate) mod bvh;
 
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -24,7 +24,7 @@ use bvh::{Bvh, Search};
 
 /// A scene prepared for the kernel in precision `T`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Prepared<T> {
+pub(crate) struct Prepared<T> {
     pub algorithm: Algorithm,
     /// The camera frame in the kernel's coordinates, rounded to `T`.
     pub frame: Frame<T>,
@@ -47,7 +47,7 @@ pub struct Prepared<T> {
 
 impl<T: Real> Prepared<T> {
     /// `scene` prepared for `algorithm`, through a BVH built here where `accel` asks for one.
-    pub fn new(scene: &Scene, algorithm: Algorithm, accel: Search) -> Prepared<T> {
+    pub(crate) fn new(scene: &Scene, algorithm: Algorithm, accel: Search) -> Prepared<T> {
         let clock = Instant::now();
         let kernel = in_kernel_units(scene);
         let bvh = kernel_bvh(scene, &kernel.0, algorithm, accel).map(Arc::new);
@@ -56,7 +56,11 @@ impl<T: Real> Prepared<T> {
 
     /// `scene` prepared for `algorithm` with a BVH already built by [`Prepared::new`] for the
     /// same scene and algorithm (shared between precisions), or none.
-    pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Prepared<T> {
+    pub(crate) fn with_bvh(
+        scene: &Scene,
+        algorithm: Algorithm,
+        bvh: Option<Arc<Bvh>>,
+    ) -> Prepared<T> {
         let clock = Instant::now();
         Prepared::assemble(scene, in_kernel_units(scene), algorithm, bvh).timed(clock)
     }
@@ -132,7 +136,7 @@ impl<T: Real> Prepared<T> {
 /// (`objects` in shaders/bindings.wgsl holds the ids in the order spheres, planes, triangles).
 /// With a BVH, spheres and triangles are stored in its order.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Primitives<T> {
+pub(crate) struct Primitives<T> {
     pub spheres: Vec<Sphere<T>>,
     pub planes: Vec<Plane<T>>,
     pub triangles: Vec<Triangle<T>>,
@@ -201,7 +205,7 @@ pub(crate) fn kernel_origin(scene: &Scene, algorithm: Algorithm) -> Vec3<f64> {
 }
 
 /// The camera frame in the kernel's coordinates (f64, not yet rounded).
-pub fn kernel_frame(scene: &Scene, algorithm: Algorithm) -> Frame<f64> {
+pub(crate) fn kernel_frame(scene: &Scene, algorithm: Algorithm) -> Frame<f64> {
     let mut frame = Frame::new(&scene.camera, scene.camera.resolution);
     frame.eye = frame.eye - kernel_origin(scene, algorithm);
     frame
@@ -242,13 +246,13 @@ impl<T: Real> Primitives<T> {
     /// Every object of `scene` in the kernel's coordinates for `algorithm`, rounded from f64
     /// to `T`; a soup adds all its triangles under its one id. Robust planes are stored by
     /// their point nearest the eye, `((p - e).n) n`, computed in f64.
-    pub fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
+    pub(crate) fn new(scene: &Scene, algorithm: Algorithm) -> Primitives<T> {
         Primitives::ordered(scene, algorithm, None)
     }
 
     /// [`Primitives::new`] with the spheres and triangles in the order of `bvh` (built by
     /// [`Bvh::build`] for the same scene and algorithm), which the traversal then uses.
-    pub fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
+    pub(crate) fn with_bvh(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
         Primitives::ordered(scene, algorithm, Some(bvh))
     }
 

@@ -25,7 +25,7 @@ use crate::prepare::Prepared;
 use crate::scene::Scene;
 
 /// An adaptive render and what it re-cast.
-pub struct Adaptive {
+pub(crate) struct Adaptive {
     pub images: Images<f32>,
     /// Pixels cast again in f64 (the tests count them; renders report the fraction).
     #[cfg_attr(not(test), allow(dead_code))]
@@ -40,7 +40,7 @@ pub struct Adaptive {
 
 impl Adaptive {
     /// Fraction of pixels re-cast in f64 ([`Images::recast_fraction`]).
-    pub fn recast_fraction(&self) -> f64 {
+    pub(crate) fn recast_fraction(&self) -> f64 {
         self.images.recast_fraction.unwrap_or(0.0)
     }
 }
@@ -49,7 +49,7 @@ impl Adaptive {
 /// f64: the CPU reference casts that many in less time than compiling the GPU's f64 kernel
 /// takes, and renders at 1920x1080 re-cast far fewer (docs/robustness.md, "Adaptive
 /// precision").
-pub const CPU_RECAST_PIXELS: usize = 1 << 16;
+pub(crate) const CPU_RECAST_PIXELS: usize = 1 << 16;
 
 /// Whether `uncertain` pixels (or rays) are cast again on `gpu` rather than on the CPU: where
 /// it has f64 and they are more than `cpu_recast_pixels`.
@@ -58,18 +58,18 @@ pub(crate) fn recasts_on_gpu(gpu: &Gpu, uncertain: usize, cpu_recast_pixels: usi
 }
 
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
-pub fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
+pub(crate) fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, false, CPU_RECAST_PIXELS)
 }
 
 /// [`render_adaptive`], also measuring the kernels' GPU time ([`Adaptive::kernel_s`]).
-pub fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
+pub(crate) fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, true, CPU_RECAST_PIXELS)
 }
 
 /// The kernel of the first pass: robust f32, specialized for `scene` and its size
 /// ([`Variant::for_rays`]), with the certainty test.
-pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
+pub(crate) fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
     Variant {
         certainty: true,
         ..gpu.scene_variant(scene, Float::F32, Algorithm::Robust)
@@ -79,7 +79,7 @@ pub fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
 
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its
 /// hit/miss and id are certain; and the preparation it used.
-pub fn certainty_pass(
+pub(crate) fn certainty_pass(
     gpu: &Gpu,
     scene: &Scene,
     timed: bool,
@@ -93,7 +93,7 @@ pub fn certainty_pass(
 /// [`render_adaptive`], measuring the kernels' time if `timed`, with at most
 /// `cpu_recast_pixels` uncertain pixels cast again on the CPU (more go to the GPU where it has
 /// f64).
-pub fn render_adaptive_with(
+pub(crate) fn render_adaptive_with(
     gpu: &Gpu,
     scene: &Scene,
     timed: bool,

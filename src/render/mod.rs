@@ -1,15 +1,14 @@
 //! One entry point for every way of rendering, in every [`Mode`] ([`render`]), and the policy
 //! of a render to files ([`RenderFiles`]: whole or in bands, supersampled, adaptive).
 
-pub mod adaptive;
-mod files;
-mod mode;
-mod options;
-pub mod supersample;
+pub(crate) mod adaptive;
+pub(crate) mod files;
+pub(crate) mod mode;
+pub(crate) mod options;
+pub(crate) mod supersample;
 
-pub use files::{RenderFiles, Summary};
-pub use mode::{Device, Mode, Precision};
-pub use options::{Cpu, RenderOptions, Tuning};
+pub(crate) use mode::{Device, Mode, Precision};
+pub(crate) use options::{Cpu, Tuning};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -131,7 +130,7 @@ impl AnyImages {
 
 /// What a render is asked to produce beyond its [`Mode`].
 #[derive(Clone, Debug, PartialEq)]
-pub struct Request {
+pub(crate) struct Request {
     /// The outputs wanted. The GPU kernels (f32, f64) compute and read back only these (and
     /// the ids when the palette `color.png` is wanted); adaptive precision and the CPU
     /// reference compute every output.
@@ -189,7 +188,7 @@ impl Request {
 
     /// The outputs the GPU kernel must write for this request: with a hook, the colour is the
     /// kernel's; without, the palette `color.png` is made on the host from the ids.
-    pub fn kernel_outputs(&self) -> Outputs {
+    pub(crate) fn kernel_outputs(&self) -> Outputs {
         let o = self.outputs;
         let hooked = self.shade.is_some();
         Outputs {
@@ -201,7 +200,7 @@ impl Request {
 }
 
 /// How far a CPU render has got, for a caller's progress display
-/// ([`RenderOptions::progress`]); a GPU render leaves both counts at zero.
+/// ([`crate::RenderOptions::progress`]); a GPU render leaves both counts at zero.
 #[derive(Debug, Default)]
 pub struct Progress {
     /// The rows the render has.
@@ -213,7 +212,7 @@ pub struct Progress {
 /// Renders `scene` in `mode`. `gpu` is needed for [`Device::Gpu`]; a CPU render counts its
 /// rows in `progress`.
 #[cfg(test)]
-pub fn render(
+pub(crate) fn render(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
@@ -223,7 +222,7 @@ pub fn render(
 }
 
 /// [`render`] producing what `request` asks for.
-pub fn render_request(
+pub(crate) fn render_request(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
@@ -237,7 +236,7 @@ pub fn render_request(
 /// mode on a device with timestamp queries (the sum over tiles, and for adaptive precision
 /// over its certainty and re-cast passes; see [`gpu::Job::timed`]); `None` for the CPU.
 #[cfg(test)]
-pub fn render_timed(
+pub(crate) fn render_timed(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
@@ -310,7 +309,7 @@ fn dispatch(
 
 /// Refuses what `request` asks of a `mode` that cannot do it: a shade hook that colours
 /// `color.png` or a kernel file, other than on the GPU in f32 or f64.
-pub fn check_request(mode: Mode, request: &Request) -> Result<()> {
+pub(crate) fn check_request(mode: Mode, request: &Request) -> Result<()> {
     let shades = request.shade.as_ref().filter(|_| request.outputs.color);
     // The CPU runs the course's ray tracer by its mirror, and no other hook.
     let mirrored = mode.device == Device::Cpu
@@ -358,7 +357,7 @@ fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
 
 /// Renders `scene` with the kernel `variant` (prepared for it) in tiles of at most `rows` rows,
 /// timing the stages and, with `timed`, the kernel.
-pub fn on_gpu<R: GpuReal>(
+pub(crate) fn on_gpu<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     variant: Variant,
@@ -502,7 +501,7 @@ pub fn peak_rss_mib() -> Option<f64> {
 }
 
 /// Wall time of `f`.
-pub fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
+pub(crate) fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
     let start = Instant::now();
     let value = f();
     (value, start.elapsed())

@@ -99,7 +99,7 @@ impl FromStr for Device {
 }
 
 /// The algorithm set used unless one is named.
-pub const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
+pub(crate) const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
 
 /// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
 /// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the device's default precision

@@ -44,7 +44,7 @@ use crate::scene::Scene;
 pub(crate) const MAX_SIDE: u32 = 4096;
 
 /// `s` for `spp = s * s`, or why `spp` is not allowed (one line, for `--spp`).
-pub fn side(spp: u32) -> std::result::Result<u32, String> {
+pub(crate) fn side(spp: u32) -> std::result::Result<u32, String> {
     let s = (spp as f64).sqrt().round() as u32;
     if spp == 0 || s.checked_mul(s) != Some(spp) {
         return Err(format!(
@@ -71,7 +71,7 @@ struct Pixel<T> {
 /// Reduces a fine render of `s * nx` by `s * ny` samples to `nx` by `ny` pixels, each from its
 /// `s x s` block (module docs), with their [`Coverage`]. Panics if `s` is 0 or does not divide
 /// the fine size.
-pub fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Images<T> {
+pub(crate) fn reduce<T: Real>(fine: &Images<T>, s: u32) -> Images<T> {
     assert!(
         s >= 1 && fine.width.is_multiple_of(s) && fine.height.is_multiple_of(s),
         "a {}x{} image is not made of {s}x{s} blocks",
@@ -204,7 +204,7 @@ fn reduce_block<T: Real>(fine: &Images<T>, s: u32, i: u32, j: u32, ids: &mut Vec
 /// [`Coverage`]. `spp = 1` is a plain [`render::render`] with coverage. The fine render is held
 /// whole: `spp` times the memory of a plain one.
 #[cfg(test)]
-pub fn supersample(
+pub(crate) fn supersample(
     scene: &Scene,
     mode: Mode,
     gpu: Option<&Gpu>,
@@ -254,7 +254,7 @@ pub(crate) fn supersample_request(
 /// The scene whose pixels are the samples of `scene` at `spp` samples per pixel (module docs),
 /// and `s = sqrt(spp)`; an [`Error::Argument`] naming `samples_per_pixel` when `spp` is not a perfect
 /// square or the sample image would be too large.
-pub fn sample_scene(scene: &Scene, spp: u32) -> Result<(Scene, u32)> {
+pub(crate) fn sample_scene(scene: &Scene, spp: u32) -> Result<(Scene, u32)> {
     let s = side(spp).map_err(|message| Error::Argument {
         option: "samples_per_pixel".into(),
         message,
@@ -283,7 +283,7 @@ pub(crate) fn sample_request(request: &Request, spp: u32) -> Request {
 /// How far a render at `spp` samples per pixel is from a high-spp reference.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 #[cfg(test)]
-pub struct SppError {
+pub(crate) struct SppError {
     pub spp: u32,
     /// Mean over all pixels of `|alpha - alpha_ref|` (alphas as exact `hits / spp`).
     pub alpha_mean_abs: f64,
@@ -301,7 +301,7 @@ pub struct SppError {
 /// reference stands in for the exact coverage (its own error is at most one stratum of
 /// `1 / reference_spp` per stratum the boundary crosses). `gpu` is needed for GPU modes.
 #[cfg(test)]
-pub fn spp_errors(
+pub(crate) fn spp_errors(
     scene: &Scene,
     mode: Mode,
     spps: &[u32],

@@ -8,7 +8,7 @@ use raycast::kernel::layout::GpuReal;
 use raycast::scene::Scene;
 
 /// `scene` rendered on `gpu` by the kernel `variant` (the scene prepared for it).
-pub fn gpu_variant<R: GpuReal>(
+pub(crate) fn gpu_variant<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     variant: Variant,
@@ -17,7 +17,7 @@ pub fn gpu_variant<R: GpuReal>(
 }
 
 /// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
-pub fn gpu_scene<R: GpuReal>(
+pub(crate) fn gpu_scene<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     algorithm: Algorithm,
@@ -30,7 +30,7 @@ pub fn gpu_scene<R: GpuReal>(
 }
 
 /// [`gpu_variant`] in dispatches of at most `max_rows` image rows.
-pub fn gpu_tiles<R: GpuReal>(
+pub(crate) fn gpu_tiles<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
     variant: Variant,

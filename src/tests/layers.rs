@@ -192,3 +192,32 @@ fn the_public_api_reader_sees_grouped_imports() {
         .replace("raycast::", "crate::");
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
+
+/// At most 150 public items: every `pub` declaration in src/ is part of the API (everything
+/// else is `pub(crate)` or private), counted as lines that open one.
+#[test]
+fn at_most_150_items_are_declared_public() {
+    let mut files = Vec::new();
+    sources(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
+        &mut files,
+    );
+    let kinds = [
+        "fn", "struct", "enum", "trait", "const", "static", "type", "mod", "use",
+    ];
+    let opens_public = |line: &str| {
+        let rest = line.trim_start().strip_prefix("pub ").unwrap_or("");
+        kinds.iter().any(|k| rest.starts_with(&format!("{k} ")))
+    };
+    let declared: usize = files
+        .iter()
+        .map(|f| {
+            std::fs::read_to_string(f)
+                .unwrap()
+                .lines()
+                .filter(|l| opens_public(l))
+                .count()
+        })
+        .sum();
+    assert!(declared <= 150, "{declared} public declarations in src/");
+}

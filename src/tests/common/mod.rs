@@ -10,7 +10,7 @@ use raycast::{Algorithm, Gpu, Mode};
 
 /// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
-pub fn gpu() -> &'static Gpu {
+pub(crate) fn gpu() -> &'static Gpu {
     static GPU: OnceLock<Gpu> = OnceLock::new();
     GPU.get_or_init(|| {
         if std::env::var_os("NODEVICE_SELECT").is_none() {
@@ -24,7 +24,7 @@ pub fn gpu() -> &'static Gpu {
 }
 
 /// The names of the entries of `dir`, sorted.
-pub fn file_names(dir: &Path) -> Vec<String> {
+pub(crate) fn file_names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -34,7 +34,7 @@ pub fn file_names(dir: &Path) -> Vec<String> {
 }
 
 /// The repository's root: the library's folder, above the command line's (cli/).
-pub fn repo_root() -> &'static Path {
+pub(crate) fn repo_root() -> &'static Path {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     match env!("CARGO_PKG_NAME") {
         "raycast-cli" => manifest.parent().expect("cli/ is in the repository"),
@@ -42,13 +42,13 @@ pub fn repo_root() -> &'static Path {
     }
 }
 
-pub fn repo_path(relative: &str) -> PathBuf {
+pub(crate) fn repo_path(relative: &str) -> PathBuf {
     repo_root().join(relative)
 }
 
 /// The `raycast` command, run in the repository's root (the command line's tests only).
 #[allow(dead_code)]
-pub fn raycast() -> std::process::Command {
+pub(crate) fn raycast() -> std::process::Command {
     let Some(exe) = option_env!("CARGO_BIN_EXE_raycast") else {
         panic!("only the command line's tests (cli/tests) run the command");
     };
@@ -62,11 +62,11 @@ pub fn raycast() -> std::process::Command {
 #[path = "../../../cli/src/study/selftest/scenes.rs"]
 mod selftest_scenes;
 #[allow(unused_imports)]
-pub use selftest_scenes::COURSE_SCENES;
+pub(crate) use selftest_scenes::COURSE_SCENES;
 
 /// `scene` rendered through the API on `gpu` in `precision` with `algorithm`, each lane casting
 /// its most rays (as the kernel variants the tests below the API build).
-pub fn api_render(
+pub(crate) fn api_render(
     gpu: &Gpu,
     scene: &Scene,
     precision: raycast::Precision,
@@ -83,7 +83,7 @@ pub fn api_render(
 
 /// `scene` rendered in `mode` (the GPU's on [`gpu`]) with `options`' other settings, through
 /// the API.
-pub fn render_in(
+pub(crate) fn render_in(
     scene: &Scene,
     mode: Mode,
     options: raycast::RenderOptions,
@@ -100,7 +100,7 @@ pub fn render_in(
 }
 
 /// Options as a kernel variant made by hand has them: each lane casting its most rays.
-pub fn kernel_options() -> raycast::RenderOptions {
+pub(crate) fn kernel_options() -> raycast::RenderOptions {
     raycast::RenderOptions {
         tuning: raycast::Tuning {
             most_lane_rays: true,
@@ -111,7 +111,7 @@ pub fn kernel_options() -> raycast::RenderOptions {
 }
 
 /// The precisions a GPU kernel renders in, as image types.
-pub trait Kernel: Copy + Into<f64> + std::fmt::Debug + PartialEq + 'static {
+pub(crate) trait Kernel: Copy + Into<f64> + std::fmt::Debug + PartialEq + 'static {
     const PRECISION: raycast::Precision;
     fn of(images: raycast::AnyImages) -> Option<Images<Self>>;
 }
@@ -137,7 +137,7 @@ impl Kernel for f64 {
 }
 
 /// `scene` rendered on `gpu` by the kernel a render picks for it in precision `R`.
-pub fn gpu_scene<R: Kernel>(
+pub(crate) fn gpu_scene<R: Kernel>(
     gpu: &Gpu,
     scene: &Scene,
     algorithm: Algorithm,
@@ -146,7 +146,7 @@ pub fn gpu_scene<R: Kernel>(
 }
 
 /// `scene` rendered by the CPU reference in precision `R` with `algorithm`, through the API.
-pub fn cpu_render<R: Kernel>(scene: &Scene, algorithm: Algorithm) -> Images<R> {
+pub(crate) fn cpu_render<R: Kernel>(scene: &Scene, algorithm: Algorithm) -> Images<R> {
     let options = raycast::RenderOptions {
         precision: Some(R::PRECISION),
         algorithm,
@@ -157,7 +157,7 @@ pub fn cpu_render<R: Kernel>(scene: &Scene, algorithm: Algorithm) -> Images<R> {
 }
 
 /// [`gpu_scene`] computing only `outputs`, with the shade hook `shade` for the colour.
-pub fn gpu_outputs<R: Kernel>(
+pub(crate) fn gpu_outputs<R: Kernel>(
     gpu: &Gpu,
     scene: &Scene,
     algorithm: Algorithm,
@@ -175,7 +175,7 @@ pub fn gpu_outputs<R: Kernel>(
 }
 
 /// An orthographic camera at z = 5 looking down -z, image plane `w x h` scene units, `nx x ny`.
-pub fn ortho_json(w: f64, h: f64, nx: u32, ny: u32, objects: &str) -> String {
+pub(crate) fn ortho_json(w: f64, h: f64, nx: u32, ny: u32, objects: &str) -> String {
     format!(
         r#"{{"camera": {{"type": "orthographic", "eye": [0, 0, 5], "look": [0, 0, -1],
             "up": [0, 1, 0], "focal_length": 1, "width": {w}, "height": {h},
@@ -184,14 +184,14 @@ pub fn ortho_json(w: f64, h: f64, nx: u32, ny: u32, objects: &str) -> String {
 }
 
 /// A sphere of radius 1.3 at the origin, as a scene object.
-pub const SPHERE: &str = r#"{"type": "sphere", "center": [0, 0, 0], "radius": 1.3}"#;
+pub(crate) const SPHERE: &str = r#"{"type": "sphere", "center": [0, 0, 0], "radius": 1.3}"#;
 
-pub fn course_scene(name: &str) -> raycast::Scene {
+pub(crate) fn course_scene(name: &str) -> raycast::Scene {
     raycast::Scene::load(&repo_path(&format!("scenes/course/{name}.json"))).unwrap()
 }
 
 /// A course reference render as raw 8-bit channels (RGB or grey, as stored).
-pub fn course_render(name: &str, kind: &str) -> Vec<u8> {
+pub(crate) fn course_render(name: &str, kind: &str) -> Vec<u8> {
     let path = repo_path(&format!("tests/data/course/{name}.{kind}.png"));
     let img = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     match kind {
@@ -202,7 +202,7 @@ pub fn course_render(name: &str, kind: &str) -> Vec<u8> {
 
 /// How two 8-bit pictures of `channels` channels differ, per pixel.
 #[derive(Debug, Default)]
-pub struct PixelDiff {
+pub(crate) struct PixelDiff {
     pub pixels: usize,
     /// Pixels with any channel different.
     pub differing: usize,
@@ -210,7 +210,7 @@ pub struct PixelDiff {
     pub max_level: u8,
 }
 
-pub fn diff(a: &[u8], b: &[u8], channels: usize, mask: Option<&[bool]>) -> PixelDiff {
+pub(crate) fn diff(a: &[u8], b: &[u8], channels: usize, mask: Option<&[bool]>) -> PixelDiff {
     assert_eq!(a.len(), b.len());
     let mut d = PixelDiff::default();
     for (k, (pa, pb)) in a.chunks(channels).zip(b.chunks(channels)).enumerate() {
@@ -234,7 +234,7 @@ pub fn diff(a: &[u8], b: &[u8], channels: usize, mask: Option<&[bool]>) -> Pixel
 
 /// Saves actual and expected pictures side by side under tests/failures/ (ignored by git)
 /// and returns the folder, so a failing comparison can be looked at.
-pub fn save_failure(
+pub(crate) fn save_failure(
     name: &str,
     actual: &[u8],
     expected: &[u8],
@@ -265,12 +265,12 @@ pub fn save_failure(
 }
 
 #[allow(unused_imports)]
-pub use selftest_scenes::{
+pub(crate) use selftest_scenes::{
     Rng, incoherent_rays, moved_along, pinhole_rays, random_scene, sphere_mesh,
 };
 
 /// The scene files (`*.json`) of the repository folder `dir`, sorted by name.
-pub fn scene_files(dir: &str) -> Vec<PathBuf> {
+pub(crate) fn scene_files(dir: &str) -> Vec<PathBuf> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(repo_path(dir))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -281,7 +281,7 @@ pub fn scene_files(dir: &str) -> Vec<PathBuf> {
 }
 
 /// Every scene of `scenes/extremes/`, sorted by file name: (path, scene).
-pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
+pub(crate) fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
     scene_files("scenes/extremes")
         .into_iter()
         .map(|p| {
@@ -292,13 +292,13 @@ pub fn extreme_scenes() -> Vec<(PathBuf, raycast::Scene)> {
 }
 
 /// The file stem of `path`, as a scene name.
-pub fn scene_name(path: &Path) -> String {
+pub(crate) fn scene_name(path: &Path) -> String {
     path.file_stem().unwrap().to_string_lossy().into_owned()
 }
 
 /// Waits until `ready` holds while `child` runs (polling every 5 ms, at most a minute); fails
 /// if the child ends first.
-pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() -> bool) {
+pub(crate) fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() -> bool) {
     let start = std::time::Instant::now();
     while !ready() {
         assert!(
@@ -314,14 +314,14 @@ pub fn wait_until(child: &mut std::process::Child, what: &str, ready: impl Fn() 
 }
 
 /// Asserts that `dir` holds no file (or does not exist): a failed render wrote nothing.
-pub fn assert_no_files(dir: &Path) {
+pub(crate) fn assert_no_files(dir: &Path) {
     if dir.exists() {
         assert_eq!(file_names(dir), Vec::<String>::new(), "{}", dir.display());
     }
 }
 
 /// `raycast render` of the course bunny, arguments to follow.
-pub fn render_bunny() -> std::process::Command {
+pub(crate) fn render_bunny() -> std::process::Command {
     let mut command = raycast();
     command
         .arg("render")
@@ -330,7 +330,7 @@ pub fn render_bunny() -> std::process::Command {
 }
 
 /// How many temporary files (`.NAME.tmp-PID`) `dir` holds (0 if it does not exist).
-pub fn temporary_files(dir: &Path) -> usize {
+pub(crate) fn temporary_files(dir: &Path) -> usize {
     match dir.exists() {
         true => file_names(dir)
             .iter()
@@ -341,7 +341,7 @@ pub fn temporary_files(dir: &Path) -> usize {
 }
 
 /// The shared adapter opened again without optional features: no `SHADER_F64`.
-pub fn gpu_without_f64() -> Gpu {
+pub(crate) fn gpu_without_f64() -> Gpu {
     let shared = gpu();
     let (device, queue) =
         pollster::block_on(shared.adapter.request_device(&wgpu::DeviceDescriptor {
@@ -355,7 +355,7 @@ pub fn gpu_without_f64() -> Gpu {
 }
 
 /// The default adapter's device, opened with the limits `limits` makes of the adapter's.
-pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> Gpu {
+pub(crate) fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> Gpu {
     pollster::block_on(async {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let adapter = instance
@@ -373,7 +373,7 @@ pub fn open_device(limits: impl Fn(wgpu::Limits) -> wgpu::Limits) -> Gpu {
 
 /// `a` and `b` hold the same bits: NaNs (robust f32 normals on the `range-*` scenes) included,
 /// which `==` would call different.
-pub fn assert_same_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>, what: &str) {
+pub(crate) fn assert_same_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>, what: &str) {
     let bits = |i: &Images<T>| {
         let distance: Vec<u64> = i.distance.iter().map(|&d| d.into().to_bits()).collect();
         let normal: Vec<u64> = i
@@ -388,7 +388,7 @@ pub fn assert_same_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>, what:
 }
 
 /// The hits of an f32 (or adaptive) cast.
-pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
+pub(crate) fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
     match h {
         raycast::rays::AnyHits::F32(h) => h,
         raycast::rays::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
@@ -398,16 +398,16 @@ pub fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
 /// A geometry cast at in whichever mode a test names, committed afresh for each call
 /// (`raycast::commit_mode`).
 #[derive(Default)]
-pub struct Target {
+pub(crate) struct Target {
     pub geometry: raycast::Geometry,
 }
 
 impl Target {
-    pub fn new() -> Target {
+    pub(crate) fn new() -> Target {
         Target::default()
     }
 
-    pub fn from_scene(scene: Scene) -> Target {
+    pub(crate) fn from_scene(scene: Scene) -> Target {
         Target {
             geometry: raycast::Geometry::from_scene(&scene),
         }
@@ -417,7 +417,7 @@ impl Target {
         raycast::commit_mode(gpu, &self.geometry, mode)
     }
 
-    pub fn cast<'a>(
+    pub(crate) fn cast<'a>(
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
@@ -426,7 +426,7 @@ impl Target {
         self.commit(gpu, mode)?.intersect(rays)
     }
 
-    pub fn occluded<'a>(
+    pub(crate) fn occluded<'a>(
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
@@ -437,7 +437,7 @@ impl Target {
         self.commit(gpu, mode)?.occluded(rays, t_near, t_far)
     }
 
-    pub fn count<'a>(
+    pub(crate) fn count<'a>(
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
