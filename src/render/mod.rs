@@ -113,13 +113,6 @@ impl AnyImages {
         }
     }
 
-    fn clear_stages(&mut self) {
-        match self {
-            AnyImages::F32(i) => i.stages = None,
-            AnyImages::F64(i) => i.stages = None,
-        }
-    }
-
     pub(crate) fn set_kernel_s(&mut self, kernel_s: Option<f64>) {
         match self {
             AnyImages::F32(i) => i.kernel_s = kernel_s,
@@ -293,16 +286,14 @@ fn dispatch(
         Device::Cpu => {
             let lit = request.shade.is_some() && request.outputs.color;
             let search = request.tuning.search;
-            let mut images = match mode.precision {
+            let algorithm = mode.algorithm;
+            Ok(match mode.precision {
                 Precision::F32 => {
-                    AnyImages::F32(cpu_render(scene, mode.algorithm, search, progress, lit))
+                    AnyImages::F32(cpu_render(scene, algorithm, search, progress, lit, timed))
                 }
-                _ => AnyImages::F64(cpu_render(scene, mode.algorithm, search, progress, lit)),
-            };
-            if !timed {
-                images.clear_stages();
-            }
-            Ok(images).map(|images| (images, None))
+                _ => AnyImages::F64(cpu_render(scene, algorithm, search, progress, lit, timed)),
+            })
+            .map(|images| (images, None))
         }
     }
 }
@@ -453,17 +444,17 @@ pub(crate) fn render_streamed(
 }
 
 /// The CPU reference's render, and with `lit` its colours by the mirror of the course's ray
-/// tracer ([`cpu::raytrace`], the only hook the CPU runs: [`check_request`]).
+/// tracer ([`cpu::raytrace`], the only hook the CPU runs: [`check_request`]); with `timed`
+/// its [`Stages`].
 fn cpu_render<T: crate::math::Real>(
     scene: &Scene,
     algorithm: Algorithm,
     search: Search,
     progress: Option<&Progress>,
     lit: bool,
+    timed: bool,
 ) -> Images<T> {
-    let start = Instant::now();
     let prepared = Prepared::<T>::new(scene, algorithm, search);
-    let build_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let unwatched = Progress::default();
     let progress = progress.unwrap_or(&unwatched);
@@ -475,14 +466,16 @@ fn cpu_render<T: crate::math::Real>(
         images.color = Some(colours);
         images.hook_rays = Some(rays);
     }
-    let stages = Stages {
-        build_s,
-        trace_s: start.elapsed().as_secs_f64(),
-        hook_rays: images.hook_rays,
-        ..Stages::default()
-    };
-    let triangle_bytes = size_of::<crate::kernel::types::Triangle<T>>();
-    images.stages = Some(with_layout(stages, &prepared.primitives, triangle_bytes));
+    if timed {
+        let stages = Stages {
+            build_s: prepared.build_s,
+            trace_s: start.elapsed().as_secs_f64(),
+            hook_rays: images.hook_rays,
+            ..Stages::default()
+        };
+        let triangle_bytes = size_of::<crate::kernel::types::Triangle<T>>();
+        images.stages = Some(with_layout(stages, &prepared.primitives, triangle_bytes));
+    }
     images
 }
 
