@@ -7,6 +7,9 @@
 #if COUNT
 #import count
 #endif
+#if CLOSEST
+#import closest
+#endif
 #if USER_SHADE
 #import shade
 #import user
@@ -114,8 +117,12 @@ fn list_slot(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
 
 #if RAY_LIST
 // Casts `ray` and, if `write`, writes its results to slot `index`: the hit's object, normal,
-// t, primitive and barycentrics, or (COUNT) how many surfaces it crosses.
+// t, primitive and barycentrics, (COUNT) how many surfaces it crosses, or (CLOSEST) the
+// primitive nearest its origin.
 fn cast_ray(ray: Ray, index: u32, write: bool) {
+#if CLOSEST
+    write_closest(ray.origin, closest_to(ray.origin), index, write);
+#else
 #if COUNT
     let count = count_crossings(ray, params.frame.min_t);
     if (write) {
@@ -124,7 +131,25 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
 #else
     write_ray(ray, nearest_hit(ray, params.frame.min_t), index, write);
 #endif
+#endif
 }
+
+#if CLOSEST
+// Writes the primitive nearest query point `p`, `hit`, to slot `index` if `write`: the closest
+// point in xyz and its distance in w (kernel units), the primitive and its barycentrics.
+fn write_closest(p: vec3<real>, hit: Hit, index: u32, write: bool) {
+    if (!write) {
+        return;
+    }
+    if (hit.object >= 0) {
+        let c = closest_details(p, hit);
+        out_surface[index] = vec4<real>(c.point, sqrt(hit.t));
+        out_primitive[index] = primitive_key(hit);
+        out_uv[index] = c.uv;
+    }
+    out_id[index] = select(hit.object, -1, hit.object < 0);
+}
+#endif
 
 #if !COUNT
 // Writes the results of a listed ray `ray`, which found `hit`, to slot `index` if `write`.

@@ -5,6 +5,7 @@
 //! The code keeps the shader's structure and evaluation order even where idiomatic Rust would
 //! differ, so the two can be read side by side and f32 results compared bit for bit.
 
+pub(crate) mod closest;
 pub(crate) mod count;
 pub(crate) mod entry;
 pub(crate) mod frame;
@@ -151,6 +152,34 @@ pub(crate) fn cast_rays<T: Real>(
     for (k, out) in outs.into_iter().enumerate() {
         if let Some(h) = out.hit {
             hits.set(k, out.id, h.t, h.normal, h.primitive, h.uv);
+        }
+    }
+    hits
+}
+
+/// The primitive nearest each listed ray's origin (the query points; directions are ignored):
+/// the CPU mirror of a CLOSEST ray-list job, with its raw results as the kernel writes them:
+/// `t` the distance and `normal` the closest point, both in kernel coordinates, the primitive's
+/// key and barycentrics.
+pub(crate) fn closest_points<T: Real>(
+    prepared: &Prepared<T>,
+    points: crate::rays::RayList<'_>,
+) -> crate::rays::Hits<T> {
+    let prims = &prepared.primitives;
+    let outs: Vec<_> = (0..points.len())
+        .into_par_iter()
+        .map(|k| {
+            let p = prepared.kernel_ray(&points.get(k)).origin;
+            let hit = closest::closest_to(p, prims);
+            let details = (hit.object >= 0).then(|| closest::closest_details(p, &hit, prims));
+            (hit, details)
+        })
+        .collect();
+    let mut hits = crate::rays::Hits::new(points.len(), false);
+    for (k, (hit, details)) in outs.into_iter().enumerate() {
+        if let Some(c) = details {
+            let key = nearest::primitive_key(&hit, prims);
+            hits.set(k, hit.object, hit.t.sqrt(), c.point.to_array(), key, c.uv);
         }
     }
     hits

@@ -12,7 +12,7 @@ use crate::prepare::Primitives;
 
 /// Keeps primitive `index` of a kind (`objects`: the kind's object ids) as the nearest hit if
 /// its `t` is closer (brute force: ties by object id, then index).
-fn keep<T: Real>(t: T, kind: u32, index: usize, objects: &[u32], best: &mut Hit<T>) {
+pub(crate) fn keep<T: Real>(t: T, kind: u32, index: usize, objects: &[u32], best: &mut Hit<T>) {
     let object = objects[index];
     if is_closer(t, object, index as u32, best) {
         *best = Hit {

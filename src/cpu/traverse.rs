@@ -12,10 +12,10 @@ use crate::prepare::bvh::{
 };
 
 /// The traversal stack's size (`BVH_STACK` in WGSL).
-const BVH_STACK: usize = MAX_DEPTH;
+pub(crate) const BVH_STACK: usize = MAX_DEPTH;
 
 /// Relative widening of every slab interval (2^-16): see shaders/traverse.wgsl.
-fn box_slack<T: Real>() -> T {
+pub(crate) fn box_slack<T: Real>() -> T {
     T::from_f64(1.0 / 65536.0)
 }
 
@@ -274,7 +274,7 @@ fn object_of(leaf: u32, index: u32, objects: &[u32]) -> u32 {
 
 /// Keeps primitive `index` of a kind as the nearest hit if its `t` is closer (`leaf`: its
 /// leaf's object, `objects` and `key` are the kind's object ids and scene-order keys).
-fn keep_ordered<T: Real>(
+pub(crate) fn keep_ordered<T: Real>(
     t: T,
     kind: u32,
     index: u32,

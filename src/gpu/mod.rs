@@ -89,6 +89,7 @@ impl Gpu {
             certainty: false,
             casts: shader::Casts::Camera,
             count: false,
+            closest: false,
             rays_from_origin: false,
             list_origin: false,
             kinds: shader::Kinds::ALL,

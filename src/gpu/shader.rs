@@ -79,6 +79,10 @@ pub(crate) struct Variant {
     /// Count every intersection along each ray instead of finding the nearest (`COUNT`; ray
     /// lists only: `out_count`).
     pub count: bool,
+    /// Find the primitive nearest each listed ray's origin instead of a hit (`CLOSEST`; ray
+    /// lists only, their directions unused): `out_surface` holds the closest point and its
+    /// distance, `out_primitive` and `out_uv` its primitive and barycentrics.
+    pub closest: bool,
     /// Every ray starts at the kernel's origin: the camera's rays (or listed pixels') of a
     /// perspective camera whose eye is that origin, as in the robust set
     /// ([`super::Gpu::scene_variant`]; the dispatch clears it for a caller's rays, or where
@@ -174,6 +178,7 @@ impl Variant {
             certainty: false,
             casts: Casts::Camera,
             count: false,
+            closest: false,
             rays_from_origin: false,
             list_origin: false,
             kinds: Kinds::ALL,
@@ -263,6 +268,9 @@ impl Variant {
         if self.count {
             d.push("COUNT");
         }
+        if self.closest {
+            d.push("CLOSEST");
+        }
         if self.rays_from_origin {
             d.push("RAYS_FROM_ORIGIN");
         }
@@ -339,7 +347,7 @@ impl Variant {
     pub(crate) fn uses_packets(&self) -> bool {
         let coherent = match self.casts {
             Casts::Camera => true,
-            Casts::Rays => !self.count,
+            Casts::Rays => !self.count && !self.closest,
             Casts::Pixels => false,
         };
         self.packets && self.uses_bvh() && coherent && !self.hook_rays
@@ -403,6 +411,7 @@ pub(crate) const MODULES: &[(&str, &str)] = &[
     ("certainty", include_str!("../../shaders/certainty.wgsl")),
     ("nearest", include_str!("../../shaders/nearest.wgsl")),
     ("count", include_str!("../../shaders/count.wgsl")),
+    ("closest", include_str!("../../shaders/closest.wgsl")),
     ("hooks", include_str!("../../shaders/hooks.wgsl")),
     ("shade", include_str!("../../shaders/shade.wgsl")),
     ("entry", include_str!("../../shaders/entry.wgsl")),
@@ -635,14 +644,15 @@ pub(crate) fn all_variants() -> Vec<Variant> {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
                 // A caller's rays from many points, and from one (a pinhole camera's).
-                for (certainty, casts, count, list_origin) in [
-                    (false, Casts::Camera, false, false),
-                    (true, Casts::Camera, false, false),
-                    (false, Casts::Pixels, false, false),
-                    (false, Casts::Rays, false, false),
-                    (false, Casts::Rays, false, true),
-                    (true, Casts::Rays, false, true),
-                    (false, Casts::Rays, true, true),
+                for (certainty, casts, count, closest, list_origin) in [
+                    (false, Casts::Camera, false, false, false),
+                    (true, Casts::Camera, false, false, false),
+                    (false, Casts::Pixels, false, false, false),
+                    (false, Casts::Rays, false, false, false),
+                    (false, Casts::Rays, false, false, true),
+                    (true, Casts::Rays, false, false, true),
+                    (false, Casts::Rays, true, false, true),
+                    (false, Casts::Rays, false, true, false),
                 ] {
                     let impossible = precision == Float::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
@@ -655,6 +665,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         certainty,
                         casts,
                         count,
+                        closest,
                         // As robust perspective renders set it (the textbook set covers the
                         // camera's general rays).
                         rays_from_origin: casts != Casts::Rays && algorithm == Algorithm::Robust,
@@ -966,6 +977,7 @@ mod tests {
                     "certainty" => variant.certainty,
                     "traverse" => variant.bvh,
                     "count" => variant.count,
+                    "closest" => variant.closest,
                     _ => true,
                 });
                 assert_eq!(source.matches(&banner).count(), expected, "{name}");

@@ -41,6 +41,10 @@ use crate::render::{Cpu, Device, Mode, Precision};
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 
+mod points;
+
+pub use points::Closest;
+
 /// Objects to cast rays at, without a camera: triangle meshes, spheres and planes, each with
 /// its id (its index, in the order added). [`Gpu::commit`] and [`Cpu::commit`] prepare it for
 /// queries.
