@@ -63,7 +63,7 @@ pub use crate::{
     images::{Images, Output, Outputs, Stages},
     output::{Encoding, Format},
     prepare::bvh::Search,
-    query::{Accel, Closest, Geometry, commit_mode},
+    query::{Accel, Closest, Geometry, Intersections, Sign, commit_mode},
     rays::{AnyHits, Hits, Ray, RayList},
     render::files::{RenderFiles, Summary},
     render::mode::{Device, Mode, Precision},

@@ -13,7 +13,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::rays::{RayList, RayRows};
 use raycast::{
-    Accel, AnyHits, AnyImages, Cpu, Geometry, Gpu, Hits, Precision, Ray, RenderOptions, ShadeHook,
+    Accel, AnyHits, AnyImages, Closest, Cpu, Geometry, Gpu, Hits, Intersections, Precision, Ray,
+    RenderOptions, ShadeHook, Sign,
 };
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -32,6 +33,7 @@ fn to_py(e: raycast::Error) -> PyErr {
             "Gpu" => "device=\"gpu\"",
             "ShadeHook::raytrace" => "lit=True",
             "shade" => "shader",
+            "samples" => "nsamples",
             _ => return None,
         };
         Some(spelled.to_string())
@@ -117,6 +119,55 @@ fn hits_dict<'py, T: numpy::Element + bytemuck::Pod>(
     d.set_item("primitive_ids", PyArray1::from_vec(py, h.primitive))?;
     d.set_item("primitive_uvs", PyArray1::from_vec(py, flat(h.uv)))?;
     d.set_item("primitive_normals", PyArray1::from_vec(py, flat(h.normal)))?;
+    Ok(d)
+}
+
+/// Query points as the Python half passes them: (n, 3) float64, C-contiguous.
+fn point_list<'a>(points: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [[f64; 3]]> {
+    let flat = points
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("query_points: expected a contiguous array"))?;
+    bytemuck::try_cast_slice(flat)
+        .map_err(|_| PyValueError::new_err("query_points: expected rows of 3 numbers"))
+}
+
+/// A vector of f64 as NumPy float32 (f32 and adaptive queries, as Open3D's) or float64.
+fn real_array<'py>(py: Python<'py>, v: Vec<f64>, f64_out: bool) -> Bound<'py, PyAny> {
+    match f64_out {
+        true => PyArray1::from_vec(py, v).into_any(),
+        false => PyArray1::from_vec(py, v.into_iter().map(|x| x as f32).collect()).into_any(),
+    }
+}
+
+/// Object ids as Open3D's uint32 (a miss's -1 is its INVALID_ID).
+fn id_array(py: Python<'_>, id: Vec<i32>) -> Bound<'_, PyArray1<u32>> {
+    PyArray1::from_vec(py, bytemuck::allocation::cast_vec(id))
+}
+
+fn closest_dict(py: Python<'_>, c: Closest, f64_out: bool) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("points", real_array(py, flat(c.point), f64_out))?;
+    d.set_item("distance", real_array(py, c.distance, f64_out))?;
+    d.set_item("geometry_ids", id_array(py, c.id))?;
+    d.set_item("primitive_ids", PyArray1::from_vec(py, c.primitive))?;
+    d.set_item("primitive_uvs", real_array(py, flat(c.uv), f64_out))?;
+    d.set_item("primitive_normals", real_array(py, flat(c.normal), f64_out))?;
+    Ok(d)
+}
+
+fn intersections_dict(
+    py: Python<'_>,
+    i: Intersections,
+    f64_out: bool,
+) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    let splits: Vec<u32> = i.ray_splits.iter().map(|&s| s as u32).collect();
+    d.set_item("ray_splits", PyArray1::from_vec(py, splits))?;
+    d.set_item("ray_ids", PyArray1::from_vec(py, i.ray_id))?;
+    d.set_item("t_hit", real_array(py, i.t, f64_out))?;
+    d.set_item("geometry_ids", id_array(py, i.id))?;
+    d.set_item("primitive_ids", PyArray1::from_vec(py, i.primitive))?;
+    d.set_item("primitive_uvs", real_array(py, flat(i.uv), f64_out))?;
     Ok(d)
 }
 
@@ -251,6 +302,77 @@ impl Scene {
         let rays = ray_list(&rays, None)?;
         let counts = py.detach(|| accel.count(rays)).map_err(to_py)?;
         Ok(PyArray1::from_vec(py, counts))
+    }
+
+    /// The closest point on the geometry to each query point, its distance, object, primitive,
+    /// barycentrics and normal, as flat arrays.
+    fn closest<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'_, f64>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let on = on(device, precision)?;
+        let accel = self.accel(on)?;
+        let points = point_list(&points)?;
+        let c = py.detach(|| accel.closest(points)).map_err(to_py)?;
+        closest_dict(py, c, on.precision == Precision::F64)
+    }
+
+    /// The generalized winding number at each query point (f64, on the CPU).
+    fn winding<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'_, f64>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let accel = self.accel(on(device, precision)?)?;
+        let points = point_list(&points)?;
+        let w = py.detach(|| accel.winding_numbers(points)).map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, w))
+    }
+
+    /// Whether each query point is inside, by ray parity over `nsamples` rays or by winding
+    /// number (`sign`).
+    fn inside<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'_, f64>,
+        sign: &str,
+        nsamples: u32,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let sign = match sign {
+            "parity" => Sign::Parity { samples: nsamples },
+            "winding" => Sign::Winding,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "sign: expected parity or winding, got {other:?}"
+                )));
+            }
+        };
+        let accel = self.accel(on(device, precision)?)?;
+        let points = point_list(&points)?;
+        let inside = py.detach(|| accel.inside(points, sign)).map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, inside))
+    }
+
+    /// Every hit of each ray, ordered by t, as Open3D's `list_intersections` gives them.
+    fn list_intersections<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArray<'_>,
+        precision: &str,
+        device: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let on = on(device, precision)?;
+        let accel = self.accel(on)?;
+        let rays = ray_list(&rays, None)?;
+        let hits = py.detach(|| accel.every_hit(rays)).map_err(to_py)?;
+        intersections_dict(py, hits, on.precision == Precision::F64)
     }
 
     /// Renders the scene file's camera: id, distance and normal images as flat arrays and the

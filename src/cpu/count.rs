@@ -94,11 +94,25 @@ fn count_in_bvh<T: Real, const ROBUST: bool>(
     prims: &Primitives<T>,
     nodes: &[BvhNode],
 ) -> u32 {
+    let mut n = 0;
+    for_each_leaf(ray, min_t, nodes, |first, count| {
+        n += count_leaf::<T, ROBUST>(ray, shear, min_t, prims, first, count);
+    });
+    n
+}
+
+/// Calls `leaf(first, count)` for every leaf whose box the ray meets from `min_t` on, in no
+/// particular order (every box the ray meets is opened).
+pub(crate) fn for_each_leaf<T: Real>(
+    ray: &Ray<T>,
+    min_t: T,
+    nodes: &[BvhNode],
+    mut leaf: impl FnMut(u32, u32),
+) {
     let ri = ray_inverse(ray);
     let mut stack = [0u32; MAX_DEPTH];
     let mut sp = 0;
     let mut node = 0u32;
-    let mut n = 0;
     loop {
         let v = visit(nodes, node, ray, &ri, min_t, t_far());
         let hit0 = v.t0 != no_hit();
@@ -106,24 +120,10 @@ fn count_in_bvh<T: Real, const ROBUST: bool>(
         let inner0 = hit0 && v.reference0 & LEAF_BIT == 0;
         let inner1 = hit1 && v.reference1 & LEAF_BIT == 0;
         if hit0 && !inner0 {
-            n += count_leaf::<T, ROBUST>(
-                ray,
-                shear,
-                min_t,
-                prims,
-                v.reference0 & !LEAF_BIT,
-                v.count0,
-            );
+            leaf(v.reference0 & !LEAF_BIT, v.count0);
         }
         if hit1 && !inner1 {
-            n += count_leaf::<T, ROBUST>(
-                ray,
-                shear,
-                min_t,
-                prims,
-                v.reference1 & !LEAF_BIT,
-                v.count1,
-            );
+            leaf(v.reference1 & !LEAF_BIT, v.count1);
         }
         if inner0 && inner1 {
             stack[sp] = v.reference1;
@@ -140,5 +140,4 @@ fn count_in_bvh<T: Real, const ROBUST: bool>(
             break;
         }
     }
-    n
 }

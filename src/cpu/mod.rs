@@ -8,6 +8,7 @@
 pub(crate) mod closest;
 pub(crate) mod count;
 pub(crate) mod entry;
+pub(crate) mod every_hit;
 pub(crate) mod frame;
 pub(crate) mod hit;
 pub(crate) mod margin;
@@ -18,6 +19,7 @@ pub(crate) mod shade;
 pub(crate) mod sphere;
 pub(crate) mod traverse;
 pub(crate) mod triangle;
+pub(crate) mod winding;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 

@@ -41,9 +41,11 @@ use crate::render::{Cpu, Device, Mode, Precision};
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 
+mod every_hit;
 mod points;
 
-pub use points::Closest;
+pub use every_hit::Intersections;
+pub use points::{Closest, Sign};
 
 /// Objects to cast rays at, without a camera: triangle meshes, spheres and planes, each with
 /// its id (its index, in the order added). [`Gpu::commit`] and [`Cpu::commit`] prepare it for
@@ -300,6 +302,8 @@ pub(crate) struct Cache {
     f32: HashMap<(Algorithm, bool), Arc<Prepared<f32>>>,
     f64: HashMap<(Algorithm, bool), Arc<Prepared<f64>>>,
     resident: HashMap<(Float, Algorithm, bool), Arc<gpu::Resident>>,
+    /// The far-field data of the robust f64 preparation's BVH, for winding numbers.
+    dipoles: Option<Arc<Vec<[crate::prepare::winding::Dipole; 2]>>>,
 }
 
 impl std::fmt::Debug for Cache {

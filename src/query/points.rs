@@ -1,13 +1,21 @@
 //! Point queries on an [`Accel`]: the closest point on the geometry to each query point
 //! ([`Accel::closest`]), on the GPU (shaders/closest.wgsl) or the CPU reference
-//! (src/cpu/closest.rs), through the same BVH as the ray casts.
+//! (src/cpu/closest.rs), through the same BVH as the ray casts; generalized winding numbers
+//! ([`Accel::winding_numbers`], src/cpu/winding.rs) and which side of the surfaces a point is on
+//! ([`Accel::inside`], by ray parity or winding number).
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
 
 use super::{Accel, CastReal, RayScene, first_primitives};
+use crate::algorithm::Algorithm;
 use crate::error::Result;
 use crate::gpu::{self, Gpu, Job};
 use crate::images::MISS;
 use crate::math::{Vec3, cross, length};
-use crate::rays::{Hits, INVALID_ID, Ray, RayList, check_point};
+use crate::prepare::winding::{Dipole, dipoles};
+use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_point};
 use crate::render::{Device, Mode, Precision};
 use crate::scene::Object;
 
@@ -32,6 +40,22 @@ pub struct Closest {
     pub normal: Vec<[f64; 3]>,
 }
 
+/// How [`Accel::inside`] tells inside from outside.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sign {
+    /// Open3D's rule: a point is inside where a ray from it crosses the surfaces an odd number
+    /// of times, along (1, 1, 1), or by the majority of `samples` rays (odd: (1, 1, 1) and
+    /// directions from a fixed random sequence). Wrong where a ray grazes an edge and on meshes
+    /// that are not closed.
+    Parity {
+        /// How many rays vote (odd).
+        samples: u32,
+    },
+    /// The generalized winding number above one half ([`Accel::winding_numbers`]): right on
+    /// closed meshes wherever rounding allows, and meaningful on open or self-intersecting ones.
+    Winding,
+}
+
 impl Accel<'_> {
     /// The closest point on the geometry to each of `points`, through the BVH, nearer boxes
     /// first. Ties (two primitives equally close) go to the lower object id, then the lower
@@ -54,9 +78,121 @@ impl Accel<'_> {
         }
         self.scene.closest(self.gpu, self.mode, points)
     }
+
+    /// The generalized winding number of the geometry at each of `points` (Jacobson et al.
+    /// 2013): the solid angle its surfaces subtend there over 4 pi, a triangle positive where
+    /// its normal (by corner order) faces away. 1 inside and 0 outside a closed mesh whose
+    /// normals face out; on an open one a number between that still tells the sides apart.
+    /// Spheres count 1 inside; a plane bounds a half-space and counts 1 behind its normal.
+    /// Computed on the CPU in f64 whatever the [`Accel`]'s device and precision, exactly for
+    /// triangles near the point and by the dipoles of far BVH subtrees (Barill et al. 2018).
+    ///
+    /// ```
+    /// use raycast::{Cpu, Geometry, Precision};
+    /// let mut geometry = Geometry::new();
+    /// let corners = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    /// geometry.add_mesh(&corners, &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])?;
+    /// let accel = Cpu.commit(&geometry, Precision::F64)?;
+    /// let w = accel.winding_numbers(&[[0.1, 0.1, 0.1], [2.0, 2.0, 2.0]])?;
+    /// assert!((w[0] - 1.0).abs() < 1e-12 && w[1].abs() < 1e-12);
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
+    pub fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
+        for (k, p) in points.iter().enumerate() {
+            check_point(p, &format!("points[{k}]"))?;
+        }
+        self.scene.winding_numbers(points)
+    }
+
+    /// Whether each of `points` is inside the geometry, by `sign`'s rule: Open3D's occupancy
+    /// (and the sign of its signed distance) with [`Sign::Parity`].
+    pub fn inside(&self, points: &[[f64; 3]], sign: Sign) -> Result<Vec<bool>> {
+        for (k, p) in points.iter().enumerate() {
+            check_point(p, &format!("points[{k}]"))?;
+        }
+        match sign {
+            Sign::Winding => Ok(self
+                .winding_numbers(points)?
+                .iter()
+                .map(|&w| w > 0.5)
+                .collect()),
+            Sign::Parity { samples } => self.parity(points, samples),
+        }
+    }
+
+    /// Inside by the majority of `samples` rays' parities.
+    fn parity(&self, points: &[[f64; 3]], samples: u32) -> Result<Vec<bool>> {
+        if samples == 0 || samples.is_multiple_of(2) {
+            return Err(argument(
+                "samples",
+                format!("must be a positive odd number, got {samples}"),
+            ));
+        }
+        let mut votes = vec![0u32; points.len()];
+        for direction in parity_directions(samples) {
+            let rays: Vec<Ray> = points
+                .iter()
+                .map(|&origin| Ray { origin, direction })
+                .collect();
+            let counts = self.count(&rays[..])?;
+            for (v, c) in votes.iter_mut().zip(counts) {
+                *v += c % 2;
+            }
+        }
+        Ok(votes.into_iter().map(|v| 2 * v > samples).collect())
+    }
+}
+
+/// The directions of [`Sign::Parity`]'s rays: (1, 1, 1) (Open3D's), then directions uniform on
+/// the sphere from a fixed sequence (SplitMix64), the same in every call.
+fn parity_directions(samples: u32) -> Vec<[f64; 3]> {
+    let mut state = 0x5EED_u64;
+    let mut unit = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut directions = vec![[1.0, 1.0, 1.0]];
+    while directions.len() < samples as usize {
+        let z = 2.0 * unit() - 1.0;
+        let phi = std::f64::consts::TAU * unit();
+        let s = (1.0 - z * z).sqrt();
+        directions.push([s * phi.cos(), s * phi.sin(), z]);
+    }
+    directions
 }
 
 impl RayScene {
+    fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
+        let prepared = self.prepared::<f64>(Algorithm::Robust, None)?;
+        let dipoles = self.dipoles(&prepared);
+        let origin = prepared.origin;
+        let scale = 1.0 / prepared.unit;
+        Ok(points
+            .par_iter()
+            .map(|&p| {
+                let p = (Vec3::from_array(p) - origin) * scale;
+                crate::cpu::winding::winding_number(
+                    p,
+                    &prepared.primitives,
+                    dipoles.as_deref().map(|d| &d[..]),
+                )
+            })
+            .collect())
+    }
+
+    /// The dipoles of `prepared`'s BVH (if it has one), built on first use and kept.
+    fn dipoles(&self, prepared: &crate::prepare::Prepared<f64>) -> Option<Arc<Vec<[Dipole; 2]>>> {
+        let bvh = prepared.bvh()?;
+        let mut cache = self.cache.lock().expect("cache lock");
+        let built = cache
+            .dipoles
+            .get_or_insert_with(|| Arc::new(dipoles(&bvh.nodes, &prepared.primitives)));
+        Some(built.clone())
+    }
+
     fn closest(&self, gpu: Option<&Gpu>, mode: Mode, points: &[[f64; 3]]) -> Result<Closest> {
         // A query point is the origin of a ray whose direction the kernel does not read.
         let rays: Vec<Ray> = points

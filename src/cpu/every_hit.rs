@@ -1,0 +1,117 @@
+//! Every hit along a ray (`list_intersections`): each primitive the ray crosses from `min_t`
+//! on, through the BVH where there is one (every box the ray meets is opened, as in
+//! [`super::count`]), in order of t. CPU only: the GPU counts crossings (shaders/count.wgsl) but
+//! does not list them.
+
+use super::count::for_each_leaf;
+use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE};
+use super::nearest::{hit_details, primitive_key};
+use super::plane::intersect_plane;
+use super::sphere::{intersect_sphere, sphere_crossings};
+use super::triangle::intersect_triangle;
+use crate::kernel::types::{Ray, Shear, no_hit, shear_of};
+use crate::math::Real;
+use crate::prepare::Primitives;
+use crate::prepare::bvh::{SPHERE_LEAF, leaf_len};
+
+/// One hit of a ray: its t (in units of the ray's direction), object, primitive key (the index
+/// among its kind in the scene's order) and barycentrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct EveryHit<T> {
+    pub t: T,
+    pub object: i32,
+    pub key: u32,
+    pub uv: [T; 2],
+}
+
+/// Every hit of `ray` from `min_t` on, ordered by t (ties by object, then primitive).
+pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+) -> Vec<EveryHit<T>> {
+    let shear = shear_of(ray.direction);
+    let mut hits = Vec::new();
+    let mut add = |t: T, kind: u32, index: u32, objects: &[u32]| {
+        if t != no_hit() {
+            let hit = Hit {
+                t,
+                object: objects[index as usize] as i32,
+                kind,
+                index,
+            };
+            let details = hit_details::<T, ROBUST>(ray, &hit, prims);
+            let key = primitive_key(&hit, prims);
+            hits.push(EveryHit {
+                t: details.t,
+                object: hit.object,
+                key,
+                uv: details.uv,
+            });
+        }
+    };
+    for (k, plane) in prims.planes.iter().enumerate() {
+        let t = intersect_plane::<T, ROBUST>(ray, plane, min_t);
+        add(t, KIND_PLANE, k as u32, &prims.plane_objects);
+    }
+    // The `n` primitives of one kind from `first`.
+    let mut leaf = |first: u32, n: u32, spheres: bool| {
+        for k in first..first + n {
+            if spheres {
+                for t in sphere_hits::<T, ROBUST>(ray, prims, k, min_t) {
+                    add(t, KIND_SPHERE, k, &prims.sphere_objects);
+                }
+            } else {
+                let t = triangle_hit::<T, ROBUST>(ray, &shear, prims, k, min_t);
+                add(t, KIND_TRIANGLE, k, &prims.triangle_objects);
+            }
+        }
+    };
+    match &prims.bvh {
+        Some(bvh) => for_each_leaf(ray, min_t, &bvh.nodes, |first, count| {
+            leaf(first, leaf_len(count), count & SPHERE_LEAF != 0)
+        }),
+        None => {
+            leaf(0, prims.spheres.len() as u32, true);
+            leaf(0, prims.triangles.len() as u32, false);
+        }
+    }
+    hits.sort_by(|a, b| {
+        (a.t.to_f64(), a.object, a.key)
+            .partial_cmp(&(b.t.to_f64(), b.object, b.key))
+            .expect("hit distances are numbers")
+    });
+    hits
+}
+
+fn triangle_hit<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    shear: &Shear<T>,
+    prims: &Primitives<T>,
+    k: u32,
+    min_t: T,
+) -> T {
+    intersect_triangle::<T, ROBUST>(ray, shear, &prims.triangles[k as usize], min_t)
+}
+
+/// The ts at which the ray crosses sphere `k` from `min_t` on: none, one (from inside) or two.
+fn sphere_hits<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    prims: &Primitives<T>,
+    k: u32,
+    min_t: T,
+) -> Vec<T> {
+    let sphere = &prims.spheres[k as usize];
+    let first = intersect_sphere::<T, ROBUST>(ray, sphere, min_t);
+    match sphere_crossings::<T, ROBUST>(ray, sphere, min_t) {
+        0 => vec![],
+        1 => vec![first],
+        _ => {
+            let second = intersect_sphere::<T, ROBUST>(ray, sphere, first);
+            [first, second]
+                .into_iter()
+                .filter(|&t| t != no_hit())
+                .collect()
+        }
+    }
+}
