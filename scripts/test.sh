@@ -29,6 +29,6 @@ extension=target/debug/lib_raycast.so
 cp "$extension" "$package/raycast/_raycast.abi3.so"
 venv=target/py-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet pytest numpy OpenEXR
+"$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree
 PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
 echo "test.sh: Python tests done at ${SECONDS} s" >&2

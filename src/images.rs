@@ -222,14 +222,4 @@ impl Outputs {
         }
         o
     }
-
-    /// Whether `output` is one of these.
-    pub fn has(&self, output: Output) -> bool {
-        match output {
-            Output::Id => self.id,
-            Output::Distance => self.distance,
-            Output::Normal => self.normal,
-            Output::Color => self.color,
-        }
-    }
 }

@@ -63,7 +63,11 @@ pub use crate::{
     images::{Images, Output, Outputs, Stages},
     output::{Encoding, Format},
     prepare::bvh::Search,
-    query::{Accel, Closest, Geometry, Intersections, Sign, commit_mode},
+    query::{
+        Accel, Geometry, commit_mode,
+        every_hit::Intersections,
+        points::{Closest, Sign},
+    },
     rays::{AnyHits, Hits, Ray, RayList},
     render::files::{RenderFiles, Summary},
     render::mode::{Device, Mode, Precision},

@@ -1,41 +1,103 @@
 """GPU ray casting on any Vulkan, Metal or DX12 GPU, or on Mesa's lavapipe without one.
 
-``raycast.RaycastingScene`` mirrors Open3D's ``open3d.t.geometry.RaycastingScene``, so that
-switching is one import::
+``raycast.RaycastingScene`` runs code written for Open3D 0.20's
+``open3d.t.geometry.RaycastingScene`` unchanged but for the constructor::
 
     import raycast
-    scene = raycast.RaycastingScene()
-    mesh_id = scene.add_triangles(vertices, triangles)
+    scene = raycast.RaycastingScene()    # instead of o3d.t.geometry.RaycastingScene()
+    mesh_id = scene.add_triangles(mesh)  # or add_triangles(vertices, triangles)
     rays = raycast.RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 3], [0, 1, 0], 640, 480)
     ans = scene.cast_rays(rays)          # t_hit, geometry_ids, primitive_ids, ...
+    depth = ans["t_hit"].numpy()         # results are NumPy arrays with Open3D's .numpy()
+
+Open3D's queries: ``cast_rays``, ``test_occlusions``, ``count_intersections``,
+``list_intersections``, ``compute_closest_points``, ``compute_distance``,
+``compute_signed_distance``, ``compute_occupancy`` and ``create_rays_pinhole``, with Open3D's
+keywords and defaults (``nthreads`` is accepted and ignored).
 
 Beyond Open3D: spheres and planes (``add_sphere``, ``add_plane``), ``precision="f32" | "f64" |
-"adaptive"`` and ``device="gpu" | "cpu"`` on every cast, scene files (``raycast.load``) and
-their camera renders (``render``, lit by the course's ray tracer with ``lit=True`` or coloured
-by a shade hook file with ``shader=``), and ``raycast.info()`` for the adapter.
+"adaptive"`` and ``device="gpu" | "cpu"`` on every query, ``sign="parity" | "winding"`` for the
+inside tests, ``compute_winding_number``, scene files (``raycast.load``) and their camera
+renders (``render``, lit by the course's ray tracer with ``lit=True`` or coloured by a shade
+hook file with ``shader=``), ``raycast.info()`` for the adapter, and ``raycast.trimesh``, a
+drop-in for trimesh's ``mesh.ray`` (imported on its own: ``from raycast.trimesh import
+RayMeshIntersector``).
 
-Rays are rows of ``origin, direction`` (shape ``(..., 6)``, any float dtype and layout:
-float32 and float64 are read as they are when C-contiguous, others converted once to float64);
-``t_hit`` is in units of each ray's direction, as Open3D's.
-Casts release the GIL.
+Inputs: arrays are NumPy arrays of any int or float dtype and layout, lists, Open3D tensors,
+or anything with ``__array__`` or ``__dlpack__`` (torch, JAX, CuPy...), on the CPU (a GPU
+tensor is refused: move it to the CPU first). Meshes are Open3D tensor or legacy triangle
+meshes, ``trimesh.Trimesh`` or any object with ``vertices`` and ``faces`` or ``triangles``.
+Rays are rows of ``origin, direction`` (shape ``(..., 6)``: float32 and float64 are read as
+they are when C-contiguous, others converted once to float64); ``t_hit`` is in units of each
+ray's direction, as Open3D's. Query points are shape ``(..., 3)``. Results keep the leading
+dimensions of the rays or points (``list_intersections`` flattens them, as Open3D does); float
+results are float32 for f32 and adaptive, float64 for f64. Bad input raises ValueError or
+TypeError naming the argument. Queries release the GIL.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from typing import Any, Dict, Optional, Sequence, Union
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _raycast
 
-__all__ = ["RaycastingScene", "load", "info"]
+__all__ = ["Array", "RaycastingScene", "load", "info"]
 
-ArrayLike = Union[np.ndarray, Sequence[Any]]
+# What the array arguments accept: NumPy arrays, lists, Open3D tensors, anything with
+# `__array__` or `__dlpack__` (see `_as_numpy`).
+ArrayLike = Union[np.ndarray, Sequence[Any], Any]
 
 _PRECISIONS = ("f32", "f64", "adaptive")
 _DEVICES = ("gpu", "cpu")
+_SIGNS = ("parity", "winding")
+
+# DLPack's device types (dlpack.h) whose memory the CPU reads: kDLCPU and kDLCUDAHost.
+_DLPACK_CPU = (1, 3)
+_DLPACK_DEVICES = {
+    2: "CUDA", 4: "OpenCL", 7: "Vulkan", 8: "Metal", 10: "ROCm", 13: "CUDA managed", 14: "oneAPI"
+}
+
+
+class Array(np.ndarray):
+    """A result: a NumPy array that also has Open3D's ``Tensor.numpy()``, so that code written
+    for Open3D (``ans["t_hit"].numpy()``) runs unchanged."""
+
+    def numpy(self) -> np.ndarray:
+        """The same data as a plain ``np.ndarray`` (a view, not a copy)."""
+        return self.view(np.ndarray)
+
+
+def _result(array: np.ndarray, shape: Tuple[int, ...]) -> Array:
+    """A native result reshaped to `shape`, as an `Array`."""
+    return np.asarray(array).reshape(shape).view(Array)
+
+
+def _results(
+    out: Dict[str, np.ndarray], shape: Tuple[int, ...], fields: Dict[str, tuple]
+) -> Dict[str, Array]:
+    """The native results named in `fields`, each shaped `shape` plus its trailing dimensions."""
+    return {key: _result(out[key], shape + tail) for key, tail in fields.items()}
+
+
+# The trailing dimensions of the results of a cast, a closest-point query and a list of hits.
+_IDS = {"geometry_ids": (), "primitive_ids": (), "primitive_uvs": (2,)}
+_HIT_FIELDS = {"t_hit": (), **_IDS, "primitive_normals": (3,)}
+_CLOSEST_FIELDS = {"points": (3,), **_IDS, "primitive_normals": (3,)}
+_LIST_FIELDS = {"ray_ids": (), "t_hit": (), **_IDS}
+
+
+def __getattr__(name: str) -> Any:
+    """``raycast.trimesh`` imported on first use, so that ``import raycast`` needs no trimesh
+    and costs nothing for those who do not use it."""
+    if name == "trimesh":
+        import importlib
+
+        return importlib.import_module(".trimesh", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def info() -> Dict[str, Any]:
@@ -43,19 +105,62 @@ def info() -> Dict[str, Any]:
     return _raycast.info()
 
 
+def _device_of(value: Any) -> Optional[str]:
+    """The device whose memory holds `value`, if it is not the CPU's: from DLPack's
+    ``__dlpack_device__``, or an Open3D-like tensor's ``device`` ("CPU:0", "CUDA:0")."""
+    dlpack_device = getattr(value, "__dlpack_device__", None)
+    if callable(dlpack_device):
+        kind = dlpack_device()[0]
+        try:
+            code = int(kind)
+        except (TypeError, ValueError):  # an enum without __int__: go by its name
+            return None if "cpu" in str(kind).lower() else str(kind)
+        if code in _DLPACK_CPU:
+            return None
+        return _DLPACK_DEVICES.get(code, f"DLPack device type {code}")
+    device = getattr(value, "device", None)
+    if callable(getattr(value, "numpy", None)) and device is not None and not callable(device):
+        return None if str(device).lower().startswith("cpu") else str(device)
+    return None
+
+
+def _as_numpy(value: Any, name: str) -> np.ndarray:
+    """`value` as a NumPy array, without a copy where it can be read in place: NumPy arrays,
+    lists, anything with ``__array__`` (torch, trimesh), Open3D tensors (``.numpy()``) and
+    anything else with ``__dlpack__``. Tensors on a GPU are refused (ValueError)."""
+    if isinstance(value, np.ndarray):
+        return value
+    device = _device_of(value)
+    if device is not None:
+        # NumPy cannot read it, and copying it here would hide a costly transfer.
+        raise ValueError(f"{name}: is on a {device} device; move it to the CPU first (.cpu())")
+    try:
+        if hasattr(value, "__array__"):
+            return np.asarray(value)
+        to_numpy = getattr(value, "numpy", None)
+        if callable(to_numpy):  # Open3D tensors, which have no __array__
+            return np.asarray(to_numpy())
+        if hasattr(value, "__dlpack__"):
+            return np.from_dlpack(value)
+        return np.asarray(value)
+    except Exception as e:  # ragged lists, tensors that need grad, unreadable DLPack capsules
+        raise ValueError(f"{name}: cannot be read as an array ({e})") from None
+
+
+def _numeric(array: np.ndarray, name: str) -> None:
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
+    ):
+        raise TypeError(f"{name}: expected an array of numbers, got dtype {array.dtype}")
+
+
 def _float_array(
     value: ArrayLike, name: str, last: Optional[int] = None, keep_float32: bool = False
 ) -> np.ndarray:
     """`value` as a C-contiguous float64 array (float32 kept with `keep_float32`), its last
     dimension `last` where given."""
-    try:
-        array = np.asarray(value)
-    except Exception as e:  # ragged lists and the like
-        raise ValueError(f"{name}: cannot be read as an array ({e})") from None
-    if array.dtype == object or not (
-        np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
-    ):
-        raise TypeError(f"{name}: expected an array of numbers, got dtype {array.dtype}")
+    array = _as_numpy(value, name)
+    _numeric(array, name)
     if last is not None and (array.ndim == 0 or array.shape[-1] != last):
         raise ValueError(f"{name}: expected shape (..., {last}), got {array.shape}")
     keep = keep_float32 and array.dtype == np.float32
@@ -73,11 +178,45 @@ def _rays(rays: ArrayLike) -> tuple:
     return array.reshape(-1, 6), shape, width
 
 
+def _query_points(query_points: ArrayLike) -> Tuple[np.ndarray, Tuple[int, ...]]:
+    """The points as a C-contiguous (n, 3) float64 array and the leading shape to give the
+    results. NaN and infinity are refused here: a point has no distance to anything there."""
+    array = _float_array(query_points, "query_points", 3)
+    shape = array.shape[:-1]
+    flat = array.reshape(-1, 3)
+    finite = np.isfinite(flat).all(axis=1)
+    if not finite.all():
+        first = int(np.argmin(finite))
+        index = ", ".join(str(int(i)) for i in np.unravel_index(first, shape))
+        name = f"query_points[{index}]" if shape else "query_points"
+        raise ValueError(f"{name}: expected finite coordinates, got {flat[first].tolist()}")
+    return flat, shape
+
+
 def _options(precision: str, device: str) -> None:
     if precision not in _PRECISIONS:
         raise ValueError(f"precision: expected one of {', '.join(_PRECISIONS)}, got {precision!r}")
     if device not in _DEVICES:
         raise ValueError(f"device: expected one of {', '.join(_DEVICES)}, got {device!r}")
+
+
+def _inside_options(nsamples: Any, sign: str) -> int:
+    """`nsamples` checked by Open3D's rule (a positive odd count of rays, so that a majority
+    vote has no ties) and `sign` one of the inside tests."""
+    if (
+        isinstance(nsamples, bool)
+        or not isinstance(nsamples, (int, np.integer))
+        or nsamples < 1
+        or nsamples % 2 == 0
+    ):
+        raise ValueError(f"nsamples: expected a positive odd integer, got {nsamples!r}")
+    if sign not in _SIGNS:
+        raise ValueError(f"sign: expected one of {', '.join(_SIGNS)}, got {sign!r}")
+    return int(nsamples)
+
+
+def _float_dtype(precision: str) -> type:
+    return np.float64 if precision == "f64" else np.float32
 
 
 def _point(value: ArrayLike, name: str) -> list:
@@ -87,9 +226,45 @@ def _point(value: ArrayLike, name: str) -> list:
     return [float(x) for x in array]
 
 
+def _mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
+    """A mesh object's vertex positions and triangle indices: an Open3D tensor mesh
+    (``vertex["positions"]``, ``triangle["indices"]``), a legacy Open3D mesh or any object
+    with ``vertices`` and ``triangles``, or a ``trimesh.Trimesh`` (``vertices``, ``faces``;
+    its ``triangles`` are corner positions, so ``faces`` is asked first)."""
+    if hasattr(mesh, "vertex") and hasattr(mesh, "triangle"):
+        try:
+            return mesh.vertex["positions"], mesh.triangle["indices"]
+        except (KeyError, IndexError, TypeError):
+            # An Open3D mesh without triangles has no "indices" at all.
+            raise ValueError("mesh triangles: the mesh has no triangles") from None
+    for indices in ("faces", "triangles"):
+        if hasattr(mesh, "vertices") and hasattr(mesh, indices):
+            return mesh.vertices, getattr(mesh, indices)
+    raise TypeError(
+        "mesh: expected an Open3D or trimesh triangle mesh, or vertices and triangles arrays, "
+        f"got {type(mesh).__name__}"
+    )
+
+
+def _triangle_indices(triangles: ArrayLike, vertex_count: int, name: str) -> np.ndarray:
+    """`triangles` as a C-contiguous (M, 3) uint32 array of indices below `vertex_count`."""
+    t = _as_numpy(triangles, name)
+    if t.ndim != 2 or t.shape[1] != 3:
+        raise ValueError(f"{name}: expected shape (M, 3), got {t.shape}")
+    if len(t) == 0:
+        raise ValueError(f"{name}: the mesh has no triangles")
+    if not np.issubdtype(t.dtype, np.integer):
+        if not np.issubdtype(t.dtype, np.floating) or not np.all(t == np.floor(t)):
+            raise TypeError(f"{name}: expected integer indices, got dtype {t.dtype}")
+    if t.min() < 0 or t.max() >= vertex_count:
+        bad = int(t.min()) if t.min() < 0 else int(t.max())
+        raise ValueError(f"{name}: index {bad} is out of range ({vertex_count} vertices)")
+    return np.ascontiguousarray(t, dtype=np.uint32)
+
+
 class RaycastingScene:
-    """Objects to cast rays at: triangle meshes, spheres and planes (Open3D's
-    ``RaycastingScene``, plus spheres, planes, precision and device)."""
+    """Objects to cast rays at and measure distances to: triangle meshes, spheres and planes
+    (Open3D's ``RaycastingScene``, plus spheres, planes, precision and device)."""
 
     INVALID_ID: int = 4294967295
 
@@ -102,23 +277,40 @@ class RaycastingScene:
         scene._scene = native
         return scene
 
-    def add_triangles(self, vertices: ArrayLike, triangles: ArrayLike) -> int:
-        """Adds a triangle mesh: ``vertices`` (N, 3) positions, ``triangles`` (M, 3) vertex
-        indices. Returns the geometry id. Raises ValueError on NaN or infinite positions and
-        out-of-range indices."""
-        v = _float_array(vertices, "vertices", 3)
+    def add_triangles(
+        self,
+        vertices: Any = None,
+        triangles: Optional[ArrayLike] = None,
+        *,
+        mesh: Any = None,
+        vertex_positions: Optional[ArrayLike] = None,
+        triangle_indices: Optional[ArrayLike] = None,
+    ) -> int:
+        """Adds a triangle mesh; returns its geometry id (its triangles' indices are the
+        primitive ids). Either ``add_triangles(vertices, triangles)`` (``vertices`` (N, 3)
+        positions, ``triangles`` (M, 3) vertex indices; Open3D's keywords ``vertex_positions``
+        and ``triangle_indices`` too) or ``add_triangles(mesh)``: an Open3D tensor or legacy
+        ``TriangleMesh``, a ``trimesh.Trimesh``, or any object with ``vertices`` and ``faces``
+        or ``triangles``. Raises ValueError on NaN or infinite positions, out-of-range
+        indices and a mesh without triangles, TypeError on indices that are not integers."""
+        if vertex_positions is not None or triangle_indices is not None:
+            if vertices is not None or triangles is not None or mesh is not None:
+                raise TypeError("add_triangles: give vertex_positions and triangle_indices alone")
+            vertices, triangles = vertex_positions, triangle_indices
+        if mesh is not None and (vertices is not None or triangles is not None):
+            raise TypeError("add_triangles: give a mesh or vertices and triangles, not both")
+        if triangles is None:
+            mesh = vertices if mesh is None else mesh
+            if mesh is None:
+                raise TypeError("add_triangles: missing the mesh, or vertices and triangles")
+            vertices, triangles = _mesh_arrays(mesh)
+            names = ("mesh vertices", "mesh triangles")
+        else:
+            names = ("vertices", "triangles")
+        v = _float_array(vertices, names[0], 3)
         if v.ndim != 2:
-            raise ValueError(f"vertices: expected shape (N, 3), got {v.shape}")
-        t = np.asarray(triangles)
-        if t.ndim != 2 or t.shape[1] != 3:
-            raise ValueError(f"triangles: expected shape (M, 3), got {t.shape}")
-        if t.size and not np.issubdtype(t.dtype, np.integer):
-            if not np.issubdtype(t.dtype, np.floating) or not np.all(t == np.floor(t)):
-                raise TypeError(f"triangles: expected integer indices, got dtype {t.dtype}")
-        if t.size and (t.min() < 0 or t.max() >= len(v)):
-            bad = int(t.min()) if t.min() < 0 else int(t.max())
-            raise ValueError(f"triangles: index {bad} is out of range ({len(v)} vertices)")
-        t = np.ascontiguousarray(t, dtype=np.uint32)
+            raise ValueError(f"{names[0]}: expected shape (N, 3), got {v.shape}")
+        t = _triangle_indices(triangles, len(v), names[1])
         return self._scene.add_triangles(v, t)
 
     def add_sphere(self, center: ArrayLike, radius: float) -> int:
@@ -131,22 +323,17 @@ class RaycastingScene:
         return self._scene.add_plane(_point(point, "point"), _point(normal, "normal"))
 
     def cast_rays(
-        self, rays: ArrayLike, precision: str = "f32", device: str = "gpu"
-    ) -> Dict[str, np.ndarray]:
+        self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"
+    ) -> Dict[str, Array]:
         """The nearest hit of each ray (``t >= 0``): a dict of ``t_hit`` (inf on a miss),
         ``geometry_ids`` and ``primitive_ids`` (uint32, ``INVALID_ID`` on a miss),
         ``primitive_uvs`` (..., 2) and ``primitive_normals`` (..., 3), with the rays'
-        leading dimensions. float32 for f32 and adaptive, float64 for f64."""
+        leading dimensions. float32 for f32 and adaptive, float64 for f64. ``nthreads`` is
+        accepted for Open3D compatibility and ignored."""
         _options(precision, device)
         flat, shape, width = _rays(rays)
         out = self._scene.cast(flat, width, precision, device)
-        return {
-            "t_hit": out["t_hit"].reshape(shape),
-            "geometry_ids": out["geometry_ids"].reshape(shape),
-            "primitive_ids": out["primitive_ids"].reshape(shape),
-            "primitive_uvs": out["primitive_uvs"].reshape(shape + (2,)),
-            "primitive_normals": out["primitive_normals"].reshape(shape + (3,)),
-        }
+        return _results(out, shape, _HIT_FIELDS)
 
     def test_occlusions(
         self,
@@ -156,23 +343,136 @@ class RaycastingScene:
         nthreads: int = 0,
         precision: str = "f32",
         device: str = "gpu",
-    ) -> np.ndarray:
+    ) -> Array:
         """Whether each ray hits anything with ``tnear <= t <= tfar`` (bool, the rays' leading
         shape). ``nthreads`` is accepted for Open3D compatibility and ignored."""
         _options(precision, device)
         flat, shape, width = _rays(rays)
         hit = self._scene.occluded(flat, width, (float(tnear), float(tfar)), precision, device)
-        return hit.reshape(shape)
+        return _result(hit, shape)
 
     def count_intersections(
         self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"
-    ) -> np.ndarray:
-        """How many surfaces each ray crosses (``t >= 0``; int32, the rays' leading shape):
-        a mesh's triangles once each, a sphere twice from outside and once from inside."""
+    ) -> Array:
+        """How many surfaces each ray crosses (``t >= 0``; int32, the rays' leading shape),
+        as Open3D counts them: a mesh's triangles once each, a crossing through an edge or
+        corner that triangles of one mesh share once (so that an odd count means the ray
+        started inside a closed mesh), a sphere twice from outside and once from inside.
+        Counted by the CPU reference, from ``list_intersections``'s hits."""
         _options(precision, device)
         flat, shape, _ = _rays(rays)
-        counts = self._scene.count(flat, precision, device)
-        return counts.view(np.int32).reshape(shape)
+        splits = self._scene.list_intersections(flat, precision, device)["ray_splits"]
+        return _result(np.diff(splits.astype(np.int64)).astype(np.int32), shape)
+
+    def list_intersections(
+        self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"
+    ) -> Dict[str, Array]:
+        """Every hit of every ray (``t >= 0``), as Open3D lists them: the rays are flattened
+        (ray ``i`` is row ``i`` of ``rays.reshape(-1, 6)``) and the hits of ray ``i`` are
+        entries ``ray_splits[i]:ray_splits[i + 1]`` of ``ray_ids``, ``t_hit``,
+        ``geometry_ids``, ``primitive_ids`` (uint32) and ``primitive_uvs`` (k, 2), nearest
+        first. ``ray_splits`` (uint32) has one entry more than there are rays."""
+        _options(precision, device)
+        flat, _, _ = _rays(rays)
+        out = self._scene.list_intersections(flat, precision, device)
+        results = {"ray_splits": _result(out["ray_splits"], (-1,))}
+        results.update(_results(out, (-1,), _LIST_FIELDS))
+        return results
+
+    def compute_closest_points(
+        self,
+        query_points: ArrayLike,
+        nthreads: int = 0,
+        precision: str = "f32",
+        device: str = "gpu",
+    ) -> Dict[str, Array]:
+        """The closest point on the scene's surfaces to each query point (shape (..., 3)): a
+        dict of ``points`` (..., 3), ``geometry_ids`` and ``primitive_ids`` (uint32;
+        ``INVALID_ID`` where the scene is empty), ``primitive_uvs`` (..., 2, the point's
+        barycentric coordinates in its triangle) and ``primitive_normals`` (..., 3), with the
+        points' leading dimensions. float32 for f32 and adaptive, float64 for f64."""
+        _options(precision, device)
+        flat, shape = _query_points(query_points)
+        out = self._scene.closest(flat, precision, device)
+        return _results(out, shape, _CLOSEST_FIELDS)
+
+    def compute_distance(
+        self,
+        query_points: ArrayLike,
+        nthreads: int = 0,
+        precision: str = "f32",
+        device: str = "gpu",
+    ) -> Array:
+        """The distance from each query point (shape (..., 3)) to the nearest surface, with
+        the points' leading dimensions."""
+        _options(precision, device)
+        flat, shape = _query_points(query_points)
+        return _result(self._scene.closest(flat, precision, device)["distance"], shape)
+
+    def compute_signed_distance(
+        self,
+        query_points: ArrayLike,
+        nthreads: int = 0,
+        nsamples: int = 1,
+        sign: str = "parity",
+        precision: str = "f32",
+        device: str = "gpu",
+    ) -> Array:
+        """The distance from each query point to the nearest surface, negative inside (see
+        ``compute_occupancy`` for ``nsamples`` and ``sign``), with the points' leading
+        dimensions."""
+        _options(precision, device)
+        nsamples = _inside_options(nsamples, sign)
+        flat, shape = _query_points(query_points)
+        distance = self._scene.closest(flat, precision, device)["distance"]
+        inside = self._scene.inside(flat, sign, nsamples, precision, device)
+        return _result(np.where(inside, -distance, distance), shape)
+
+    def compute_occupancy(
+        self,
+        query_points: ArrayLike,
+        nthreads: int = 0,
+        nsamples: int = 1,
+        sign: str = "parity",
+        precision: str = "f32",
+        device: str = "gpu",
+    ) -> Array:
+        """1.0 where a query point is inside the scene's closed surfaces, 0.0 outside (float32
+        as Open3D's, float64 for f64), with the points' leading dimensions.
+
+        ``sign="parity"`` (Open3D's test) counts the surfaces a ray from the point crosses:
+        odd is inside. ``nsamples`` (a positive odd number) rays in different directions
+        vote, for points whose ray grazes an edge. It assumes closed meshes that do not
+        intersect each other. ``sign="winding"`` (not in Open3D) is inside where the
+        generalized winding number (``compute_winding_number``) is over 0.5: right for
+        meshes with holes, overlapping parts or doubled faces where parity fails; it ignores
+        ``nsamples``."""
+        _options(precision, device)
+        nsamples = _inside_options(nsamples, sign)
+        flat, shape = _query_points(query_points)
+        inside = self._scene.inside(flat, sign, nsamples, precision, device)
+        return _result(inside.astype(_float_dtype(precision)), shape)
+
+    def compute_winding_number(
+        self,
+        query_points: ArrayLike,
+        nthreads: int = 0,
+        precision: str = "f32",
+        device: str = "gpu",
+    ) -> Array:
+        """The generalized winding number of the scene at each query point (not in Open3D;
+        float64, the points' leading dimensions): the solid angle the triangles subtend seen
+        from the point over 4 pi, positive where a triangle's normal (by its corner order)
+        faces away. 1 inside and 0 outside a closed mesh whose normals face out, and in
+        between near holes, so that a threshold at 0.5 tells the sides of meshes that are
+        not closed apart (Jacobson et al., "Robust Inside-Outside Segmentation using
+        Generalized Winding Numbers", 2013). A sphere counts 1 inside, a plane 1 behind its
+        normal. Computed on the CPU in f64 whatever ``precision`` and ``device`` say:
+        exactly for the triangles near the point, by the dipoles of far groups of them
+        (Barill et al. 2018)."""
+        _options(precision, device)
+        flat, shape = _query_points(query_points)
+        return _result(self._scene.winding(flat, precision, device), shape)
 
     def render(
         self,
@@ -194,18 +494,14 @@ class RaycastingScene:
             precision, device, lit, None if shader is None else os.fspath(shader)
         )
         shape = (out["height"], out["width"])
-        images = {
-            "id": out["id"].reshape(shape),
-            "distance": out["distance"].reshape(shape),
-            "normal": out["normal"].reshape(shape + (3,)),
-        }
-        if "color" in out:
-            images["color"] = out["color"].reshape(shape + (4,))
+        fields = {"id": (), "distance": (), "normal": (3,), "color": (4,)}
+        images: Dict[str, Any] = _results(out, shape, {k: fields[k] for k in fields if k in out})
+        if "hook_rays" in out:
             images["hook_rays"] = out["hook_rays"]
         return images
 
     @staticmethod
-    def create_rays_pinhole(*args: Any, **kwargs: Any) -> np.ndarray:
+    def create_rays_pinhole(*args: Any, **kwargs: Any) -> Array:
         """Rays of a pinhole camera, shape (height_px, width_px, 6) float32, as Open3D makes
         them: ``create_rays_pinhole(fov_deg, center, eye, up, width_px, height_px)`` (fov
         horizontal, looking from ``eye`` at ``center``) or ``create_rays_pinhole(
@@ -215,7 +511,7 @@ class RaycastingScene:
         names_k = ("intrinsic_matrix", "extrinsic_matrix", "width_px", "height_px")
         if "intrinsic_matrix" in kwargs or (len(args) + len(kwargs) == 4):
             values = _bind(names_k, args, kwargs)
-            return _pinhole(*values)
+            return _pinhole(*values).view(Array)
         values = _bind(names_fov, args, kwargs)
         fov, center, eye, up, width, height = values
         fov = float(fov)
@@ -224,7 +520,7 @@ class RaycastingScene:
         width, height = _size(width, height)
         focal = 0.5 * width / math.tan(math.radians(fov) / 2.0)
         intrinsic = np.array([[focal, 0, 0.5 * width], [0, focal, 0.5 * height], [0, 0, 1]])
-        return _pinhole(intrinsic, _look_at(center, eye, up), width, height)
+        return _pinhole(intrinsic, _look_at(center, eye, up), width, height).view(Array)
 
 
 def _bind(names: tuple, args: tuple, kwargs: dict) -> list:

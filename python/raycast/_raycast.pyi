@@ -35,6 +35,35 @@ class Scene:
         precision: str,
         device: str,
     ) -> npt.NDArray[np.uint32]: ...
+    def list_intersections(
+        self,
+        rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
+        precision: str,
+        device: str,
+    ) -> Dict[str, np.ndarray]:
+        """Every hit of every ray, nearest first: flat ``ray_splits`` (n + 1, uint32),
+        ``ray_ids``, ``t_hit``, ``geometry_ids``, ``primitive_ids`` (k) and ``primitive_uvs``
+        (2k)."""
+    def closest(
+        self, points: npt.NDArray[np.float64], precision: str, device: str
+    ) -> Dict[str, np.ndarray]:
+        """The closest surface point to each (n, 3) point: flat ``points`` (3n), ``distance``
+        (n), ``geometry_ids``, ``primitive_ids`` (n, uint32), ``primitive_uvs`` (2n) and
+        ``primitive_normals`` (3n); float64 for f64, else float32."""
+    def winding(
+        self, points: npt.NDArray[np.float64], precision: str, device: str
+    ) -> npt.NDArray[np.float64]:
+        """The generalized winding number at each (n, 3) point."""
+    def inside(
+        self,
+        points: npt.NDArray[np.float64],
+        sign: str,
+        nsamples: int,
+        precision: str,
+        device: str,
+    ) -> npt.NDArray[np.bool_]:
+        """Whether each (n, 3) point is inside: ``sign`` "parity" (``nsamples`` rays vote)
+        or "winding"."""
     def render(
         self, precision: str, device: str, lit: bool = ..., shader: Optional[str] = ...
     ) -> Dict[str, Any]: ...

@@ -1,6 +1,7 @@
 //! Every hit along a ray (`list_intersections`): each primitive the ray crosses from `min_t`
 //! on, through the BVH where there is one (every box the ray meets is opened, as in
-//! [`super::count`]), in order of t. CPU only: the GPU counts crossings (shaders/count.wgsl) but
+//! [`super::count`]), in order of t, a crossing through an edge or corner that triangles of one
+//! object share listed once. CPU only: the GPU counts crossings (shaders/count.wgsl) but
 //! does not list them.
 
 use super::count::for_each_leaf;
@@ -9,7 +10,7 @@ use super::nearest::{hit_details, primitive_key};
 use super::plane::intersect_plane;
 use super::sphere::{intersect_sphere, sphere_crossings};
 use super::triangle::intersect_triangle;
-use crate::kernel::types::{Ray, Shear, no_hit, shear_of};
+use crate::kernel::types::{Ray, Shear, no_hit, shear_of, t_tolerance};
 use crate::math::Real;
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{SPHERE_LEAF, leaf_len};
@@ -20,6 +21,7 @@ use crate::prepare::bvh::{SPHERE_LEAF, leaf_len};
 pub(crate) struct EveryHit<T> {
     pub t: T,
     pub object: i32,
+    pub kind: u32,
     pub key: u32,
     pub uv: [T; 2],
 }
@@ -45,6 +47,7 @@ pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
             hits.push(EveryHit {
                 t: details.t,
                 object: hit.object,
+                kind,
                 key,
                 uv: details.uv,
             });
@@ -81,7 +84,26 @@ pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
             .partial_cmp(&(b.t.to_f64(), b.object, b.key))
             .expect("hit distances are numbers")
     });
-    hits
+    merge_shared_crossings(hits)
+}
+
+/// `hits` (ordered by t) with each crossing of an edge or corner that several triangles of one
+/// object share listed once, by its first triangle: a hit of the same object within the
+/// error bound of a computed t (`t_tolerance`) of the one kept before it. Open3D merges hits of
+/// one object at the same t alike, so that a ray's parity says inside or outside.
+fn merge_shared_crossings<T: Real>(hits: Vec<EveryHit<T>>) -> Vec<EveryHit<T>> {
+    let mut kept: Vec<EveryHit<T>> = Vec::with_capacity(hits.len());
+    for h in hits {
+        let shared = kept
+            .iter()
+            .rev()
+            .take_while(|k| h.t - k.t <= t_tolerance::<T>() * h.t.abs());
+        let triangle = |k: &EveryHit<T>| k.kind == KIND_TRIANGLE && k.object == h.object;
+        if h.kind != KIND_TRIANGLE || !shared.into_iter().any(triangle) {
+            kept.push(h);
+        }
+    }
+    kept
 }
 
 fn triangle_hit<T: Real, const ROBUST: bool>(

@@ -41,11 +41,8 @@ use crate::render::{Cpu, Device, Mode, Precision};
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 
-mod every_hit;
-mod points;
-
-pub use every_hit::Intersections;
-pub use points::{Closest, Sign};
+pub(crate) mod every_hit;
+pub(crate) mod points;
 
 /// Objects to cast rays at, without a camera: triangle meshes, spheres and planes, each with
 /// its id (its index, in the order added). [`Gpu::commit`] and [`Cpu::commit`] prepare it for
@@ -254,11 +251,6 @@ impl<'d> Accel<'d> {
         Ok(Accel { scene, gpu, mode })
     }
 
-    /// The precision queries run in.
-    pub fn precision(&self) -> Precision {
-        self.mode.precision
-    }
-
     /// The nearest hit of every ray (`t >= 0`). On the GPU, coherent rays (neighbours in the
     /// list start close together and point nearly the same way) are traced in packets sharing
     /// node fetches, others one by one.
@@ -277,8 +269,10 @@ impl<'d> Accel<'d> {
             .occluded(self.gpu, self.mode, rays.into(), t_near, t_far)
     }
 
-    /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each, a sphere
-    /// twice from outside and once from inside. Adaptive precision counts in f64.
+    /// How many surfaces each ray crosses (`t >= 0`): a mesh's triangles once each (a ray
+    /// through an edge two triangles share counts both; [`Accel::every_hit`] lists such a
+    /// crossing once), a sphere twice from outside and once from inside. Adaptive precision
+    /// counts in f64.
     pub fn count<'a>(&self, rays: impl Into<RayList<'a>>) -> Result<Vec<u32>> {
         self.scene.count(self.gpu, self.mode, rays.into())
     }

@@ -44,9 +44,10 @@ pub struct Closest {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Sign {
     /// Open3D's rule: a point is inside where a ray from it crosses the surfaces an odd number
-    /// of times, along (1, 1, 1), or by the majority of `samples` rays (odd: (1, 1, 1) and
-    /// directions from a fixed random sequence). Wrong where a ray grazes an edge and on meshes
-    /// that are not closed.
+    /// of times ([`Accel::every_hit`]'s crossings: one through an edge two triangles share),
+    /// along (1, 1, 1), or by the majority of `samples` rays (odd: (1, 1, 1) and directions
+    /// from a fixed random sequence). Counted by the CPU reference. Wrong where a ray grazes a
+    /// silhouette edge and on meshes that are not closed.
     Parity {
         /// How many rays vote (odd).
         samples: u32,
@@ -134,9 +135,10 @@ impl Accel<'_> {
                 .iter()
                 .map(|&origin| Ray { origin, direction })
                 .collect();
-            let counts = self.count(&rays[..])?;
-            for (v, c) in votes.iter_mut().zip(counts) {
-                *v += c % 2;
+            // Crossings as every_hit lists them: one where a ray passes through an edge.
+            let splits = self.every_hit(&rays[..])?.ray_splits;
+            for (v, s) in votes.iter_mut().zip(splits.windows(2)) {
+                *v += ((s[1] - s[0]) % 2) as u32;
             }
         }
         Ok(votes.into_iter().map(|v| 2 * v > samples).collect())

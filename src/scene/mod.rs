@@ -355,18 +355,6 @@ impl Scene {
             })
             .fold(camera, f64::max)
     }
-
-    /// Total number of triangles (loose triangles plus soups).
-    pub fn triangle_count(&self) -> usize {
-        self.objects
-            .iter()
-            .map(|o| match o {
-                Object::Triangle { .. } => 1,
-                Object::Soup { triangles, .. } => triangles.len(),
-                _ => 0,
-            })
-            .sum()
-    }
 }
 
 #[cfg(test)]
@@ -376,7 +364,7 @@ mod tests {
     #[test]
     fn default_scene_loads() {
         let scene = Scene::default_scene();
-        assert!(scene.triangle_count() >= 1000);
+        assert!(scene.primitive_counts()[2] >= 1000);
         assert_eq!(scene.camera.resolution, DEFAULT_RESOLUTION);
     }
 }

@@ -349,3 +349,49 @@ fn bad_point_queries_name_their_argument() {
     let even = accel.inside(&[[0.0; 3]], raycast::Sign::Parity { samples: 2 });
     assert!(message(even.unwrap_err()).contains("samples"));
 }
+
+/// The unit cube as 12 outward-facing triangles, each face split along a diagonal.
+fn unit_cube() -> Geometry {
+    let v: Vec<[f64; 3]> = (0..8)
+        .map(|k| [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64])
+        .collect();
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles: Vec<[u32; 3]> = faces
+        .iter()
+        .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+        .collect();
+    let mut geometry = Geometry::new();
+    geometry.add_mesh(&v, &triangles).unwrap();
+    geometry
+}
+
+/// A ray through an edge that two triangles share, or along a face's diagonal, crosses the
+/// surface once there (Open3D's count on the same rays: 1, 2 and 2), so that parity along
+/// (1, 1, 1) puts points inside the cube with x = y inside.
+#[test]
+fn a_ray_through_a_shared_edge_crosses_once() {
+    let cube = unit_cube();
+    let rays = [
+        ([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
+        ([1.5, 0.5, 0.5], [-1.0, 0.0, 0.0]),
+        ([0.5, 0.5, 0.25], [1.0, 1.0, 1.0]),
+    ]
+    .map(|(origin, direction)| raycast::Ray { origin, direction });
+    for m in ["cpu:f64:robust", "gpu:f32:robust", "cpu:f32:textbook"] {
+        let accel = raycast::commit_mode(Some(gpu()), &cube, mode(m)).unwrap();
+        let splits = accel.every_hit(&rays[..]).unwrap().ray_splits;
+        assert_eq!(splits, [0, 2, 4, 5], "{m}");
+        let points = [[0.5, 0.5, 0.25], [0.2, 0.2, 0.9], [1.5, 1.5, 0.5]];
+        let inside = accel
+            .inside(&points, raycast::Sign::Parity { samples: 1 })
+            .unwrap();
+        assert_eq!(inside, [true, true, false], "{m}");
+    }
+}

@@ -364,7 +364,7 @@ fn workloads_are_scene_files() {
     }
     let torus = raycast::Scene::load(&dir.path().join("torus.json")).unwrap();
     let [nu, nv] = raycast_cli::study::workload::torus_grid(5000);
-    assert_eq!(torus.triangle_count(), 2 * nu * nv);
+    assert_eq!(torus.primitive_counts()[2], 2 * nu * nv);
     assert_eq!(torus.camera.resolution, [64, 36]);
     let spheres = raycast::Scene::load(&dir.path().join("spheres.json")).unwrap();
     assert_eq!(spheres.primitive_counts(), [100, 0, 0]);
