@@ -697,7 +697,9 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                     };
                     let traversals = &traversals[..if probe.uses_packets() { 4 } else { 2 }];
                     for &(bvh, packets, eight_lanes) in traversals {
-                        for chunks in [1, 2, MAX_CHUNKS] {
+                        // Closest-point kernels share the chunked loads: one and all chunks.
+                        let chunk_counts = [1, 2, MAX_CHUNKS].into_iter();
+                        for chunks in chunk_counts.filter(|&c| !closest || c != 2) {
                             v.push(Variant {
                                 bvh,
                                 packets,
