@@ -2,7 +2,8 @@
 # The whole test suite: the Rust tests (`cargo test`, arguments passed on) and docs, then the
 # Python package's pytest suite in a virtual environment, target/py-venv. Needs a Vulkan adapter
 # (lavapipe is enough: scripts/install-vulkan.sh), Python 3.9+ with venv and pip, and PyPI for
-# pytest, numpy and OpenEXR (which reads render.exr in python/tests/test_files.py).
+# pytest, numpy, OpenEXR (which reads render.exr in python/tests/test_files.py), and trimesh
+# with rtree (python/tests/test_queries.py runs trimesh's own intersector beside raycast's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
