@@ -440,9 +440,10 @@ class RaycastingScene:
         """1.0 where a query point is inside the scene's closed surfaces, 0.0 outside (float32
         as Open3D's, float64 for f64), with the points' leading dimensions.
 
-        ``sign="parity"`` (Open3D's test) counts the surfaces a ray from the point crosses:
-        odd is inside. ``nsamples`` (a positive odd number) rays in different directions
-        vote, for points whose ray grazes an edge. It assumes closed meshes that do not
+        ``sign="parity"`` (Open3D's test, along Open3D 0.20's directions, each within 0.001
+        of (1, 1, 1)) counts the surfaces a ray from the point crosses: odd is inside.
+        ``nsamples`` (a positive odd number) rays in different directions vote, for points
+        whose ray passes within rounding of an edge. It assumes closed meshes that do not
         intersect each other. ``sign="winding"`` (not in Open3D) is inside where the
         generalized winding number (``compute_winding_number``) is over 0.5: right for
         meshes with holes, overlapping parts or doubled faces where parity fails; it ignores

@@ -24,9 +24,11 @@ Where it differs from trimesh's:
 - Multiple hits are every crossing with ``t >= 0``, in order along each ray, found in one
   query rather than by restarting rays past each hit (trimesh's embree intersector) or by
   tolerances (its pure-Python one, which also counts hits up to 1e-6 behind the origin).
-- A ray through an edge or a vertex hits each face there: ``intersects_id`` lists each of
-  them, as trimesh's ``ray_triangle`` does, and ``intersects_location`` (and ``intersects_id``
-  with ``return_locations``) the point once, as both of trimesh's do.
+- A ray that passes through an edge or a vertex crosses the surface once there:
+  ``intersects_id`` lists one of the faces that meet there (trimesh's ``ray_triangle`` lists
+  each), and a ray that only touches the surface there enters and leaves, two hits at one point;
+  ``intersects_location`` (and ``intersects_id`` with ``return_locations``) give each point
+  once, as both of trimesh's do.
 - A ray whose direction is zero or not finite hits nothing, where raycast's own queries
   refuse it.
 

@@ -11,7 +11,7 @@ use super::plane::intersect_plane;
 use super::sphere::{intersect_sphere, sphere_crossings};
 use super::triangle::intersect_triangle;
 use crate::kernel::types::{Ray, Shear, no_hit, shear_of, t_tolerance};
-use crate::math::Real;
+use crate::math::{Real, dot};
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{SPHERE_LEAF, leaf_len};
 
@@ -24,6 +24,8 @@ pub(crate) struct EveryHit<T> {
     pub kind: u32,
     pub key: u32,
     pub uv: [T; 2],
+    /// The ray meets the primitive's front (its normal faces the ray): it enters there.
+    pub entering: bool,
 }
 
 /// Every hit of `ray` from `min_t` on, ordered by t (ties by object, then primitive).
@@ -50,6 +52,7 @@ pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
                 kind,
                 key,
                 uv: details.uv,
+                entering: dot(details.normal, ray.direction) < T::ZERO,
             });
         }
     };
@@ -88,9 +91,12 @@ pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
 }
 
 /// `hits` (ordered by t) with each crossing of an edge or corner that several triangles of one
-/// object share listed once, by its first triangle: a hit of the same object within the
-/// error bound of a computed t (`t_tolerance`) of the one kept before it. Open3D merges hits of
-/// one object at the same t alike, so that a ray's parity says inside or outside.
+/// object share listed once, by its first triangle: a triangle hit is left out where one of
+/// the same object, met from the same side, was kept within the error bound of a computed t
+/// (`t_tolerance`) before it. A ray that only touches the surface at an edge or corner meets
+/// triangles there from both sides and keeps one of each: it enters and leaves, and its parity
+/// is unchanged. Open3D merges hits of one object at the same t, so that a ray's parity says
+/// inside or outside.
 fn merge_shared_crossings<T: Real>(hits: Vec<EveryHit<T>>) -> Vec<EveryHit<T>> {
     let mut kept: Vec<EveryHit<T>> = Vec::with_capacity(hits.len());
     for h in hits {
@@ -98,8 +104,10 @@ fn merge_shared_crossings<T: Real>(hits: Vec<EveryHit<T>>) -> Vec<EveryHit<T>> {
             .iter()
             .rev()
             .take_while(|k| h.t - k.t <= t_tolerance::<T>() * h.t.abs());
-        let triangle = |k: &EveryHit<T>| k.kind == KIND_TRIANGLE && k.object == h.object;
-        if h.kind != KIND_TRIANGLE || !shared.into_iter().any(triangle) {
+        let same_crossing = |k: &EveryHit<T>| {
+            k.kind == KIND_TRIANGLE && k.object == h.object && k.entering == h.entering
+        };
+        if h.kind != KIND_TRIANGLE || !shared.into_iter().any(same_crossing) {
             kept.push(h);
         }
     }

@@ -45,9 +45,10 @@ pub struct Closest {
 pub enum Sign {
     /// Open3D's rule: a point is inside where a ray from it crosses the surfaces an odd number
     /// of times ([`Accel::every_hit`]'s crossings: one through an edge two triangles share),
-    /// along (1, 1, 1), or by the majority of `samples` rays (odd: (1, 1, 1) and directions
-    /// from a fixed random sequence). Counted by the CPU reference. Wrong where a ray grazes a
-    /// silhouette edge and on meshes that are not closed.
+    /// or by the majority of `samples` rays (odd), along Open3D 0.20's directions (close to
+    /// (1, 1, 1), each coordinate within 0.001 of 1, from its seeded generator). Counted by the
+    /// CPU reference. Wrong on meshes that are not closed, and may be where a ray passes
+    /// within rounding of an edge.
     Parity {
         /// How many rays vote (odd).
         samples: u32,
@@ -145,25 +146,57 @@ impl Accel<'_> {
     }
 }
 
-/// The directions of [`Sign::Parity`]'s rays: (1, 1, 1) (Open3D's), then directions uniform on
-/// the sphere from a fixed sequence (SplitMix64), the same in every call.
+/// The directions of [`Sign::Parity`]'s rays, Open3D 0.20's (`VoteInsideOutside`): each
+/// coordinate `1 + u` in f32, `u` uniform in [-0.001, 0.001] from a Mersenne Twister seeded 42,
+/// drawn as libstdc++'s `uniform_real_distribution<float>` draws (one 32-bit output over 2^32,
+/// below 1), three a direction. Open3D's own rays, so that parity decides as it does.
 fn parity_directions(samples: u32) -> Vec<[f64; 3]> {
-    let mut state = 0x5EED_u64;
-    let mut unit = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    let mut twister = Mt19937::new(42);
+    let mut coordinate = || {
+        let u = (twister.next_u32() as f32 / 4_294_967_296.0_f32).min(1.0 - f32::EPSILON / 2.0);
+        let (low, high) = (-0.001_f32, 0.001_f32);
+        f64::from(1.0 + (u * (high - low) + low))
     };
-    let mut directions = vec![[1.0, 1.0, 1.0]];
-    while directions.len() < samples as usize {
-        let z = 2.0 * unit() - 1.0;
-        let phi = std::f64::consts::TAU * unit();
-        let s = (1.0 - z * z).sqrt();
-        directions.push([s * phi.cos(), s * phi.sin(), z]);
+    (0..samples)
+        .map(|_| [coordinate(), coordinate(), coordinate()])
+        .collect()
+}
+
+/// The 32-bit Mersenne Twister (Matsumoto and Nishimura 1998), C++'s `std::mt19937`.
+struct Mt19937 {
+    state: [u32; 624],
+    next: usize,
+}
+
+impl Mt19937 {
+    fn new(seed: u32) -> Mt19937 {
+        let mut state = [0u32; 624];
+        state[0] = seed;
+        for i in 1..624 {
+            let previous = state[i - 1];
+            state[i] = 1_812_433_253u32
+                .wrapping_mul(previous ^ (previous >> 30))
+                .wrapping_add(i as u32);
+        }
+        Mt19937 { state, next: 624 }
     }
-    directions
+
+    fn next_u32(&mut self) -> u32 {
+        if self.next == 624 {
+            for i in 0..624 {
+                let y = (self.state[i] & 0x8000_0000) | (self.state[(i + 1) % 624] & 0x7fff_ffff);
+                let twisted = (y >> 1) ^ if y & 1 != 0 { 0x9908_b0df } else { 0 };
+                self.state[i] = self.state[(i + 397) % 624] ^ twisted;
+            }
+            self.next = 0;
+        }
+        let mut y = self.state[self.next];
+        self.next += 1;
+        y ^= y >> 11;
+        y ^= (y << 7) & 0x9d2c_5680;
+        y ^= (y << 15) & 0xefc6_0000;
+        y ^ (y >> 18)
+    }
 }
 
 impl RayScene {
@@ -319,5 +352,29 @@ fn surface_normal(object: &Object, primitive: u32, point: Vec3<f64>) -> Vec3<f64
             let c = &triangles[primitive as usize];
             unit(cross(c[1] - c[0], c[2] - c[0]))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The C++ standard's check of `std::mt19937` ([rand.predef]): seeded 5489, its 10000th
+    /// output is 4123659995.
+    #[test]
+    fn the_twister_is_cpp_mt19937() {
+        let mut twister = Mt19937::new(5489);
+        let last = (0..10_000).map(|_| twister.next_u32()).last();
+        assert_eq!(last, Some(4_123_659_995));
+    }
+
+    /// Open3D 0.20's first parity direction, as its occupancy answers showed it
+    /// (benches/open3d_queries.py, `open3d_directions`): every coordinate within 0.001 of 1.
+    #[test]
+    fn parity_directions_are_open3ds() {
+        let d = parity_directions(3);
+        let first = d[0].map(|x| x as f32);
+        assert_eq!(first, [0.999_749_06, 1.000_593_1, 1.000_901_5]);
+        assert!(d.iter().flatten().all(|x| (x - 1.0).abs() <= 0.001));
     }
 }
