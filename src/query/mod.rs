@@ -385,14 +385,9 @@ impl RayScene {
         let hits = match mode.precision {
             Precision::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
             Precision::F64 | Precision::Adaptive => {
-                let mode = match (mode.device, gpu) {
-                    (Device::Gpu, Some(g)) if !g.has_f64() => Mode {
-                        device: Device::Cpu,
-                        ..mode
-                    },
-                    _ => mode,
-                };
-                self.run::<f64>(gpu, mode, rays, 0.0, true)?.0.count
+                self.run::<f64>(gpu, f64_mode(mode, gpu), rays, 0.0, true)?
+                    .0
+                    .count
             }
         };
         Ok(hits)
@@ -575,6 +570,17 @@ impl RayScene {
             AnyHits::F64(h) => fix(&h.id, &mut h.primitive),
         }
         hits
+    }
+}
+
+/// `mode` for a pass in f64: on the CPU reference where the GPU has no f64.
+fn f64_mode(mode: Mode, gpu: Option<&Gpu>) -> Mode {
+    match (mode.device, gpu) {
+        (Device::Gpu, Some(g)) if !g.has_f64() => Mode {
+            device: Device::Cpu,
+            ..mode
+        },
+        _ => mode,
     }
 }
 

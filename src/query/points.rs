@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::{Accel, CastReal, RayScene, first_primitives};
+use super::{Accel, CastReal, RayScene, f64_mode, first_primitives};
 use crate::algorithm::Algorithm;
 use crate::error::Result;
 use crate::gpu::{self, Gpu, Job};
@@ -238,16 +238,9 @@ impl RayScene {
             })
             .collect();
         let rays = RayList::from(&rays[..]);
-        match (mode.precision, mode.device, gpu) {
-            (Precision::F64, Device::Gpu, Some(g)) if !g.has_f64() => {
-                let cpu = Mode {
-                    device: Device::Cpu,
-                    ..mode
-                };
-                self.closest_in::<f64>(gpu, cpu, rays)
-            }
-            (Precision::F64, ..) => self.closest_in::<f64>(gpu, mode, rays),
-            _ => self.closest_in::<f32>(gpu, mode, rays),
+        match mode.precision {
+            Precision::F64 => self.closest_in::<f64>(gpu, f64_mode(mode, gpu), rays),
+            Precision::F32 | Precision::Adaptive => self.closest_in::<f32>(gpu, mode, rays),
         }
     }
 

@@ -21,6 +21,16 @@ fn closest(geometry: &Geometry, mode: Mode, points: &[[f64; 3]]) -> Closest {
         .unwrap()
 }
 
+/// `random_scene(seed / 2)`, for odd seeds without its mesh: spheres, maybe a plane and loose
+/// triangles, too few for a BVH (brute force).
+fn random_scene_of(seed: u64) -> Scene {
+    let mut scene = random_scene(seed / 2, [4, 4]);
+    if seed % 2 == 1 {
+        scene.objects.retain(|o| !matches!(o, Object::Soup { .. }));
+    }
+    scene
+}
+
 /// Random points around the scene, some on its objects' corners and centres.
 fn query_points(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<[f64; 3]> {
     let mut corners = Vec::new();
@@ -117,11 +127,7 @@ fn closest_points_are_the_brute_force_ones() {
 #[test]
 fn gpu_closest_points_equal_the_cpu_mirror() {
     for seed in 0..6 {
-        let mut scene = random_scene(seed / 2, [4, 4]);
-        if seed % 2 == 1 {
-            // Spheres, a plane and loose triangles, too few for a BVH: brute force.
-            scene.objects.retain(|o| !matches!(o, Object::Soup { .. }));
-        }
+        let scene = random_scene_of(seed);
         let geometry = Geometry::from_scene(&scene);
         let points = query_points(&scene, &mut Rng(90 + seed), 3000);
         let exact = closest(&geometry, mode("cpu:f64:robust"), &points);
@@ -299,10 +305,7 @@ fn winding_numbers_of_an_open_mesh_match_the_exact_sum() {
 #[test]
 fn every_hit_lists_what_count_counts() {
     for seed in 0..4 {
-        let mut scene = random_scene(seed / 2, [4, 4]);
-        if seed % 2 == 1 {
-            scene.objects.retain(|o| !matches!(o, Object::Soup { .. }));
-        }
+        let scene = random_scene_of(seed);
         let geometry = Geometry::from_scene(&scene);
         let mut rng = Rng(300 + seed);
         let rays: Vec<raycast::Ray> = (0..2000)
