@@ -3,7 +3,7 @@
 and the colours, PNG written with zlib; no plotting library):
 
     docs/images/distance-slice.png   signed distance on a plane through the benchmark torus
-    docs/images/distance-signs.png   inside by ray parity and by winding number, three meshes
+    docs/images/distance-signs.png   inside by ray parity and by winding number, three scenes
 
 Needs numpy and raycast importable (`pip install ./python`, or PYTHONPATH to a folder holding
 the package, as benches/open3d_queries.py describes), and ../shared/bench/peer_bench.py for
@@ -64,14 +64,6 @@ def plane(u_range, v_range, size, at, axes):
     return points, (u_range[1] - u_range[0]) / w
 
 
-def grid_plane(lo, n, step, at):
-    """A slice of z = `at` whose pixel centres are exact multiples of `step` from `lo` (so that
-    rays along (1, 1, 1) from them pass exactly through a box's edges and corners)."""
-    k = lo + np.arange(n) * step
-    xx, yy = np.meshgrid(k, k[::-1])
-    return np.stack([xx, yy, np.full_like(xx, at)], axis=-1), step
-
-
 def contour(values, level, pixel):
     """Where `values` crosses `level` within about one pixel (`pixel`: its size in the units
     of `values` per pixel, from the local gradient)."""
@@ -121,43 +113,45 @@ def unit_box():
     return v, np.array(f)
 
 
-def signs_row(v, f, points, pixel, upscale=1):
+def signs_row(meshes, points, pixel):
     """Three panels: inside by parity (Open3D's rule), inside by winding number, the winding
-    number itself; the slice of the surface dark in each. Each sample `upscale` pixels wide."""
+    number itself; the slice of the surface dark in each. `meshes`: (vertices, triangles)
+    pairs, each added as a mesh of its own."""
     scene = raycast.RaycastingScene()
-    scene.add_triangles(v, f)
+    for v, f in meshes:
+        scene.add_triangles(v, f)
     parity = scene.compute_occupancy(points).numpy() > 0.5
     winding = scene.compute_occupancy(points, sign="winding").numpy() > 0.5
     w = scene.compute_winding_number(points).numpy()
     surface = scene.compute_distance(points, precision="f64").numpy() < 0.75 * pixel
     panels = [np.where(inside[..., None], INSIDE, OUTSIDE) for inside in (parity, winding)]
     panels.append(diverging(-w))  # white at 0, blue at 1 (and above), red below 0
-    panels = [np.where(surface[..., None], LINE, p) for p in panels]
-    return [p.repeat(upscale, axis=0).repeat(upscale, axis=1) for p in panels]
+    return [np.where(surface[..., None], LINE, p) for p in panels]
 
 
 def signs_picture(out):
     """Rows: a sphere with its top cap cut off (open), two overlapping boxes in one mesh, and a
-    box sampled on points in line with its edges; columns: parity, winding occupancy, winding
-    number."""
+    box whose top face is given again as a second mesh; columns: parity, winding occupancy,
+    winding number."""
     size = 160
     rows = []
     # Open: the sphere without the triangles whose centroid has z > 0.6, cut through y = 0.
     v, f = uv_sphere()
     f = f[v[f].mean(axis=1)[:, 2] <= 0.6]
     points, pixel = plane((-1.5, 1.5), (-1.5, 1.5), (size, size), 0.013, (0, 2))
-    rows.append(signs_row(v, f, points, pixel))
+    rows.append(signs_row([(v, f)], points, pixel))
     # Overlapping: the unit box and a copy moved by (0.5, 0.5, 0.25), as one mesh, cut through
     # z = 0.5 on pixel centres off the boxes' edges and diagonals (odd offsets).
     v, f = unit_box()
     v2, f2 = np.concatenate([v, v + [0.5, 0.5, 0.25]]), np.concatenate([f, f + len(v)])
     across, up = (-0.7463, 2.2537), (-0.7429, 2.2571)
     points, pixel = plane(across, up, (size, size), 0.5 + 1 / 1024, (0, 1))
-    rows.append(signs_row(v2, f2, points, pixel))
-    # Through edges: the unit box on points every 1/32 (z = 0.5 too), drawn 2 pixels each: the
-    # (1, 1, 1) ray from a point on a diagonal passes exactly through an edge or a corner.
-    points, pixel = grid_plane(-0.75, size // 2, 1 / 32, 0.5)
-    rows.append(signs_row(v, f, points, pixel, upscale=2))
+    rows.append(signs_row([(v2, f2)], points, pixel))
+    # A face given twice: the unit box, and its top face (z = 1) again as a mesh of its own,
+    # cut through y = 0.5 (x across, z up). A ray leaving through the top crosses both.
+    top = f[np.all(v[f][:, :, 2] == 1, axis=1)]
+    points, pixel = plane(across, up, (size, size), 0.5 + 1 / 1024, (0, 2))
+    rows.append(signs_row([(v, f), (v, top)], points, pixel))
     gap = 6
     height = len(rows) * size + (len(rows) - 1) * gap
     width = 3 * size + 2 * gap
