@@ -382,6 +382,15 @@ pub(crate) fn check_point(p: &[f64; 3], what: &str) -> Result<()> {
     }
 }
 
+/// Every point finite and of at most 1e18 in magnitude, the first bad one named
+/// (`points[k]`).
+pub(crate) fn check_points(points: &[[f64; 3]]) -> Result<()> {
+    for (k, p) in points.iter().enumerate() {
+        check_point(p, &format!("points[{k}]"))?;
+    }
+    Ok(())
+}
+
 /// A coordinate of `p` that is NaN or beyond 1e18 in magnitude.
 fn bad_coordinate(p: &[f64; 3]) -> Option<f64> {
     p.iter()

@@ -653,6 +653,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                     (true, Casts::Rays, false, false, true),
                     (false, Casts::Rays, true, false, true),
                     (false, Casts::Rays, false, true, false),
+                    (false, Casts::Rays, false, true, true),
                 ] {
                     let impossible = precision == Float::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {

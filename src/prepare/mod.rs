@@ -106,12 +106,16 @@ impl<T: Real> Prepared<T> {
     /// [`Prepared::origin`], origin and direction scaled by `1 / unit` (exact: a power of two),
     /// both rounded to `T`. A point at parameter t along it is the world ray's point at t.
     pub(crate) fn kernel_ray(&self, ray: &crate::rays::Ray) -> Ray<T> {
-        let scale = 1.0 / self.unit;
-        let origin = Vec3::from_array(ray.origin) - self.origin;
         Ray {
-            origin: (origin * scale).cast(),
-            direction: (Vec3::from_array(ray.direction) * scale).cast(),
+            origin: self.kernel_point(ray.origin).cast(),
+            direction: (Vec3::from_array(ray.direction) * (1.0 / self.unit)).cast(),
         }
+    }
+
+    /// A point (world coordinates) in the kernel's, in f64: measured from
+    /// [`Prepared::origin`] and scaled by `1 / unit`.
+    pub(crate) fn kernel_point(&self, p: [f64; 3]) -> Vec3<f64> {
+        (Vec3::from_array(p) - self.origin) * (1.0 / self.unit)
     }
 
     /// Whether every camera ray starts at the kernel's origin: a perspective camera whose eye
@@ -191,8 +195,13 @@ fn kernel_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm, accel: Search
 fn in_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
     match unit_exponent(scene) {
         0 => (Cow::Borrowed(scene), 1.0),
-        e => (Cow::Owned(scene.scaled_by_pow2(-e)), 2f64.powi(e)),
+        e => (Cow::Owned(scene.scaled_by_pow2(-e)), kernel_unit(scene)),
     }
+}
+
+/// World units per kernel unit for `scene`, `2^e` ([`unit_exponent`]): [`Prepared::unit`].
+pub(crate) fn kernel_unit(scene: &Scene) -> f64 {
+    2f64.powi(unit_exponent(scene))
 }
 
 /// Where the kernel's coordinates are measured from: the world origin for

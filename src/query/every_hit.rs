@@ -47,24 +47,43 @@ impl Accel<'_> {
     pub fn every_hit<'a>(&self, rays: impl Into<RayList<'a>>) -> Result<Intersections> {
         let rays = rays.into();
         check_rays(rays)?;
-        match self.mode.precision {
-            Precision::F32 => self.scene.every_hit::<f32>(self.mode.algorithm, rays),
-            Precision::F64 | Precision::Adaptive => {
-                self.scene.every_hit::<f64>(self.mode.algorithm, rays)
-            }
+        let algorithm = self.mode.algorithm;
+        Ok(match self.mode.precision {
+            Precision::F32 => self
+                .scene
+                .listed(self.scene.hits_along::<f32>(algorithm, rays)?),
+            Precision::F64 | Precision::Adaptive => self
+                .scene
+                .listed(self.scene.hits_along::<f64>(algorithm, rays)?),
+        })
+    }
+
+    /// How many crossings [`Accel::every_hit`] lists for each ray, without listing them.
+    pub(super) fn crossings(&self, rays: RayList<'_>) -> Result<Vec<usize>> {
+        check_rays(rays)?;
+        let algorithm = self.mode.algorithm;
+        fn counts<T>(per_ray: Vec<Vec<T>>) -> Vec<usize> {
+            per_ray.iter().map(Vec::len).collect()
         }
+        Ok(match self.mode.precision {
+            Precision::F32 => counts(self.scene.hits_along::<f32>(algorithm, rays)?),
+            Precision::F64 | Precision::Adaptive => {
+                counts(self.scene.hits_along::<f64>(algorithm, rays)?)
+            }
+        })
     }
 }
 
 impl RayScene {
-    fn every_hit<R: CastReal>(
+    /// Every hit of each ray, in precision `R`, by the CPU reference.
+    fn hits_along<R: CastReal>(
         &self,
         algorithm: Algorithm,
         rays: RayList<'_>,
-    ) -> Result<Intersections> {
+    ) -> Result<Vec<Vec<EveryHit<R>>>> {
         let prepared = self.prepared::<R>(algorithm, None)?;
         let prims = &prepared.primitives;
-        let per_ray: Vec<Vec<EveryHit<R>>> = (0..rays.len())
+        Ok((0..rays.len())
             .into_par_iter()
             .map(|k| {
                 let ray = prepared.kernel_ray(&rays.get(k));
@@ -73,10 +92,14 @@ impl RayScene {
                     Algorithm::Textbook => every_hit::<R, false>(&ray, R::ZERO, prims),
                 }
             })
-            .collect();
+            .collect())
+    }
+
+    /// Each ray's hits as one list, primitives indexed within their objects.
+    fn listed<R: CastReal>(&self, per_ray: Vec<Vec<EveryHit<R>>>) -> Intersections {
         let first = first_primitives(&self.scene.objects);
         let mut out = Intersections {
-            ray_splits: Vec::with_capacity(rays.len() + 1),
+            ray_splits: Vec::with_capacity(per_ray.len() + 1),
             ..Intersections::default()
         };
         out.ray_splits.push(0);
@@ -90,6 +113,6 @@ impl RayScene {
             }
             out.ray_splits.push(out.t.len());
         }
-        Ok(out)
+        out
     }
 }

@@ -278,6 +278,17 @@ impl<'d> Accel<'d> {
     }
 }
 
+/// What a pass over a ray list finds for each ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Query {
+    /// The nearest hit.
+    Nearest,
+    /// How many surfaces it crosses.
+    Count,
+    /// The primitive nearest its origin (a query point).
+    Closest,
+}
+
 /// A geometry's objects with their preparations, built once per precision and algorithm and
 /// reused by every cast.
 #[derive(Debug)]
@@ -383,9 +394,9 @@ impl RayScene {
 
     fn count(&self, gpu: Option<&Gpu>, mode: Mode, rays: RayList<'_>) -> Result<Vec<u32>> {
         let hits = match mode.precision {
-            Precision::F32 => self.run::<f32>(gpu, mode, rays, 0.0, true)?.0.count,
+            Precision::F32 => self.run::<f32>(gpu, mode, rays, 0.0, Query::Count)?.0.count,
             Precision::F64 | Precision::Adaptive => {
-                self.run::<f64>(gpu, f64_mode(mode, gpu), rays, 0.0, true)?
+                self.run::<f64>(gpu, f64_mode(mode, gpu), rays, 0.0, Query::Count)?
                     .0
                     .count
             }
@@ -401,8 +412,12 @@ impl RayScene {
         t_near: f64,
     ) -> Result<AnyHits> {
         let hits = match mode.precision {
-            Precision::F32 => AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, false)?.0),
-            Precision::F64 => AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, false)?.0),
+            Precision::F32 => {
+                AnyHits::F32(self.run::<f32>(gpu, mode, rays, t_near, Query::Nearest)?.0)
+            }
+            Precision::F64 => {
+                AnyHits::F64(self.run::<f64>(gpu, mode, rays, t_near, Query::Nearest)?.0)
+            }
             Precision::Adaptive => AnyHits::F32(self.adaptive(gpu, mode, rays, t_near)?),
         };
         Ok(self.within_objects(hits))
@@ -425,7 +440,7 @@ impl RayScene {
             ..mode
         };
         let (mut hits, certain) = match mode.device {
-            Device::Gpu => self.run::<f32>(gpu, mode, rays, t_near, false)?,
+            Device::Gpu => self.run::<f32>(gpu, mode, rays, t_near, Query::Nearest)?,
             // The CPU reference has no certainty pass: f64 throughout.
             Device::Cpu => (Hits::new(n, false), Some(vec![false; n])),
         };
@@ -451,8 +466,13 @@ impl RayScene {
                 ..mode
             },
         };
-        let (exact, _) =
-            self.run::<f64>(gpu, exact_mode, again.as_slice().into(), t_near, false)?;
+        let (exact, _) = self.run::<f64>(
+            gpu,
+            exact_mode,
+            again.as_slice().into(),
+            t_near,
+            Query::Nearest,
+        )?;
         for (j, &k) in uncertain.iter().enumerate() {
             hits.id[k] = exact.id[j];
             hits.t[k] = exact.t[j] as f32;
@@ -463,28 +483,36 @@ impl RayScene {
         Ok(hits)
     }
 
-    /// One pass in precision `R`: the raw hits (primitive keys) and, from an adaptive GPU
-    /// pass, the certainty flags.
+    /// One pass of `query` in precision `R`: the raw hits (primitive keys; a closest-point
+    /// pass's as `crate::cpu::closest_points` describes them) and, from an adaptive GPU pass,
+    /// the certainty flags.
     fn run<R: CastReal>(
         &self,
         gpu: Option<&Gpu>,
         mode: Mode,
         rays: RayList<'_>,
         t_near: f64,
-        count: bool,
+        query: Query,
     ) -> Result<(Hits<R>, Option<Vec<bool>>)> {
         match mode.device {
             Device::Cpu => {
                 check_rays(rays)?;
                 let prepared = self.prepared::<R>(mode.algorithm, None)?;
-                Ok((crate::cpu::cast_rays(&prepared, rays, t_near, count), None))
+                let hits = match query {
+                    Query::Closest => crate::cpu::closest_points(&prepared, rays),
+                    _ => crate::cpu::cast_rays(&prepared, rays, t_near, query == Query::Count),
+                };
+                Ok((hits, None))
             }
             Device::Gpu => {
                 let gpu = gpu.ok_or_else(|| Error::Device("a gpu: cast needs a GPU".into()))?;
                 let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
                 let variant = gpu::shader::Variant {
-                    certainty: mode.precision == Precision::Adaptive && R::PRECISION == Float::F32,
-                    count,
+                    certainty: query == Query::Nearest
+                        && mode.precision == Precision::Adaptive
+                        && R::PRECISION == Float::F32,
+                    count: query == Query::Count,
+                    closest: query == Query::Closest,
                     packets: general.packets && coherent(rays, self.extent),
                     list_origin: one_origin(rays),
                     ..general

@@ -8,15 +8,18 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::{Accel, CastReal, RayScene, f64_mode, first_primitives};
+use super::{Accel, CastReal, Query, RayScene, f64_mode, first_primitives};
 use crate::algorithm::Algorithm;
+use crate::cpu::triangle::triangle_normal;
 use crate::error::Result;
-use crate::gpu::{self, Gpu, Job};
+use crate::gpu::Gpu;
 use crate::images::MISS;
-use crate::math::{Vec3, cross, length};
+use crate::kernel::types::Triangle;
+use crate::math::{Vec3, normalize};
 use crate::prepare::winding::{Dipole, dipoles};
-use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_point};
-use crate::render::{Device, Mode, Precision};
+use crate::prepare::{kernel_origin, kernel_unit};
+use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_points};
+use crate::render::{Mode, Precision};
 use crate::scene::Object;
 
 /// The closest point on the geometry to each query point, in world coordinates and f64 (from
@@ -75,9 +78,7 @@ impl Accel<'_> {
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn closest(&self, points: &[[f64; 3]]) -> Result<Closest> {
-        for (k, p) in points.iter().enumerate() {
-            check_point(p, &format!("points[{k}]"))?;
-        }
+        check_points(points)?;
         self.scene.closest(self.gpu, self.mode, points)
     }
 
@@ -100,20 +101,17 @@ impl Accel<'_> {
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
-        for (k, p) in points.iter().enumerate() {
-            check_point(p, &format!("points[{k}]"))?;
-        }
+        check_points(points)?;
         self.scene.winding_numbers(points)
     }
 
     /// Whether each of `points` is inside the geometry, by `sign`'s rule: Open3D's occupancy
     /// (and the sign of its signed distance) with [`Sign::Parity`].
     pub fn inside(&self, points: &[[f64; 3]], sign: Sign) -> Result<Vec<bool>> {
-        for (k, p) in points.iter().enumerate() {
-            check_point(p, &format!("points[{k}]"))?;
-        }
+        check_points(points)?;
         match sign {
             Sign::Winding => Ok(self
+                .scene
                 .winding_numbers(points)?
                 .iter()
                 .map(|&w| w > 0.5)
@@ -137,9 +135,9 @@ impl Accel<'_> {
                 .map(|&origin| Ray { origin, direction })
                 .collect();
             // Crossings as every_hit lists them: one where a ray passes through an edge.
-            let splits = self.every_hit(&rays[..])?.ray_splits;
-            for (v, s) in votes.iter_mut().zip(splits.windows(2)) {
-                *v += ((s[1] - s[0]) % 2) as u32;
+            let crossings = self.crossings(RayList::from(&rays[..]))?;
+            for (v, c) in votes.iter_mut().zip(crossings) {
+                *v += (c % 2) as u32;
             }
         }
         Ok(votes.into_iter().map(|v| 2 * v > samples).collect())
@@ -203,14 +201,11 @@ impl RayScene {
     fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
         let prepared = self.prepared::<f64>(Algorithm::Robust, None)?;
         let dipoles = self.dipoles(&prepared);
-        let origin = prepared.origin;
-        let scale = 1.0 / prepared.unit;
         Ok(points
             .par_iter()
             .map(|&p| {
-                let p = (Vec3::from_array(p) - origin) * scale;
                 crate::cpu::winding::winding_number(
-                    p,
+                    prepared.kernel_point(p),
                     &prepared.primitives,
                     dipoles.as_deref().map(|d| &d[..]),
                 )
@@ -251,36 +246,9 @@ impl RayScene {
         mode: Mode,
         rays: RayList<'_>,
     ) -> Result<Closest> {
-        let (raw, origin, unit) = match mode.device {
-            Device::Cpu => {
-                let prepared = self.prepared::<R>(mode.algorithm, None)?;
-                (
-                    crate::cpu::closest_points(&prepared, rays),
-                    prepared.origin,
-                    prepared.unit,
-                )
-            }
-            Device::Gpu => {
-                let gpu =
-                    gpu.ok_or_else(|| crate::Error::Device("a gpu: cast needs a GPU".into()))?;
-                let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
-                let variant = gpu::shader::Variant {
-                    closest: true,
-                    packets: false,
-                    ..general
-                };
-                let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
-                let resident = self.resident(gpu, &prepared, &variant)?;
-                let job = Job::new(variant).rays(rays, 0.0).resident(&resident);
-                let hits = gpu::run(gpu, &prepared, job)?.hits;
-                (
-                    hits.expect("a ray list returns hits"),
-                    prepared.origin,
-                    prepared.unit,
-                )
-            }
-        };
-        Ok(self.in_world(&raw, origin, unit))
+        let (raw, _) = self.run::<R>(gpu, mode, rays, 0.0, Query::Closest)?;
+        let origin = kernel_origin(&self.scene, mode.algorithm);
+        Ok(self.in_world(&raw, origin, kernel_unit(&self.scene)))
     }
 
     /// A closest-point pass's raw results (kernel coordinates: the point in `normal`, its
@@ -317,34 +285,22 @@ impl RayScene {
 }
 
 /// The unit normal of `object`'s primitive `primitive` at `point` (on it): a triangle's by its
-/// corner order (zero for one without area), a sphere's outward, a plane's own.
+/// corner order, as the kernel computes it (zero for one without area), a sphere's outward, a
+/// plane's own.
 fn surface_normal(object: &Object, primitive: u32, point: Vec3<f64>) -> Vec3<f64> {
-    let unit = |v: Vec3<f64>| {
-        let m = v.x.abs().max(v.y.abs()).max(v.z.abs());
-        if m > 0.0 {
-            let v = v * (1.0 / m);
-            v * (1.0 / length(v))
-        } else {
-            v
-        }
+    let triangle = |c: &crate::scene::Triangle| {
+        triangle_normal::<f64, true>(&Triangle {
+            a: c[0],
+            b: c[1],
+            c: c[2],
+        })
     };
     match object {
-        Object::Sphere { center, .. } => {
-            let n = unit(point - *center);
-            if n == Vec3::splat(0.0) {
-                crate::math::vec3(1.0, 0.0, 0.0)
-            } else {
-                n
-            }
-        }
+        // The closest point lies a radius from the centre.
+        Object::Sphere { center, .. } => normalize(point - *center),
         Object::Plane { normal, .. } => *normal,
-        Object::Triangle { corners } => {
-            unit(cross(corners[1] - corners[0], corners[2] - corners[0]))
-        }
-        Object::Soup { triangles, .. } => {
-            let c = &triangles[primitive as usize];
-            unit(cross(c[1] - c[0], c[2] - c[0]))
-        }
+        Object::Triangle { corners } => triangle(corners),
+        Object::Soup { triangles, .. } => triangle(&triangles[primitive as usize]),
     }
 }
 

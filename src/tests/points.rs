@@ -405,3 +405,14 @@ fn a_ray_through_a_shared_edge_crosses_once() {
         assert_eq!(inside, [true, true, false, false], "{m}");
     }
 }
+
+/// Query points that are all one point reach the kernel that reads one origin for the list
+/// (`LIST_ORIGIN`), and give the CPU mirror's answer.
+#[test]
+fn one_point_many_times_equals_the_cpu_mirror() {
+    let scene = random_scene_of(0);
+    let geometry = Geometry::from_scene(&scene);
+    let points = vec![[0.3, -0.7, 1.1]; 100];
+    let on = |device: &str| closest(&geometry, mode(&format!("{device}:f32:robust")), &points);
+    assert_eq!(on("gpu"), on("cpu"));
+}
