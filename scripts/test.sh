@@ -2,8 +2,9 @@
 # The whole test suite: the Rust tests (`cargo test`, arguments passed on) and docs, then the
 # Python package's pytest suite in a virtual environment, target/py-venv. Needs a Vulkan adapter
 # (lavapipe is enough: scripts/install-vulkan.sh), Python 3.9+ with venv and pip, and PyPI for
-# pytest, numpy, OpenEXR (which reads render.exr in python/tests/test_files.py), and trimesh
-# with rtree (python/tests/test_queries.py runs trimesh's own intersector beside raycast's).
+# pytest, numpy, OpenEXR (which reads render.exr in python/tests/test_files.py), trimesh
+# with rtree (python/tests/test_queries.py runs trimesh's own intersector beside raycast's),
+# and Ray Data (python/tests/test_views.py renders a dataset on a local Ray cluster).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
@@ -30,6 +31,6 @@ extension=target/debug/lib_raycast.so
 cp "$extension" "$package/raycast/_raycast.abi3.so"
 venv=target/py-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree
+"$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree "ray[data]"
 PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
 echo "test.sh: Python tests done at ${SECONDS} s" >&2

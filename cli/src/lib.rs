@@ -29,6 +29,9 @@ pub fn flag(name: &str) -> Option<String> {
         "look_at" => "--look-at",
         "up" => "--up",
         "fov" => "--fov",
+        "orbit" => "--orbit",
+        "views" => "--views",
+        "shard" => "--shard",
         _ => return None,
     };
     Some(flag.to_string())

@@ -30,8 +30,30 @@ enum Command {
     /// Render a scene to id, depth and normal images.
     Render {
         /// Scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view
-        /// (docs/cli.md). Without it, the built-in default scene is rendered.
-        scene: Option<PathBuf>,
+        /// (docs/cli.md). Without it, the built-in default scene is rendered. With --views or
+        /// --orbit, any number of them.
+        scenes: Vec<PathBuf>,
+        /// Render every scene from each camera of this views file (a JSON list of cameras of
+        /// the scene format, each with a `name`) into OUTPUT/<scene stem>/<name>/, with
+        /// OUTPUT/manifest.jsonl (docs/datasets.md).
+        #[arg(long, value_name = "FILE", conflicts_with = "orbit")]
+        views: Option<PathBuf>,
+        /// Render every scene from N views around its bounding sphere (orbit-000, ...), as
+        /// --views does.
+        #[arg(long, value_name = "N")]
+        orbit: Option<u32>,
+        /// With --views or --orbit: render views whose folder is complete again (they are
+        /// skipped otherwise).
+        #[arg(long)]
+        force: bool,
+        /// With --views or --orbit: render shard I of N (0-based) of the views, or `auto`: the
+        /// shard of a Slurm array task or a Kubernetes Indexed Job.
+        #[arg(long, value_name = "I/N|auto")]
+        shard: Option<String>,
+        /// The number of shards for --shard auto (a Kubernetes Indexed Job's completions;
+        /// a Slurm array's task count by default).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        shard_count: Option<u32>,
         /// Output folder (created if missing).
         #[arg(short, long, default_value = "out")]
         output: PathBuf,
@@ -385,7 +407,12 @@ fn parse_depth_scale(s: &str) -> std::result::Result<f64, String> {
 fn run(command: Command) -> Result<ExitCode> {
     match command {
         Command::Render {
-            scene,
+            scenes,
+            views,
+            orbit,
+            force,
+            shard,
+            shard_count,
             output,
             size,
             format,
@@ -425,8 +452,37 @@ fn run(command: Command) -> Result<ExitCode> {
                 up,
                 fov,
             };
+            let views = match (views, orbit) {
+                (Some(file), _) => Some(raycast::Views::File(file)),
+                (None, Some(n)) => Some(raycast::Views::Orbit(n)),
+                (None, None) => None,
+            };
+            let batch_only = [
+                ("--force", force),
+                ("--shard", shard.is_some()),
+                ("--shard-count", shard_count.is_some()),
+            ];
+            if let (None, Some((flag, _))) = (&views, batch_only.iter().find(|(_, given)| *given)) {
+                return Err(raycast::Error::Argument {
+                    option: (*flag).into(),
+                    message: "renders many views: give --views or --orbit".into(),
+                });
+            }
+            if views.is_none() && scenes.len() > 1 {
+                return Err(raycast::Error::Argument {
+                    option: "scenes".into(),
+                    message: format!(
+                        "{} scene files given; one is rendered at a time, or many with --views or --orbit",
+                        scenes.len()
+                    ),
+                });
+            }
             let spec = raycast::RenderFiles {
-                scene,
+                scene: if views.is_some() {
+                    None
+                } else {
+                    scenes.first().cloned()
+                },
                 size,
                 mode,
                 default_precision: precision.is_none(),
@@ -440,7 +496,24 @@ fn run(command: Command) -> Result<ExitCode> {
                 emit_shader,
                 view,
             };
-            render(&spec, watch)?;
+            match views {
+                Some(views) => {
+                    if watch {
+                        return Err(raycast::Error::Argument {
+                            option: "--watch".into(),
+                            message: "watches one render; not with --views or --orbit".into(),
+                        });
+                    }
+                    let batch = raycast::RenderViews {
+                        scenes,
+                        views,
+                        force,
+                        render: spec,
+                    };
+                    render_views(&batch, shard.as_deref(), shard_count)?;
+                }
+                None => render(&spec, watch)?,
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Compare {
@@ -608,6 +681,42 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
             std::thread::sleep(std::time::Duration::from_millis(200));
         }
     }
+}
+
+/// `raycast render --views | --orbit`: every view of the shard, with a progress bar of views
+/// on a terminal.
+fn render_views(
+    batch: &raycast::RenderViews,
+    shard: Option<&str>,
+    count: Option<u32>,
+) -> Result<()> {
+    let shard = match shard {
+        None => None,
+        Some("auto") => Some(raycast::Shard::from_env(count)?),
+        Some(text) => {
+            if count.is_some() {
+                return Err(raycast::Error::Argument {
+                    option: "--shard-count".into(),
+                    message: "goes with --shard auto; --shard I/N gives the count".into(),
+                });
+            }
+            Some(text.parse().map_err(|message| raycast::Error::Argument {
+                option: "--shard".into(),
+                message,
+            })?)
+        }
+    };
+    batch.check()?;
+    let gpu = raycast_cli::render::gpu_for(&[batch.render.mode])?;
+    let template = "{bar:40} {pos}/{len} views, {per_sec}, {eta} left";
+    let bar = progress::bar(true, 0, template);
+    let summary = batch.run(gpu.as_ref(), shard, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    summary.lines().into_iter().for_each(say);
+    Ok(())
 }
 
 /// A file's modification time and length, `None` while it cannot be read.

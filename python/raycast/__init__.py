@@ -19,9 +19,11 @@ Beyond Open3D: spheres and planes (``add_sphere``, ``add_plane``), ``precision="
 "adaptive"`` and ``device="gpu" | "cpu"`` on every query, ``sign="parity" | "winding"`` for the
 inside tests, ``compute_winding_number``, scene files (``raycast.load``) and their camera
 renders (``render``, lit by the course's ray tracer with ``lit=True`` or coloured by a shade
-hook file with ``shader=``), ``raycast.info()`` for the adapter, and ``raycast.trimesh``, a
-drop-in for trimesh's ``mesh.ray`` (imported on its own: ``from raycast.trimesh import
-RayMeshIntersector``).
+hook file with ``shader=``; ``render_views`` for other cameras or an orbit), ``raycast.info()``
+for the adapter, ``raycast.trimesh``, a drop-in for trimesh's ``mesh.ray`` (imported on its
+own: ``from raycast.trimesh import RayMeshIntersector``), and ``raycast.distributed``, datasets
+of many scenes and views rendered to files on a Ray cluster (``pip install
+"raycast[distributed]"``).
 
 Inputs: arrays are NumPy arrays of any int or float dtype and layout, lists, Open3D tensors,
 or anything with ``__array__`` or ``__dlpack__`` (torch, JAX, CuPy...), on the CPU (a GPU
@@ -37,9 +39,10 @@ TypeError naming the argument. Queries release the GIL.
 
 from __future__ import annotations
 
+import json
 import math
 import os
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -91,12 +94,12 @@ _LIST_FIELDS = {"ray_ids": (), "t_hit": (), **_IDS}
 
 
 def __getattr__(name: str) -> Any:
-    """``raycast.trimesh`` imported on first use, so that ``import raycast`` needs no trimesh
-    and costs nothing for those who do not use it."""
-    if name == "trimesh":
+    """``raycast.trimesh`` and ``raycast.distributed`` imported on first use, so that ``import
+    raycast`` needs neither trimesh nor Ray and costs nothing for those who do not use them."""
+    if name in ("trimesh", "distributed"):
         import importlib
 
-        return importlib.import_module(".trimesh", __name__)
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -491,8 +494,85 @@ class RaycastingScene:
         file ``shader`` (GPU), also ``color`` (uint8 RGBA, (..., 4)) and ``hook_rays``, the
         rays the hook cast (None where it casts none)."""
         _options(precision, device)
+        return self._render(precision, device, lit, shader, None)
+
+    def render_views(
+        self,
+        cameras: Union[int, Sequence[Mapping[str, Any]]],
+        precision: str = "f32",
+        device: str = "gpu",
+        lit: bool = False,
+        shader: Optional[Union[str, os.PathLike]] = None,
+    ) -> Iterator[Dict[str, Any]]:
+        """The scene (from ``raycast.load``) rendered from each of ``cameras``, one view at a
+        time: an iterator of dicts as ``render`` returns them, each with the view's ``name``.
+
+        ``cameras`` is a list of cameras in the scene format's forms (docs/scene-format.md:
+        ``eye``, ``look`` or ``look_at``, ``up``, then ``focal_length``, ``width`` and
+        ``height``, or ``fov``, or ``intrinsics``; ``resolution``, ``near``, ``type``), each
+        with an optional ``name`` (default ``view-000``, ``view-001``, ...), as a views file
+        lists them; numbers may be NumPy values or arrays. Or a number N: N views around the
+        scene (``orbit-000``, ...), as ``raycast render --orbit N`` renders them. A view
+        renders what ``render`` renders for a scene file with that camera. Every camera is
+        checked before the first view renders: a bad one raises ValueError (or TypeError)
+        naming it (``cameras[2]: camera.fov: ...``)."""
+        _options(precision, device)
+        views = self._views(cameras)  # here, not at the first view: bad cameras raise now
+        return self._render_each(views, precision, device, lit, shader)
+
+    def _render_each(
+        self,
+        views: List[Tuple[str, Any]],
+        precision: str,
+        device: str,
+        lit: bool,
+        shader: Optional[Union[str, os.PathLike]],
+    ) -> Iterator[Dict[str, Any]]:
+        for name, camera in views:
+            images = self._render(precision, device, lit, shader, camera)
+            images["name"] = name
+            yield images
+
+    def _views(self, cameras: Any) -> List[Tuple[str, Any]]:
+        """The named native cameras of `cameras`, every one checked here, before anything
+        renders: an orbit's, or those of a list of camera dicts as a views file lists them."""
+        if isinstance(cameras, (int, np.integer)) and not isinstance(cameras, (bool, np.bool_)):
+            n = int(cameras)
+            if not 1 <= n < 2**32:
+                raise ValueError(f"cameras: expected at least 1 orbit view, got {n}")
+            return self._scene.views(orbit=n)
+        if isinstance(cameras, (str, bytes, Mapping)) or not isinstance(cameras, Sequence):
+            raise TypeError(
+                "cameras: expected a list of camera dicts or a number of orbit views, got "
+                f"{type(cameras).__name__}"
+            )
+        named = []
+        for k, camera in enumerate(cameras):
+            label = f"cameras[{k}]"
+            if not isinstance(camera, Mapping):
+                raise TypeError(f"{label}: expected a dict of camera fields, got {type(camera).__name__}")
+            fields = dict(camera)
+            fields.setdefault("name", f"view-{k:03d}")
+            if not isinstance(fields["name"], str):
+                raise TypeError(f"{label}.name: expected a string, got {type(fields['name']).__name__}")
+            try:
+                named.append(json.dumps(fields, default=_json_value, allow_nan=False))
+            except ValueError:  # NaN or infinity, which JSON cannot hold
+                raise ValueError(f"{label}: expected finite numbers") from None
+            except TypeError as e:
+                raise TypeError(f"{label}: {e}") from None
+        return self._scene.views(cameras="[" + ",".join(named) + "]")
+
+    def _render(
+        self,
+        precision: str,
+        device: str,
+        lit: bool,
+        shader: Optional[Union[str, os.PathLike]],
+        camera: Any,
+    ) -> Dict[str, Any]:
         out = self._scene.render(
-            precision, device, lit, None if shader is None else os.fspath(shader)
+            precision, device, lit, None if shader is None else os.fspath(shader), camera
         )
         shape = (out["height"], out["width"])
         fields = {"id": (), "distance": (), "normal": (3,), "color": (4,)}
@@ -522,6 +602,13 @@ class RaycastingScene:
         focal = 0.5 * width / math.tan(math.radians(fov) / 2.0)
         intrinsic = np.array([[focal, 0, 0.5 * width], [0, focal, 0.5 * height], [0, 0, 1]])
         return _pinhole(intrinsic, _look_at(center, eye, up), width, height).view(Array)
+
+
+def _json_value(value: Any) -> Any:
+    """NumPy arrays and numbers in a camera dict as the lists and numbers JSON writes."""
+    if isinstance(value, (np.ndarray, np.generic)):
+        return value.tolist()
+    raise TypeError(f"expected numbers and lists, got {type(value).__name__}")
 
 
 def _bind(names: tuple, args: tuple, kwargs: dict) -> list:

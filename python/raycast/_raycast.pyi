@@ -1,5 +1,6 @@
 """Type stubs of the native module (python/src/lib.rs); use the wrappers in raycast/__init__.py."""
 
+from pathlib import Path
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
@@ -65,7 +66,47 @@ class Scene:
         """Whether each (n, 3) point is inside: ``sign`` "parity" (``nsamples`` rays vote)
         or "winding"."""
     def render(
-        self, precision: str, device: str, lit: bool = ..., shader: Optional[str] = ...
-    ) -> Dict[str, Any]: ...
+        self,
+        precision: str,
+        device: str,
+        lit: bool = ...,
+        shader: Optional[str] = ...,
+        camera: Optional[Camera] = ...,
+    ) -> Dict[str, Any]:
+        """The scene file's camera (or ``camera``) rendered: flat ``id``, ``distance``,
+        ``normal`` (and ``color``, ``hook_rays``), ``width`` and ``height``."""
+    def views(
+        self, cameras: Optional[str] = ..., orbit: Optional[int] = ...
+    ) -> List[Tuple[str, Camera]]:
+        """The named cameras of a views file's JSON text (``cameras``) or of an orbit of
+        ``orbit`` views, for this scene, as ``raycast render --views``/``--orbit`` renders
+        them; errors are ValueErrors naming ``cameras[k]``."""
+
+class Camera:
+    """A camera for ``Scene.render``, from ``Scene.views``."""
+    @property
+    def resolution(self) -> List[int]: ...
+
+class ViewJob:
+    """``raycast render SCENES... --views FILE|--orbit N -o OUT`` as a job that workers share."""
+    def __init__(
+        self,
+        scenes: List[str],
+        views: Union[str, int],
+        out: str,
+        formats: List[str],
+        size: Optional[List[int]] = ...,
+        precision: Optional[str] = ...,
+        device: str = ...,
+        force: bool = ...,
+    ) -> None: ...
+    def check(self) -> int:
+        """Checks the job and that OUT is writable; the number of (scene, view) pairs, scene
+        by scene."""
+    def render(self, pairs: List[int]) -> int:
+        """Renders these pairs into their folders (those not complete already, unless
+        forced), one view's files written while the next renders; how many it rendered."""
+    def write_manifest(self) -> Path:
+        """Rewrites OUT/manifest.jsonl from the output folder; its path."""
 
 def info() -> Dict[str, Any]: ...

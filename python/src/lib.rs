@@ -5,6 +5,7 @@
 //! without copying them.
 
 use std::collections::HashMap;
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use numpy::{PyArray1, PyReadonlyArray2};
@@ -12,9 +13,11 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::rays::{RayList, RayRows};
+use raycast::scene::Camera;
 use raycast::{
-    Accel, AnyHits, AnyImages, Closest, Cpu, Geometry, Gpu, Hits, Intersections, Precision, Ray,
-    RenderOptions, ShadeHook, Sign,
+    Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
+    Hits, Intersections, Mode, Precision, Ray, RenderFiles, RenderOptions, RenderViews, ShadeHook,
+    Sign, ViewRenderer, Views,
 };
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -190,6 +193,15 @@ impl Scene {
         }
     }
 
+    /// The scene file's scene; `call` names the method refused without one.
+    fn file(&self, call: &str) -> PyResult<&raycast::Scene> {
+        self.scene.as_ref().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "{call}: the scene has no camera (load a scene file with raycast.load)"
+            ))
+        })
+    }
+
     /// The geometry committed for `on`, committed now if it is not yet.
     fn accel(&self, on: On) -> PyResult<Arc<Accel<'static>>> {
         if let Some(accel) = self.accels.lock().expect("accels lock").get(&on) {
@@ -224,9 +236,32 @@ impl Scene {
 
     /// A scene file's objects (and its camera, for `render`).
     #[staticmethod]
-    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+    fn load(path: PathBuf) -> PyResult<Self> {
         let scene = raycast::Scene::load(&path).map_err(to_py)?;
         Ok(Scene::with(Geometry::from_scene(&scene), Some(scene)))
+    }
+
+    /// The views of this scene file's scene, named: the cameras of `cameras` (a views file's
+    /// JSON text: a list of cameras in the scene format, each with a `name`), or an orbit of
+    /// `orbit` views, as `raycast render --views` or `--orbit` renders them. Errors name a
+    /// camera as `cameras[k]`.
+    #[pyo3(signature = (cameras=None, orbit=None))]
+    fn views(
+        &self,
+        cameras: Option<String>,
+        orbit: Option<u32>,
+    ) -> PyResult<Vec<(String, ViewCamera)>> {
+        let scene = self.file("render_views")?;
+        let views = match (cameras, orbit) {
+            (Some(text), None) => Views::Json(text),
+            (None, Some(n)) => Views::Orbit(n),
+            _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
+        };
+        let named = views.cameras(scene).map_err(cameras_error)?;
+        Ok(named
+            .into_iter()
+            .map(|(name, camera)| (name, ViewCamera { camera }))
+            .collect())
     }
 
     fn add_triangles(
@@ -375,24 +410,32 @@ impl Scene {
         intersections_dict(py, hits, on.precision == Precision::F64)
     }
 
-    /// Renders the scene file's camera: id, distance and normal images as flat arrays and the
-    /// image size; with `lit` (the course's ray tracer) or a shade hook file `shader`, also the
-    /// colours and the rays the hook cast.
-    #[pyo3(signature = (precision, device, lit=false, shader=None))]
+    /// Renders the scene file's camera (or `camera`, from `camera` or `orbit`): id, distance
+    /// and normal images as flat arrays and the image size; with `lit` (the course's ray
+    /// tracer) or a shade hook file `shader`, also the colours and the rays the hook cast.
+    #[pyo3(signature = (precision, device, lit=false, shader=None, camera=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         precision: &str,
         device: &str,
         lit: bool,
-        shader: Option<std::path::PathBuf>,
+        shader: Option<PathBuf>,
+        camera: Option<PyRef<'_, ViewCamera>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let on = on(device, precision)?;
-        let scene = self.scene.as_ref().ok_or_else(|| {
-            PyValueError::new_err(
-                "render: the scene has no camera (load a scene file with raycast.load)",
-            )
-        })?;
+        let scene = self.file("render")?;
+        let viewed;
+        let scene = match camera {
+            Some(c) => {
+                viewed = raycast::Scene {
+                    camera: c.camera.clone(),
+                    ..scene.clone()
+                };
+                &viewed
+            }
+            None => scene,
+        };
         let options = RenderOptions {
             precision: Some(on.precision),
             shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
@@ -419,6 +462,146 @@ impl Scene {
             AnyImages::F64(i) => images_into(py, &d, i)?,
         }
         Ok(d)
+    }
+}
+
+/// An error of `Scene.views` naming the cameras as Python gave them: `cameras[2].fov: ...`
+/// for the library's `<views>: [2].fov: ...` (a position in the JSON made from them is no use).
+fn cameras_error(e: raycast::Error) -> PyErr {
+    let text = e.to_string();
+    let Some(rest) = text.strip_prefix("<views>") else {
+        return to_py(e);
+    };
+    let rest = rest.trim_start_matches(|c: char| c == ':' || c.is_ascii_digit());
+    let rest = rest.trim_start();
+    let sep = if rest.starts_with('[') { "" } else { ": " };
+    PyValueError::new_err(format!("cameras{sep}{rest}"))
+}
+
+/// A camera for `Scene.render`, from `Scene.views`.
+#[pyclass(frozen, name = "Camera", module = "raycast._raycast")]
+struct ViewCamera {
+    camera: Camera,
+}
+
+#[pymethods]
+impl ViewCamera {
+    /// The image's size in pixels, `[width, height]`.
+    #[getter]
+    fn resolution(&self) -> [u32; 2] {
+        self.camera.resolution
+    }
+}
+
+/// Many views of scene files rendered to files, as `raycast render SCENE... --views FILE` (or
+/// `--orbit N`) `-o OUT` renders them, for `raycast.distributed`: the driver checks the job and
+/// writes the manifest, each worker renders the views it is given with a renderer it keeps, so
+/// that the scene it rendered last stays loaded and prepared from one batch to the next.
+#[pyclass(module = "raycast._raycast")]
+struct ViewJob {
+    job: RenderViews,
+    renderer: Option<ViewRenderer>,
+}
+
+/// `views` as Python gives it: a number of orbit views or a views file.
+#[derive(FromPyObject)]
+enum ViewsArg {
+    Orbit(u32),
+    File(PathBuf),
+}
+
+#[pymethods]
+impl ViewJob {
+    /// The command line's job: `formats` as `--format`, `precision` unset as without
+    /// `--precision` (the device's default: adaptive on the GPU), the robust algorithms.
+    #[new]
+    #[pyo3(signature = (scenes, views, out, formats, size=None, precision=None, device="gpu", force=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        scenes: Vec<PathBuf>,
+        views: ViewsArg,
+        out: PathBuf,
+        formats: Vec<String>,
+        size: Option<[u32; 2]>,
+        precision: Option<&str>,
+        device: &str,
+        force: bool,
+    ) -> PyResult<Self> {
+        let refuse =
+            |name: &str, message: String| PyValueError::new_err(format!("{name}: {message}"));
+        let device: Device = device.parse().map_err(|m| refuse("device", m))?;
+        let precision: Option<Precision> =
+            (precision.map(str::parse).transpose()).map_err(|m| refuse("precision", m))?;
+        let formats = (formats.iter().map(|f| f.parse()))
+            .collect::<Result<Vec<Format>, String>>()
+            .map_err(|m| refuse("formats", m))?;
+        let render = RenderFiles {
+            scene: None,
+            size,
+            mode: Mode {
+                device,
+                precision: precision.unwrap_or(device.default_precision()),
+                algorithm: Algorithm::Robust,
+            },
+            default_precision: precision.is_none(),
+            spp: None,
+            band_rows: None,
+            shader: None,
+            lit: false,
+            kernel: None,
+            out_dir: out,
+            encoding: Encoding::new(&formats, None).map_err(to_py)?,
+            emit_shader: None,
+            view: Default::default(),
+        };
+        let views = match views {
+            ViewsArg::Orbit(n) => Views::Orbit(n),
+            ViewsArg::File(path) => Views::File(path),
+        };
+        Ok(ViewJob {
+            job: RenderViews {
+                scenes,
+                views,
+                force,
+                render,
+            },
+            renderer: None,
+        })
+    }
+
+    /// Checks the job (options, scene folder names, every view's name and camera) and that
+    /// `OUT` is writable, as `RenderViews::run` does first, and returns how many views it has:
+    /// pairs `0..n`, every view of the first scene, then of the next.
+    fn check(&self, py: Python<'_>) -> PyResult<usize> {
+        py.detach(|| {
+            let views = self.job.check()?;
+            raycast::output::check_writable(&self.job.render.out_dir).map(|()| views)
+        })
+        .map_err(to_py)
+    }
+
+    /// Renders the views `pairs` in order (each skipped where its folder is complete, unless
+    /// the job forces), each into its folder, one view's files written while the next
+    /// renders; how many it rendered.
+    fn render(&mut self, py: Python<'_>, pairs: Vec<usize>) -> PyResult<usize> {
+        let gpu = match self.job.render.mode.device {
+            Device::Gpu => Some(gpu()?),
+            Device::Cpu => None,
+        };
+        let ViewJob { job, renderer } = self;
+        py.detach(|| {
+            let renderer = match renderer {
+                Some(r) => r,
+                None => renderer.insert(job.renderer()?),
+            };
+            renderer.render(gpu, &pairs)
+        })
+        .map_err(to_py)
+    }
+
+    /// Rewrites `OUT/manifest.jsonl` from what the output folder holds; returns its path.
+    fn write_manifest(&self, py: Python<'_>) -> PyResult<PathBuf> {
+        py.detach(|| self.job.write_manifest()).map_err(to_py)
     }
 }
 
@@ -467,6 +650,8 @@ fn info(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 #[pymodule]
 fn _raycast(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scene>()?;
+    m.add_class::<ViewCamera>()?;
+    m.add_class::<ViewJob>()?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
     Ok(())
 }

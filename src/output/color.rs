@@ -87,6 +87,26 @@ impl PixelCoverage {
         let n = self.spp as u64;
         let h = self.hits as u64;
         debug_assert!(h <= n);
+        if n == 1 {
+            // One sample: every division below is by 1 (a pixel of a dataset's color.png).
+            let k = 1 - self.hits;
+            let level = |c: u32, bg: u8| (c + u32::from(bg) * k).min(255) as u8;
+            let c = self.color_sum;
+            return match background {
+                None => [
+                    level(c[0], 0),
+                    level(c[1], 0),
+                    level(c[2], 0),
+                    255 * h as u8,
+                ],
+                Some(bg) => [
+                    level(c[0], bg[0]),
+                    level(c[1], bg[1]),
+                    level(c[2], bg[2]),
+                    255,
+                ],
+            };
+        }
         let c = self.color_sum.map(|c| c as u64);
         match background {
             None => [
@@ -110,35 +130,45 @@ impl PixelCoverage {
 
 /// The RGBA bytes (4 a pixel, row-major) of `color.png` for `pixels`.
 pub(crate) fn color_rgba8(
-    pixels: impl Iterator<Item = PixelCoverage>,
+    pixels: impl ExactSizeIterator<Item = PixelCoverage>,
     background: Option<[u8; 3]>,
 ) -> Vec<u8> {
-    pixels.flat_map(|p| p.to_rgba8(background)).collect()
+    let mut rgba = Vec::with_capacity(4 * pixels.len());
+    for p in pixels {
+        rgba.extend_from_slice(&p.to_rgba8(background));
+    }
+    rgba
+}
+
+/// [`pixel_coverages`], collected.
+#[cfg(test)]
+pub(crate) fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
+    pixel_coverages(images).collect()
 }
 
 /// The coverage of each pixel of `images`, row-major: their [`crate::images::Coverage`] when supersampled,
 /// else one sample per pixel (a hit covers the pixel with its palette colour, a miss not at all).
-pub(crate) fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
+pub(crate) fn pixel_coverages<T: Real>(
+    images: &Images<T>,
+) -> Box<dyn ExactSizeIterator<Item = PixelCoverage> + '_> {
     match &images.coverage {
-        Some(c) => c
-            .hits
-            .iter()
-            .zip(&c.color_sum)
-            .map(|(&hits, &color_sum)| PixelCoverage {
-                spp: c.spp,
-                hits,
-                color_sum,
-            })
-            .collect(),
-        None => images
-            .id
-            .iter()
-            .map(|&id| PixelCoverage {
-                spp: 1,
-                hits: u32::from(id != MISS),
-                color_sum: id_color(id).map(u32::from),
-            })
-            .collect(),
+        Some(c) => {
+            Box::new(
+                c.hits
+                    .iter()
+                    .zip(&c.color_sum)
+                    .map(|(&hits, &color_sum)| PixelCoverage {
+                        spp: c.spp,
+                        hits,
+                        color_sum,
+                    }),
+            )
+        }
+        None => Box::new(images.id.iter().map(|&id| PixelCoverage {
+            spp: 1,
+            hits: u32::from(id != MISS),
+            color_sum: id_color(id).map(u32::from),
+        })),
     }
 }
 
@@ -182,6 +212,46 @@ mod tests {
             [0.2, 0.7, 0.1, 0.9],
         );
         assert!(close(over(over(a, b), c), over(a, over(b, c))));
+    }
+
+    #[test]
+    fn one_sample_takes_the_general_formula() {
+        let general = |p: PixelCoverage, bg: Option<[u8; 3]>| {
+            let c = p.color_sum.map(|c| c as u64);
+            let h = p.hits as u64;
+            match bg {
+                None => [
+                    round_div(c[0], 1),
+                    round_div(c[1], 1),
+                    round_div(c[2], 1),
+                    round_div(255 * h, 1),
+                ],
+                Some(bg) => [0, 1, 2]
+                    .map(|i| round_div(c[i] + bg[i] as u64 * (1 - h), 1))
+                    .into_iter()
+                    .chain([255])
+                    .collect::<Vec<_>>()
+                    .try_into()
+                    .unwrap(),
+            }
+        };
+        for hits in [0, 1] {
+            for color_sum in [[0, 0, 0], [228, 26, 28], [255, 255, 255], [7, 0, 200]] {
+                let p = PixelCoverage {
+                    spp: 1,
+                    hits,
+                    color_sum,
+                };
+                for bg in [
+                    None,
+                    Some([0, 0, 0]),
+                    Some([255, 255, 255]),
+                    Some([1, 2, 3]),
+                ] {
+                    assert_eq!(p.to_rgba8(bg), general(p, bg), "{p:?} {bg:?}");
+                }
+            }
+        }
     }
 
     #[test]

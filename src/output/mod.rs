@@ -20,8 +20,10 @@ use crate::scene::Camera;
 
 pub use self::{depth::Depth, pending::abandon, pictures::Pictures};
 #[cfg(test)]
+pub(crate) use color::pixel_coverage;
+#[cfg(test)]
 pub(crate) use color::{PixelCoverage, opaque, over};
-pub(crate) use color::{color_rgba8, pixel_coverage};
+pub(crate) use color::{color_rgba8, pixel_coverages};
 pub(crate) use depth::{camera_json, depth16_levels};
 pub(crate) use npy::encode_npy;
 #[cfg(test)]
@@ -250,7 +252,7 @@ pub(crate) fn png_pictures<T: Real>(
     if outputs.color {
         let rgba = match &images.color {
             Some(hook) => hook.iter().flatten().copied().collect(),
-            None => color_rgba8(pixel_coverage(images).into_iter(), background),
+            None => color_rgba8(pixel_coverages(images), background),
         };
         set.push(Picture::new(
             "color.png",

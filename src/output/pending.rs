@@ -78,6 +78,47 @@ pub(crate) fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
     placed
 }
 
+/// Creates the temporary folder `path` (removing what a killed run left there), registered for
+/// removal with everything in it on an interruption.
+pub(crate) fn create_dir(path: &Path) -> Result<()> {
+    let mut held = registry();
+    let _ = std::fs::remove_dir_all(path);
+    held.push(path.to_owned());
+    std::fs::create_dir(path).map_err(|e| {
+        held.pop();
+        Error::io(path, format!("cannot create folder: {e}"))
+    })
+}
+
+/// Removes the temporary folder `path` and what it holds, and forgets it.
+pub(crate) fn discard_dir(path: &Path) {
+    let mut held = registry();
+    let _ = std::fs::remove_dir_all(path);
+    forget(&mut held, [path]);
+}
+
+/// Renames the temporary folder `temporary` to `path`, replacing a folder there (moved aside
+/// first, removed after), and forgets it. An interruption waits until this is done, so `path`
+/// is the old folder or the new one, never part of either.
+pub(crate) fn place_dir(temporary: &Path, path: &Path) -> Result<()> {
+    let mut held = registry();
+    let old = path.with_file_name(format!(
+        ".{}.old-{}",
+        path.file_name().unwrap_or_default().to_string_lossy(),
+        std::process::id()
+    ));
+    let replaced = path.exists();
+    let placed = (|| {
+        if replaced {
+            std::fs::rename(path, &old)?;
+        }
+        std::fs::rename(temporary, path)
+    })();
+    let _ = std::fs::remove_dir_all(if placed.is_ok() { &old } else { temporary });
+    forget(&mut held, [temporary]);
+    placed.map_err(|e| Error::io(path, format!("cannot write: {e}")))
+}
+
 /// Whether a file in `dir` is registered.
 #[cfg(test)]
 pub(crate) fn holds_any_in(dir: &Path) -> bool {
@@ -92,7 +133,11 @@ pub(crate) fn holds_any_in(dir: &Path) -> bool {
 pub fn abandon(code: i32, message: &str) -> ! {
     let held = registry();
     for path in held.iter() {
-        let _ = std::fs::remove_file(path);
+        match path.is_dir() {
+            true => std::fs::remove_dir_all(path),
+            false => std::fs::remove_file(path),
+        }
+        .ok();
     }
     eprintln!("{message}");
     #[cfg(unix)]

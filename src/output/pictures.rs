@@ -74,15 +74,17 @@ pub(crate) fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     };
     for k in 0..n {
         let object = images.id[k];
-        p.id.extend(id_color(object));
+        p.id.extend_from_slice(&id_color(object));
         p.depth.push(depth_level(
             images.distance[k].to_f64(),
             images.focal_length,
         ));
         let normal = images.normal[k].map(T::to_f64);
         let hit = object != MISS || normal != [0.0; 3];
-        p.normal
-            .extend(normal_color(if hit { object.max(0) } else { MISS }, normal));
+        p.normal.extend_from_slice(&normal_color(
+            if hit { object.max(0) } else { MISS },
+            normal,
+        ));
     }
     p
 }

@@ -10,6 +10,9 @@
 //! hit that a watertight test reports right on an edge is never culled by a box test rounded
 //! the other way.
 
+use std::cell::RefCell;
+use std::sync::Arc;
+
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
@@ -644,35 +647,172 @@ fn grown(boxes: Vec<(Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
         .collect()
 }
 
+/// The shape of a scene's BVH: which primitives each leaf holds and how the nodes nest,
+/// without the boxes. It depends on the objects alone, not on the camera: it is built from
+/// their boxes measured from the centre of their bounds, so every view of a scene
+/// ([`crate::render::views`]) fits one topology to its camera ([`Bvh::fit`]) and a single
+/// render builds the very same tree.
+#[derive(Clone, Debug)]
+pub(crate) struct Topology(Bvh);
+
+impl Topology {
+    /// The topology of `scene`'s BVH (the binned SAH build over its primitives' boxes).
+    pub(crate) fn build(scene: &Scene) -> Topology {
+        let (spheres, triangles) = primitive_boxes(scene, Vec3::splat(0.0));
+        let centre = spheres
+            .iter()
+            .chain(&triangles)
+            .fold(None, |b: Option<([f64; 3], [f64; 3])>, (lo, hi)| {
+                let (lo, hi) = (lo.to_array(), hi.to_array());
+                Some(b.map_or((lo, hi), |(l, h)| {
+                    (
+                        [0, 1, 2].map(|k| l[k].min(lo[k])),
+                        [0, 1, 2].map(|k| h[k].max(hi[k])),
+                    )
+                }))
+            })
+            .map_or(Vec3::splat(0.0), |(lo, hi)| {
+                Vec3::from_array([0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]))
+            });
+        let around = |boxes: Vec<(Vec3<f64>, Vec3<f64>)>| -> Vec<Item> {
+            boxes
+                .into_par_iter()
+                .enumerate()
+                .map(|(index, (lo, hi))| Item {
+                    lo: (lo - centre).to_array().map(round_down),
+                    hi: (hi - centre).to_array().map(round_up),
+                    index: index as u32,
+                })
+                .collect()
+        };
+        let ids = ObjectIds::of(scene);
+        Topology(Bvh::from_boxes(
+            around(spheres),
+            around(triangles),
+            &ids.spheres,
+            &ids.triangles,
+        ))
+    }
+}
+
+impl Topology {
+    /// [`Topology::build`] of `scene`, or the one [`sharing_topology`] holds for its objects.
+    pub(crate) fn of(scene: &Scene) -> Arc<Topology> {
+        let key = (scene.objects.as_ptr() as usize, scene.objects.len());
+        SHARED.with_borrow_mut(|shared| match shared {
+            Some((k, slot)) if *k == key => slot
+                .get_or_insert_with(|| Arc::new(Topology::build(scene)))
+                .clone(),
+            _ => Arc::new(Topology::build(scene)),
+        })
+    }
+}
+
+/// The objects a topology is shared for (by address and count), and the topology once built.
+type Shared = ((usize, usize), Option<Arc<Topology>>);
+
+thread_local! {
+    /// The objects (by address and count) whose topology renders on this thread share, and
+    /// that topology once built ([`sharing_topology`]).
+    static SHARED: RefCell<Option<Shared>> = const { RefCell::new(None) };
+}
+
+/// Runs `f`, in which every BVH this thread builds for `scene`'s objects (these very objects,
+/// as the views of one scene share them) takes the topology in `slot`, built at the first need
+/// and left in `slot` for the next call. The topology depends on the objects alone, so this
+/// changes no result, only the time a render of another view takes.
+pub(crate) fn sharing_topology<R>(
+    scene: &Scene,
+    slot: &mut Option<Arc<Topology>>,
+    f: impl FnOnce() -> R,
+) -> R {
+    let key = (scene.objects.as_ptr() as usize, scene.objects.len());
+    let before = SHARED.replace(Some((key, slot.take())));
+    let result = f();
+    if let Some((_, topology)) = SHARED.replace(before) {
+        *slot = topology;
+    }
+    result
+}
+
+/// The boxes of `scene`'s spheres and triangles measured from `origin`, each kind in the
+/// scene's order.
+#[allow(clippy::type_complexity)]
+fn primitive_boxes(
+    scene: &Scene,
+    origin: Vec3<f64>,
+) -> (Vec<(Vec3<f64>, Vec3<f64>)>, Vec<(Vec3<f64>, Vec3<f64>)>) {
+    let mut spheres = Vec::new();
+    let mut triangles = Vec::new();
+    for object in &scene.objects {
+        match object {
+            Object::Sphere { center, radius } => {
+                let c = *center - origin;
+                spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
+            }
+            Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
+            Object::Soup { triangles: t, .. } => {
+                triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)))
+            }
+            Object::Plane { .. } => {}
+        }
+    }
+    (spheres, triangles)
+}
+
 impl Bvh {
     /// The BVH over `scene`'s spheres and triangles in the kernel's coordinates for
     /// `algorithm` (camera-relative for the robust set), as [`super::Primitives`]
     /// lays them out. Spheres and triangles get separate subtrees, so every leaf holds one kind.
+    /// Its shape is [`Topology::build`]'s, which the camera does not change; its boxes are
+    /// fitted to the camera's coordinates ([`Bvh::fit`]).
+    #[cfg(test)]
     pub(crate) fn build(scene: &Scene, algorithm: Algorithm) -> Bvh {
-        let origin = kernel_origin(scene, algorithm);
-        let eye = length(kernel_frame(scene, algorithm).eye);
-        let mut spheres = Vec::new();
-        let mut triangles = Vec::new();
-        for object in &scene.objects {
-            match object {
-                Object::Sphere { center, radius } => {
-                    let c = *center - origin;
-                    spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
+        Bvh::fit(&Topology::build(scene), scene, algorithm)
+    }
+
+    /// `topology` (built from the objects of `kernel`, in any coordinates) with every box
+    /// fitted to `kernel`'s primitives in the kernel's coordinates for `algorithm`: each child's
+    /// box is the union of its primitives' boxes, grown and rounded outward as a fresh build's
+    /// would be.
+    pub(crate) fn fit(topology: &Topology, kernel: &Scene, algorithm: Algorithm) -> Bvh {
+        let origin = kernel_origin(kernel, algorithm);
+        let eye = length(kernel_frame(kernel, algorithm).eye);
+        let (spheres, triangles) = primitive_boxes(kernel, origin);
+        let (spheres, triangles) = (grown(spheres, eye), grown(triangles, eye));
+        let mut bvh = topology.0.clone();
+        // Children come after their parents (`flatten`), so a backward pass meets every
+        // node's children before the node.
+        let mut node_boxes = vec![Aabb::EMPTY; bvh.nodes.len()];
+        for n in (0..bvh.nodes.len()).rev() {
+            let mut children = [bvh.nodes[n].child(0), bvh.nodes[n].child(1)];
+            let mut node_box = Aabb::EMPTY;
+            for c in &mut children {
+                let b = if c.reference & LEAF_BIT == 0 {
+                    node_boxes[c.reference as usize]
+                } else {
+                    let first = (c.reference & !LEAF_BIT) as usize;
+                    let range = first..first + leaf_len(c.count) as usize;
+                    let (order, items) = match c.count & SPHERE_LEAF != 0 {
+                        true => (&bvh.sphere_order, &spheres),
+                        false => (&bvh.triangle_order, &triangles),
+                    };
+                    let mut b = Aabb::EMPTY;
+                    for &k in &order[range] {
+                        b.grow(items[k as usize].lo, items[k as usize].hi);
+                    }
+                    b
+                };
+                // The empty child of a root over one kind keeps its zero box.
+                if b.lo[0] <= b.hi[0] {
+                    (c.lo, c.hi) = (b.lo, b.hi);
+                    node_box = node_box.union(b);
                 }
-                Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
-                Object::Soup { triangles: t, .. } => {
-                    triangles.par_extend(t.par_iter().map(|c| triangle_box(c, origin)))
-                }
-                Object::Plane { .. } => {}
             }
+            bvh.nodes[n] = BvhNode::new(children[0], children[1]);
+            node_boxes[n] = node_box;
         }
-        let ids = ObjectIds::of(scene);
-        Bvh::from_boxes(
-            grown(spheres, eye),
-            grown(triangles, eye),
-            &ids.spheres,
-            &ids.triangles,
-        )
+        bvh
     }
 
     /// The BVH over the boxes of each kind, whose objects (by the items' `index`) are
@@ -929,6 +1069,79 @@ mod tests {
             Ok(mesh.clone())
         })
         .unwrap()
+    }
+
+    /// One topology fitted to cameras far apart: every child's box is exactly the union of its
+    /// primitives' boxes as that camera's build grows them (so every primitive lies inside
+    /// every box on its path), and the shape is the same at every camera.
+    #[test]
+    fn a_topology_fits_every_camera_exactly() {
+        let mut scene = scene_of(40, 300);
+        let topology = Topology::build(&scene);
+        for eye in [[0.0, 0.0, 1.0], [120.0, -3.0, 7.5], [-1e6, 2e5, 3.0]] {
+            scene.camera.eye = glam::DVec3::from_array(eye);
+            let origin = kernel_origin(&scene, Algorithm::Robust);
+            let far = length(kernel_frame(&scene, Algorithm::Robust).eye);
+            let (spheres, triangles) = primitive_boxes(&scene, origin);
+            let (spheres, triangles) = (grown(spheres, far), grown(triangles, far));
+            let bvh = Bvh::fit(&topology, &scene, Algorithm::Robust);
+            assert_eq!(bvh.nodes.len(), topology.0.nodes.len());
+            assert_eq!(bvh.triangle_order, topology.0.triangle_order);
+            let objects = ObjectIds::of(&scene).triangles;
+            check(&bvh, &triangles, &objects);
+            // Tight: each child's box is the union of what lies below it.
+            fn below(bvh: &Bvh, c: Child, items: [&[Item]; 2]) -> Aabb {
+                if c.reference & LEAF_BIT == 0 {
+                    let node = &bvh.nodes[c.reference as usize];
+                    return below(bvh, node.child(0), items).union(below(
+                        bvh,
+                        node.child(1),
+                        items,
+                    ));
+                }
+                let first = (c.reference & !LEAF_BIT) as usize;
+                let sphere = c.count & SPHERE_LEAF != 0;
+                let order = if sphere {
+                    &bvh.sphere_order
+                } else {
+                    &bvh.triangle_order
+                };
+                let mut b = Aabb::EMPTY;
+                for &k in &order[first..first + leaf_len(c.count) as usize] {
+                    let i = &items[sphere as usize][k as usize];
+                    b.grow(i.lo, i.hi);
+                }
+                b
+            }
+            for node in &bvh.nodes {
+                for k in 0..2 {
+                    let c = node.child(k);
+                    let b = below(&bvh, c, [&triangles, &spheres]);
+                    assert_eq!((b.lo, b.hi), (c.lo, c.hi), "eye {eye:?}");
+                }
+            }
+        }
+    }
+
+    /// Renders that share a topology build it once, and only for the objects it was shared
+    /// for.
+    #[test]
+    fn shared_topologies_are_built_once_per_scene() {
+        let scene = scene_of(40, 30);
+        let other = scene_of(40, 30);
+        let mut slot = None;
+        let (a, b, c) = sharing_topology(&scene, &mut slot, || {
+            (
+                Topology::of(&scene),
+                Topology::of(&scene),
+                Topology::of(&other),
+            )
+        });
+        assert!(Arc::ptr_eq(&a, &b) && !Arc::ptr_eq(&a, &c));
+        assert!(Arc::ptr_eq(slot.as_ref().unwrap(), &a));
+        let again = sharing_topology(&scene, &mut slot, || Topology::of(&scene));
+        assert!(Arc::ptr_eq(&again, &a));
+        assert!(!Arc::ptr_eq(&Topology::of(&scene), &a));
     }
 
     /// Each kind counts as a fraction of its own crossover; planes do not count.

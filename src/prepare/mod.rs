@@ -21,7 +21,7 @@ use crate::algorithm::Algorithm;
 use crate::kernel::types::{Frame, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Lighting, Object, Scene};
-use bvh::{Bvh, Search};
+use bvh::{Bvh, Search, Topology};
 
 /// A scene prepared for the kernel in precision `T`.
 #[derive(Clone, Debug, PartialEq)]
@@ -184,9 +184,12 @@ pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Search) -> Opti
     kernel_bvh(scene, &in_kernel_units(scene).0, algorithm, accel)
 }
 
-/// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one.
+/// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one: the topology of
+/// `scene`'s objects ([`Topology::of`]) fitted to the kernel's coordinates.
 fn kernel_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm, accel: Search) -> Option<Bvh> {
-    accel.uses_bvh(scene).then(|| Bvh::build(kernel, algorithm))
+    accel
+        .uses_bvh(scene)
+        .then(|| Bvh::fit(&Topology::of(scene), kernel, algorithm))
 }
 
 /// `scene` in kernel units (scaled by `2^-e`, [`unit_exponent`]; borrowed when `e` is 0, the

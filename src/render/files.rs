@@ -295,9 +295,18 @@ impl RenderFiles {
                 scene.lighting.summary()
             );
         }
+        self.run_loaded(gpu, progress, &scene)
+    }
+
+    /// [`RenderFiles::run`] of `scene`, loaded already (with its camera as the render sees it).
+    pub(crate) fn run_loaded(
+        &self,
+        gpu: Option<&Gpu>,
+        progress: Option<&Progress>,
+        scene: &Scene,
+    ) -> Result<Summary> {
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
-        self.resolved(huge)
-            .run_resolved(gpu, progress, &scene, huge)
+        self.resolved(huge).run_resolved(gpu, progress, scene, huge)
     }
 
     fn run_resolved(
@@ -307,21 +316,7 @@ impl RenderFiles {
         scene: &Scene,
         huge: bool,
     ) -> Result<Summary> {
-        let request = Request {
-            outputs: self.encoding.outputs,
-            shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
-            kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
-            ..Request::default()
-        };
-        let gpu = match (self.mode.device, gpu) {
-            (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
-            (Device::Gpu, gpu) => gpu,
-            (Device::Cpu, _) => None,
-        };
-        if let (Some(_), Some(g)) = (&request.kernel, gpu) {
-            // A kernel whose bindings do not fit is refused before the output folder is made.
-            self.first_kernel(g, scene, &request)?;
-        }
+        let (request, gpu) = self.request(gpu, scene)?;
         output::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
             output::check_parent_writable(path)?;
@@ -345,7 +340,7 @@ impl RenderFiles {
             written: Vec::new(),
         };
         match gpu {
-            Some(g) if self.streamable() && (huge || self.band_rows.is_some()) => {
+            Some(g) if self.in_bands(huge) => {
                 let rows = self.band_rows.unwrap_or(band_rows(nx));
                 let (written, elapsed) = timed(|| self.render_bands(g, scene, &request, rows));
                 let (written, hook_rays) = written?;
@@ -371,6 +366,49 @@ impl RenderFiles {
             summary.emitted = Some(path.clone());
         }
         Ok(summary)
+    }
+
+    /// The request of this (resolved) render, and the device it runs on; a kernel file whose
+    /// bindings do not fit `scene` is refused here, before the output folder is made.
+    fn request<'g>(
+        &self,
+        gpu: Option<&'g Gpu>,
+        scene: &Scene,
+    ) -> Result<(Request, Option<&'g Gpu>)> {
+        let request = Request {
+            outputs: self.encoding.outputs,
+            shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
+            kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
+            ..Request::default()
+        };
+        let gpu = match (self.mode.device, gpu) {
+            (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
+            (Device::Gpu, gpu) => gpu,
+            (Device::Cpu, _) => None,
+        };
+        if let (Some(_), Some(g)) = (&request.kernel, gpu) {
+            self.first_kernel(g, scene, &request)?;
+        }
+        Ok((request, gpu))
+    }
+
+    /// Whether this (resolved) render goes in bands, written as they come.
+    fn in_bands(&self, huge: bool) -> bool {
+        self.mode.device == Device::Gpu && self.streamable() && (huge || self.band_rows.is_some())
+    }
+
+    /// The images [`RenderFiles::run_loaded`] writes, for a caller that writes them itself
+    /// (with [`AnyImages::write`], the same bytes); `None` for a render that goes in bands,
+    /// which only `run_loaded` writes.
+    pub(crate) fn images_of(&self, gpu: Option<&Gpu>, scene: &Scene) -> Result<Option<AnyImages>> {
+        let huge = scene.camera.pixel_count() > STREAM_PIXELS;
+        let resolved = self.resolved(huge);
+        if resolved.in_bands(huge) {
+            return Ok(None);
+        }
+        let (request, gpu) = resolved.request(gpu, scene)?;
+        let (images, _) = resolved.render_whole(scene, gpu, None, &request)?;
+        Ok(Some(images))
     }
 
     /// Renders and writes the image in bands of at most `rows` rows; returns the files, and

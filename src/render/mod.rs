@@ -6,6 +6,7 @@ pub(crate) mod files;
 pub(crate) mod mode;
 pub(crate) mod options;
 pub(crate) mod supersample;
+pub(crate) mod views;
 
 pub(crate) use mode::{Device, Mode, Precision};
 pub(crate) use options::{Cpu, Tuning};
@@ -44,6 +45,14 @@ impl AnyImages {
         match self {
             AnyImages::F32(i) => output::write(i, dir, encoding, camera),
             AnyImages::F64(i) => output::write(i, dir, encoding, camera),
+        }
+    }
+
+    /// The files [`AnyImages::write`] writes, encoded.
+    pub(crate) fn encode(&self, encoding: &Encoding, camera: &Camera) -> Vec<output::EncodedFile> {
+        match self {
+            AnyImages::F32(i) => output::encode(i, encoding, camera),
+            AnyImages::F64(i) => output::encode(i, encoding, camera),
         }
     }
 

@@ -30,7 +30,7 @@ struct SceneFile {
     comment: Option<serde_json::Value>,
 }
 
-#[derive(Deserialize, Default)]
+#[derive(Deserialize, Default, Debug, Clone)]
 #[serde(rename_all = "lowercase")]
 enum ProjectionFile {
     #[default]
@@ -40,9 +40,11 @@ enum ProjectionFile {
 
 /// The course's camera fields, and their alternatives: `look_at` for `look`; `fov` or
 /// `intrinsics` (with `near`) for `focal_length`, `width` and `height`.
-#[derive(Deserialize)]
+#[derive(Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 struct CameraFile {
+    /// A view's name, in a views file (`--views`); a scene's camera has none.
+    name: Option<String>,
     #[serde(rename = "type", default)]
     projection: ProjectionFile,
     eye: [f64; 3],
@@ -59,7 +61,7 @@ struct CameraFile {
 }
 
 /// Pixel intrinsics, OpenCV's convention.
-#[derive(Deserialize)]
+#[derive(Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 struct IntrinsicsFile {
     fx: f64,
@@ -171,7 +173,13 @@ pub(super) fn parse(
     load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
 ) -> Result<Scene> {
     let raw: SceneFile = deserialize(text, file)?;
-    let checker = Checker { file };
+    let checker = Checker {
+        file,
+        camera: "camera",
+    };
+    if raw.camera.name.is_some() {
+        return Err(checker.fail("camera.name", "only the cameras of a views file have names"));
+    }
     let objects = raw
         .objects
         .iter()
@@ -187,6 +195,68 @@ pub(super) fn parse(
     })
 }
 
+/// A view of a views file (`--views`): its name and its camera, checked as a scene's camera
+/// is except for what the scene's objects decide ([`ViewCamera::camera`]).
+#[derive(Debug, Clone)]
+pub(crate) struct ViewCamera {
+    pub name: String,
+    /// Its place in the file, which errors name (`[3].fov`).
+    index: usize,
+    camera: CameraFile,
+}
+
+/// The views of a views file: a JSON list of cameras in any form a scene's camera takes, each
+/// with a `name`. Every camera is checked here against no objects, so a bad field is refused
+/// before anything renders.
+pub(crate) fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
+    let cameras: Vec<CameraFile> = deserialize(text, file)?;
+    if cameras.is_empty() {
+        return Err(Error::SceneValue {
+            file: file.to_owned(),
+            field: "views".into(),
+            message: "no views: give a list of at least one camera".into(),
+        });
+    }
+    let views = cameras
+        .into_iter()
+        .enumerate()
+        .map(|(index, camera)| match camera.name.clone() {
+            Some(name) => Ok(ViewCamera {
+                name,
+                index,
+                camera,
+            }),
+            None => Err(Error::SceneValue {
+                file: file.to_owned(),
+                field: format!("[{index}]"),
+                message: "needs a `name` (the folder its images go in)".into(),
+            }),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for view in &views {
+        view.camera(file, &[])?;
+    }
+    Ok(views)
+}
+
+impl ViewCamera {
+    /// The resolution the view asks for, if it gives one.
+    pub(crate) fn resolution(&self) -> Option<[u32; 2]> {
+        self.camera.resolution
+    }
+
+    /// The camera of this view for a scene of `objects` (which set a field-of-view or
+    /// intrinsics camera's default `near`); `file` is the views file, for errors.
+    pub(crate) fn camera(&self, file: &Path, objects: &[Object]) -> Result<Camera> {
+        let under = format!("[{}]", self.index);
+        Checker {
+            file,
+            camera: &under,
+        }
+        .camera(&self.camera, objects)
+    }
+}
+
 /// A scene of the mesh file `path` alone (object 0) with the camera `camera(bounds)` makes
 /// for the mesh's bounding box; the mesh's numbers are checked as a scene's.
 pub(super) fn mesh_scene(
@@ -194,7 +264,11 @@ pub(super) fn mesh_scene(
     camera: impl FnOnce(Option<(DVec3, DVec3)>) -> Result<Camera>,
 ) -> Result<Scene> {
     let triangles = super::mesh::load_mesh(path)?;
-    Checker { file: path }.mesh_values("", &triangles)?;
+    Checker {
+        file: path,
+        camera: "camera",
+    }
+    .mesh_values("", &triangles)?;
     let objects = vec![Object::Soup {
         path: path.to_owned(),
         triangles,
@@ -210,7 +284,7 @@ pub(super) fn mesh_scene(
     })
 }
 
-fn deserialize(text: &str, file: &Path) -> Result<SceneFile> {
+fn deserialize<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T> {
     let de = &mut serde_json::Deserializer::from_str(text);
     let raw = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
         let path = e.path().to_string();
@@ -296,14 +370,24 @@ pub(crate) const MAX_MAGNITUDE: f64 = 1e18;
 
 struct Checker<'a> {
     file: &'a Path,
+    /// What the camera's fields are named under: `camera` in a scene, `[k]` in a views file.
+    camera: &'a str,
 }
 
 impl Checker<'_> {
     fn fail(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+        let rename = |s: String| match self.camera {
+            "camera" => s,
+            under => s.replace("camera.", &format!("{under}.")),
+        };
+        let field = field.into();
         Error::SceneValue {
             file: self.file.to_owned(),
-            field: field.into(),
-            message: message.into(),
+            field: match field.as_str() {
+                "camera" => self.camera.to_owned(),
+                _ => rename(field),
+            },
+            message: rename(message.into()),
         }
     }
 

@@ -7,6 +7,7 @@
 mod camera;
 mod file;
 pub(crate) use file::MAX_MAGNITUDE;
+pub(crate) use file::{ViewCamera, parse_views};
 mod mesh;
 
 use std::path::{Path, PathBuf};
@@ -168,7 +169,7 @@ impl Lighting {
 
 /// The corners of the box bounding `objects` (spheres whole, planes by their point, triangles
 /// and meshes by their corners), if there are any.
-pub fn bounds(objects: &[Object]) -> Option<(DVec3, DVec3)> {
+pub fn bounds<'a>(objects: impl IntoIterator<Item = &'a Object>) -> Option<(DVec3, DVec3)> {
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
     let mut grow = |p: &Vec3<f64>, r: f64| {

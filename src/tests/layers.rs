@@ -193,10 +193,11 @@ fn the_public_api_reader_sees_grouped_imports() {
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
 
-/// At most 150 public items: every `pub` declaration in src/ is part of the API (everything
-/// else is `pub(crate)` or private), counted as lines that open one.
+/// At most 165 public items: every `pub` declaration in src/ is part of the API (everything
+/// else is `pub(crate)` or private), counted as lines that open one. (150 until the dataset
+/// renderer, `RenderViews` and its four types, added 13.)
 #[test]
-fn at_most_150_items_are_declared_public() {
+fn at_most_165_items_are_declared_public() {
     let mut files = Vec::new();
     sources(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
@@ -219,5 +220,5 @@ fn at_most_150_items_are_declared_public() {
                 .count()
         })
         .sum();
-    assert!(declared <= 150, "{declared} public declarations in src/");
+    assert!(declared <= 165, "{declared} public declarations in src/");
 }

@@ -25,3 +25,4 @@ mod specialized_kernels;
 mod streaming;
 mod supersample;
 mod tradeoff;
+mod views;

@@ -1,0 +1,379 @@
+//! `raycast render SCENE... --views FILE | --orbit N`: every view the same bytes as the single
+//! render of its camera, shards that together write what one run writes, runs that resume
+//! where a killed one stopped, and bad views refused before anything renders.
+
+use crate::common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{raycast, repo_path};
+
+/// Every file under `dir` (hidden ones too) by its path relative to `dir`, with its bytes.
+fn tree(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, files: &mut BTreeMap<String, Vec<u8>>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(root, &path, files);
+            } else {
+                let name = path.strip_prefix(root).unwrap().display().to_string();
+                files.insert(name, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let mut files = BTreeMap::new();
+    walk(dir, dir, &mut files);
+    files
+}
+
+fn run(args: &[&str]) -> Output {
+    raycast().arg("render").args(args).output().unwrap()
+}
+
+fn succeeds(args: &[&str]) -> String {
+    let out = run(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The number before ` views in` on the summary line: how many views the run rendered.
+fn rendered(stdout: &str) -> usize {
+    let line = stdout.lines().next().unwrap();
+    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+const BUNNY: &str = "scenes/course/bunny.json";
+const SPHERES: &str = "scenes/course/two-spheres-and-plane.json";
+
+/// `scene` (a scene file of the repository) with `camera` in place of its own, written into
+/// `dir`, its meshes named by absolute paths.
+fn with_camera(scene: &str, camera: &serde_json::Value, dir: &Path, name: &str) -> PathBuf {
+    let path = repo_path(scene);
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    for object in json["objects"].as_array_mut().unwrap() {
+        if let Some(mesh) = object.get("stl").and_then(|m| m.as_str()) {
+            let absolute = path.parent().unwrap().join(mesh);
+            object["stl"] = absolute.display().to_string().into();
+        }
+    }
+    let mut camera = camera.clone();
+    camera.as_object_mut().unwrap().remove("name");
+    json["camera"] = camera;
+    let file = dir.join(format!("{name}.json"));
+    std::fs::write(&file, json.to_string()).unwrap();
+    file
+}
+
+/// Asserts that the view folder `view` holds exactly what the single render of `scene` writes.
+fn same_as_single(view: &Path, scene: &Path, extra: &[&str], dir: &Path) {
+    let single = dir.join("single");
+    let _ = std::fs::remove_dir_all(&single);
+    let mut args = vec![scene.to_str().unwrap(), "-o", single.to_str().unwrap()];
+    args.extend(extra);
+    succeeds(&args);
+    let (a, b) = (tree(view), tree(&single));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "{}",
+        view.display()
+    );
+    for (name, bytes) in &a {
+        assert!(bytes == &b[name], "{}: {name} differs", view.display());
+    }
+}
+
+#[test]
+fn every_view_is_the_single_render_of_its_camera_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let cameras = serde_json::json!([
+        {"name": "course", "eye": [0.3, 0.2, 2], "look": [-0.1, -0.1, -1], "up": [0, 1, 0],
+         "focal_length": 1, "width": 1.7777777778, "height": 1},
+        {"name": "side", "eye": [2.5, 0.5, 0.3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 50},
+        {"name": "pinhole", "eye": [0, 0, 2.2], "look": [0, 0, -1], "up": [0, 1, 0],
+         "intrinsics": {"fx": 100, "fy": 100, "cx": 47.5, "cy": 26.5}, "resolution": [96, 54]}
+    ]);
+    let views = dir.path().join("views.json");
+    std::fs::write(&views, cameras.to_string()).unwrap();
+    let out = dir.path().join("out");
+    let size = ["--size", "96x54"];
+    let formats = ["--format", "png,npy,depth16"];
+    let mut args = vec![BUNNY, SPHERES, "--views", views.to_str().unwrap()];
+    args.extend(["-o", out.to_str().unwrap()]);
+    args.extend(size.iter().chain(&formats));
+    let stdout = succeeds(&args);
+    assert_eq!(rendered(&stdout), 6, "{stdout}");
+    let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = manifest
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 6);
+    assert_eq!(lines[4]["dir"], "two-spheres-and-plane/side");
+    assert!(lines.iter().all(|l| l["status"] == "done"));
+    let extra: Vec<&str> = size.iter().chain(&formats).copied().collect();
+    for scene in [BUNNY, SPHERES] {
+        let stem = Path::new(scene).file_stem().unwrap().to_str().unwrap();
+        for camera in cameras.as_array().unwrap() {
+            let name = camera["name"].as_str().unwrap();
+            let file = with_camera(scene, camera, dir.path(), name);
+            same_as_single(&out.join(stem).join(name), &file, &extra, dir.path());
+        }
+    }
+    // An orbit's views: each the render of the camera its camera.json gives in scene form.
+    let orbit = dir.path().join("orbit");
+    succeeds(&[
+        BUNNY,
+        "--orbit",
+        "3",
+        "-o",
+        orbit.to_str().unwrap(),
+        "--size",
+        "96x54",
+    ]);
+    for k in 0..3 {
+        let view = orbit.join(format!("bunny/orbit-00{k}"));
+        let camera: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(view.join("camera.json")).unwrap())
+                .unwrap();
+        let file = with_camera(BUNNY, &camera["scene_camera"], dir.path(), "orbit");
+        same_as_single(&view, &file, &["--size", "96x54"], dir.path());
+    }
+}
+
+#[test]
+fn shards_together_write_exactly_what_one_run_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = |out: &Path, extra: &[&str]| {
+        let mut args = vec![BUNNY, SPHERES, "--orbit", "5", "--size", "48x27"];
+        args.extend(["-o", out.to_str().unwrap()]);
+        args.extend(extra);
+        succeeds(&args)
+    };
+    let whole = dir.path().join("whole");
+    assert_eq!(rendered(&job(&whole, &[])), 10);
+    let sharded = dir.path().join("sharded");
+    let mut counts = Vec::new();
+    for shard in ["0/3", "1/3", "2/3"] {
+        counts.push(rendered(&job(&sharded, &["--shard", shard])));
+    }
+    assert_eq!(counts.iter().sum::<usize>(), 10, "{counts:?}");
+    assert!(counts.iter().all(|&n| n >= 2), "balanced: {counts:?}");
+    assert_eq!(tree(&whole), tree(&sharded));
+    // The shard a Slurm array task or a Kubernetes Indexed Job is given.
+    for (vars, count) in [
+        (
+            &[
+                ("SLURM_ARRAY_TASK_ID", "8"),
+                ("SLURM_ARRAY_TASK_MIN", "7"),
+                ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ][..],
+            None,
+        ),
+        (&[("JOB_COMPLETION_INDEX", "1")][..], Some("3")),
+    ] {
+        let auto = dir.path().join("auto");
+        let _ = std::fs::remove_dir_all(&auto);
+        let mut command = raycast();
+        command.args([
+            "render", BUNNY, SPHERES, "--orbit", "5", "--size", "48x27", "--shard", "auto",
+        ]);
+        command.arg("-o").arg(&auto).envs(vars.iter().copied());
+        if let Some(n) = count {
+            command.args(["--shard-count", n]);
+        }
+        let out = command.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let views: Vec<String> = tree(&auto)
+            .keys()
+            .filter(|k| k.ends_with("camera.json"))
+            .cloned()
+            .collect();
+        let one_of_three = dir.path().join("one");
+        let _ = std::fs::remove_dir_all(&one_of_three);
+        job(&one_of_three, &["--shard", "1/3"]);
+        let expected: Vec<String> = tree(&one_of_three)
+            .keys()
+            .filter(|k| k.ends_with("camera.json"))
+            .cloned()
+            .collect();
+        assert_eq!(views, expected, "{vars:?}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = [
+        BUNNY,
+        "--orbit",
+        "40",
+        "--size",
+        "320x180",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let views = |out: &Path| -> Vec<PathBuf> {
+        let scene = out.join("bunny");
+        let Ok(entries) = std::fs::read_dir(&scene) else {
+            return Vec::new();
+        };
+        entries
+            .map(|e| e.unwrap().path())
+            .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+            .collect()
+    };
+    let mut child = raycast().arg("render").args(args).spawn().unwrap();
+    common::wait_until(&mut child, "five views", || views(&out).len() >= 5);
+    child.kill().unwrap(); // SIGKILL: nothing of the run can tidy up
+    child.wait().unwrap();
+    let finished = views(&out);
+    assert!(finished.len() < 40, "killed before the end");
+    let names = [
+        "camera.json",
+        "color.png",
+        "depth.png",
+        "id.png",
+        "normal.png",
+    ];
+    let mut stamps = BTreeMap::new();
+    for view in &finished {
+        // A view's folder is whole or absent.
+        assert_eq!(common::file_names(view), names, "{}", view.display());
+        stamps.insert(
+            view.clone(),
+            std::fs::metadata(view.join("id.png"))
+                .unwrap()
+                .modified()
+                .unwrap(),
+        );
+    }
+    let stdout = succeeds(&args);
+    assert_eq!(rendered(&stdout), 40 - finished.len(), "{stdout}");
+    assert!(
+        stdout.contains(&format!("skipped {} complete", finished.len())),
+        "{stdout}"
+    );
+    for (view, stamp) in stamps {
+        assert_eq!(
+            std::fs::metadata(view.join("id.png"))
+                .unwrap()
+                .modified()
+                .unwrap(),
+            stamp
+        );
+    }
+    // No temporary folder is left, and the whole job is what one uninterrupted run writes.
+    assert_eq!(common::file_names(&out.join("bunny")).len(), 40);
+    let whole = dir.path().join("whole");
+    succeeds(&[
+        BUNNY,
+        "--orbit",
+        "40",
+        "--size",
+        "320x180",
+        "-o",
+        whole.to_str().unwrap(),
+    ]);
+    assert!(tree(&whole) == tree(&out));
+    // --force renders every view again.
+    let again = succeeds(&[&args[..], &["--force"]].concat());
+    assert_eq!(rendered(&again), 40);
+}
+
+#[test]
+fn bad_views_are_one_line_errors_before_anything_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let camera = r#""eye": [0, 0, 2], "look": [0, 0, -1], "up": [0, 1, 0], "fov": 40"#;
+    let cases = [
+        (
+            format!(r#"[{{"name": "a", {camera}, "fow": 3}}]"#),
+            "[0].fow: unknown field `fow`, did you mean `fov`?",
+        ),
+        (
+            format!(r#"[{{"name": "../up", {camera}}}]"#),
+            "[0].name: `../up` is not a folder name",
+        ),
+        (
+            format!(r#"[{{"name": "a", {camera}}}, {{"name": "A", {camera}}}]"#),
+            "[1].name: `A` repeats the name of view 0",
+        ),
+        (format!(r#"[{{{camera}}}]"#), "[0]: needs a `name`"),
+        (
+            r#"[{"name": "a", "eye": [0, 0, 2], "look": [0, 0, -1], "up": [0, 0, 1], "fov": 40}]"#
+                .into(),
+            "[0].up: is parallel to [0].look",
+        ),
+        ("[]".into(), "no views"),
+        (r#"{"name": "a"}"#.into(), "invalid type"),
+    ];
+    for (k, (text, expected)) in cases.iter().enumerate() {
+        let views = dir.path().join(format!("views{k}.json"));
+        std::fs::write(&views, text).unwrap();
+        let result = run(&[
+            BUNNY,
+            "--views",
+            views.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{text}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(expected) && stderr.contains(&format!("views{k}.json")),
+            "{text}: {stderr}"
+        );
+        assert!(!out.exists(), "{text}: nothing written");
+    }
+    for (args, expected) in [
+        (
+            vec![BUNNY, "--orbit", "0"],
+            "--orbit: needs at least 1 view, got 0",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--shard", "2/2"],
+            "--shard: expected I/N",
+        ),
+        (vec![BUNNY, "--force"], "--force: renders many views"),
+        (vec![BUNNY, SPHERES], "2 scene files given"),
+        (
+            vec![BUNNY, "scenes/course/bunny.stl", "--orbit", "2"],
+            "would share the folder `bunny`",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--eye", "1,2,3"],
+            "every view sets the camera",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--shard", "auto"],
+            "neither a Slurm array task",
+        ),
+    ] {
+        let mut args = args.clone();
+        args.extend(["-o", out.to_str().unwrap()]);
+        let result = raycast()
+            .arg("render")
+            .args(&args)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?}: nothing written");
+    }
+}

@@ -1,0 +1,187 @@
+"""Many views of a scene: `render_views` against `render` of a scene file with each camera and
+against the files `raycast render --orbit` writes, and `raycast.distributed.render` on a local
+Ray cluster against the command line's files, byte for byte. Runs the command-line binary that
+`cargo test` built (RAYCAST_BIN to use another)."""
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import raycast
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+BINARY = os.environ.get("RAYCAST_BIN", str(ROOT / "target" / "debug" / "raycast"))
+BUNNY = ROOT / "scenes" / "course" / "bunny.json"
+SMALL = [64, 36]
+
+# The camera forms of docs/scene-format.md, at a small size.
+CAMERAS = [
+    {"name": "course", "eye": [0, 0, 2], "look": [0, 0, -1], "up": [0, 1, 0],
+     "focal_length": 1, "width": 1.7777777778, "height": 1, "resolution": SMALL},
+    {"name": "fov", "eye": [0.5, 0.3, 1.8], "look_at": [0, 0.1, 0], "up": [0, 1, 0],
+     "fov": 50, "resolution": SMALL},
+    {"name": "intrinsics", "eye": [-0.4, 0.2, 1.5], "look": [0.2, -0.1, -1], "up": [0, 1, 0],
+     "intrinsics": {"fx": 40, "fy": 40, "cx": 31.5, "cy": 17.5}, "resolution": SMALL,
+     "near": 0.5},
+    {"name": "orthographic", "type": "orthographic", "eye": [0, 0, 2], "look": [0, 0, -1],
+     "up": [0, 1, 0], "focal_length": 1, "width": 2, "height": 1.125, "resolution": SMALL},
+]
+
+
+def scene_with(tmp_path, name, camera):
+    """bunny.json with `camera`, saved in tmp_path (its mesh by absolute path)."""
+    scene = json.loads(BUNNY.read_text())
+    scene["camera"] = camera
+    scene["objects"][0]["stl"] = str(BUNNY.parent / "bunny.stl")
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+def cli(*args):
+    subprocess.run([BINARY, "render", *map(str, args)], check=True, capture_output=True)
+
+
+def files(folder):
+    """Every file under `folder` by its relative path, with its bytes."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_render_views_equal_render_of_a_scene_file_with_each_camera(tmp_path, precision):
+    views = list(raycast.load(BUNNY).render_views(CAMERAS, precision=precision, device="cpu"))
+    assert [v["name"] for v in views] == [c["name"] for c in CAMERAS]
+    for camera, view in zip(CAMERAS, views):
+        fields = {k: v for k, v in camera.items() if k != "name"}
+        one = raycast.load(scene_with(tmp_path, camera["name"], fields))
+        expected = one.render(precision=precision, device="cpu")
+        assert sorted(view) == sorted([*expected, "name"])
+        for key, image in expected.items():
+            assert view[key].dtype == image.dtype, key
+            assert np.array_equal(view[key], image), (camera["name"], key)
+
+
+def test_render_views_on_the_gpu_lit_takes_numpy_values_and_default_names():
+    camera = {k: v for k, v in CAMERAS[1].items() if k != "name"}
+    camera["eye"] = np.array(camera["eye"])
+    camera["fov"] = np.float32(50)
+    scene = raycast.load(BUNNY)
+    views = scene.render_views([camera, camera], lit=True)
+    first, second = list(views)
+    assert (first["name"], second["name"]) == ("view-000", "view-001")
+    assert first["color"].shape == (36, 64, 4) and first["id"].shape == (36, 64)
+    for key in ("id", "distance", "normal", "color"):
+        assert np.array_equal(first[key], second[key])
+
+
+@pytest.mark.parametrize("camera", CAMERAS, ids=[c["name"] for c in CAMERAS])
+def test_render_views_orbit_renders_what_the_command_line_writes(tmp_path, camera):
+    form = {k: v for k, v in camera.items() if k != "name"}
+    path = scene_with(tmp_path, "scene", form)
+    cli(path, "--orbit", 3, "--format", "npy", "--precision", "f32", "-o", tmp_path / "out")
+    views = list(raycast.load(path).render_views(3, precision="f32"))
+    assert [v["name"] for v in views] == ["orbit-000", "orbit-001", "orbit-002"]
+    for view in views:
+        folder = tmp_path / "out" / "scene" / view["name"]
+        for key in ("id", "distance", "normal"):
+            assert np.array_equal(view[key], np.load(folder / f"{key}.npy")), (view["name"], key)
+
+
+GOOD = {k: v for k, v in CAMERAS[0].items() if k != "name"}
+
+
+@pytest.mark.parametrize(
+    "cameras, error, message",
+    [
+        (0, ValueError, "cameras: expected at least 1 orbit view, got 0"),
+        (True, TypeError, "cameras: expected a list"),
+        ("views.json", TypeError, "cameras: expected a list"),
+        (GOOD, TypeError, "cameras: expected a list"),
+        ([GOOD, 3], TypeError, "cameras[1]: expected a dict"),
+        ([dict(GOOD, fovv=30)], ValueError, "cameras[0].fovv: unknown field `fovv`, did you mean `fov`?"),
+        ([dict(GOOD, fov=30)], ValueError, "cameras[0].fov: is an alternative"),
+        ([{"eye": [0, 0, 2], "look": [0, 0, -1]}], ValueError, "cameras[0]: missing field `up`"),
+        ([dict(GOOD, eye=[0, float("nan"), 2])], ValueError, "cameras[0]: expected finite numbers"),
+        ([dict(GOOD, eye="here")], ValueError, "cameras[0].eye: invalid type"),
+        ([dict(GOOD, name=7)], TypeError, "cameras[0].name: expected a string"),
+        ([dict(GOOD, up=[0, 0, -1])], ValueError, "cameras[0].up: is parallel"),
+    ],
+)
+def test_bad_cameras_raise_naming_the_camera(cameras, error, message):
+    scene = raycast.load(BUNNY)
+    with pytest.raises(error) as raised:
+        scene.render_views(cameras)  # raises at the call, before any view renders
+    assert str(raised.value).startswith(message)
+    assert "\n" not in str(raised.value)
+
+
+def test_render_views_needs_a_scene_file():
+    with pytest.raises(ValueError, match="render_views: the scene has no camera"):
+        raycast.RaycastingScene().render_views([GOOD])
+
+
+def test_import_raycast_imports_no_ray():
+    code = "import raycast, raycast.distributed, sys; assert 'ray' not in sys.modules"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+
+
+def test_distributed_render_refuses_bad_arguments_before_ray(tmp_path):
+    from raycast import distributed
+
+    with pytest.raises(ValueError, match="^views: expected at least 1 orbit view, got 0$"):
+        distributed.render([BUNNY], 0, tmp_path)
+    with pytest.raises(TypeError, match="^views: "):
+        distributed.render([BUNNY], 2.5, tmp_path)
+    with pytest.raises(ValueError, match="^formats: unknown format `jpg`"):
+        distributed.render([BUNNY], 2, tmp_path, formats=["jpg"])
+    with pytest.raises(ValueError, match="^size: "):
+        distributed.render([BUNNY], 2, tmp_path, size=(64, 0))
+    with pytest.raises(ValueError, match="^scenes: .* would share the folder `bunny`"):
+        distributed.render([BUNNY, BUNNY], 2, tmp_path)
+
+
+@pytest.fixture(scope="module")
+def ray_cluster():
+    import ray  # not skipped where missing: scripts/test.sh installs it
+
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield ray
+    ray.shutdown()
+
+
+@pytest.mark.parametrize("views", ["orbit", "file"])
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # Ray Data's own, at its start
+def test_distributed_render_writes_the_command_lines_files(tmp_path, ray_cluster, views):
+    from raycast import distributed
+
+    scenes = [str(BUNNY), str(ROOT / "scenes" / "course" / "sphere-and-plane.json")]
+    if views == "orbit":
+        given = 4
+        flag = ["--orbit", "4"]
+    else:
+        given = str(tmp_path / "views.json")
+        pathlib.Path(given).write_text(json.dumps(CAMERAS[:3]))
+        flag = ["--views", given]
+    common = ["--size", "64x36", "--format", "png,npy"]
+    cli(*scenes, *flag, *common, "-o", tmp_path / "cli")
+    out = tmp_path / "ray"
+    summary = distributed.render(scenes, given, out, formats=("png", "npy"), size=(64, 36))
+    total = 2 * (4 if views == "orbit" else 3)
+    assert summary == {"rendered": total, "skipped": 0, "views": total,
+                       "manifest": str(out / "manifest.jsonl")}
+    expected, written = files(tmp_path / "cli"), files(out)
+    assert set(written) == set(expected)
+    for name, data in expected.items():
+        assert written[name] == data, name
+    assert "manifest.jsonl" in expected
+    # Run again: every view is complete, and the manifest is the same.
+    again = distributed.render(scenes, given, out, formats=("png", "npy"), size=(64, 36))
+    assert (again["rendered"], again["skipped"]) == (0, total)
+    assert (out / "manifest.jsonl").read_bytes() == expected["manifest.jsonl"]

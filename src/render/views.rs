@@ -1,0 +1,929 @@
+//! Many views of many scenes, to files: a dataset (`raycast render SCENE... --views FILE` or
+//! `--orbit N`).
+//!
+//! The job is every (scene, view) pair: the scenes in the order given, each with every view in
+//! the views file's order (or the orbit's). A view's files go to `OUT/<scene stem>/<view name>/`,
+//! written into a hidden folder beside it and renamed into place, so a view's folder is there
+//! whole or not at all and a run started again skips the views already there
+//! ([`RenderViews::force`] renders them again). A scene is loaded once, the shape of its BVH
+//! built once ([`Topology`]) and its kernels compiled once (the device's pipeline cache); a view
+//! redoes only what its camera changes: the primitives measured from its eye, the BVH's boxes,
+//! the render and the files. Each view is the same render as the single render of that scene
+//! with that camera ([`RenderFiles::run`]), so it writes the same bytes.
+//!
+//! A shard ([`Shard`]) renders a contiguous share of the pairs, of about equal estimated cost,
+//! so that a scene's views mostly stay in one shard and its preparation is done once.
+//! `OUT/manifest.jsonl` lists every pair of the job with its status, `done` where its folder
+//! is complete, else `pending`: each run rewrites it whole once its own views are done, under a
+//! lock, so the last shard to finish writes the manifest of the whole job.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+
+use super::files::RenderFiles;
+use crate::error::{Error, Result};
+use crate::gpu::Gpu;
+use crate::images::{Coverage, Images};
+use crate::output::{self, pending};
+use crate::prepare::bvh::{Topology, sharing_topology};
+use crate::render::AnyImages;
+use crate::scene::{self, Object, Scene, ViewCamera};
+
+/// The job's manifest, in the output folder.
+const MANIFEST: &str = "manifest.jsonl";
+
+/// The cameras of every scene in a [`RenderViews`] job.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Views {
+    /// A views file: a JSON list of cameras in any form a scene file's camera takes, each with a
+    /// `name`, the folder its files go in (docs/datasets.md).
+    File(PathBuf),
+    /// A views file's text, given in memory (named `<views>` in errors).
+    Json(String),
+    /// This many views around each scene's bounding sphere, named `orbit-000`, `orbit-001`, ...:
+    /// a turntable about the scene camera's up direction, starting from where it stands, far
+    /// enough for the sphere to fit the image (docs/datasets.md#orbits).
+    Orbit(u32),
+}
+
+impl Views {
+    /// The name of a views file in errors.
+    fn file(&self) -> &Path {
+        match self {
+            Views::File(path) => path,
+            _ => Path::new("<views>"),
+        }
+    }
+
+    /// The views' names, and a views file's cameras (checked but for what a scene decides).
+    fn parse(&self) -> Result<(Vec<String>, Vec<ViewCamera>)> {
+        let text = match self {
+            Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?,
+            Views::Json(text) => text.clone(),
+            Views::Orbit(0) => {
+                return Err(Error::Argument {
+                    option: "orbit".into(),
+                    message: "needs at least 1 view, got 0".into(),
+                });
+            }
+            Views::Orbit(n) => {
+                let width = (n - 1).to_string().len().max(3);
+                let names = (0..*n).map(|k| format!("orbit-{k:0width$}")).collect();
+                return Ok((names, Vec::new()));
+            }
+        };
+        let cameras = scene::parse_views(&text, self.file())?;
+        let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
+        check_names(&names, self.file())?;
+        Ok((names, cameras))
+    }
+
+    /// Every view's name and camera for `scene` (its own camera the orbit's start), as a
+    /// [`RenderViews`] job renders them (without a `size`).
+    pub fn cameras(&self, scene: &Scene) -> Result<Vec<(String, scene::Camera)>> {
+        let (names, cameras) = self.parse()?;
+        let bounds = scene_bounds(scene);
+        let camera = |v| self.camera(&cameras, v, scene, &scene.camera, bounds);
+        (0..names.len())
+            .map(|v| Ok((names[v].clone(), camera(v)?)))
+            .collect()
+    }
+
+    /// View `v`'s camera for `scene`, whose own camera (at the job's size) is `base` and whose
+    /// bounds are `bounds` ([`scene_bounds`]).
+    fn camera(
+        &self,
+        cameras: &[ViewCamera],
+        v: usize,
+        scene: &Scene,
+        base: &scene::Camera,
+        [bounded, all]: [Option<Bounds>; 2],
+    ) -> Result<scene::Camera> {
+        match self {
+            Views::Orbit(n) => {
+                let sphere = bounded
+                    .or(all)
+                    .unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
+                Ok(base.orbit(sphere, all, v as u32, *n))
+            }
+            _ => cameras[v].camera(self.file(), &scene.objects),
+        }
+    }
+}
+
+/// The bounds of `scene`'s spheres and triangles (an orbit's sphere), and of all its objects
+/// (a camera's default `near`).
+fn scene_bounds(scene: &Scene) -> [Option<Bounds>; 2] {
+    let bounded = (scene.objects.iter()).filter(|o| !matches!(o, Object::Plane { .. }));
+    [scene::bounds(bounded), scene::bounds(&scene.objects)]
+}
+
+/// A share of a job: shard `index` of `count` (0-based), `I/N` on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// Which share, `0..count`.
+    pub index: u32,
+    /// How many shares the job is split into.
+    pub count: u32,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Shard, String> {
+        let err = || format!("expected I/N with 0 <= I < N, such as 0/4, got `{s}`");
+        let (i, n) = s.split_once('/').ok_or_else(err)?;
+        let index: u32 = i.trim().parse().map_err(|_| err())?;
+        let count: u32 = n.trim().parse().map_err(|_| err())?;
+        (index < count)
+            .then_some(Shard { index, count })
+            .ok_or_else(err)
+    }
+}
+
+impl Shard {
+    /// The shard a cluster's job array gives this process: a Slurm array task's
+    /// (`SLURM_ARRAY_TASK_ID` counted from `SLURM_ARRAY_TASK_MIN`, of
+    /// `SLURM_ARRAY_TASK_COUNT`), or a Kubernetes Indexed Job's (`JOB_COMPLETION_INDEX`, of
+    /// `count`, its `completions`). `count` also sets a Slurm array's where given.
+    pub fn from_env(count: Option<u32>) -> Result<Shard> {
+        Shard::from_vars(count, |name| std::env::var(name).ok())
+    }
+
+    fn from_vars(count: Option<u32>, var: impl Fn(&str) -> Option<String>) -> Result<Shard> {
+        let refuse = |message: String| Error::Argument {
+            option: "shard auto".into(),
+            message,
+        };
+        let number = |name: &str| -> Result<Option<u32>> {
+            var(name)
+                .map(|v| {
+                    v.trim()
+                        .parse::<u32>()
+                        .map_err(|_| refuse(format!("{name} is `{v}`, not a whole number")))
+                })
+                .transpose()
+        };
+        let shard = |index: u32, count: u32, from: &str| {
+            (index < count)
+                .then_some(Shard { index, count })
+                .ok_or_else(|| {
+                    refuse(format!(
+                        "{from} gives shard {index} of {count}, beyond the last"
+                    ))
+                })
+        };
+        if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+            let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+            let tasks = match (count, number("SLURM_ARRAY_TASK_COUNT")?) {
+                (Some(n), _) | (None, Some(n)) => n,
+                (None, None) => {
+                    return Err(refuse(
+                        "SLURM_ARRAY_TASK_COUNT is not set; give the count as --shard-count".into(),
+                    ));
+                }
+            };
+            let index = id.checked_sub(min).ok_or_else(|| {
+                refuse(format!(
+                    "SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"
+                ))
+            })?;
+            return shard(index, tasks, "SLURM_ARRAY_TASK_ID");
+        }
+        if let Some(index) = number("JOB_COMPLETION_INDEX")? {
+            let count = count.ok_or_else(|| {
+                refuse("a Kubernetes Indexed Job needs its completions as --shard-count".into())
+            })?;
+            return shard(index, count, "JOB_COMPLETION_INDEX");
+        }
+        Err(refuse(
+            "found neither a Slurm array task (SLURM_ARRAY_TASK_ID) nor a Kubernetes Indexed Job (JOB_COMPLETION_INDEX)".into(),
+        ))
+    }
+}
+
+/// Many views of many scenes rendered to files, as `raycast render SCENE... --views FILE -o OUT`
+/// does it (module docs).
+#[derive(Clone, Debug)]
+pub struct RenderViews {
+    /// The scene or mesh files; none: the built-in default scene.
+    pub scenes: Vec<PathBuf>,
+    /// The cameras.
+    pub views: Views,
+    /// Render views whose folder is complete again.
+    pub force: bool,
+    /// How every view is rendered and written: its `out_dir` is the job's `OUT`; its `size`
+    /// sets every view's resolution. Its `scene`, `view` and `emit_shader` are not used and
+    /// must be unset.
+    pub render: RenderFiles,
+}
+
+/// What a run of a [`RenderViews`] job did, for the user.
+#[derive(Clone, Debug)]
+pub struct ViewsSummary {
+    /// Views rendered, views skipped as complete, and views of this shard.
+    pub counts: [usize; 3],
+    /// Views of the whole job.
+    pub job: usize,
+    /// The shard run, if one was.
+    pub shard: Option<Shard>,
+    /// Wall time of the run, rendering and writing.
+    pub elapsed: Duration,
+    /// The manifest written.
+    pub manifest: PathBuf,
+}
+
+impl ViewsSummary {
+    /// The lines `raycast render --views` prints.
+    pub fn lines(&self) -> Vec<String> {
+        let [rendered, skipped, total] = self.counts;
+        let seconds = self.elapsed.as_secs_f64();
+        let share = self.shard.map_or(String::new(), |s| {
+            format!(
+                " (shard {}/{}: {total} of {} views)",
+                s.index, s.count, self.job
+            )
+        });
+        vec![
+            format!(
+                "rendered {rendered} views in {seconds:.3} s ({:.1} views/s), skipped {skipped} complete{share}",
+                rendered as f64 / seconds.max(1e-9)
+            ),
+            format!("wrote {}", self.manifest.display()),
+        ]
+    }
+}
+
+/// The pairs of a job, checked: its scenes, their folder names and the views' names.
+#[derive(Clone, Debug)]
+struct Job {
+    scenes: Vec<Option<PathBuf>>,
+    stems: Vec<String>,
+    names: Vec<String>,
+    /// The views file's cameras (for [`Views::File`]).
+    cameras: Vec<ViewCamera>,
+    /// Each pair's estimated cost, in job order.
+    costs: Vec<f64>,
+}
+
+impl Job {
+    fn len(&self) -> usize {
+        self.scenes.len() * self.names.len()
+    }
+
+    /// The scene and view of pair `p`.
+    fn pair(&self, p: usize) -> (usize, usize) {
+        (p / self.names.len(), p % self.names.len())
+    }
+
+    fn folder(&self, out: &Path, p: usize) -> PathBuf {
+        let (s, v) = self.pair(p);
+        out.join(&self.stems[s]).join(&self.names[v])
+    }
+
+    /// The pairs of `shard`: a contiguous run of the job whose estimated costs add up to about
+    /// a `count`th of the whole (a pair belongs to the share its cost's midpoint falls in).
+    fn share(&self, shard: Option<Shard>) -> Vec<usize> {
+        let Some(Shard { index, count }) = shard else {
+            return (0..self.len()).collect();
+        };
+        let total: f64 = self.costs.iter().sum();
+        let mut before = 0.0;
+        let mut pairs = Vec::new();
+        for (p, cost) in self.costs.iter().enumerate() {
+            let middle = before + cost / 2.0;
+            before += cost;
+            let owner = ((middle / total * f64::from(count)) as u32).min(count - 1);
+            if owner == index {
+                pairs.push(p);
+            }
+        }
+        pairs
+    }
+}
+
+impl RenderViews {
+    /// Checks everything that can be checked before rendering (the options, the scenes' folder
+    /// names, every view's name and camera fields) and lists the job's pairs.
+    fn job(&self) -> Result<Job> {
+        let refuse = |option: &str, message: &str| {
+            Err(Error::Argument {
+                option: option.into(),
+                message: message.into(),
+            })
+        };
+        let r = &self.render;
+        if r.scene.is_some() || !r.view.is_empty() {
+            return refuse(
+                "views",
+                "every view sets the camera: give the scenes alone, without camera settings",
+            );
+        }
+        if r.emit_shader.is_some() {
+            return refuse("emit_shader", "writes one kernel; render one view for it");
+        }
+        r.check()?;
+        let scenes: Vec<Option<PathBuf>> = match self.scenes.is_empty() {
+            true => vec![None],
+            false => self.scenes.iter().cloned().map(Some).collect(),
+        };
+        let stems = scene_stems(&scenes)?;
+        let (names, cameras) = self.views.parse()?;
+        let weights: Vec<f64> = scenes.iter().map(|s| scene_weight(s.as_deref())).collect();
+        let pixels: Vec<f64> = (0..names.len())
+            .map(|v| {
+                let size = r
+                    .size
+                    .or_else(|| cameras.get(v).and_then(|c| c.resolution()));
+                let [nx, ny] = size.unwrap_or(scene::DEFAULT_RESOLUTION);
+                f64::from(nx) * f64::from(ny)
+            })
+            .collect();
+        let costs = weights
+            .iter()
+            .flat_map(|w| pixels.iter().map(move |p| w * p))
+            .collect();
+        Ok(Job {
+            scenes,
+            stems,
+            names,
+            cameras,
+            costs,
+        })
+    }
+
+    /// Checks the job ([`RenderViews::run`] does this first) and returns how many views it has.
+    pub fn check(&self) -> Result<usize> {
+        self.job().map(|job| job.len())
+    }
+
+    /// A renderer of this job's views one by one, which keeps the scene of the last view it
+    /// rendered prepared: what a worker of a distributed run holds.
+    pub fn renderer(&self) -> Result<ViewRenderer> {
+        Ok(ViewRenderer {
+            job: self.job()?,
+            names: self.file_names(),
+            spec: self.clone(),
+            loaded: None,
+        })
+    }
+
+    /// The views of `shard` (the whole job without one), as indices of the job's pairs.
+    pub fn share(&self, shard: Option<Shard>) -> Result<Vec<usize>> {
+        Ok(self.job()?.share(shard))
+    }
+
+    /// Renders every view of `shard` (or of the job) whose folder is not complete (or every
+    /// one with [`RenderViews::force`]), then rewrites the manifest. `on_view(done, total)` is
+    /// called as each view of the share is rendered or skipped.
+    pub fn run(
+        &self,
+        gpu: Option<&Gpu>,
+        shard: Option<Shard>,
+        on_view: &mut dyn FnMut(usize, usize),
+    ) -> Result<ViewsSummary> {
+        let clock = Instant::now();
+        let mut renderer = self.renderer()?;
+        let share = renderer.job.share(shard);
+        output::check_writable(&self.render.out_dir)?;
+        let rendered = renderer.render_all(gpu, &share, on_view)?;
+        let manifest = self.write_manifest()?;
+        Ok(ViewsSummary {
+            counts: [rendered, share.len() - rendered, share.len()],
+            job: renderer.job.len(),
+            shard,
+            elapsed: clock.elapsed(),
+            manifest,
+        })
+    }
+
+    /// Rewrites `OUT/manifest.jsonl` from what the output folder holds: a line for every pair
+    /// of the job, in job order, `done` with its files where its folder is complete, else
+    /// `pending`. Under an exclusive lock on `OUT/.manifest.lock`, so that of shards finishing
+    /// together the last writes last and sees every view.
+    pub fn write_manifest(&self) -> Result<PathBuf> {
+        let job = self.job()?;
+        let out = &self.render.out_dir;
+        output::check_writable(out)?;
+        let _lock = lock(&out.join(".manifest.lock"))?;
+        let names = self.file_names();
+        let mut text = String::new();
+        for p in 0..job.len() {
+            let (s, v) = job.pair(p);
+            let done = complete(&job.folder(out, p), &names);
+            let line = serde_json::json!({
+                "scene": job.scenes[s].as_ref().map_or("<default scene>".into(), |p| p.display().to_string()),
+                "view": job.names[v],
+                "dir": format!("{}/{}", job.stems[s], job.names[v]),
+                "files": if done { names.clone() } else { Vec::new() },
+                "status": if done { "done" } else { "pending" },
+            });
+            text.push_str(&line.to_string());
+            text.push('\n');
+        }
+        let path = out.join(MANIFEST);
+        output::write_file(&path, text.as_bytes())?;
+        Ok(path)
+    }
+
+    /// The files each view's folder holds: those the encoding writes for images of this job
+    /// (with coverage when supersampled, with a hook's colours when shaded) and camera.json.
+    fn file_names(&self) -> Vec<String> {
+        let r = &self.render;
+        let mut images = Images::<f32>::new_miss(1, 1, 1.0);
+        if r.spp.is_some_and(|s| s > 1) {
+            images.coverage = Some(Coverage {
+                spp: 4,
+                hits: vec![0],
+                alpha: vec![0.0],
+                color_sum: vec![[0; 3]],
+            });
+        }
+        if r.shader.is_some() || r.lit {
+            images.color = Some(vec![[0; 4]]);
+        }
+        let camera = Scene::default_scene().camera;
+        let files = output::encode(&images, &r.encoding, &camera);
+        files.iter().map(|f| f.name.to_owned()).collect()
+    }
+}
+
+/// Renders the views of a job one at a time (from [`RenderViews::renderer`]), keeping the
+/// last one's scene loaded and its BVH's shape built.
+#[derive(Debug)]
+pub struct ViewRenderer {
+    spec: RenderViews,
+    job: Job,
+    /// The files a complete view's folder holds.
+    names: Vec<String>,
+    loaded: Option<Loaded>,
+}
+
+/// A box, by its lowest and highest corners.
+type Bounds = (DVec3, DVec3);
+
+/// A scene as its views share it.
+#[derive(Debug)]
+struct Loaded {
+    index: usize,
+    scene: Scene,
+    /// Its objects' bounds: those of its spheres and triangles (an orbit's sphere), and of
+    /// every object (a camera's default `near`).
+    bounds: [Option<Bounds>; 2],
+    /// The camera the scene (or a mesh's default view) comes with, at the job's size.
+    camera: scene::Camera,
+    topology: Option<Arc<Topology>>,
+    /// The temporary folders killed runs left in its folder, by view name: removed before
+    /// that view renders (only the run rendering a view writes its temporary folders).
+    stale: HashMap<String, Vec<PathBuf>>,
+}
+
+impl ViewRenderer {
+    /// Renders the views `pairs` in order, each view's files written on a thread of their own
+    /// while the next view renders; returns how many it rendered (the rest were complete).
+    fn render_all(
+        &mut self,
+        gpu: Option<&Gpu>,
+        pairs: &[usize],
+        on_view: &mut dyn FnMut(usize, usize),
+    ) -> Result<usize> {
+        let (send, receive) = std::sync::mpsc::sync_channel::<Box<ViewWrite>>(1);
+        std::thread::scope(|scope| {
+            let writer = scope.spawn(move || -> Result<()> {
+                for write in receive {
+                    write.finish()?;
+                }
+                Ok(())
+            });
+            let mut rendered = 0;
+            let mut outcome = Ok(());
+            for (k, &p) in pairs.iter().enumerate() {
+                let started = match self.start(gpu, p) {
+                    Ok(started) => started,
+                    Err(e) => {
+                        outcome = Err(e);
+                        break;
+                    }
+                };
+                rendered += usize::from(!matches!(started, Started::Complete));
+                if let Started::Rendered(write) = started
+                    && let Err(std::sync::mpsc::SendError(write)) = send.send(write)
+                {
+                    // The writer stopped at an error, which it returns below.
+                    pending::discard_dir(&write.temporary);
+                    break;
+                }
+                on_view(k + 1, pairs.len());
+            }
+            drop(send);
+            let written = writer.join().expect("the writer does not panic");
+            outcome.and(written).map(|()| rendered)
+        })
+    }
+
+    /// Renders the views `pairs` of the job (indices of [`RenderViews::share`]'s) in order, each
+    /// into its folder unless its folder is complete and the job does not force, writing each
+    /// view's files while the next renders; returns how many it rendered.
+    pub fn render(&mut self, gpu: Option<&Gpu>, pairs: &[usize]) -> Result<usize> {
+        self.render_all(gpu, pairs, &mut |_, _| {})
+    }
+
+    /// Renders view `pair` unless it is complete; the files of a whole image are left to
+    /// write ([`ViewWrite::finish`], which may run on another thread while the next view
+    /// renders), a render in bands writes them as it goes.
+    fn start(&mut self, gpu: Option<&Gpu>, pair: usize) -> Result<Started> {
+        if pair >= self.job.len() {
+            return Err(Error::Argument {
+                option: "pair".into(),
+                message: format!("{pair} is beyond the job's {} views", self.job.len()),
+            });
+        }
+        let out = &self.spec.render.out_dir;
+        let folder = self.job.folder(out, pair);
+        if !self.spec.force && complete(&folder, &self.names) {
+            return Ok(Started::Complete);
+        }
+        let (s, v) = self.job.pair(pair);
+        let ViewRenderer {
+            spec, job, loaded, ..
+        } = self;
+        let loaded = load(loaded, job, spec, s)?;
+        let (scene, base) = (&loaded.scene, &loaded.camera);
+        let mut camera = spec
+            .views
+            .camera(&job.cameras, v, scene, base, loaded.bounds)?;
+        if let Some(size) = spec.render.size {
+            camera.resolution = size;
+        }
+        loaded.scene.camera = camera;
+        for stale in loaded.stale.remove(&job.names[v]).unwrap_or_default() {
+            let _ = std::fs::remove_dir_all(stale);
+        }
+        let temporary = pending::temp_path(&folder)?;
+        let files = RenderFiles {
+            out_dir: temporary.clone(),
+            scene: job.scenes[s].clone(),
+            ..spec.render.clone()
+        };
+        let (scene, topology) = (&loaded.scene, &mut loaded.topology);
+        let images = sharing_topology(scene, topology, || files.images_of(gpu, scene));
+        let written = match images {
+            Ok(Some(images)) => {
+                return Ok(Started::Rendered(Box::new(ViewWrite {
+                    images,
+                    encoding: files.encoding,
+                    camera: scene.camera.clone(),
+                    temporary,
+                    folder,
+                })));
+            }
+            Ok(None) => {
+                make_temporary(&temporary)?;
+                sharing_topology(scene, topology, || files.run_loaded(gpu, None, scene))
+            }
+            Err(e) => Err(e),
+        };
+        match written {
+            Ok(_) => pending::place_dir(&temporary, &folder)?,
+            Err(e) => {
+                pending::discard_dir(&temporary);
+                return Err(e);
+            }
+        }
+        Ok(Started::Written)
+    }
+}
+
+/// A view's render begun by [`ViewRenderer::start`].
+enum Started {
+    /// Its folder was complete: nothing rendered.
+    Complete,
+    /// Rendered and written (in bands).
+    Written,
+    /// Rendered, its files still to write.
+    Rendered(Box<ViewWrite>),
+}
+
+/// Creates the temporary folder a view is written into, and the scene's folder it sits in.
+fn make_temporary(temporary: &Path) -> Result<()> {
+    let parent = temporary
+        .parent()
+        .expect("a view's folder is in its scene's");
+    std::fs::create_dir_all(parent)
+        .map_err(|e| Error::io(parent, format!("cannot create folder: {e}")))?;
+    pending::create_dir(temporary)
+}
+
+/// A view's images and where they go: a temporary folder, renamed to the view's once every
+/// file is written.
+struct ViewWrite {
+    images: AnyImages,
+    encoding: output::Encoding,
+    camera: scene::Camera,
+    temporary: PathBuf,
+    folder: PathBuf,
+}
+
+impl ViewWrite {
+    /// Writes the files, then puts the folder in place; on an error leaves no folder behind.
+    /// The files are those [`AnyImages::write`] writes, written straight into the temporary
+    /// folder, which is what appears whole or not at all.
+    fn finish(self) -> Result<()> {
+        let files = self.images.encode(&self.encoding, &self.camera);
+        make_temporary(&self.temporary)?;
+        let written = files.iter().try_for_each(|f| {
+            let path = self.temporary.join(f.name);
+            std::fs::write(&path, &f.bytes)
+                .map_err(|e| Error::io(&path, format!("cannot write: {e}")))
+        });
+        match written {
+            Ok(_) => pending::place_dir(&self.temporary, &self.folder),
+            Err(e) => {
+                pending::discard_dir(&self.temporary);
+                Err(e)
+            }
+        }
+    }
+}
+
+/// The scene of `job`'s scene `s`, loaded into `loaded` unless it is the one there.
+fn load<'a>(
+    loaded: &'a mut Option<Loaded>,
+    job: &Job,
+    spec: &RenderViews,
+    s: usize,
+) -> Result<&'a mut Loaded> {
+    if loaded.as_ref().is_none_or(|l| l.index != s) {
+        *loaded = None;
+        let path = job.scenes[s].as_deref();
+        let view = scene::CameraOverrides::default();
+        let scene = scene::load_viewed(path, spec.render.size, &view)?;
+        let bounds = scene_bounds(&scene);
+        *loaded = Some(Loaded {
+            stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
+            index: s,
+            camera: scene.camera.clone(),
+            scene,
+            bounds,
+            topology: None,
+        });
+    }
+    Ok(loaded.as_mut().expect("loaded above"))
+}
+
+/// The temporary folders of views in a scene's `folder` (`.NAME.tmp-PID`, `.NAME.old-PID`),
+/// by view name.
+fn stale_folders(folder: &Path) -> HashMap<String, Vec<PathBuf>> {
+    let mut stale: HashMap<String, Vec<PathBuf>> = HashMap::new();
+    for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let view = name
+            .strip_prefix('.')
+            .and_then(|n| n.rsplit_once(".tmp-").or_else(|| n.rsplit_once(".old-")));
+        if let Some((view, _)) = view {
+            stale.entry(view.to_owned()).or_default().push(entry.path());
+        }
+    }
+    stale
+}
+
+/// Whether a view's `folder` holds every one of `names`.
+fn complete(folder: &Path, names: &[String]) -> bool {
+    folder.is_dir() && names.iter().all(|n| folder.join(n).is_file())
+}
+
+/// The folder each scene's views go in: its file's stem (`default` for the built-in scene),
+/// refused where two scenes would share one.
+fn scene_stems(scenes: &[Option<PathBuf>]) -> Result<Vec<String>> {
+    let mut stems: Vec<String> = Vec::new();
+    for (k, scene) in scenes.iter().enumerate() {
+        let stem = match scene {
+            None => "default".to_owned(),
+            Some(path) => path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .filter(|s| {
+                    !s.is_empty() && !s.starts_with('.') && !s.eq_ignore_ascii_case(MANIFEST)
+                })
+                .ok_or_else(|| Error::Argument {
+                    option: "scenes".into(),
+                    message: format!("{}: no file name to name its folder by", path.display()),
+                })?,
+        };
+        if let Some(j) = stems.iter().position(|s| s.eq_ignore_ascii_case(&stem)) {
+            let name = |i: usize| {
+                scenes[i]
+                    .as_ref()
+                    .map_or("<default>".into(), |p| p.display().to_string())
+            };
+            return Err(Error::Argument {
+                option: "scenes".into(),
+                message: format!(
+                    "{} and {} would share the folder `{stem}`; give scenes of distinct file names",
+                    name(j),
+                    name(k)
+                ),
+            });
+        }
+        stems.push(stem);
+    }
+    Ok(stems)
+}
+
+/// Refuses a view name that is not one plain folder name inside the output folder (empty, `.`
+/// or `..`, starting with `.`, with a path separator, a control character or a character
+/// Windows forbids), and names that repeat, case aside (folders on macOS and Windows).
+fn check_names(names: &[String], file: &Path) -> Result<()> {
+    let fail = |k: usize, message: String| Error::SceneValue {
+        file: file.to_owned(),
+        field: format!("[{k}].name"),
+        message,
+    };
+    for (k, name) in names.iter().enumerate() {
+        let bad = name.is_empty()
+            || name.starts_with('.')
+            || name.len() > 200
+            || name
+                .chars()
+                .any(|c| c.is_control() || "/\\<>:\"|?*".contains(c));
+        if bad {
+            return Err(fail(
+                k,
+                format!(
+                    "`{name}` is not a folder name inside the output folder: 1 to 200 bytes, not starting with `.`, without / \\ < > : \" | ? * or control characters"
+                ),
+            ));
+        }
+        if let Some(j) = names[..k]
+            .iter()
+            .position(|n| n.to_lowercase() == name.to_lowercase())
+        {
+            return Err(fail(
+                k,
+                format!(
+                    "`{name}` repeats the name of view {j}, `{}` (names are folders, case aside)",
+                    names[j]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A scene's estimated cost per pixel: the logarithm of its size on disk (the scene file and
+/// the meshes it names), as a BVH's depth grows with its primitives.
+fn scene_weight(path: Option<&Path>) -> f64 {
+    let size = |p: &Path| std::fs::metadata(p).map_or(0, |m| m.len());
+    let bytes = match path {
+        None => scene::DEFAULT_SCENE_BUNNY.len() as u64,
+        Some(path) if scene::is_mesh_file(path) => size(path),
+        Some(path) => {
+            let base = path.parent().unwrap_or(Path::new(""));
+            let meshes = std::fs::read_to_string(path)
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .and_then(|v| v.get("objects").and_then(|o| o.as_array()).cloned())
+                .unwrap_or_default();
+            let mesh_bytes: u64 = meshes
+                .iter()
+                .filter_map(|o| {
+                    ["stl", "obj", "ply"]
+                        .iter()
+                        .find_map(|k| o.get(k)?.as_str())
+                })
+                .map(|m| size(&base.join(m)))
+                .sum();
+            size(path) + mesh_bytes
+        }
+    };
+    (2.0 + bytes as f64 / 50.0).log2()
+}
+
+/// An exclusive lock on `path` (created if missing), held until the value is dropped.
+fn lock(path: &Path) -> Result<std::fs::File> {
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .map_err(|e| Error::io(path, format!("cannot create the lock file: {e}")))?;
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        // SAFETY: flock on a file descriptor this function owns; released when it is closed.
+        if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
+            let e = std::io::Error::last_os_error();
+            return Err(Error::io(path, format!("cannot lock: {e}")));
+        }
+    }
+    Ok(file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_parse_as_i_of_n() {
+        assert_eq!("2/3".parse(), Ok(Shard { index: 2, count: 3 }));
+        for bad in ["3/3", "0/0", "1", "a/2", "-1/2", "1/2/3", ""] {
+            assert!(bad.parse::<Shard>().unwrap_err().contains("I/N"), "{bad}");
+        }
+    }
+
+    #[test]
+    fn auto_shards_come_from_slurm_arrays_and_indexed_jobs() {
+        let vars = |pairs: &[(&str, &str)]| {
+            let pairs: Vec<(String, String)> = pairs
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            move |name: &str| {
+                pairs
+                    .iter()
+                    .find(|(k, _)| k == name)
+                    .map(|(_, v)| v.clone())
+            }
+        };
+        let slurm = vars(&[
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_MIN", "4"),
+            ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ]);
+        assert_eq!(
+            Shard::from_vars(None, &slurm).unwrap(),
+            Shard { index: 1, count: 3 }
+        );
+        let k8s = vars(&[("JOB_COMPLETION_INDEX", "3")]);
+        assert_eq!(
+            Shard::from_vars(Some(4), &k8s).unwrap(),
+            Shard { index: 3, count: 4 }
+        );
+        let message = |r: Result<Shard>| r.unwrap_err().to_string();
+        assert!(message(Shard::from_vars(None, &k8s)).contains("--shard-count"));
+        assert!(message(Shard::from_vars(Some(3), &k8s)).contains("beyond the last"));
+        assert!(message(Shard::from_vars(None, vars(&[]))).contains("JOB_COMPLETION_INDEX"));
+        let below = vars(&[("SLURM_ARRAY_TASK_ID", "1"), ("SLURM_ARRAY_TASK_MIN", "2")]);
+        assert!(message(Shard::from_vars(Some(2), below)).contains("below"));
+        let bad = vars(&[("SLURM_ARRAY_TASK_ID", "x")]);
+        assert!(message(Shard::from_vars(Some(2), bad)).contains("`x`"));
+    }
+
+    /// Shards split the job into contiguous runs of about equal cost that together hold every
+    /// pair once.
+    #[test]
+    fn shards_cover_the_job_once_in_runs_of_about_equal_cost() {
+        let job = |costs: Vec<f64>| Job {
+            scenes: vec![None; costs.len()],
+            stems: Vec::new(),
+            names: vec!["v".into()],
+            cameras: Vec::new(),
+            costs,
+        };
+        let uneven: Vec<f64> = (0..97).map(|k| 1.0 + (k % 7) as f64 * 3.0).collect();
+        for costs in [vec![1.0; 10], uneven, vec![5.0, 1.0]] {
+            let total: f64 = costs.iter().sum();
+            let largest = costs.iter().cloned().fold(0.0, f64::max);
+            let job = job(costs.clone());
+            for count in 1..=5 {
+                let mut all = Vec::new();
+                for index in 0..count {
+                    let share = job.share(Some(Shard { index, count }));
+                    assert!(share.windows(2).all(|w| w[1] == w[0] + 1), "contiguous");
+                    let cost: f64 = share.iter().map(|&p| costs[p]).sum();
+                    assert!(
+                        (cost - total / count as f64).abs() <= largest,
+                        "{cost} of {total}"
+                    );
+                    all.extend(share);
+                }
+                assert_eq!(all, (0..costs.len()).collect::<Vec<_>>());
+            }
+        }
+    }
+
+    #[test]
+    fn view_names_are_single_folder_names_without_repeats() {
+        let file = Path::new("views.json");
+        let names = |list: &[&str]| list.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert!(check_names(&names(&["front", "side 2", "é"]), file).is_ok());
+        for (list, field, part) in [
+            (&["a/b"][..], "[0].name", "not a folder name"),
+            (&["..", "x"], "[0].name", "not a folder name"),
+            (&["x", ".hidden"], "[1].name", "not a folder name"),
+            (&["x", ""], "[1].name", "not a folder name"),
+            (&["a\\b"], "[0].name", "not a folder name"),
+            (
+                &["Front", "back", "front"],
+                "[2].name",
+                "repeats the name of view 0",
+            ),
+        ] {
+            let e = check_names(&names(list), file).unwrap_err().to_string();
+            assert!(e.contains(field) && e.contains(part), "{list:?}: {e}");
+        }
+    }
+}
