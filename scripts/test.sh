@@ -7,6 +7,16 @@
 # and Ray Data (python/tests/test_views.py renders a dataset on a local Ray cluster).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The Python packages the tests need, installed while the Rust side builds and runs: mostly
+# downloads and unpacking (Ray's are the largest), which the compiler's work hides.
+venv=target/py-venv
+pip_log=target/py-venv-install.log
+mkdir -p target
+(
+    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+    "$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree "ray[data]"
+) >"$pip_log" 2>&1 &
+pip_install=$!
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
 # dependencies they share are compiled once (maturin's own build would compile them again).
 cargo build --quiet --lib --bins --tests --examples
@@ -29,8 +39,10 @@ cp -R python/raycast "$package/"
 extension=target/debug/lib_raycast.so
 [ "$(uname -s)" = Darwin ] && extension=target/debug/lib_raycast.dylib
 cp "$extension" "$package/raycast/_raycast.abi3.so"
-venv=target/py-venv
-[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree "ray[data]"
+if ! wait "$pip_install"; then
+    cat "$pip_log" >&2
+    echo "test.sh: installing the Python test packages failed" >&2
+    exit 1
+fi
 PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
 echo "test.sh: Python tests done at ${SECONDS} s" >&2

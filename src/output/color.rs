@@ -128,47 +128,68 @@ impl PixelCoverage {
     }
 }
 
-/// The RGBA bytes (4 a pixel, row-major) of `color.png` for `pixels`.
-pub(crate) fn color_rgba8(
-    pixels: impl ExactSizeIterator<Item = PixelCoverage>,
-    background: Option<[u8; 3]>,
-) -> Vec<u8> {
-    let mut rgba = Vec::with_capacity(4 * pixels.len());
-    for p in pixels {
-        rgba.extend_from_slice(&p.to_rgba8(background));
+/// The RGBA bytes (4 a pixel, row-major) of `color.png` for `images`: each pixel's coverage
+/// ([`pixel_coverage`]) over `background`.
+pub(crate) fn color_rgba8<T: Real>(images: &Images<T>, background: Option<[u8; 3]>) -> Vec<u8> {
+    let mut rgba = vec![0u8; 4 * images.id.len()];
+    let pixels = rgba.chunks_exact_mut(4);
+    // Two plain loops rather than one over either kind of pixel: this runs for every pixel of
+    // every view of a dataset.
+    match &images.coverage {
+        Some(c) => {
+            for (out, (&hits, &color_sum)) in pixels.zip(c.hits.iter().zip(&c.color_sum)) {
+                let spp = c.spp;
+                out.copy_from_slice(
+                    &PixelCoverage {
+                        spp,
+                        hits,
+                        color_sum,
+                    }
+                    .to_rgba8(background),
+                );
+            }
+        }
+        None => {
+            // One sample a pixel: its colour is one of ten, each object's palette entry's or
+            // a miss's, found once.
+            let colour = |id| one_sample(id).to_rgba8(background);
+            let palette: [[u8; 4]; 9] = std::array::from_fn(|k| colour(k as i32));
+            let miss = colour(MISS);
+            for (out, &id) in pixels.zip(&images.id) {
+                let rgba = match id {
+                    MISS => &miss,
+                    id => &palette[id as usize % palette.len()],
+                };
+                out.copy_from_slice(rgba);
+            }
+        }
     }
     rgba
 }
 
-/// [`pixel_coverages`], collected.
-#[cfg(test)]
-pub(crate) fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
-    pixel_coverages(images).collect()
+/// The coverage of a pixel of one sample of object `id`: covered by its palette colour, or
+/// not at all by a miss.
+fn one_sample(id: i32) -> PixelCoverage {
+    PixelCoverage {
+        spp: 1,
+        hits: u32::from(id != MISS),
+        color_sum: id_color(id).map(u32::from),
+    }
 }
 
-/// The coverage of each pixel of `images`, row-major: their [`crate::images::Coverage`] when supersampled,
-/// else one sample per pixel (a hit covers the pixel with its palette colour, a miss not at all).
-pub(crate) fn pixel_coverages<T: Real>(
-    images: &Images<T>,
-) -> Box<dyn ExactSizeIterator<Item = PixelCoverage> + '_> {
+/// The coverage of each pixel of `images`, row-major: their [`crate::images::Coverage`] when
+/// supersampled, else one sample per pixel ([`one_sample`]).
+#[cfg(test)]
+pub(crate) fn pixel_coverage<T: Real>(images: &Images<T>) -> Vec<PixelCoverage> {
     match &images.coverage {
-        Some(c) => {
-            Box::new(
-                c.hits
-                    .iter()
-                    .zip(&c.color_sum)
-                    .map(|(&hits, &color_sum)| PixelCoverage {
-                        spp: c.spp,
-                        hits,
-                        color_sum,
-                    }),
-            )
-        }
-        None => Box::new(images.id.iter().map(|&id| PixelCoverage {
-            spp: 1,
-            hits: u32::from(id != MISS),
-            color_sum: id_color(id).map(u32::from),
-        })),
+        Some(c) => (c.hits.iter().zip(&c.color_sum))
+            .map(|(&hits, &color_sum)| PixelCoverage {
+                spp: c.spp,
+                hits,
+                color_sum,
+            })
+            .collect(),
+        None => images.id.iter().map(|&id| one_sample(id)).collect(),
     }
 }
 

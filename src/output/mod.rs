@@ -19,11 +19,11 @@ use crate::math::Real;
 use crate::scene::Camera;
 
 pub use self::{depth::Depth, pending::abandon, pictures::Pictures};
+pub(crate) use color::color_rgba8;
 #[cfg(test)]
 pub(crate) use color::pixel_coverage;
 #[cfg(test)]
 pub(crate) use color::{PixelCoverage, opaque, over};
-pub(crate) use color::{color_rgba8, pixel_coverages};
 pub(crate) use depth::{camera_json, depth16_levels};
 pub(crate) use npy::encode_npy;
 #[cfg(test)]
@@ -212,10 +212,13 @@ pub(super) fn encode_format<T: Real>(
 ) -> Vec<EncodedFile> {
     let outputs = encoding.outputs;
     match format {
-        Format::Png => png_pictures(images, outputs, encoding.background)
-            .iter()
-            .map(Picture::to_png)
-            .collect(),
+        // Each picture compressed on a thread of its own: the writer of a dataset's views
+        // keeps pace with the renders.
+        Format::Png => {
+            use rayon::prelude::*;
+            let pictures = png_pictures(images, outputs, encoding.background);
+            pictures.par_iter().map(Picture::to_png).collect()
+        }
         Format::Ppm => pictures::encode_ppm(images, outputs),
         Format::Npy => npy::encode_all(images, outputs, encoding.depth, depth),
         Format::Npz => vec![npy::encode_npz(&npy::encode_all(
@@ -252,7 +255,7 @@ pub(crate) fn png_pictures<T: Real>(
     if outputs.color {
         let rgba = match &images.color {
             Some(hook) => hook.iter().flatten().copied().collect(),
-            None => color_rgba8(pixel_coverages(images), background),
+            None => color_rgba8(images, background),
         };
         set.push(Picture::new(
             "color.png",

@@ -68,23 +68,23 @@ pub(crate) fn pictures<T: Real>(images: &Images<T>) -> Pictures {
     let mut p = Pictures {
         width: images.width,
         height: images.height,
-        id: Vec::with_capacity(3 * n),
-        depth: Vec::with_capacity(n),
-        normal: Vec::with_capacity(3 * n),
+        id: vec![0; 3 * n],
+        depth: vec![0; n],
+        normal: vec![0; 3 * n],
     };
-    for k in 0..n {
-        let object = images.id[k];
-        p.id.extend_from_slice(&id_color(object));
-        p.depth.push(depth_level(
-            images.distance[k].to_f64(),
-            images.focal_length,
-        ));
-        let normal = images.normal[k].map(T::to_f64);
-        let hit = object != MISS || normal != [0.0; 3];
-        p.normal.extend_from_slice(&normal_color(
-            if hit { object.max(0) } else { MISS },
-            normal,
-        ));
+    // A loop per picture: the depth and normal mappings then run on whole vectors of pixels
+    // (the same f64 operations, so the same bytes), as a dataset's every view needs them.
+    for (id, &object) in p.id.chunks_exact_mut(3).zip(&images.id) {
+        id.copy_from_slice(&id_color(object));
+    }
+    for (depth, &distance) in p.depth.iter_mut().zip(&images.distance) {
+        *depth = depth_level(distance.to_f64(), images.focal_length);
+    }
+    let pixels = p.normal.chunks_exact_mut(3).zip(&images.normal);
+    for ((normal, n), &object) in pixels.zip(&images.id) {
+        let n = n.map(T::to_f64);
+        let hit = object != MISS || n != [0.0; 3];
+        normal.copy_from_slice(&normal_color(if hit { object.max(0) } else { MISS }, n));
     }
     p
 }
