@@ -85,9 +85,9 @@ fi
 command -v python3 >/dev/null || { say "gpu-check: python3 is needed to write the report"; exit 2; }
 binary=$(cd "$(dirname "$binary")" && pwd)/$(basename "$binary")
 if [[ $quick == 1 ]]; then
-    size=640x360 big=200000 rays=100000 runs=${runs:-1}
+    size=640x360 big=200000 rays=100000 runs=${runs:-1} views=10 singles=2
 else
-    size=3840x2160 big=5000000 rays=2000000 runs=${runs:-5}
+    size=3840x2160 big=5000000 rays=2000000 runs=${runs:-5} views=100 singles=10
 fi
 raw=$out/raw
 mkdir -p "$raw" || exit 2
@@ -172,6 +172,22 @@ adaptive_times() {
 }
 step adaptive "$raw/adaptive.txt" adaptive_times
 
+# A dataset (docs/datasets.md#how-fast): the views of an orbit as one batch, against single
+# renders (each a process: device, compile, render, files) and the kernel's rate at that size.
+views_times() {
+    local t0 k
+    t0=$(date +%s.%N)
+    "$binary" render "$work/lit/bunny.json" --orbit "$views" --size 640x360 -o "$work/views" >/dev/null || return 1
+    echo "batch $(date +%s.%N) $t0"
+    for ((k = 0; k < singles; k++)); do
+        t0=$(date +%s.%N)
+        "$binary" render "$work/lit/bunny.json" --size 640x360 -o "$work/single" >/dev/null || return 1
+        echo "single $(date +%s.%N) $t0"
+    done
+}
+step views "$raw/views.txt" views_times
+bench views "$work/lit/bunny.json" --size 640x360
+
 [[ -z $peer_bench && -f $here/peer_bench.py ]] && peer_bench=$here/peer_bench.py
 if [[ -n $peer_bench ]]; then
     if ! python3 -c 'import mitsuba, drjit' 2>/dev/null && compgen -G "$here/wheels/*.whl" >/dev/null; then
@@ -195,10 +211,11 @@ if [[ -n $peer_bench ]]; then
 fi
 
 # --- the report -----------------------------------------------------------------------------
-python3 - "$out" "$binary" "$size" "$runs" <<'EOF'
+python3 - "$out" "$binary" "$size" "$runs" "$views" <<'EOF'
 import datetime, json, os, platform, statistics, sys
 
-out, binary, size, runs = sys.argv[1:5]
+out, binary, size, runs, n_views = sys.argv[1:6]
+n_views = int(n_views)
 raw = os.path.join(out, "raw")
 
 def text(name):
@@ -214,7 +231,11 @@ steps = [l.split() for l in text("steps.txt").splitlines()]
 selftest = text("selftest.txt").splitlines()
 summary = next((l for l in reversed(selftest) if l.startswith("selftest:")), "selftest: no summary")
 bench = {name: rows("bench-%s.jsonl" % name)
-         for name in ("torus", "big", "spheres", "incoherent", "lit", "peer-torus")}
+         for name in ("torus", "big", "spheres", "incoherent", "lit", "peer-torus", "views")}
+views = {"batch": [], "single": []}
+for line in text("views.txt").splitlines():
+    kind, end, start = line.split()
+    views[kind].append(float(end) - float(start))
 adaptive = {"f32": [], "adaptive": []}
 for line in text("adaptive.txt").splitlines():
     mode, end, start = line.split()
@@ -232,6 +253,15 @@ report = {
     "info": text("info.txt").splitlines(), "selftest": {"lines": selftest, "summary": summary},
     "steps": {s[0]: {"exit": int(s[1]), "seconds": int(s[2])} for s in steps},
     "bench": bench, "adaptive_render_s": medians, "mitsuba": peers,
+    "views": {
+        "views": n_views,
+        "batch_s": views["batch"][0] if views["batch"] else None,
+        "single_s": statistics.median(views["single"]) if views["single"] else None,
+        "loop_over_batch": n_views * statistics.median(views["single"]) / views["batch"][0]
+            if views["batch"] and views["single"] else None,
+        "batch_over_kernel": n_views * 640 * 360 / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
+            if views["batch"] and bench["views"] else None,
+    },
     "cost": {
         "f64_over_f32_kernel": f64["trace_gpu_s"] / f32["trace_gpu_s"]
             if f32 and f64 and f32["trace_gpu_s"] and f64["trace_gpu_s"] else None,
@@ -254,7 +284,8 @@ md = ["# raycast gpu-check, %s" % report["date"], "",
       "|---|---|---:|---:|---:|---:|---:|---:|"]
 names = {"torus": "torus, %s triangles", "big": "big torus, %s triangles",
          "spheres": "100 spheres", "incoherent": "incoherent rays, torus (%s triangles)",
-         "lit": "lit course bunny (--lit)", "peer-torus": "peers' torus.obj, %s triangles"}
+         "lit": "lit course bunny (--lit)", "peer-torus": "peers' torus.obj, %s triangles",
+         "views": "course bunny, 640x360 (the dataset's scene)"}
 for name, rs in bench.items():
     for r in rs:
         what = names[name] % format(r["triangles"], ",") if "%s" in names[name] else names[name]
@@ -270,6 +301,12 @@ md += ["", "Grays/s from GPU timestamps where the device has them (kernel time),
            fmt(report["cost"]["f64_over_f32_kernel"], ".2f"),
            fmt(report["cost"]["adaptive_over_f32_render"], ".2f"), size,
            len(adaptive["adaptive"]), len(adaptive["f32"]))]
+v = report["views"]
+md += ["", "Dataset (lit bunny, 640x360): %d views (`--orbit %d`) in %s s; a single render "
+       "%s s, so a loop of single renders takes %s x the batch's time; the batch at %s x the "
+       "kernel's rate (bench, the scene's camera)." % (
+           n_views, n_views, fmt(v["batch_s"], ".2f"), fmt(v["single_s"], ".3f"),
+           fmt(v["loop_over_batch"], ".1f"), fmt(v["batch_over_kernel"], ".2f"))]
 if peers:
     md += ["", "## Mitsuba 3 (peer_bench.py)", "", "| peer | workload | build s | trace s | Grays/s |",
            "|---|---|---:|---:|---:|"]

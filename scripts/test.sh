@@ -22,9 +22,8 @@ pip_install=$!
 cargo build --quiet --lib --bins --tests --examples
 cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
-# The docs build without warnings: the API as docs.rs shows it (no features), then the
-# library with the inner layers and the command line's library.
-RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps -p raycast
+# The docs build without warnings: the API as docs.rs shows it (the library has no features),
+# and the command line's library.
 RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-cli
 # The measurement programs (benches/, outside the default members) compile; the check shares
 # the dependencies' metadata the docs were built with.

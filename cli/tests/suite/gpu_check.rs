@@ -65,6 +65,11 @@ fn gpu_check_runs_from_a_packed_folder() {
     assert_eq!(bench["spheres"][0]["spheres"], 100);
     assert_eq!(bench["incoherent"][0]["rays"], 100_000);
     assert!(bench["lit"][0]["secondary_rays"].as_u64().unwrap() > 0);
+    let views = &report["views"];
+    assert_eq!(views["views"], 10);
+    for ratio in ["loop_over_batch", "batch_over_kernel"] {
+        assert!(views[ratio].as_f64().unwrap() > 0.0, "{ratio}");
+    }
     for cost in ["f64_over_f32_kernel", "adaptive_over_f32_render"] {
         assert!(report["cost"][cost].as_f64().unwrap() > 0.0, "{cost}");
     }
@@ -74,6 +79,7 @@ fn gpu_check_runs_from_a_packed_folder() {
         "## raycast selftest",
         "## Benchmarks",
         "lit course bunny",
+        "Dataset (lit bunny, 640x360): 10 views",
     ] {
         assert!(md.contains(part), "report.md lacks {part}");
     }

@@ -217,7 +217,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
     let args = [
         BUNNY,
         "--orbit",
-        "40",
+        "30",
         "--size",
         "320x180",
         "-o",
@@ -238,7 +238,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
     child.kill().unwrap(); // SIGKILL: nothing of the run can tidy up
     child.wait().unwrap();
     let finished = views(&out);
-    assert!(finished.len() < 40, "killed before the end");
+    assert!(finished.len() < 30, "killed before the end");
     let names = [
         "camera.json",
         "color.png",
@@ -259,7 +259,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
         );
     }
     let stdout = succeeds(&args);
-    assert_eq!(rendered(&stdout), 40 - finished.len(), "{stdout}");
+    assert_eq!(rendered(&stdout), 30 - finished.len(), "{stdout}");
     assert!(
         stdout.contains(&format!("skipped {} complete", finished.len())),
         "{stdout}"
@@ -274,21 +274,32 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
         );
     }
     // No temporary folder is left, and the whole job is what one uninterrupted run writes.
-    assert_eq!(common::file_names(&out.join("bunny")).len(), 40);
+    assert_eq!(common::file_names(&out.join("bunny")).len(), 30);
     let whole = dir.path().join("whole");
     succeeds(&[
         BUNNY,
         "--orbit",
-        "40",
+        "30",
         "--size",
         "320x180",
         "-o",
         whole.to_str().unwrap(),
     ]);
     assert!(tree(&whole) == tree(&out));
-    // --force renders every view again.
-    let again = succeeds(&[&args[..], &["--force"]].concat());
-    assert_eq!(rendered(&again), 40);
+    // --force renders every view again (of a small job).
+    let small = dir.path().join("small");
+    let small = [
+        BUNNY,
+        "--orbit",
+        "3",
+        "--size",
+        "32x18",
+        "-o",
+        small.to_str().unwrap(),
+    ];
+    assert_eq!(rendered(&succeeds(&small)), 3);
+    assert_eq!(rendered(&succeeds(&small)), 0, "complete already");
+    assert_eq!(rendered(&succeeds(&[&small[..], &["--force"]].concat())), 3);
 }
 
 #[test]
