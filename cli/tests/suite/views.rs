@@ -214,15 +214,14 @@ fn shards_together_write_exactly_what_one_run_writes() {
 fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let args = [
-        BUNNY,
-        "--orbit",
-        "30",
-        "--size",
-        "320x180",
-        "-o",
-        out.to_str().unwrap(),
-    ];
+    let job = |out: &Path| -> Vec<String> {
+        let args = [BUNNY, "--orbit", "30", "--size", "320x180", "-o"].map(String::from);
+        args.into_iter()
+            .chain([out.display().to_string()])
+            .collect()
+    };
+    let owned = job(&out);
+    let args: Vec<&str> = owned.iter().map(String::as_str).collect();
     let views = |out: &Path| -> Vec<PathBuf> {
         let scene = out.join("bunny");
         let Ok(entries) = std::fs::read_dir(&scene) else {
@@ -233,7 +232,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
             .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
             .collect()
     };
-    let mut child = raycast().arg("render").args(args).spawn().unwrap();
+    let mut child = raycast().arg("render").args(&args).spawn().unwrap();
     common::wait_until(&mut child, "five views", || views(&out).len() >= 5);
     child.kill().unwrap(); // SIGKILL: nothing of the run can tidy up
     child.wait().unwrap();
@@ -276,15 +275,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
     // No temporary folder is left, and the whole job is what one uninterrupted run writes.
     assert_eq!(common::file_names(&out.join("bunny")).len(), 30);
     let whole = dir.path().join("whole");
-    succeeds(&[
-        BUNNY,
-        "--orbit",
-        "30",
-        "--size",
-        "320x180",
-        "-o",
-        whole.to_str().unwrap(),
-    ]);
+    succeeds(&job(&whole).iter().map(String::as_str).collect::<Vec<_>>());
     assert!(tree(&whole) == tree(&out));
     // --force renders every view again (of a small job).
     let small = dir.path().join("small");
