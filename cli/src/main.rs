@@ -708,8 +708,7 @@ fn render_views(
     };
     batch.check()?;
     let gpu = raycast_cli::render::gpu_for(&[batch.render.mode])?;
-    let template = "{bar:40} {pos}/{len} views, {per_sec}, {eta} left";
-    let bar = progress::bar(true, 0, template);
+    let bar = progress::views_bar();
     let summary = batch.run(gpu.as_ref(), shard, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);

@@ -18,6 +18,20 @@ pub fn bar(enabled: bool, len: u64, template: &str) -> ProgressBar {
         .with_style(ProgressStyle::with_template(template).expect("valid template"))
 }
 
+/// A bar of views rendered, with their rate and the time left, on stderr where it is a
+/// terminal (hidden otherwise); its length is set as the views are counted.
+pub fn views_bar() -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let rate = |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+        let _ = write!(w, "{:.1}", state.per_sec());
+    };
+    let template = "{bar:40} {pos}/{len} views, {rate} views/s, {eta} left";
+    let style = ProgressStyle::with_template(template).expect("valid template");
+    ProgressBar::new(0).with_style(style.with_key("rate", rate))
+}
+
 /// Runs `work`, which may render on the CPU counting its rows in the [`Progress`] it is given;
 /// if it is still running after a second and stderr is a terminal, shows a bar of those rows.
 pub fn cpu_rows<T: Send>(work: impl FnOnce(Option<Arc<Progress>>) -> T + Send) -> T {
