@@ -781,33 +781,43 @@ impl Bvh {
         let (spheres, triangles) = primitive_boxes(kernel, origin);
         let (spheres, triangles) = (grown(spheres, eye), grown(triangles, eye));
         let mut bvh = topology.0.clone();
-        // Children come after their parents (`flatten`), so a backward pass meets every
-        // node's children before the node.
+        let (sphere_order, triangle_order) = (&bvh.sphere_order, &bvh.triangle_order);
+        // The leaves' boxes first, in parallel: each the union of its primitives' boxes. (The
+        // empty child of a root over one kind keeps its zero box.)
+        bvh.nodes.par_iter_mut().for_each(|node| {
+            let mut children = [node.child(0), node.child(1)];
+            for c in &mut children {
+                if c.reference & LEAF_BIT == 0 || leaf_len(c.count) == 0 {
+                    continue;
+                }
+                let first = (c.reference & !LEAF_BIT) as usize;
+                let range = first..first + leaf_len(c.count) as usize;
+                let (order, items) = match c.count & SPHERE_LEAF != 0 {
+                    true => (sphere_order, &spheres),
+                    false => (triangle_order, &triangles),
+                };
+                let mut b = Aabb::EMPTY;
+                for &k in &order[range] {
+                    b.grow(items[k as usize].lo, items[k as usize].hi);
+                }
+                (c.lo, c.hi) = (b.lo, b.hi);
+            }
+            *node = BvhNode::new(children[0], children[1]);
+        });
+        // Then the inner nodes' boxes. Children come after their parents (`flatten`), so a
+        // backward pass meets every node's children before the node.
         let mut node_boxes = vec![Aabb::EMPTY; bvh.nodes.len()];
         for n in (0..bvh.nodes.len()).rev() {
             let mut children = [bvh.nodes[n].child(0), bvh.nodes[n].child(1)];
             let mut node_box = Aabb::EMPTY;
             for c in &mut children {
-                let b = if c.reference & LEAF_BIT == 0 {
-                    node_boxes[c.reference as usize]
-                } else {
-                    let first = (c.reference & !LEAF_BIT) as usize;
-                    let range = first..first + leaf_len(c.count) as usize;
-                    let (order, items) = match c.count & SPHERE_LEAF != 0 {
-                        true => (&bvh.sphere_order, &spheres),
-                        false => (&bvh.triangle_order, &triangles),
-                    };
-                    let mut b = Aabb::EMPTY;
-                    for &k in &order[range] {
-                        b.grow(items[k as usize].lo, items[k as usize].hi);
-                    }
-                    b
-                };
-                // The empty child of a root over one kind keeps its zero box.
-                if b.lo[0] <= b.hi[0] {
+                if c.reference & LEAF_BIT == 0 {
+                    let b = node_boxes[c.reference as usize];
                     (c.lo, c.hi) = (b.lo, b.hi);
-                    node_box = node_box.union(b);
+                } else if leaf_len(c.count) == 0 {
+                    continue;
                 }
+                node_box.grow(c.lo, c.hi);
             }
             bvh.nodes[n] = BvhNode::new(children[0], children[1]);
             node_boxes[n] = node_box;
