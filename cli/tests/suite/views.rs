@@ -379,3 +379,41 @@ fn bad_views_are_one_line_errors_before_anything_renders() {
         assert!(!out.exists(), "{args:?}: nothing written");
     }
 }
+
+/// Ctrl-C or SIGTERM during a dataset: exit 130, every view's folder complete, and no hidden
+/// folder of a view being written left behind.
+#[cfg(unix)]
+#[test]
+fn a_signal_leaves_only_complete_views() {
+    for signal in ["-INT", "-TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let scene = out.join("bunny");
+        let mut child = raycast()
+            .args(["render", BUNNY, "--orbit", "400", "--size", "320x180", "-o"])
+            .arg(&out)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let views = || std::fs::read_dir(&scene).map_or(0, |d| d.count());
+        common::wait_until(&mut child, "three views", || views() >= 3);
+        let pid = child.id().to_string();
+        assert!(
+            std::process::Command::new("kill")
+                .args([signal, &pid])
+                .status()
+                .unwrap()
+                .success()
+        );
+        let output = child.wait_with_output().unwrap();
+        assert_eq!(output.status.code(), Some(130), "{signal}");
+        let names = common::file_names(&scene);
+        assert!(
+            names.len() < 400 && names.iter().all(|n| n.starts_with("orbit-")),
+            "{names:?}"
+        );
+        for name in names {
+            assert_eq!(common::file_names(&scene.join(&name)).len(), 5, "{name}");
+        }
+    }
+}
