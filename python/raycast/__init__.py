@@ -424,11 +424,8 @@ class RaycastingScene:
         """The distance from each query point to the nearest surface, negative inside (see
         ``compute_occupancy`` for ``nsamples`` and ``sign``), with the points' leading
         dimensions."""
-        _options(precision, device)
-        nsamples = _inside_options(nsamples, sign)
-        flat, shape = _query_points(query_points)
+        flat, shape, inside = self._inside(query_points, nsamples, sign, precision, device)
         distance = self._scene.closest(flat, precision, device)["distance"]
-        inside = self._scene.inside(flat, sign, nsamples, precision, device)
         return _result(np.where(inside, -distance, distance), shape)
 
     def compute_occupancy(
@@ -451,11 +448,18 @@ class RaycastingScene:
         generalized winding number (``compute_winding_number``) is over 0.5: right for
         meshes with holes, overlapping parts or doubled faces where parity fails; it ignores
         ``nsamples``."""
+        _, shape, inside = self._inside(query_points, nsamples, sign, precision, device)
+        return _result(inside.astype(_float_dtype(precision)), shape)
+
+    def _inside(
+        self, query_points: ArrayLike, nsamples: Any, sign: str, precision: str, device: str
+    ) -> Tuple[np.ndarray, Tuple[int, ...], np.ndarray]:
+        """The query points flattened, their leading dimensions, and whether each is inside
+        (``compute_occupancy``'s rules), every argument checked first."""
         _options(precision, device)
         nsamples = _inside_options(nsamples, sign)
         flat, shape = _query_points(query_points)
-        inside = self._scene.inside(flat, sign, nsamples, precision, device)
-        return _result(inside.astype(_float_dtype(precision)), shape)
+        return flat, shape, self._scene.inside(flat, sign, nsamples, precision, device)
 
     def compute_winding_number(
         self,

@@ -390,7 +390,7 @@ impl RenderViews {
         let share = renderer.job.share(shard);
         output::check_writable(&self.render.out_dir)?;
         let rendered = renderer.render_all(gpu, &share, on_view)?;
-        let manifest = self.write_manifest()?;
+        let manifest = self.manifest_of(&renderer.job, &renderer.names)?;
         Ok(ViewsSummary {
             counts: [rendered, share.len() - rendered, share.len()],
             job: renderer.job.len(),
@@ -405,20 +405,24 @@ impl RenderViews {
     /// `pending`. Under an exclusive lock on `OUT/.manifest.lock`, so that of shards finishing
     /// together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
-        let job = self.job()?;
+        output::check_writable(&self.render.out_dir)?;
+        self.manifest_of(&self.job()?, &self.file_names())
+    }
+
+    /// [`RenderViews::write_manifest`] of `job`, this job checked, whose complete views hold
+    /// the files `names`.
+    fn manifest_of(&self, job: &Job, names: &[String]) -> Result<PathBuf> {
         let out = &self.render.out_dir;
-        output::check_writable(out)?;
         let _lock = lock(&out.join(".manifest.lock"))?;
-        let names = self.file_names();
         let mut text = String::new();
         for p in 0..job.len() {
             let (s, v) = job.pair(p);
-            let done = complete(&job.folder(out, p), &names);
+            let done = complete(&job.folder(out, p), names);
             let line = serde_json::json!({
                 "scene": job.scenes[s].as_ref().map_or("<default scene>".into(), |p| p.display().to_string()),
                 "view": job.names[v],
                 "dir": format!("{}/{}", job.stems[s], job.names[v]),
-                "files": if done { names.clone() } else { Vec::new() },
+                "files": if done { names } else { &[] },
                 "status": if done { "done" } else { "pending" },
             });
             text.push_str(&line.to_string());

@@ -172,13 +172,7 @@ fn empty_geometry_has_no_closest_point() {
 /// A UV sphere mesh of `slices` x `stacks` about `centre`, as a geometry, and its triangles.
 fn uv_sphere(centre: [f64; 3], slices: usize, stacks: usize) -> (Geometry, Vec<[Vec3<f64>; 3]>) {
     let triangles = common::sphere_mesh(centre, 1.0, slices, stacks);
-    let mut geometry = Geometry::new();
-    let vertices: Vec<[f64; 3]> = triangles.iter().flatten().map(|v| v.to_array()).collect();
-    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
-        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
-        .collect();
-    geometry.add_mesh(&vertices, &indices).unwrap();
-    (geometry, triangles)
+    (common::soup_geometry(&triangles), triangles)
 }
 
 /// The solid angle of triangle `t` at `p` over 4 pi, in f64 (Van Oosterom and Strackee).
@@ -272,12 +266,7 @@ fn winding_numbers_of_an_open_mesh_match_the_exact_sum() {
         let c = (t[0] + t[1] + t[2]) * (1.0 / 3.0) - Vec3::from(centre);
         c.y < 0.7 && !(c.x > 0.5 && c.z.abs() < 0.3)
     });
-    let mut geometry = Geometry::new();
-    let vertices: Vec<[f64; 3]> = triangles.iter().flatten().map(|v| v.to_array()).collect();
-    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
-        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
-        .collect();
-    geometry.add_mesh(&vertices, &indices).unwrap();
+    let geometry = common::soup_geometry(&triangles);
     let points = points_near(centre, &triangles, &mut Rng(11));
     for device in ["cpu", "gpu"] {
         let w = raycast::commit_mode(

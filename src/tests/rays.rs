@@ -5,7 +5,7 @@
 use super::common;
 
 use common::Target;
-use common::{Rng, f32_hits, gpu, moved_along, pinhole_rays, random_scene, sphere_mesh};
+use common::{Rng, f32_hits, gpu, indexed, moved_along, pinhole_rays, random_scene, sphere_mesh};
 use raycast::math::{Vec3, cross, dot, length, normalize};
 use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, coherent, one_origin};
 use raycast::render::Mode;
@@ -383,15 +383,6 @@ fn closed_mesh_barycentrics_and_parity() {
             }
         }
     }
-}
-
-/// A triangle soup as vertices and indices (each corner its own vertex).
-fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let vertices = triangles.iter().flatten().map(|v| v.to_array()).collect();
-    let indices = (0..triangles.len() as u32)
-        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
-        .collect();
-    (vertices, indices)
 }
 
 /// Adaptive rays decide hit/miss and id as f64 does, on every ray.

@@ -395,6 +395,23 @@ pub(crate) fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
     }
 }
 
+/// A triangle soup as vertices and indices (each corner its own vertex).
+pub(crate) fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let vertices = triangles.iter().flatten().map(|v| v.to_array()).collect();
+    let indices = (0..triangles.len() as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
+    (vertices, indices)
+}
+
+/// A geometry of one mesh, the triangle soup `triangles`.
+pub(crate) fn soup_geometry(triangles: &[raycast::scene::Triangle]) -> raycast::Geometry {
+    let (vertices, indices) = indexed(triangles);
+    let mut geometry = raycast::Geometry::new();
+    geometry.add_mesh(&vertices, &indices).unwrap();
+    geometry
+}
+
 /// A geometry cast at in whichever mode a test names, committed afresh for each call
 /// (`raycast::commit_mode`).
 #[derive(Default)]
