@@ -4,9 +4,12 @@
 # (lavapipe is enough: scripts/install-vulkan.sh), Python 3.9+ with venv and pip, and PyPI for
 # pytest, numpy, OpenEXR (which reads render.exr in python/tests/test_files.py), trimesh
 # with rtree (python/tests/test_queries.py runs trimesh's own intersector beside raycast's),
-# and Ray Data (python/tests/test_views.py renders a dataset on a local Ray cluster).
+# and Ray Data (python/tests/test_views.py renders a dataset on a local Ray cluster); and
+# Debian's Chromium and chromedriver (cli/tests/browser.rs tests `raycast serve`'s page),
+# installed here where they are missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+scripts/install-browser.sh
 # The Python packages the tests need, installed while the Rust side builds and runs: mostly
 # downloads and unpacking (Ray's are the largest), which the compiler's work hides.
 venv=target/py-venv

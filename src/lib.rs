@@ -72,6 +72,7 @@ pub use crate::{
     render::files::{RenderFiles, Summary},
     render::mode::{Device, Mode, Precision},
     render::options::{Cpu, RenderOptions, Tuning},
+    render::viewer::Viewer,
     render::views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary},
     render::{AnyImages, Progress, STREAM_PIXELS, peak_rss_mib},
     scene::Scene,

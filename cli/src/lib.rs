@@ -5,8 +5,10 @@
 pub mod compare;
 pub mod progress;
 pub mod render;
+pub mod serve;
 pub mod study;
 pub mod text;
+pub mod watch;
 
 /// The option of this command line that sets what the library calls `name` (an argument of
 /// its API: `RenderOptions::samples_per_pixel`, say), with the value it implies where the name
@@ -35,4 +37,25 @@ pub fn flag(name: &str) -> Option<String> {
         _ => return None,
     };
     Some(flag.to_string())
+}
+
+/// An error as the command prints it: one `error: ` line, or a shader error's own block (which
+/// says `error:` after its location, as compilers do), with the arguments it names spelled as
+/// options of this command line.
+pub fn error_text(e: raycast::Error) -> String {
+    let e = e.spelled(&flag);
+    match e {
+        raycast::Error::Shader { .. } => e.to_string(),
+        _ => format!("error: {e}"),
+    }
+}
+
+/// A point or direction written `X,Y,Z`.
+pub fn parse_vector(s: &str) -> std::result::Result<glam::DVec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 => Ok(glam::DVec3::new(x, y, z)),
+        _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
+    }
 }

@@ -10,7 +10,7 @@ use raycast::output::{self, Format};
 use raycast::scene;
 use raycast::{Algorithm, Device, Gpu, Mode, Precision, RenderOptions, Result, Search};
 use raycast_cli::study::{self, Stream};
-use raycast_cli::{compare, progress};
+use raycast_cli::{compare, progress, watch};
 
 #[derive(Parser)]
 #[command(
@@ -73,13 +73,13 @@ enum Command {
         #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
         depth_scale: f64,
         /// The camera's position, X,Y,Z (replaces the scene's, or a mesh's default view's).
-        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        #[arg(long, value_name = "X,Y,Z", value_parser = raycast_cli::parse_vector, allow_hyphen_values = true)]
         eye: Option<DVec3>,
         /// A point for the camera to look at, X,Y,Z.
-        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        #[arg(long, value_name = "X,Y,Z", value_parser = raycast_cli::parse_vector, allow_hyphen_values = true)]
         look_at: Option<DVec3>,
         /// The camera's up direction, X,Y,Z.
-        #[arg(long, value_name = "X,Y,Z", value_parser = parse_vector, allow_hyphen_values = true)]
+        #[arg(long, value_name = "X,Y,Z", value_parser = raycast_cli::parse_vector, allow_hyphen_values = true)]
         up: Option<DVec3>,
         /// Vertical field of view in degrees (replaces the scene's image plane; perspective).
         #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
@@ -287,6 +287,32 @@ enum Command {
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
         triangles: Option<u64>,
     },
+    /// Serve a live page of a scene's render on this machine: rendered again when the scene,
+    /// a mesh or the hook is saved, hook errors shown on the page, the camera moved with the
+    /// mouse, the CPU reference and the difference a click away (docs/serve.md). Ctrl-C stops.
+    Serve {
+        /// Scene file (JSON) or mesh file (.obj, .stl, .ply); without it, the built-in scene.
+        scene: Option<PathBuf>,
+        /// Shade hook colouring the colour tab (see render --shader).
+        #[arg(long, value_name = "FILE")]
+        shader: Option<PathBuf>,
+        /// Colour the colour tab by the course's ray tracer (see render --lit).
+        #[arg(long, conflicts_with = "shader")]
+        lit: bool,
+        /// Full image size in pixels, e.g. 1280x720 (overrides the scene's resolution).
+        #[arg(long, value_parser = scene::parse_size)]
+        size: Option<[u32; 2]>,
+        /// The GPU's arithmetic: f32, f64 (needs SHADER_F64) or adaptive (without a hook).
+        #[arg(long, default_value = "f32")]
+        precision: Precision,
+        /// The port to listen on (0: any free one; the address is printed).
+        #[arg(long, default_value_t = 8421)]
+        port: u16,
+        /// The address to listen on: this machine only by default; 0.0.0.0 for every network
+        /// the machine is on (anyone who reaches it sees the scene and its files' errors).
+        #[arg(long, default_value = "127.0.0.1")]
+        bind: std::net::IpAddr,
+    },
     /// Show the GPU adapter, driver, and the features and limits raycast uses.
     Info,
     /// Render a built-in suite on this adapter and check each result against the CPU
@@ -318,7 +344,12 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     // Stopped by a signal, remove the files being written first: output is all or nothing.
-    let stop = || raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left");
+    // A server stops serving and exits normally.
+    let stop = || {
+        if !raycast_cli::serve::stop() {
+            raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+        }
+    };
     if let Err(e) = ctrlc::set_handler(stop) {
         eprintln!("error: cannot install the interrupt handler: {e}");
         return ExitCode::from(1);
@@ -343,15 +374,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// Prints an error on stderr: one `error: ` line, or a shader error's own block (which says
-/// `error:` after its location, as compilers do), with the arguments it names spelled as
-/// options of this command line.
+/// Prints an error on stderr ([`raycast_cli::error_text`]).
 fn report(e: raycast::Error) {
-    let e = e.spelled(&raycast_cli::flag);
-    match e {
-        raycast::Error::Shader { .. } => eprintln!("{e}"),
-        _ => eprintln!("error: {e}"),
-    }
+    eprintln!("{}", raycast_cli::error_text(e));
 }
 
 /// Prints a line on stdout. A closed stdout (`raycast ... | head -1`) is not an error worth a
@@ -367,16 +392,6 @@ fn quiet_mesa() {
     if std::env::var_os("NODEVICE_SELECT").is_none() {
         // SAFETY: called first thing in main, before any other thread exists.
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
-    }
-}
-
-/// A point or direction written `X,Y,Z`.
-fn parse_vector(s: &str) -> std::result::Result<DVec3, String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
-    match numbers[..] {
-        [x, y, z] if parts.len() == 3 => Ok(DVec3::new(x, y, z)),
-        _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
     }
 }
 
@@ -595,6 +610,28 @@ fn run(command: Command) -> Result<ExitCode> {
             study::bench::command(&scene, size, options, json, say_on)?;
             Ok(ExitCode::SUCCESS)
         }
+        Command::Serve {
+            scene,
+            shader,
+            lit,
+            size,
+            precision,
+            port,
+            bind,
+        } => {
+            let options = raycast_cli::serve::Options {
+                scene,
+                shader,
+                lit,
+                size,
+                precision,
+                bind,
+                port,
+            };
+            raycast_cli::serve::run(&options, |url| say(format!("serving {url} (Ctrl-C stops)")))?;
+            eprintln!("raycast serve: stopped");
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Info => {
             let gpu = Gpu::new()?;
             say(gpu.describe().trim_end());
@@ -671,13 +708,13 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
     loop {
         let files = spec.watched_files();
         // Taken before rendering: a change during the render triggers the next one.
-        let before = stamps(&files);
+        let before = watch::stamps(&files);
         if let Err(e) = render_once() {
             report(e);
         }
         let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
         eprintln!("watching {} for changes (Ctrl-C ends)", names.join(", "));
-        while stamps(&files) == before {
+        while watch::stamps(&files) == before {
             std::thread::sleep(std::time::Duration::from_millis(200));
         }
     }
@@ -716,19 +753,6 @@ fn render_views(
     bar.finish_and_clear();
     summary.lines().into_iter().for_each(say);
     Ok(())
-}
-
-/// A file's modification time and length, `None` while it cannot be read.
-type Stamp = Option<(std::time::SystemTime, u64)>;
-
-fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
-    files
-        .iter()
-        .map(|f| {
-            let m = std::fs::metadata(f).ok()?;
-            Some((m.modified().ok()?, m.len()))
-        })
-        .collect()
 }
 
 fn compare(spec: &compare::Spec) -> Result<ExitCode> {

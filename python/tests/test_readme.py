@@ -18,7 +18,9 @@ import os
 import pathlib
 import re
 import shlex
+import signal
 import subprocess
+import urllib.request
 
 import pytest
 
@@ -74,12 +76,35 @@ def run_shell(page, start, text, folder):
         if not words or " ".join(words) in ELSEWHERE:
             continue
         assert words[0] == RAYCAST, f"{where}: nothing tests this line: {line}"
+        if words[1] == "serve":
+            run_server(where, words, folder)
+            continue
         result = subprocess.run(
             [BINARY, *words[1:]], cwd=folder, capture_output=True, text=True, timeout=600
         )
         assert result.returncode == 0, (
             f"{where}: {line}\nexit code {result.returncode}\n{result.stdout}{result.stderr}"
         )
+
+
+def run_server(where, words, folder):
+    """A `raycast serve` line: on any free port, it serves the page and a frame, and stops on
+    Ctrl-C (SIGINT) with exit code 0."""
+    server = subprocess.Popen(
+        [BINARY, *words[1:], "--port", "0"], cwd=folder, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        first = server.stdout.readline()
+        assert first.startswith("serving http://"), f"{where}: {first}{server.stderr.read()}"
+        url = first.split()[1]
+        for path in ("", "frame?tab=color"):
+            with urllib.request.urlopen(url + path, timeout=120) as answer:
+                assert answer.status == 200, f"{where}: {url}{path}"
+    finally:
+        server.send_signal(signal.SIGINT)
+        code = server.wait(timeout=60)
+    assert code == 0, f"{where}: exit code {code}"
 
 
 @pytest.mark.parametrize("page", PAGES)

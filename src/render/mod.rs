@@ -6,6 +6,7 @@ pub(crate) mod files;
 pub(crate) mod mode;
 pub(crate) mod options;
 pub(crate) mod supersample;
+pub(crate) mod viewer;
 pub(crate) mod views;
 
 pub(crate) use mode::{Device, Mode, Precision};
@@ -48,8 +49,8 @@ impl AnyImages {
         }
     }
 
-    /// The files [`AnyImages::write`] writes, encoded.
-    pub(crate) fn encode(&self, encoding: &Encoding, camera: &Camera) -> Vec<output::EncodedFile> {
+    /// The files [`AnyImages::write`] writes, encoded in memory: their names and bytes.
+    pub fn encode(&self, encoding: &Encoding, camera: &Camera) -> Vec<output::EncodedFile> {
         match self {
             AnyImages::F32(i) => output::encode(i, encoding, camera),
             AnyImages::F64(i) => output::encode(i, encoding, camera),

@@ -260,8 +260,9 @@ impl CameraOverrides {
 
     /// `camera` with these settings: the eye moved (looking the same way unless `look_at` is
     /// given), looking at `look_at`, `up` replaced, and the image plane given by `fov` (the
-    /// focal length kept as the distance rays start at).
-    pub(crate) fn apply(&self, camera: &Camera) -> Result<Camera> {
+    /// focal length kept as the distance rays start at). Refuses values out of range, and an
+    /// up direction parallel to the viewing direction, naming the setting.
+    pub fn apply(&self, camera: &Camera) -> Result<Camera> {
         self.check()?;
         let mut c = camera.clone();
         if let Some(eye) = self.eye {

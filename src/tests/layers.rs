@@ -193,11 +193,12 @@ fn the_public_api_reader_sees_grouped_imports() {
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
 
-/// At most 165 public items: every `pub` declaration in src/ is part of the API (everything
+/// At most 170 public items: every `pub` declaration in src/ is part of the API (everything
 /// else is `pub(crate)` or private), counted as lines that open one. (150 until the dataset
-/// renderer, `RenderViews` and its four types, added 13.)
+/// renderer, `RenderViews` and its four types, added 13; 165 until the live page's `Viewer`
+/// and the camera settings' `apply` and the images' `encode` it calls, 6.)
 #[test]
-fn at_most_165_items_are_declared_public() {
+fn at_most_170_items_are_declared_public() {
     let mut files = Vec::new();
     sources(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
@@ -220,5 +221,5 @@ fn at_most_165_items_are_declared_public() {
                 .count()
         })
         .sum();
-    assert!(declared <= 165, "{declared} public declarations in src/");
+    assert!(declared <= 170, "{declared} public declarations in src/");
 }

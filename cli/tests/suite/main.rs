@@ -2,6 +2,8 @@
 
 #[path = "../../../src/tests/common/mod.rs"]
 mod common;
+#[path = "../serving/mod.rs"]
+mod serving;
 
 mod adaptive;
 mod bench_cli;
@@ -19,6 +21,7 @@ mod no_f64_device;
 mod outputs;
 mod ray_tracing;
 mod selftest;
+mod serve;
 mod shader_hooks;
 mod specializations;
 mod specialized_kernels;
