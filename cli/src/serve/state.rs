@@ -79,10 +79,7 @@ impl Shared {
             title: options.scene.as_ref().map_or("default scene".into(), |p| {
                 p.file_name().unwrap_or_default().to_string_lossy().into()
             }),
-            files: watched(&options)
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect(),
+            files: file_names(&options),
             hook: match (&options.shader, options.lit) {
                 (Some(file), _) => Some(file.display().to_string()),
                 (None, true) => Some("lit".into()),
@@ -122,10 +119,7 @@ impl Shared {
             Ok((scene, hook)) => {
                 status.version += 1;
                 status.camera = page_camera(&scene);
-                status.files = watched(&self.options)
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect();
+                status.files = file_names(&self.options);
                 status.error = None;
                 let mut current = self.current.lock().expect("the render lock");
                 *current = Current {
@@ -172,6 +166,12 @@ fn watched(options: &Options) -> Vec<PathBuf> {
         view: Default::default(),
     };
     files.watched_files()
+}
+
+/// The watched files' names, as given.
+fn file_names(options: &Options) -> Vec<String> {
+    let files = watched(options);
+    files.iter().map(|p| p.display().to_string()).collect()
 }
 
 /// The page's form of `scene`'s camera: the point looked at is where the view direction
