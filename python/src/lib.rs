@@ -17,7 +17,7 @@ use raycast::scene::Camera;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Mode, Precision, Ray, RenderFiles, RenderOptions, RenderViews, ShadeHook,
-    Sign, ViewRenderer, Views,
+    Sign, ViewRenderer, Viewer, Views,
 };
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -179,8 +179,9 @@ fn intersections_dict(
 #[pyclass(name = "Scene", module = "raycast._raycast")]
 struct Scene {
     geometry: Geometry,
-    /// The scene file it was loaded from, whose camera `render` renders.
-    scene: Option<raycast::Scene>,
+    /// The scene file it was loaded from, whose camera `render` renders; its BVH's shape is
+    /// built once for every view `render` is given.
+    scene: Option<Mutex<Viewer>>,
     accels: Mutex<HashMap<On, Arc<Accel<'static>>>>,
 }
 
@@ -188,18 +189,19 @@ impl Scene {
     fn with(geometry: Geometry, scene: Option<raycast::Scene>) -> Self {
         Scene {
             geometry,
-            scene,
+            scene: scene.map(|s| Mutex::new(Viewer::new(s))),
             accels: Mutex::default(),
         }
     }
 
     /// The scene file's scene; `call` names the method refused without one.
-    fn file(&self, call: &str) -> PyResult<&raycast::Scene> {
-        self.scene.as_ref().ok_or_else(|| {
+    fn file(&self, call: &str) -> PyResult<std::sync::MutexGuard<'_, Viewer>> {
+        let viewer = self.scene.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(
                 "{call}: the scene has no camera (load a scene file with raycast.load)"
             ))
-        })
+        })?;
+        Ok(viewer.lock().expect("the scene's lock"))
     }
 
     /// The geometry committed for `on`, committed now if it is not yet.
@@ -257,7 +259,7 @@ impl Scene {
             (None, Some(n)) => Views::Orbit(n),
             _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
         };
-        let named = views.cameras(scene).map_err(cameras_error)?;
+        let named = views.cameras(scene.scene()).map_err(cameras_error)?;
         Ok(named
             .into_iter()
             .map(|(name, camera)| (name, ViewCamera { camera }))
@@ -424,37 +426,32 @@ impl Scene {
         camera: Option<PyRef<'_, ViewCamera>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let on = on(device, precision)?;
-        let scene = self.file("render")?;
-        let viewed;
-        let scene = match camera {
-            Some(c) => {
-                viewed = raycast::Scene {
-                    camera: c.camera.clone(),
-                    ..scene.clone()
-                };
-                &viewed
-            }
-            None => scene,
-        };
+        let mut viewer = self.file("render")?;
+        let camera = camera.map_or(viewer.scene().camera.clone(), |c| c.camera.clone());
         let options = RenderOptions {
             precision: Some(on.precision),
             shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
             ..RenderOptions::default()
         };
-        let images = match on.gpu {
-            true => {
-                let gpu = gpu()?;
-                py.detach(|| gpu.render(scene, &options))
-            }
-            false => py.detach(|| Cpu.render(scene, &options)),
-        }
-        .map_err(to_py)?;
+        let gpu = match on.gpu {
+            true => Some(gpu()?),
+            false => None,
+        };
+        let [w, h] = camera.resolution;
+        let viewer: &mut Viewer = &mut viewer; // the guard stays on this thread
+        let images = py
+            .detach(|| {
+                viewer.render(camera, |scene| match gpu {
+                    Some(gpu) => gpu.render(scene, &options),
+                    None => Cpu.render(scene, &options),
+                })
+            })
+            .map_err(to_py)?;
         let d = PyDict::new(py);
         if let Some(color) = images.color() {
             d.set_item("color", PyArray1::from_vec(py, flat(color.to_vec())))?;
             d.set_item("hook_rays", images.hook_rays())?;
         }
-        let (w, h) = (scene.camera.resolution[0], scene.camera.resolution[1]);
         d.set_item("width", w)?;
         d.set_item("height", h)?;
         match images {

@@ -26,7 +26,7 @@ pub struct Viewer {
 }
 
 impl Viewer {
-    /// A viewer of `scene`, first seen by its own camera.
+    /// A viewer of `scene`.
     pub fn new(scene: Scene) -> Viewer {
         Viewer {
             scene,
@@ -34,7 +34,7 @@ impl Viewer {
         }
     }
 
-    /// The scene, with the camera of the last render.
+    /// The scene, with its own camera.
     pub fn scene(&self) -> &Scene {
         &self.scene
     }
@@ -42,9 +42,11 @@ impl Viewer {
     /// Runs `render` (a [`crate::Gpu::render`] or [`crate::Cpu::render`] call, say) on the
     /// scene seen by `camera`, on this thread, with the BVH's shape built once for all renders.
     pub fn render<R>(&mut self, camera: Camera, render: impl FnOnce(&Scene) -> R) -> R {
-        self.scene.camera = camera;
+        let own = std::mem::replace(&mut self.scene.camera, camera);
         let scene = &self.scene;
-        sharing_topology(scene, &mut self.topology, || render(scene))
+        let result = sharing_topology(scene, &mut self.topology, || render(scene));
+        self.scene.camera = own;
+        result
     }
 }
 

@@ -21,8 +21,6 @@ const POLL: Duration = Duration::from_millis(100);
 /// The scene and hook frames render, under one lock: frames render one at a time.
 pub(super) struct Current {
     pub viewer: Viewer,
-    /// The scene's own camera, which the page's settings change.
-    pub camera: Camera,
     pub hook: Option<ShadeHook>,
     pub version: u64,
     pub cache: Cache,
@@ -90,7 +88,6 @@ impl Shared {
             error: None,
         };
         let current = Current {
-            camera: scene.camera.clone(),
             viewer: Viewer::new(scene),
             hook,
             version: 1,
@@ -123,7 +120,6 @@ impl Shared {
                 status.error = None;
                 let mut current = self.current.lock().expect("the render lock");
                 *current = Current {
-                    camera: scene.camera.clone(),
                     viewer: Viewer::new(scene),
                     hook,
                     version: status.version,
