@@ -9,6 +9,7 @@
 //! ```
 
 pub(crate) mod bvh;
+pub(crate) mod order;
 pub(crate) mod winding;
 
 use std::borrow::Cow;

@@ -16,6 +16,7 @@ use crate::gpu::Gpu;
 use crate::images::MISS;
 use crate::kernel::types::Triangle;
 use crate::math::{Vec3, normalize};
+use crate::prepare::order::{spatial_order, unsort};
 use crate::prepare::winding::{Dipole, dipoles};
 use crate::prepare::{kernel_origin, kernel_unit};
 use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_points};
@@ -59,6 +60,20 @@ pub enum Sign {
     /// The generalized winding number above one half ([`Accel::winding_numbers`]): right on
     /// closed meshes wherever rounding allows, and meaningful on open or self-intersecting ones.
     Winding,
+}
+
+impl Closest {
+    /// The results of points searched in `order` (a permutation), in the points' own order.
+    fn unsorted(&self, order: &[u32]) -> Closest {
+        Closest {
+            point: unsort(&self.point, order),
+            distance: unsort(&self.distance, order),
+            id: unsort(&self.id, order),
+            primitive: unsort(&self.primitive, order),
+            uv: unsort(&self.uv, order),
+            normal: unsort(&self.normal, order),
+        }
+    }
 }
 
 impl Accel<'_> {
@@ -128,9 +143,15 @@ impl Accel<'_> {
                 format!("must be a positive odd number, got {samples}"),
             ));
         }
+        // Cast from the points in a spatial order ([`spatial_order`]), answered in theirs.
+        let order = spatial_order(points);
+        let origins: Vec<[f64; 3]> = match &order {
+            Some(order) => order.iter().map(|&k| points[k as usize]).collect(),
+            None => points.to_vec(),
+        };
         let mut votes = vec![0u32; points.len()];
         for direction in parity_directions(samples) {
-            let rays: Vec<Ray> = points
+            let rays: Vec<Ray> = origins
                 .iter()
                 .map(|&origin| Ray { origin, direction })
                 .collect();
@@ -140,7 +161,11 @@ impl Accel<'_> {
                 *v += (c % 2) as u32;
             }
         }
-        Ok(votes.into_iter().map(|v| 2 * v > samples).collect())
+        let inside: Vec<bool> = votes.into_iter().map(|v| 2 * v > samples).collect();
+        Ok(match order {
+            Some(order) => unsort(&inside, &order),
+            None => inside,
+        })
     }
 }
 
@@ -198,19 +223,27 @@ impl Mt19937 {
 }
 
 impl RayScene {
+    /// The winding numbers, computed in a spatial order of the points ([`spatial_order`])
+    /// and returned in theirs.
     fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
         let prepared = self.prepared::<f64>(Algorithm::Robust, None)?;
         let dipoles = self.dipoles(&prepared);
-        Ok(points
-            .par_iter()
-            .map(|&p| {
-                crate::cpu::winding::winding_number(
-                    prepared.kernel_point(p),
-                    &prepared.primitives,
-                    dipoles.as_deref().map(|d| &d[..]),
-                )
-            })
-            .collect())
+        let winding = |p: [f64; 3]| {
+            crate::cpu::winding::winding_number(
+                prepared.kernel_point(p),
+                &prepared.primitives,
+                dipoles.as_deref().map(|d| &d[..]),
+            )
+        };
+        Ok(match spatial_order(points) {
+            Some(order) => {
+                let sorted: Vec<f64> = (order.par_iter())
+                    .map(|&k| winding(points[k as usize]))
+                    .collect();
+                unsort(&sorted, &order)
+            }
+            None => points.par_iter().map(|&p| winding(p)).collect(),
+        })
     }
 
     /// The dipoles of `prepared`'s BVH (if it has one), built on first use and kept.
@@ -223,20 +256,30 @@ impl RayScene {
         Some(built.clone())
     }
 
+    /// The closest points, searched in a spatial order of the points ([`spatial_order`]: each
+    /// point's answer is the same, found sooner) and returned in theirs.
     fn closest(&self, gpu: Option<&Gpu>, mode: Mode, points: &[[f64; 3]]) -> Result<Closest> {
+        let order = spatial_order(points);
+        let point = |k: usize| match &order {
+            Some(order) => points[order[k] as usize],
+            None => points[k],
+        };
         // A query point is the origin of a ray whose direction the kernel does not read.
-        let rays: Vec<Ray> = points
-            .iter()
-            .map(|&origin| Ray {
-                origin,
+        let rays: Vec<Ray> = (0..points.len())
+            .map(|k| Ray {
+                origin: point(k),
                 direction: [0.0, 0.0, 1.0],
             })
             .collect();
         let rays = RayList::from(&rays[..]);
-        match mode.precision {
+        let closest = match mode.precision {
             Precision::F64 => self.closest_in::<f64>(gpu, f64_mode(mode, gpu), rays),
             Precision::F32 | Precision::Adaptive => self.closest_in::<f32>(gpu, mode, rays),
-        }
+        }?;
+        Ok(match order {
+            Some(order) => closest.unsorted(&order),
+            None => closest,
+        })
     }
 
     /// The closest points in precision `R`, in world coordinates.

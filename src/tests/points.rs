@@ -8,7 +8,7 @@ use common::{Rng, gpu, random_scene};
 use raycast::math::{Vec3, cross, dot, length};
 use raycast::render::Mode;
 use raycast::scene::{Object, Scene};
-use raycast::{Closest, Geometry};
+use raycast::{Closest, Geometry, Sign};
 
 fn mode(s: &str) -> Mode {
     s.parse().unwrap()
@@ -156,6 +156,46 @@ fn gpu_closest_points_equal_the_cpu_mirror() {
                 }
             }
         }
+    }
+}
+
+/// Many scattered points are searched in a spatial order (`prepare::order`): every answer is
+/// the one the point gets in a query too small to be reordered, in the caller's order.
+#[test]
+fn searching_in_a_spatial_order_changes_no_answer() {
+    let scene = random_scene_of(0);
+    let geometry = Geometry::from_scene(&scene);
+    let points = query_points(&scene, &mut Rng(7), 6000);
+    assert!(crate::prepare::order::spatial_order(&points).is_some());
+    assert!(crate::prepare::order::spatial_order(&points[..1000]).is_none());
+    let in_pieces = |mode: Mode| {
+        let accel = raycast::commit_mode(Some(gpu()), &geometry, mode).unwrap();
+        let pieces: Vec<Closest> = (points.chunks(1000))
+            .map(|c| accel.closest(c).unwrap())
+            .collect();
+        let mut all = Closest::default();
+        for p in pieces {
+            all.point.extend(p.point);
+            all.distance.extend(p.distance);
+            all.id.extend(p.id);
+            all.primitive.extend(p.primitive);
+            all.uv.extend(p.uv);
+            all.normal.extend(p.normal);
+        }
+        let winding: Vec<f64> = (points.chunks(1000))
+            .flat_map(|c| accel.winding_numbers(c).unwrap())
+            .collect();
+        let parity = Sign::Parity { samples: 3 };
+        let inside: Vec<bool> = (points.chunks(1000))
+            .flat_map(|c| accel.inside(c, parity).unwrap())
+            .collect();
+        assert_eq!(accel.winding_numbers(&points).unwrap(), winding);
+        assert_eq!(accel.inside(&points, parity).unwrap(), inside);
+        (accel.closest(&points).unwrap(), all)
+    };
+    for m in ["gpu:f32:robust", "cpu:f32:robust", "cpu:f64:robust"] {
+        let (whole, pieces) = in_pieces(mode(m));
+        assert_eq!(whole, pieces, "{m}");
     }
 }
 
