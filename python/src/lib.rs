@@ -195,13 +195,14 @@ impl Scene {
     }
 
     /// The scene file's scene; `call` names the method refused without one.
-    fn file(&self, call: &str) -> PyResult<std::sync::MutexGuard<'_, Viewer>> {
-        let viewer = self.scene.as_ref().ok_or_else(|| {
+    /// The loaded scene's viewer, locked only with the GIL released (a thread rendering it
+    /// needs the GIL back to return).
+    fn file(&self, call: &str) -> PyResult<&Mutex<Viewer>> {
+        self.scene.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(
                 "{call}: the scene has no camera (load a scene file with raycast.load)"
             ))
-        })?;
-        Ok(viewer.lock().expect("the scene's lock"))
+        })
     }
 
     /// The geometry committed for `on`, committed now if it is not yet.
@@ -250,16 +251,19 @@ impl Scene {
     #[pyo3(signature = (cameras=None, orbit=None))]
     fn views(
         &self,
+        py: Python<'_>,
         cameras: Option<String>,
         orbit: Option<u32>,
     ) -> PyResult<Vec<(String, ViewCamera)>> {
-        let scene = self.file("render_views")?;
+        let viewer = self.file("render_views")?;
         let views = match (cameras, orbit) {
             (Some(text), None) => Views::Json(text),
             (None, Some(n)) => Views::Orbit(n),
             _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
         };
-        let named = views.cameras(scene.scene()).map_err(cameras_error)?;
+        let named = py
+            .detach(|| views.cameras(viewer.lock().expect("the scene's lock").scene()))
+            .map_err(cameras_error)?;
         Ok(named
             .into_iter()
             .map(|(name, camera)| (name, ViewCamera { camera }))
@@ -426,8 +430,8 @@ impl Scene {
         camera: Option<PyRef<'_, ViewCamera>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let on = on(device, precision)?;
-        let mut viewer = self.file("render")?;
-        let camera = camera.map_or(viewer.scene().camera.clone(), |c| c.camera.clone());
+        let viewer = self.file("render")?;
+        let camera = camera.map(|c| c.camera.clone());
         let options = RenderOptions {
             precision: Some(on.precision),
             shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
@@ -437,14 +441,16 @@ impl Scene {
             true => Some(gpu()?),
             false => None,
         };
-        let [w, h] = camera.resolution;
-        let viewer: &mut Viewer = &mut viewer; // the guard stays on this thread
-        let images = py
+        let (images, [w, h]) = py
             .detach(|| {
-                viewer.render(camera, |scene| match gpu {
+                let mut viewer = viewer.lock().expect("the scene's lock");
+                let camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
+                let size = camera.resolution;
+                let images = viewer.render(camera, |scene| match gpu {
                     Some(gpu) => gpu.render(scene, &options),
                     None => Cpu.render(scene, &options),
-                })
+                });
+                images.map(|images| (images, size))
             })
             .map_err(to_py)?;
         let d = PyDict::new(py);

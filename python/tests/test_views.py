@@ -121,6 +121,23 @@ def test_bad_cameras_raise_naming_the_camera(cameras, error, message):
     assert "\n" not in str(raised.value)
 
 
+def test_threads_render_one_loaded_scene_at_once():
+    """Threads rendering one loaded scene (its views share one BVH shape, under a lock taken
+    with the GIL released) all finish, each with its own view's images."""
+    import concurrent.futures
+
+    scene = raycast.load(str(BUNNY))
+    cameras = [dict(CAMERAS[1], name=f"v{k}", eye=[0.5 + 0.1 * k, 0.3, 1.8]) for k in range(3)]
+    alone = [view["id"] for view in scene.render_views(cameras, device="cpu")]
+    with concurrent.futures.ThreadPoolExecutor(3) as pool:
+        futures = [pool.submit(lambda c=c: next(scene.render_views([c], device="cpu"))["id"])
+                   for c in cameras]
+        together = [f.result(timeout=120) for f in futures]
+    for a, b in zip(alone, together):
+        assert np.array_equal(a, b)
+    assert not np.array_equal(alone[0], alone[2])
+
+
 def test_render_views_needs_a_scene_file():
     with pytest.raises(ValueError, match="render_views: the scene has no camera"):
         raycast.RaycastingScene().render_views([GOOD])
