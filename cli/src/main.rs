@@ -292,6 +292,7 @@ enum Command {
     /// mouse, the CPU reference and the difference a click away (docs/serve.md). Ctrl-C stops.
     Serve {
         /// Scene file (JSON) or mesh file (.obj, .stl, .ply); without it, the built-in scene.
+        #[arg(value_name = "SCENE_OR_MESH")]
         scene: Option<PathBuf>,
         /// Shade hook colouring the colour tab (see render --shader).
         #[arg(long, value_name = "FILE")]
