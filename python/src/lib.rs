@@ -194,9 +194,8 @@ impl Scene {
         }
     }
 
-    /// The scene file's scene; `call` names the method refused without one.
-    /// The loaded scene's viewer, locked only with the GIL released (a thread rendering it
-    /// needs the GIL back to return).
+    /// The scene file's viewer; `call` names the method refused without one. Lock it only
+    /// with the GIL released: a thread rendering it needs the GIL back to return.
     fn file(&self, call: &str) -> PyResult<&Mutex<Viewer>> {
         self.scene.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(

@@ -51,13 +51,35 @@ pub(crate) fn spatial_order(points: &[[f64; 3]]) -> Option<Vec<u32>> {
     Some(keyed.into_iter().map(|(_, i)| i).collect())
 }
 
-/// `values` (one per point, in the sorted order) put back in the points' own order.
-pub(crate) fn unsort<T: Copy + Default>(values: &[T], order: &[u32]) -> Vec<T> {
-    let mut out = vec![T::default(); values.len()];
-    for (&v, &i) in values.iter().zip(order) {
-        out[i as usize] = v;
+/// `query` of `points` run on them in their [`spatial_order`] where that pays, its answers
+/// put back in the points' own order.
+pub(crate) fn in_spatial_order<R: PerPoint, E>(
+    points: &[[f64; 3]],
+    query: impl FnOnce(&[[f64; 3]]) -> Result<R, E>,
+) -> Result<R, E> {
+    match spatial_order(points) {
+        None => query(points),
+        Some(order) => {
+            let sorted: Vec<[f64; 3]> = order.iter().map(|&k| points[k as usize]).collect();
+            Ok(query(&sorted)?.unsorted(&order))
+        }
     }
-    out
+}
+
+/// Answers, one per point, that can be put back in the points' own order.
+pub(crate) trait PerPoint {
+    /// The answers of points taken in `order` (a permutation), in the points' own order.
+    fn unsorted(&self, order: &[u32]) -> Self;
+}
+
+impl<T: Copy + Default> PerPoint for Vec<T> {
+    fn unsorted(&self, order: &[u32]) -> Vec<T> {
+        let mut out = vec![T::default(); self.len()];
+        for (&v, &i) in self.iter().zip(order) {
+            out[i as usize] = v;
+        }
+        out
+    }
 }
 
 fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
@@ -134,7 +156,8 @@ mod tests {
         );
         let values: Vec<u32> = order.iter().map(|&i| i * 10).collect();
         assert!(
-            unsort(&values, &order)
+            values
+                .unsorted(&order)
                 .iter()
                 .copied()
                 .eq((0..8000).map(|i| i * 10))

@@ -16,7 +16,7 @@ use crate::gpu::Gpu;
 use crate::images::MISS;
 use crate::kernel::types::Triangle;
 use crate::math::{Vec3, normalize};
-use crate::prepare::order::{spatial_order, unsort};
+use crate::prepare::order::{PerPoint, in_spatial_order};
 use crate::prepare::winding::{Dipole, dipoles};
 use crate::prepare::{kernel_origin, kernel_unit};
 use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_points};
@@ -62,16 +62,15 @@ pub enum Sign {
     Winding,
 }
 
-impl Closest {
-    /// The results of points searched in `order` (a permutation), in the points' own order.
+impl PerPoint for Closest {
     fn unsorted(&self, order: &[u32]) -> Closest {
         Closest {
-            point: unsort(&self.point, order),
-            distance: unsort(&self.distance, order),
-            id: unsort(&self.id, order),
-            primitive: unsort(&self.primitive, order),
-            uv: unsort(&self.uv, order),
-            normal: unsort(&self.normal, order),
+            point: self.point.unsorted(order),
+            distance: self.distance.unsorted(order),
+            id: self.id.unsorted(order),
+            primitive: self.primitive.unsorted(order),
+            uv: self.uv.unsorted(order),
+            normal: self.normal.unsorted(order),
         }
     }
 }
@@ -143,28 +142,24 @@ impl Accel<'_> {
                 format!("must be a positive odd number, got {samples}"),
             ));
         }
-        // Cast from the points in a spatial order ([`spatial_order`]), answered in theirs.
-        let order = spatial_order(points);
-        let origins: Vec<[f64; 3]> = match &order {
-            Some(order) => order.iter().map(|&k| points[k as usize]).collect(),
-            None => points.to_vec(),
-        };
-        let mut votes = vec![0u32; points.len()];
-        for direction in parity_directions(samples) {
-            let rays: Vec<Ray> = origins
-                .iter()
-                .map(|&origin| Ray { origin, direction })
-                .collect();
-            // Crossings as every_hit lists them: one where a ray passes through an edge.
-            let crossings = self.crossings(RayList::from(&rays[..]))?;
-            for (v, c) in votes.iter_mut().zip(crossings) {
-                *v += (c % 2) as u32;
+        // Cast from the points in a spatial order, answered in theirs.
+        in_spatial_order(points, |origins| {
+            let mut votes = vec![0u32; origins.len()];
+            for direction in parity_directions(samples) {
+                let rays: Vec<Ray> = origins
+                    .iter()
+                    .map(|&origin| Ray { origin, direction })
+                    .collect();
+                // Crossings as every_hit lists them: one where a ray passes through an edge.
+                let crossings = self.crossings(RayList::from(&rays[..]))?;
+                for (v, c) in votes.iter_mut().zip(crossings) {
+                    *v += (c % 2) as u32;
+                }
             }
-        }
-        let inside: Vec<bool> = votes.into_iter().map(|v| 2 * v > samples).collect();
-        Ok(match order {
-            Some(order) => unsort(&inside, &order),
-            None => inside,
+            Ok(votes
+                .into_iter()
+                .map(|v| 2 * v > samples)
+                .collect::<Vec<bool>>())
         })
     }
 }
@@ -223,26 +218,21 @@ impl Mt19937 {
 }
 
 impl RayScene {
-    /// The winding numbers, computed in a spatial order of the points ([`spatial_order`])
-    /// and returned in theirs.
+    /// The winding numbers, computed in a spatial order of the points and returned in theirs.
     fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
         let prepared = self.prepared::<f64>(Algorithm::Robust, None)?;
         let dipoles = self.dipoles(&prepared);
-        let winding = |p: [f64; 3]| {
-            crate::cpu::winding::winding_number(
-                prepared.kernel_point(p),
-                &prepared.primitives,
-                dipoles.as_deref().map(|d| &d[..]),
-            )
-        };
-        Ok(match spatial_order(points) {
-            Some(order) => {
-                let sorted: Vec<f64> = (order.par_iter())
-                    .map(|&k| winding(points[k as usize]))
-                    .collect();
-                unsort(&sorted, &order)
-            }
-            None => points.par_iter().map(|&p| winding(p)).collect(),
+        in_spatial_order(points, |points| {
+            Ok(points
+                .par_iter()
+                .map(|&p| {
+                    crate::cpu::winding::winding_number(
+                        prepared.kernel_point(p),
+                        &prepared.primitives,
+                        dipoles.as_deref().map(|d| &d[..]),
+                    )
+                })
+                .collect::<Vec<f64>>())
         })
     }
 
@@ -256,29 +246,23 @@ impl RayScene {
         Some(built.clone())
     }
 
-    /// The closest points, searched in a spatial order of the points ([`spatial_order`]: each
-    /// point's answer is the same, found sooner) and returned in theirs.
+    /// The closest points, searched in a spatial order of the points (each point's answer is
+    /// the same, found sooner) and returned in theirs.
     fn closest(&self, gpu: Option<&Gpu>, mode: Mode, points: &[[f64; 3]]) -> Result<Closest> {
-        let order = spatial_order(points);
-        let point = |k: usize| match &order {
-            Some(order) => points[order[k] as usize],
-            None => points[k],
-        };
-        // A query point is the origin of a ray whose direction the kernel does not read.
-        let rays: Vec<Ray> = (0..points.len())
-            .map(|k| Ray {
-                origin: point(k),
-                direction: [0.0, 0.0, 1.0],
-            })
-            .collect();
-        let rays = RayList::from(&rays[..]);
-        let closest = match mode.precision {
-            Precision::F64 => self.closest_in::<f64>(gpu, f64_mode(mode, gpu), rays),
-            Precision::F32 | Precision::Adaptive => self.closest_in::<f32>(gpu, mode, rays),
-        }?;
-        Ok(match order {
-            Some(order) => closest.unsorted(&order),
-            None => closest,
+        in_spatial_order(points, |points| {
+            // A query point is the origin of a ray whose direction the kernel does not read.
+            let rays: Vec<Ray> = points
+                .iter()
+                .map(|&origin| Ray {
+                    origin,
+                    direction: [0.0, 0.0, 1.0],
+                })
+                .collect();
+            let rays = RayList::from(&rays[..]);
+            match mode.precision {
+                Precision::F64 => self.closest_in::<f64>(gpu, f64_mode(mode, gpu), rays),
+                Precision::F32 | Precision::Adaptive => self.closest_in::<f32>(gpu, mode, rays),
+            }
         })
     }
 

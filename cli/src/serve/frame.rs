@@ -8,7 +8,7 @@ use std::time::Instant;
 use raycast::images::Output;
 use raycast::output::encode_png_rgb;
 use raycast::scene::{self, Camera, CameraOverrides};
-use raycast::{AnyImages, Cpu, Device, Encoding, Format, Precision, RenderOptions};
+use raycast::{AnyImages, Cpu, Device, Encoding, Format, Mode, Precision, RenderOptions};
 
 use super::state::{Current, Shared};
 use crate::compare;
@@ -138,14 +138,13 @@ fn decode(text: &str) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|_| bad())
 }
 
-/// One render of the scene from a camera, on one device.
+/// One render of the scene from a camera, in one mode.
 pub(super) struct Rendered {
-    device: Device,
+    mode: Mode,
     camera: Camera,
     images: AnyImages,
     seconds: f64,
     rays: u64,
-    mode: String,
 }
 
 /// The last few renders, for the page's next requests.
@@ -160,7 +159,7 @@ pub(super) struct Frame {
     /// The render's wall time.
     pub seconds: f64,
     pub rays: u64,
-    /// `gpu f32`, `cpu f64`, ...
+    /// `gpu:f32:robust`, or `gpu:f32:robust against cpu:f64:robust`.
     pub mode: String,
     /// The state version rendered.
     pub version: u64,
@@ -192,28 +191,30 @@ pub(super) fn render(shared: &Shared, query: &FrameQuery) -> Result<Frame, Failu
         camera.resolution = size;
     }
     let mut render = |device| rendered(shared, &mut current, device, camera.clone());
-    let (frame, summary) = match query.source {
-        Source::Gpu => (render(Device::Gpu).map_err(failed)?, None),
-        Source::Cpu => (render(Device::Cpu).map_err(failed)?, None),
+    let (frame, png, mode, summary) = match query.source {
+        Source::Gpu | Source::Cpu => {
+            let device = match query.source {
+                Source::Cpu => Device::Cpu,
+                _ => Device::Gpu,
+            };
+            let frame = render(device).map_err(failed)?;
+            let png = picture(&frame, query.tab);
+            let mode = frame.mode.to_string();
+            (frame, png, mode, None)
+        }
         Source::Diff => {
             let gpu = render(Device::Gpu).map_err(failed)?;
             let cpu = render(Device::Cpu).map_err(failed)?;
             let (png, summary) = difference(&gpu, &cpu, query.tab);
-            return Ok(Frame {
-                png,
-                seconds: gpu.seconds,
-                rays: gpu.rays,
-                mode: format!("{} against {}", gpu.mode, cpu.mode),
-                version: current.version,
-                summary: Some(summary),
-            });
+            let mode = format!("{} against {}", gpu.mode, cpu.mode);
+            (gpu, png, mode, Some(summary))
         }
     };
     Ok(Frame {
-        png: picture(&frame, query.tab),
+        png,
         seconds: frame.seconds,
         rays: frame.rays,
-        mode: frame.mode.clone(),
+        mode,
         version: current.version,
         summary,
     })
@@ -229,7 +230,7 @@ fn rendered(
     let cache = &mut current.cache.renders;
     if let Some(r) = cache
         .iter()
-        .find(|r| r.device == device && r.camera == camera)
+        .find(|r| r.mode.device == device && r.camera == camera)
     {
         return Ok(Arc::clone(r));
     }
@@ -256,8 +257,11 @@ fn rendered(
     let seconds = start.elapsed().as_secs_f64();
     let rays = camera.pixel_count() + images.hook_rays().unwrap_or(0);
     let rendered = Arc::new(Rendered {
-        device,
-        mode: format!("{} {precision}", device_name(device)),
+        mode: Mode {
+            device,
+            precision,
+            algorithm: options.algorithm,
+        },
         camera,
         images,
         seconds,
@@ -289,11 +293,10 @@ fn picture(r: &Rendered, tab: Tab) -> Vec<u8> {
 /// The heatmap of `raycast compare`'s pictures that fits the tab, and the comparison's summary.
 fn difference(gpu: &Rendered, cpu: &Rendered, tab: Tab) -> (Vec<u8>, String) {
     let c = compare::compare(&gpu.images, &cpu.images);
-    let mismatches = || compare::mismatch_picture(&c, &cpu.images.pictures().normal);
     let picture = match (tab, gpu.images.color(), cpu.images.color()) {
         (Tab::Color, Some(a), Some(b)) => compare::color_error_picture(&c, a, b),
         (Tab::Depth, _, _) => compare::distance_error_picture(&c),
-        _ => mismatches(),
+        _ => compare::mismatch_picture(&c, &cpu.images.pictures().normal),
     };
     let r = &c.report;
     let number = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.3e}"));
@@ -308,11 +311,4 @@ fn difference(gpu: &Rendered, cpu: &Rendered, tab: Tab) -> (Vec<u8>, String) {
         summary.push_str(&format!(", colours up to {} levels apart", color.max));
     }
     (encode_png_rgb(&picture), summary)
-}
-
-fn device_name(device: Device) -> &'static str {
-    match device {
-        Device::Gpu => "gpu",
-        Device::Cpu => "cpu",
-    }
 }

@@ -26,13 +26,26 @@ pub(super) struct Current {
     pub cache: Cache,
 }
 
+impl Current {
+    fn new(scene: Scene, hook: Option<ShadeHook>, version: u64) -> Current {
+        Current {
+            viewer: Viewer::new(scene),
+            hook,
+            version,
+            cache: Cache::default(),
+        }
+    }
+}
+
 /// What the page reads: `/state`, and each `/events` message.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub(super) struct Status {
     /// Counts the successful loads, from 1.
     pub version: u64,
     pub title: String,
-    pub files: Vec<String>,
+    /// The files whose change reloads, as given (`files` on the page).
+    #[serde(rename = "files", serialize_with = "as_given")]
+    pub watched: Vec<PathBuf>,
     /// The hook file's name, `lit`, or `None`.
     pub hook: Option<String>,
     /// Whether the CPU reference colours the colour tab (it has no custom hooks).
@@ -71,13 +84,13 @@ pub(super) struct Shared {
 impl Shared {
     /// The files loaded first: any error here is the command's.
     pub fn load(options: Options, gpu: Gpu) -> Result<Shared> {
-        let (scene, hook) = load(&options)?;
+        let (scene, hook, watched) = load(&options)?;
         let status = Status {
             version: 1,
             title: options.scene.as_ref().map_or("default scene".into(), |p| {
                 p.file_name().unwrap_or_default().to_string_lossy().into()
             }),
-            files: file_names(&options),
+            watched,
             hook: match (&options.shader, options.lit) {
                 (Some(file), _) => Some(file.display().to_string()),
                 (None, true) => Some("lit".into()),
@@ -87,16 +100,10 @@ impl Shared {
             camera: page_camera(&scene),
             error: None,
         };
-        let current = Current {
-            viewer: Viewer::new(scene),
-            hook,
-            version: 1,
-            cache: Cache::default(),
-        };
         Ok(Shared {
+            current: Mutex::new(Current::new(scene, hook, 1)),
             options,
             gpu,
-            current: Mutex::new(current),
             status: Mutex::new(status),
             changed: Condvar::new(),
             streams: AtomicUsize::new(0),
@@ -108,35 +115,38 @@ impl Shared {
         self.status.lock().expect("the status lock").clone()
     }
 
-    /// Reads the files again: the new scene and hook replace the old, or the error is shown.
+    /// Reads the files again: the new scene and hook replace the old (once the frame being
+    /// rendered is done), or the error is shown.
     fn reload(&self) {
         let loaded = load(&self.options);
         let mut status = self.status.lock().expect("the status lock");
         match loaded {
-            Ok((scene, hook)) => {
+            Ok((scene, hook, watched)) => {
                 status.version += 1;
                 status.camera = page_camera(&scene);
-                status.files = file_names(&self.options);
+                status.watched = watched;
                 status.error = None;
-                let mut current = self.current.lock().expect("the render lock");
-                *current = Current {
-                    viewer: Viewer::new(scene),
-                    hook,
-                    version: status.version,
-                    cache: Cache::default(),
-                };
+                let version = status.version;
+                // Not holding the status while a frame renders: the page reads it meanwhile.
+                drop(status);
+                *self.current.lock().expect("the render lock") = Current::new(scene, hook, version);
             }
             Err(e) => status.error = Some(crate::error_text(e)),
         }
         self.changed.notify_all();
     }
+
+    /// The files whose change reloads.
+    fn watched(&self) -> Vec<PathBuf> {
+        self.status.lock().expect("the status lock").watched.clone()
+    }
 }
 
-/// The scene (or mesh) and the hook of `options`.
-fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>)> {
+/// The scene (or mesh) and the hook of `options`, and the files they were read from.
+fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>, Vec<PathBuf>)> {
     let scene = scene::load_sized(options.scene.as_deref(), options.size)?;
     let hook = ShadeHook::requested(options.lit, options.shader.as_deref())?;
-    Ok((scene, hook))
+    Ok((scene, hook, watched(options)))
 }
 
 /// The files whose change reloads: the scene file and its meshes, or the mesh file, and the hook.
@@ -164,10 +174,9 @@ fn watched(options: &Options) -> Vec<PathBuf> {
     files.watched_files()
 }
 
-/// The watched files' names, as given.
-fn file_names(options: &Options) -> Vec<String> {
-    let files = watched(options);
-    files.iter().map(|p| p.display().to_string()).collect()
+/// Paths as given, for the page.
+fn as_given<S: serde::Serializer>(paths: &[PathBuf], serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.collect_seq(paths.iter().map(|p| p.display().to_string()))
 }
 
 /// The page's form of `scene`'s camera: the point looked at is where the view direction
@@ -204,7 +213,7 @@ fn fov_degrees(camera: &Camera) -> f64 {
 pub(super) fn watch(shared: Arc<Shared>) {
     std::thread::spawn(move || {
         loop {
-            let files = watched(&shared.options);
+            let files = shared.watched();
             let before = watch::stamps(&files);
             while watch::stamps(&files) == before {
                 std::thread::sleep(POLL);

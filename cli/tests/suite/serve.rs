@@ -89,7 +89,7 @@ fn frames_are_the_files_render_and_compare_write() {
         let answer = server.get(&format!("/frame?tab={tab}&device=gpu&{camera}"));
         assert_eq!(answer.status, 200, "{tab}: {}", answer.text());
         assert_eq!(answer.header("Content-Type"), Some("image/png"));
-        assert_eq!(answer.header("X-Mode"), Some("gpu f32"));
+        assert_eq!(answer.header("X-Mode"), Some("gpu:f32:robust"));
         assert_eq!(answer.header("X-Rays"), Some("14400"));
         assert_eq!(answer.header("X-Version"), Some("1"));
         let seconds: f64 = answer.header("X-Frame-Seconds").unwrap().parse().unwrap();
@@ -105,7 +105,7 @@ fn frames_are_the_files_render_and_compare_write() {
     for (tab, file) in [("id", "id.png"), ("depth", "depth.png")] {
         let answer = server.get(&format!("/frame?tab={tab}&device=cpu&{camera}"));
         assert_eq!(answer.status, 200, "{tab}: {}", answer.text());
-        assert_eq!(answer.header("X-Mode"), Some("cpu f64"));
+        assert_eq!(answer.header("X-Mode"), Some("cpu:f64:robust"));
         assert!(
             answer.body == std::fs::read(cpu.join(file)).unwrap(),
             "cpu {tab}"
