@@ -35,6 +35,17 @@ fn sphere_at(k: u32) -> Sphere {
 #endif
 #if PLANES
 @group(0) @binding(2) var<storage, read> planes: array<Plane>;
+
+// How many planes there are: where the kernel is compiled for their number, a constant, so
+// that lavapipe unrolls the loops over them and loads each at a constant offset, one scalar
+// load, instead of a loop over the lanes (Variant::planes).
+fn plane_count() -> u32 {
+#if CONSTANT_PLANES
+    return PLANE_COUNT;
+#else
+    return params.plane_count;
+#endif
+}
 #endif
 #if TRIANGLES
 // Triangles are stored packed, 9 reals and one of padding each (StoredTriangle's layout, 40

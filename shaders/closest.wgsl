@@ -111,7 +111,7 @@ fn plane_height(p: vec3<real>, pl: Plane) -> real {
 fn closest_to(p: vec3<real>) -> Hit {
     var best = Hit(T_FAR, -1, 0u, 0u);
 #if PLANES
-    for (var k = 0u; k < params.plane_count; k++) {
+    for (var k = 0u; k < plane_count(); k++) {
         let h = plane_height(p, planes[k]);
         keep(h * h, KIND_PLANE, k, params.sphere_count, &best);
     }

@@ -24,7 +24,7 @@ fn count_crossings(ray: Ray, min_t: real) -> u32 {
     var n = 0u;
     let shear = shear_of(ray.direction);
 #if PLANES
-    for (var k = 0u; k < params.plane_count; k++) {
+    for (var k = 0u; k < plane_count(); k++) {
         n += hit_count(intersect_plane(ray, planes[k], min_t));
     }
 #endif

@@ -97,6 +97,11 @@ struct Invocation {
     @builtin(local_invocation_index) local: u32,
 #endif
     @builtin(subgroup_invocation_id) lane: u32,
+#if HOOK_RAYS
+#if !EIGHT_LANES
+    @builtin(subgroup_size) lanes: u32,
+#endif
+#endif
 }
 
 // The invocation's index in its workgroup, 0 to 63.
@@ -282,6 +287,11 @@ fn main(
 @compute @workgroup_size(64)
 fn main(invocation: Invocation) {
     lane = invocation.lane;
+#if HOOK_RAYS
+#if !EIGHT_LANES
+    subgroup_lanes = invocation.lanes;
+#endif
+#endif
 #if LANES
     // Packets of 8 LANE_RAYS rays, LANE_RAYS a lane (traverse_bvh_lanes): one subgroup in
     // LANE_RAYS casts its own 4x2 tile and the next ones' (with eight rays a lane all 8x8

@@ -23,7 +23,11 @@
 // if its `t` is closer (brute force: ties by object id, then index). With CERTAINTY every
 // decision is recorded, misses too.
 fn keep(t: real, kind: u32, index: u32, base: u32, best: ptr<function, Hit>) {
-    let object = objects[base + index];
+    keep_object(t, objects[base + index], kind, index, best);
+}
+
+// keep() for a primitive whose object is known.
+fn keep_object(t: real, object: u32, kind: u32, index: u32, best: ptr<function, Hit>) {
     let closer = is_closer(t, object, index, *best);
 #if CERTAINTY
     record(t, object, closer, *best);
@@ -65,17 +69,37 @@ fn nearest_hit_before(ray: Ray, min_t: real, t_max: real) -> Hit {
 #endif
 #endif
 #if BVH
-    traverse_bvh(ray, min_t, &best);
+    search_bvh(ray, min_t, &best);
 #endif
     return best;
 }
+
+#if BVH
+// The spheres and triangles of nearest_hit_before, through the BVH: in a packet of the
+// subgroup's rays (PACKETS), a hook's ray only where every lane casts one at this call
+// (subgroup_whole), else ray by ray.
+fn search_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
+#if PACKETS
+#if HOOK_RAYS
+    if (!subgroup_whole()) {
+        traverse_bvh(ray, min_t, best);
+        return;
+    }
+#endif
+    traverse_bvh_packet(ray, min_t, best);
+#else
+    traverse_bvh(ray, min_t, best);
+#endif
+}
+#endif
 
 #if PLANES
 // Keeps the nearest plane hit if nearer than `best` (planes, being unbounded, are searched by
 // brute force).
 fn nearest_plane(ray: Ray, min_t: real, best: ptr<function, Hit>) {
-    for (var k = 0u; k < params.plane_count; k++) {
-        keep(intersect_plane(ray, planes[k], min_t), KIND_PLANE, k, params.sphere_count, best);
+    for (var k = 0u; k < plane_count(); k++) {
+        let plane = planes[k];
+        keep_object(intersect_plane(ray, plane, min_t), plane_object(plane), KIND_PLANE, k, best);
     }
 }
 #endif

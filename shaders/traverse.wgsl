@@ -212,6 +212,23 @@ fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit
 #if PACKETS
 // This invocation's index in its subgroup (set by `main`).
 var<private> lane: u32;
+#if HOOK_RAYS
+#if !EIGHT_LANES
+// The invocations of this invocation's subgroup (set by `main`).
+var<private> subgroup_lanes: u32;
+#endif
+
+// Whether every invocation of the subgroup is here: a hook's ray is then cast in a packet,
+// where some lane with no ray of its own to cast would leave its node words unfetched.
+fn subgroup_whole() -> bool {
+    let here = subgroupBallot(true);
+#if EIGHT_LANES
+    return here.x == 0xFFu;
+#else
+    return countOneBits(here.x) + countOneBits(here.y) + countOneBits(here.z) + countOneBits(here.w) == subgroup_lanes;
+#endif
+}
+#endif
 
 // visit() for a node the whole subgroup visits (same `node` in every lane): lanes 0 to 7 each
 // load two of its sixteen words (node_element: one vec2<u32>), and broadcasts hand every lane
@@ -473,7 +490,7 @@ fn test_triangle(ray: Ray, shear: Shear, tri: Triangle, min_t: real, k: u32, lea
 // node is visited when popped, without checking first whether some ray still needs it: its
 // boxes are tested against every ray's nearest hit anyway, and keeping each ray's entry
 // distance on the stack to check cost more than the visits it saved.
-fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
+fn traverse_bvh_packet(ray: Ray, min_t: real, best: ptr<function, Hit>) {
     let ri = ray_inverse(ray);
     let shear = shear_of(ray.direction);
     var stack_low = vec4<u32>(0u);
@@ -834,7 +851,8 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
 #end_each
 }
 #endif
-#else
+#endif
+#if RAY_BY_RAY
 // Ordered traversal: of two children hit, leaves are tested at once and the nearer inner node
 // is visited first, the farther one waiting on a short stack with its entry distance, skipped
 // when popped if a hit nearer than that entry has been found.

@@ -82,10 +82,20 @@ struct Sphere {
 
 struct Plane {
     point: vec3<real>,    // offset 0
-    _pad0: real,          // offset 12 / 24
+    object: id_word,      // offset 12 / 24: its object's id (plane_object), read with the plane
+                          //   rather than by a load of its own from `objects`
     normal: vec3<real>,   // offset 16 / 32: unit length
     _pad1: real,          // offset 28 / 56
 }                         // size 32 / 64
+
+// The id of the object plane `plane` belongs to.
+fn plane_object(plane: Plane) -> u32 {
+#if F64
+    return plane.object.x;
+#else
+    return plane.object;
+#endif
+}
 
 struct Triangle {
     a: vec3<real>,

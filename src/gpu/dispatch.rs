@@ -173,10 +173,12 @@ pub(crate) fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Pr
 }
 
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
-/// which is built again here (for `--emit-shader`, which writes the kernel a render ran).
+/// which is built again here, and its plane loops to the scene's planes (for `--emit-shader`, which writes the kernel a render ran).
 pub(crate) fn as_run(scene: &Scene, variant: Variant) -> Variant {
     let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.search());
-    variant.with_stack_for(bvh.as_ref())
+    variant
+        .with_stack_for(bvh.as_ref())
+        .with_planes(scene.primitive_counts()[1])
 }
 
 /// An error if `scene` has more spheres and triangles than `variant`'s storage bindings hold.
@@ -193,7 +195,7 @@ pub(crate) fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 
 /// Runs `job` on `prepared` (module docs).
 /// `variant` as [`run`] compiles it for rays from `source` at `prepared`: the traversal stack
-/// sized to its BVH, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
+/// sized to its BVH, its plane loops to its planes, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
 /// `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
 /// with COUNT the counts alone).
 pub(crate) fn specialized<R: GpuReal>(
@@ -207,7 +209,9 @@ pub(crate) fn specialized<R: GpuReal>(
             && casts != Casts::Rays
             && prepared.camera_rays_from_origin(),
         list_origin: variant.list_origin && casts == Casts::Rays,
-        ..variant.with_stack_for(prepared.bvh().map(|b| &**b))
+        ..variant
+            .with_stack_for(prepared.bvh().map(|b| &**b))
+            .with_planes(prepared.primitives.planes.len())
     };
     match (casts, variant.count) {
         (Casts::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
@@ -721,7 +725,7 @@ fn fill_entries(to: wgpu::WriteOnly<'_, [u8]>, entry: usize, fill: &EntryFill<'_
 /// out), and the object id of each: spheres first, then planes, then triangles. With a
 /// BVH, spheres and triangles are in its order, and `order` holds each one's index in the
 /// scene's.
-struct Layout<'a, R> {
+struct Layout<'a, R: GpuReal> {
     spheres: Vec<GpuSphere<R>>,
     planes: Vec<GpuPlane<R>>,
     triangles: Vec<GpuTriangle<R>>,
@@ -747,7 +751,9 @@ impl<'a, R: GpuReal> Layout<'a, R> {
         };
         Layout {
             spheres: p.spheres.iter().map(GpuSphere::from).collect(),
-            planes: p.planes.iter().map(GpuPlane::from).collect(),
+            planes: (p.planes.iter().zip(&p.plane_objects))
+                .map(|(q, &object)| GpuPlane::new(q, object))
+                .collect(),
             triangles: p.triangles.iter().map(GpuTriangle::from).collect(),
             objects: [&p.sphere_objects[..], &p.plane_objects, &p.triangle_objects].concat(),
             nodes,

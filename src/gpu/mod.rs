@@ -100,6 +100,7 @@ impl Gpu {
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
+            planes: 0,
             outputs: crate::images::Outputs::GEOMETRY,
             shade: None,
             hook_rays: false,

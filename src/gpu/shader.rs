@@ -118,6 +118,12 @@ pub(crate) struct Variant {
     /// WGSL zero-fills the stack of every invocation, so entries the tree cannot use cost time
     /// (docs/performance.md#why-packets-share-fetches-by-hand).
     pub bvh_stack: u8,
+    /// The scene's planes, where there are 1 to [`MAX_CONSTANT_PLANES`] (`CONSTANT_PLANES`,
+    /// `PLANE_COUNT`), else 0 (a loop to `params.plane_count`). Loops over the planes then
+    /// have a constant trip count, which lavapipe unrolls into loads at constant offsets, one
+    /// scalar load each rather than a loop over the lanes: the lit bunny's box of five planes
+    /// traced 1.3x as fast (docs/performance.md#why-packets-share-fetches-by-hand).
+    pub planes: u8,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
     /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
     /// the rest is left out.
@@ -126,9 +132,9 @@ pub(crate) struct Variant {
     /// key), called for every pixel to write `out_color`.
     pub shade: Option<SourceKey>,
     /// The shade hook casts rays of its own (`trace`, `occluded`: `HOOK_RAYS`,
-    /// shaders/shade.wgsl). Such a kernel traverses the BVH ray by ray, primary rays too: a
-    /// hook's rays go their own ways, and a packet's subgroup votes need every lane at the same
-    /// call.
+    /// shaders/shade.wgsl). With packets, a hook's ray is cast in a packet of its subgroup's
+    /// where every lane of it casts one at the same call, and ray by ray where some lane does
+    /// not: a packet's node fetches and votes need every lane (`RAY_BY_RAY`).
     pub hook_rays: bool,
     /// A complete kernel from the user (`render --kernel FILE`, [`super::kernel`]) runs instead
     /// of the assembled one: its source is registered under this key, and the rest of the
@@ -144,6 +150,9 @@ pub(crate) const FOUR_LANE_RAYS: u64 = 2_000_000;
 /// Renders of at least this many rays cast eight rays a lane ([`Variant::for_rays`]): 3840x2160
 /// and more.
 pub(crate) const EIGHT_LANE_RAYS: u64 = 8_000_000;
+
+/// The most planes a kernel is compiled for the number of ([`Variant::planes`]).
+pub(crate) const MAX_CONSTANT_PLANES: usize = 8;
 
 /// The most chunks a kernel binds for triangles, and for nodes.
 pub(crate) const MAX_CHUNKS: u8 = 4;
@@ -189,6 +198,7 @@ impl Variant {
             chunks: 1,
             chunk_bits: chunk_bits_for(128 << 20, precision),
             bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
+            planes: 0,
             outputs: Outputs::GEOMETRY,
             shade: None,
             hook_rays: false,
@@ -200,6 +210,18 @@ impl Variant {
     pub(crate) fn with_stack_for(self, bvh: Option<&crate::prepare::bvh::Bvh>) -> Variant {
         Variant {
             bvh_stack: bvh.map_or(crate::prepare::bvh::MAX_DEPTH as u8, |b| b.stack_entries()),
+            ..self
+        }
+    }
+
+    /// This variant compiled for a scene of `planes` planes ([`Variant::planes`]).
+    pub(crate) fn with_planes(self, planes: usize) -> Variant {
+        Variant {
+            planes: if planes <= MAX_CONSTANT_PLANES {
+                planes as u8
+            } else {
+                0
+            },
             ..self
         }
     }
@@ -240,14 +262,19 @@ impl Variant {
     /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
     /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin),
     /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
-    /// compiled in), `BVH` (spheres and triangles through the BVH), `PACKETS` (BVH traversed by
+    /// compiled in), `BVH` (spheres and triangles through the BVH), `RAY_BY_RAY` (BVH traversed ray by ray:
+    /// no packets, or a hook's rays where its subgroup is not whole), `PACKETS` (BVH traversed by
     /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
+    /// `CONSTANT_PLANES` (loops over the planes to `PLANE_COUNT`),
     /// and for the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
     /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
     /// `USER_SHADE` (the shade hook is called and `out_color` written), `HOOK_RAYS` (and
     /// casts rays of its own).
     pub(crate) fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
+        let o = self.outputs;
+        let shade = self.shade.is_some() && o.color;
+        let hook_rays = shade && self.hook_rays;
         if self.precision == Float::F64 {
             d.push("F64");
         }
@@ -277,6 +304,9 @@ impl Variant {
         if self.list_origin && self.casts == Casts::Rays {
             d.push("LIST_ORIGIN");
         }
+        if self.planes > 0 {
+            d.push("CONSTANT_PLANES");
+        }
         for (k, name) in [(2, "CHUNKS_2"), (3, "CHUNKS_3"), (4, "CHUNKS_4")] {
             if self.chunks >= k {
                 d.push(name);
@@ -284,6 +314,9 @@ impl Variant {
         }
         if self.uses_bvh() {
             d.push("BVH");
+            if !self.uses_packets() || hook_rays {
+                d.push("RAY_BY_RAY");
+            }
             if self.uses_packets() {
                 d.push("PACKETS");
                 if self.eight_lanes {
@@ -303,15 +336,13 @@ impl Variant {
                 d.push(name);
             }
         }
-        let o = self.outputs;
-        let shade = self.shade.is_some() && o.color;
         for (present, name) in [
             (o.id, "ID"),
             (o.distance || o.normal, "SURFACE"),
             (o.normal || shade, "NORMAL"),
             (o.distance || shade, "DISTANCE"),
             (shade, "USER_SHADE"),
-            (shade && self.hook_rays, "HOOK_RAYS"),
+            (hook_rays, "HOOK_RAYS"),
         ] {
             if present {
                 d.push(name);
@@ -350,7 +381,7 @@ impl Variant {
             Casts::Rays => !self.count && !self.closest,
             Casts::Pixels => false,
         };
-        self.packets && self.uses_bvh() && coherent && !self.hook_rays
+        self.packets && self.uses_bvh() && coherent
     }
 
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
@@ -365,6 +396,7 @@ impl Variant {
     pub(crate) fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
+            _ if self.hook_rays => 1,
             // With its records swapped per ray, the certainty pass's kernel grows faster per
             // ray: one ray a lane where a render is too small for four.
             (true, true) if self.lane_rays_limit < 4 => 1,
@@ -450,11 +482,21 @@ fn module_source(name: &str, variant: &Variant) -> Option<String> {
              // node per level at most (Bvh::stack_entries in src/prepare/bvh.rs).\n\
              const BVH_STACK: u32 = {}u;\n\
              // Rays each invocation casts (Variant::lane_rays).\n\
-             const LANE_RAYS: u32 = {}u;\n",
+             const LANE_RAYS: u32 = {}u;\n\
+             // The scene's planes, where the kernel is compiled for their number\n\
+             // (CONSTANT_PLANES: Variant::planes).\n\
+             const PLANE_COUNT: u32 = {}u;\n\
+             // A u32 in the space of one real (Plane.object).\n\
+             alias id_word = {};\n",
             precision.name(),
             variant.chunk_bits,
             variant.bvh_stack,
-            variant.lane_rays()
+            variant.lane_rays(),
+            variant.planes,
+            match precision {
+                Float::F32 => "u32",
+                Float::F64 => "vec2<u32>",
+            }
         );
         return Some(text);
     }
@@ -679,6 +721,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         chunks: 1,
                         chunk_bits: 9,
                         bvh_stack: crate::prepare::bvh::MAX_DEPTH as u8,
+                        planes: 0,
                         outputs: Outputs::GEOMETRY,
                         shade: None,
                         hook_rays: false,
@@ -701,11 +744,14 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         // Closest-point kernels share the chunked loads: one and all chunks.
                         let chunk_counts = [1, 2, MAX_CHUNKS].into_iter();
                         for chunks in chunk_counts.filter(|&c| !closest || c != 2) {
+                            // The planes' loops to a constant (Variant::planes) with all chunks.
+                            let planes = if chunks == MAX_CHUNKS { 5 } else { 0 };
                             v.push(Variant {
                                 bvh,
                                 packets,
                                 eight_lanes,
                                 chunks,
+                                planes,
                                 ..plain
                             });
                         }

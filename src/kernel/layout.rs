@@ -15,9 +15,23 @@ use crate::math::Real;
 use crate::scene::Projection;
 
 /// A scalar the GPU kernel can run in.
-pub(crate) trait GpuReal: Real + Pod {}
-impl GpuReal for f32 {}
-impl GpuReal for f64 {}
+pub(crate) trait GpuReal: Real + Pod {
+    /// A `u32` in the space of one real (`id_word` in shaders/: `Plane::object`).
+    type IdWord: Pod + std::fmt::Debug;
+    fn id_word(id: u32) -> Self::IdWord;
+}
+impl GpuReal for f32 {
+    type IdWord = u32;
+    fn id_word(id: u32) -> u32 {
+        id
+    }
+}
+impl GpuReal for f64 {
+    type IdWord = [u32; 2];
+    fn id_word(id: u32) -> [u32; 2] {
+        [id, 0]
+    }
+}
 
 /// `struct Frame` in shaders/types.wgsl. Offsets f32 / f64.
 #[repr(C)]
@@ -61,11 +75,11 @@ pub(crate) struct GpuSphere<R> {
 /// `struct Plane` in shaders/types.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct GpuPlane<R> {
-    pub point: [R; 3],  // offset 0
-    pub _pad0: R,       // offset 12 / 24
-    pub normal: [R; 3], // offset 16 / 32
-    pub _pad1: R,       // offset 28 / 56
+pub(crate) struct GpuPlane<R: GpuReal> {
+    pub point: [R; 3],     // offset 0
+    pub object: R::IdWord, // offset 12 / 24
+    pub normal: [R; 3],    // offset 16 / 32
+    pub _pad1: R,          // offset 28 / 56
 } // size 32 / 64
 
 /// `struct StoredTriangle` in shaders/types.wgsl: a triangle packed, 9 reals and one of
@@ -134,11 +148,12 @@ impl<R: GpuReal> From<&Sphere<R>> for GpuSphere<R> {
     }
 }
 
-impl<R: GpuReal> From<&Plane<R>> for GpuPlane<R> {
-    fn from(q: &Plane<R>) -> Self {
+impl<R: GpuReal> GpuPlane<R> {
+    /// Plane `q` of object `object`.
+    pub(crate) fn new(q: &Plane<R>, object: u32) -> Self {
         GpuPlane {
             point: q.point.to_array(),
-            _pad0: R::ZERO,
+            object: R::id_word(object),
             normal: q.normal.to_array(),
             _pad1: R::ZERO,
         }
@@ -331,7 +346,7 @@ mod tests {
             &m,
             "Plane",
             size_of::<GpuPlane<R>>(),
-            fields!(GpuPlane<R>: point, _pad0, normal, _pad1),
+            fields!(GpuPlane<R>: point, object, normal, _pad1),
         );
         check(
             &m,

@@ -48,8 +48,12 @@ fn only_a_hook_that_casts_rays_compiles_them_in() {
         assert!(!plain_names.iter().any(|n| n == name), "{name}");
     }
     let tracing = variant(&lit);
+    // Primary rays in packets, and a hook's rays where its whole subgroup casts one, else
+    // ray by ray (RAY_BY_RAY), one ray a lane.
     assert!(tracing.defines().contains(&"HOOK_RAYS"));
-    assert!(!tracing.uses_packets());
+    assert!(tracing.uses_packets() && tracing.defines().contains(&"RAY_BY_RAY"));
+    assert!(!plain.defines().contains(&"RAY_BY_RAY"));
+    assert_eq!(tracing.lane_rays(), 1);
     let tracing_names = names(tracing);
     for name in machinery {
         assert!(tracing_names.iter().any(|n| n == name), "{name}");
@@ -97,4 +101,33 @@ fn hooked_kernels_of_every_lane_count_agree() {
         common::assert_same_bits(&fewer, &eight, &what);
         assert!(fewer.color == eight.color, "{what}");
     }
+}
+
+/// A hook's rays cast in packets (where its whole subgroup casts one at the same call) find
+/// what they find ray by ray: the course's ray tracer gives the same colours, ids and surfaces,
+/// bit for bit, and casts the same rays, as the kernel without packets.
+#[test]
+fn a_hooks_rays_in_packets_find_what_they_find_ray_by_ray() {
+    let path = common::repo_path("scenes/ray-tracing/bunny.json");
+    let mut scene = raycast::Scene::load(&path).unwrap();
+    scene.camera.resolution = [160, 90];
+    let hook = ShadeHook::raytrace().unwrap();
+    let gpu = common::gpu();
+    let packets = gpu
+        .scene_variant(&scene, raycast::math::Float::F32, Robust)
+        .with_shade(hook.key, hook.traces)
+        .with_outputs(Outputs::ALL);
+    assert!(packets.uses_packets() && packets.defines().contains(&"RAY_BY_RAY"));
+    let ray_by_ray = raycast::gpu::shader::Variant {
+        packets: false,
+        ..packets
+    };
+    let render = |variant| {
+        let images: Images<f32> = super::kernels::gpu_variant(gpu, &scene, variant).unwrap();
+        images
+    };
+    let (a, b) = (render(packets), render(ray_by_ray));
+    common::assert_same_bits(&a, &b, "packets against ray by ray");
+    assert!(a.color.is_some() && a.color == b.color);
+    assert!(a.hook_rays.is_some() && a.hook_rays == b.hook_rays);
 }

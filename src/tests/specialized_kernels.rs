@@ -58,3 +58,47 @@ fn specialized_kernels_render_like_the_general_one() {
         }
     }
 }
+
+/// Loops over the planes to a constant (`CONSTANT_PLANES`, up to `MAX_CONSTANT_PLANES` planes)
+/// and to `params.plane_count` (more) find what the CPU finds: the f32 render bit for bit and
+/// the f64 ids, in both algorithm sets, each plane's object id among other objects'.
+#[test]
+fn plane_loops_of_a_constant_count_and_of_any_count_agree_with_the_cpu() {
+    use raycast::gpu::shader::MAX_CONSTANT_PLANES;
+    use raycast::prepare::bvh::Search;
+    let gpu = common::gpu();
+    for n in [MAX_CONSTANT_PLANES, MAX_CONSTANT_PLANES + 1] {
+        // Planes tilted every which way behind a sphere, so that each is nearest somewhere.
+        let planes: Vec<String> = (0..n)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / n as f64;
+                let normal = [a.cos(), a.sin(), 2.5];
+                let point = [0.4 * a.cos(), 0.4 * a.sin(), -6.0 - 0.1 * k as f64];
+                format!(r#"{{"type": "plane", "point": {point:?}, "normal": {normal:?}}}"#)
+            })
+            .collect();
+        let mut objects: Vec<&str> = vec![OBJECTS[0]];
+        objects.extend(planes.iter().map(String::as_str));
+        objects.push(OBJECTS[2]);
+        let scene = scene(&objects);
+        let variant = gpu.scene_variant(&scene, Float::F32, Robust);
+        let specialized = raycast::gpu::shader::Variant {
+            planes: 0,
+            ..variant
+        }
+        .with_planes(n);
+        let constant = n <= MAX_CONSTANT_PLANES;
+        assert_eq!(specialized.defines().contains(&"CONSTANT_PLANES"), constant);
+        for algorithm in [Textbook, Robust] {
+            let what = format!("{n} planes, {algorithm}");
+            let gpu32 = super::kernels::gpu_scene::<f32>(gpu, &scene, algorithm).unwrap();
+            let cpu32 = raycast::cpu::render_with::<f32>(&scene, algorithm, Search::Auto);
+            common::assert_same_bits(&gpu32, &cpu32, &what);
+            let ids: std::collections::BTreeSet<i32> = gpu32.id.iter().copied().collect();
+            assert!(ids.len() >= n, "{what}: only {ids:?} seen");
+            let gpu64 = super::kernels::gpu_scene::<f64>(gpu, &scene, algorithm).unwrap();
+            let cpu64 = raycast::cpu::render_with::<f64>(&scene, algorithm, Search::Auto);
+            assert_eq!(gpu64.id, cpu64.id, "{what} f64 ids");
+        }
+    }
+}
