@@ -173,7 +173,8 @@ pub(crate) fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Pr
 }
 
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
-/// which is built again here, and its plane loops to the scene's planes (for `--emit-shader`, which writes the kernel a render ran).
+/// which is built again here, and its plane loops to the scene's planes (for `--emit-shader`,
+/// which writes the kernel a render ran).
 pub(crate) fn as_run(scene: &Scene, variant: Variant) -> Variant {
     let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.search());
     variant
@@ -195,8 +196,8 @@ pub(crate) fn check_capacity(scene: &Scene, variant: &Variant) -> Result<()> {
 
 /// Runs `job` on `prepared` (module docs).
 /// `variant` as [`run`] compiles it for rays from `source` at `prepared`: the traversal stack
-/// sized to its BVH, its plane loops to its planes, `RAYS_FROM_ORIGIN` where every camera ray starts at the kernel's origin,
-/// `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
+/// sized to its BVH, its plane loops to its planes, `RAYS_FROM_ORIGIN` where every camera ray
+/// starts at the kernel's origin, `LIST_ORIGIN` kept for a caller's list only, and a ray list's outputs (every per-ray one, or
 /// with COUNT the counts alone).
 pub(crate) fn specialized<R: GpuReal>(
     variant: Variant,

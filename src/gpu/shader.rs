@@ -121,8 +121,7 @@ pub(crate) struct Variant {
     /// The scene's planes, where there are 1 to [`MAX_CONSTANT_PLANES`] (`CONSTANT_PLANES`,
     /// `PLANE_COUNT`), else 0 (a loop to `params.plane_count`). Loops over the planes then
     /// have a constant trip count, which lavapipe unrolls into loads at constant offsets, one
-    /// scalar load each rather than a loop over the lanes: the lit bunny's box of five planes
-    /// traced 1.3x as fast (docs/performance.md#why-packets-share-fetches-by-hand).
+    /// scalar load each rather than a loop over the lanes (docs/performance.md#a-hooks-rays).
     pub planes: u8,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
     /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
@@ -261,15 +260,16 @@ impl Variant {
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
     /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin),
-    /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`, `TRIANGLES` (kinds
-    /// compiled in), `BVH` (spheres and triangles through the BVH), `RAY_BY_RAY` (BVH traversed ray by ray:
-    /// no packets, or a hook's rays where its subgroup is not whole), `PACKETS` (BVH traversed by
-    /// subgroups together, [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8), `CHUNKS_2..4` (triangles and nodes in several bindings),
-    /// `CONSTANT_PLANES` (loops over the planes to `PLANE_COUNT`),
-    /// and for the outputs: `ID` (`out_id` written), `SURFACE` (`out_surface` written: distance or
-    /// normal asked for), `NORMAL` and `DISTANCE` (computed: asked for, or for the hook),
-    /// `USER_SHADE` (the shade hook is called and `out_color` written), `HOOK_RAYS` (and
-    /// casts rays of its own).
+    /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`,
+    /// `TRIANGLES` (kinds compiled in), `BVH` (spheres and triangles through the BVH),
+    /// `RAY_BY_RAY` (BVH traversed ray by ray: no packets, or a hook's rays where its subgroup
+    /// is not whole), `PACKETS` (BVH traversed by subgroups together,
+    /// [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8),
+    /// `CHUNKS_2..4` (triangles and nodes in several bindings), `CONSTANT_PLANES` (loops over
+    /// the planes to `PLANE_COUNT`), and for the outputs: `ID` (`out_id` written), `SURFACE`
+    /// (`out_surface` written: distance or normal asked for), `NORMAL` and `DISTANCE`
+    /// (computed: asked for, or for the hook), `USER_SHADE` (the shade hook is called and
+    /// `out_color` written), `HOOK_RAYS` (and casts rays of its own).
     pub(crate) fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         let o = self.outputs;
@@ -396,6 +396,8 @@ impl Variant {
     pub(crate) fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
+            // A hook's rays go one a lane; its camera rays gained nothing from more, in a
+            // longer kernel (docs/performance.md#a-hooks-rays).
             _ if self.hook_rays => 1,
             // With its records swapped per ray, the certainty pass's kernel grows faster per
             // ray: one ray a lane where a render is too small for four.
