@@ -54,22 +54,29 @@ fn plane_count() -> u32 {
 // reals are two loops (a subgroup loads a triangle a pair per lane: shared_triangle). Meshes
 // larger than one storage binding are split in chunks of 2^CHUNK_BITS triangles (CHUNK_BITS
 // from the precision module), bound as triangles, triangles_2, ... (CHUNKS_2..4).
-@group(0) @binding(3) var<storage, read> triangles: array<vec2<real>>;
+// With WIDE_TRIANGLES (f32, Variant::wide_loads) they are bound as 16-byte elements instead,
+// and a triangle's 40 bytes are read as the three elements they start in: three loops of
+// loads instead of five (each buffer is padded to 16 bytes for the last one).
+#if WIDE_TRIANGLES
+alias TriangleElement = vec2<u64>;
+#else
+alias TriangleElement = vec2<real>;
+#endif
+@group(0) @binding(3) var<storage, read> triangles: array<TriangleElement>;
 #if CHUNKS_2
-@group(0) @binding(11) var<storage, read> triangles_2: array<vec2<real>>;
+@group(0) @binding(11) var<storage, read> triangles_2: array<TriangleElement>;
 #endif
 #if CHUNKS_3
-@group(0) @binding(12) var<storage, read> triangles_3: array<vec2<real>>;
+@group(0) @binding(12) var<storage, read> triangles_3: array<TriangleElement>;
 #endif
 #if CHUNKS_4
-@group(0) @binding(13) var<storage, read> triangles_4: array<vec2<real>>;
+@group(0) @binding(13) var<storage, read> triangles_4: array<TriangleElement>;
 #endif
 
-// Pair p (0 to 4) of triangle k's reals, from the chunk it lies in: real w is corner w / 3,
-// coordinate w % 3.
-fn triangle_pair(k: u32, p: u32) -> vec2<real> {
+// Element e of triangle k's, counted from the element it starts in, from the chunk it lies in.
+fn triangle_element(k: u32, e: u32) -> TriangleElement {
 #if CHUNKS_2
-    let i = 5u * (k & ((1u << CHUNK_BITS) - 1u)) + p;
+    let i = triangle_start(k & ((1u << CHUNK_BITS) - 1u)) + e;
     switch (k >> CHUNK_BITS) {
         case 1u: {
             return triangles_2[i];
@@ -89,7 +96,17 @@ fn triangle_pair(k: u32, p: u32) -> vec2<real> {
         }
     }
 #else
-    return triangles[5u * k + p];
+    return triangles[triangle_start(k) + e];
+#endif
+}
+
+// The element triangle k (of its chunk) starts in: five pairs of reals a triangle, or with
+// WIDE_TRIANGLES two and a half 16-byte elements (an odd triangle starts half-way into one).
+fn triangle_start(k: u32) -> u32 {
+#if WIDE_TRIANGLES
+    return 5u * k / 2u;
+#else
+    return 5u * k;
 #endif
 }
 
@@ -97,11 +114,33 @@ fn triangle_pair(k: u32, p: u32) -> vec2<real> {
 fn triangle_of_pairs(p0: vec2<real>, p1: vec2<real>, p2: vec2<real>, p3: vec2<real>, p4: vec2<real>) -> Triangle {
     return Triangle(vec3<real>(p0, p1.x), vec3<real>(p1.y, p2), vec3<real>(p3, p4.x));
 }
+#if WIDE_TRIANGLES
+
+// The pair of f32 in a 64-bit word (the first in its low half, as stored).
+fn pair_of_word(x: u64) -> vec2<real> {
+    return bitcast<vec2<f32>>(vec2<u32>(u32(x), u32(x >> 32u)));
+}
+
+// Triangle k: its five pairs, from the word its element starts with (even k) or the next.
+fn triangle_at(k: u32) -> Triangle {
+    let a = triangle_element(k, 0u);
+    let b = triangle_element(k, 1u);
+    let c = triangle_element(k, 2u);
+    let odd = (k & 1u) != 0u;
+    return triangle_of_pairs(pair_of_word(select(a.x, a.y, odd)), pair_of_word(select(a.y, b.x, odd)), pair_of_word(select(b.x, b.y, odd)), pair_of_word(select(b.y, c.x, odd)), pair_of_word(select(c.x, c.y, odd)));
+}
+#else
+
+// Pair p (0 to 4) of triangle k's reals: real w is corner w / 3, coordinate w % 3.
+fn triangle_pair(k: u32, p: u32) -> vec2<real> {
+    return triangle_element(k, p);
+}
 
 // Triangle k.
 fn triangle_at(k: u32) -> Triangle {
     return triangle_of_pairs(triangle_pair(k, 0u), triangle_pair(k, 1u), triangle_pair(k, 2u), triangle_pair(k, 3u), triangle_pair(k, 4u));
 }
+#endif
 #endif
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).
@@ -161,13 +200,19 @@ fn stored_ray(stored: StoredRay) -> Ray {
 // l loads element l of a node it visits (visit_shared), as a vec2<u32>: one load a lane, where
 // llvmpipe runs each storage load of a per-lane offset as a loop over the lanes, so two u32
 // would be two loops (docs/performance.md#why-packets-share-fetches-by-hand).
-// Elsewhere a vec4<u32> per lane: four loads a node.
+// Elsewhere a vec4<u32> per lane, four loads a node, or with WIDE_LOADS (Variant::wide_loads)
+// a vec4<u64>, two.
 #if PACKETS
 alias NodeElement = vec2<u32>;
 const NODE_ELEMENTS: u32 = 8u;
 #else
+#if WIDE_LOADS
+alias NodeElement = vec4<u64>;
+const NODE_ELEMENTS: u32 = 2u;
+#else
 alias NodeElement = vec4<u32>;
 const NODE_ELEMENTS: u32 = 4u;
+#endif
 #endif
 @group(0) @binding(9) var<storage, read> bvh_nodes: array<NodeElement>;
 #if CHUNKS_2
@@ -209,14 +254,37 @@ fn node_element(node: u32, e: u32) -> NodeElement {
 #endif
 }
 
-// Part q (0 to 3) of node `node`: its words 4q to 4q + 3.
-fn node_part(node: u32, q: u32) -> vec4<u32> {
+// A node's sixteen words as four parts: q0 and q2 hold the children's boxes' lower corners
+// and their references, q1 and q3 the upper corners and leaf counts (src/prepare/bvh.rs).
+struct NodeWords {
+    q0: vec4<u32>,
+    q1: vec4<u32>,
+    q2: vec4<u32>,
+    q3: vec4<u32>,
+}
+
+// Node `node`, loaded by this lane alone.
+fn node_words(node: u32) -> NodeWords {
 #if PACKETS
-    return vec4<u32>(node_element(node, 2u * q), node_element(node, 2u * q + 1u));
+    let e = array(node_element(node, 0u), node_element(node, 1u), node_element(node, 2u), node_element(node, 3u), node_element(node, 4u), node_element(node, 5u), node_element(node, 6u), node_element(node, 7u));
+    return NodeWords(vec4<u32>(e[0], e[1]), vec4<u32>(e[2], e[3]), vec4<u32>(e[4], e[5]), vec4<u32>(e[6], e[7]));
 #else
-    return node_element(node, q);
+#if WIDE_LOADS
+    let a = node_element(node, 0u);
+    let b = node_element(node, 1u);
+    return NodeWords(words_of(a.xy), words_of(a.zw), words_of(b.xy), words_of(b.zw));
+#else
+    return NodeWords(node_element(node, 0u), node_element(node, 1u), node_element(node, 2u), node_element(node, 3u));
+#endif
 #endif
 }
+#if WIDE_LOADS
+
+// The four words of two 64-bit ones (each's low half first, as stored).
+fn words_of(x: vec2<u64>) -> vec4<u32> {
+    return vec4<u32>(u32(x.x), u32(x.x >> 32u), u32(x.y), u32(x.y >> 32u));
+}
+#endif
 #endif
 #if USER_SHADE
 // Per pixel of the tile: the shade hook's colour, pack4x8unorm (red in the lowest byte).

@@ -202,10 +202,11 @@ fn closest_in_bvh(p: vec3<real>, best: ptr<function, Hit>) {
     var sp = 0u;
     var node = 0u;
     loop {
-        let q0 = node_part(node, 0u);
-        let q1 = node_part(node, 1u);
-        let q2 = node_part(node, 2u);
-        let q3 = node_part(node, 3u);
+        let w = node_words(node);
+        let q0 = w.q0;
+        let q1 = w.q1;
+        let q2 = w.q2;
+        let q3 = w.q3;
         let d0 = box_distance2(p, bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz));
         let d1 = box_distance2(p, bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz));
         let leaf0 = (q0.w & LEAF_BIT) != 0u;

@@ -204,9 +204,10 @@ fn visit_parts(q0: vec4<u32>, q1: vec4<u32>, q2: vec4<u32>, q3: vec4<u32>, ray: 
     return Visit(t0, t1, q0.w, q1.w, q2.w, q3.w);
 }
 
-// Reads node `node` (four vec4<u32>: fewer, wider loads) and tests the ray against both boxes.
+// Reads node `node` (node_words: a few wide loads) and tests the ray against both boxes.
 fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
-    return visit_parts(node_part(node, 0u), node_part(node, 1u), node_part(node, 2u), node_part(node, 3u), ray, ri, min_t, t_max);
+    let w = node_words(node);
+    return visit_parts(w.q0, w.q1, w.q2, w.q3, ray, ri, min_t, t_max);
 }
 
 #if PACKETS
@@ -239,14 +240,6 @@ fn subgroup_whole() -> bool {
 fn visit_shared(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
     let w = fetch_shared(node);
     return visit_parts(w.q0, w.q1, w.q2, w.q3, ray, ri, min_t, t_max);
-}
-
-// A node's four parts, as every lane of the subgroup has them after fetch_shared.
-struct NodeWords {
-    q0: vec4<u32>,
-    q1: vec4<u32>,
-    q2: vec4<u32>,
-    q3: vec4<u32>,
 }
 
 // Node `node`, which the whole subgroup visits: lane l loads its words 2l and 2l + 1, and

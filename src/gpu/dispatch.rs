@@ -926,7 +926,7 @@ fn check_limits<R: GpuReal>(
 }
 
 /// `items` in `variant.chunks` storage buffers of 2^`variant.chunk_bits` items (the last ones
-/// possibly a zeroed placeholder).
+/// possibly a zeroed placeholder), each padded with zeros to a multiple of 16 bytes.
 fn chunked_upload<T: Pod>(
     gpu: &Gpu,
     label: &str,
@@ -937,7 +937,11 @@ fn chunked_upload<T: Pod>(
     (0..variant.chunks as usize)
         .map(|k| {
             let part = items.get(k * chunk..).unwrap_or(&[]);
-            storage_buffer(gpu, label, &part[..part.len().min(chunk)])
+            let mut bytes = bytemuck::cast_slice(&part[..part.len().min(chunk)]).to_vec();
+            // Zeros to a whole 16 bytes: kernels with WIDE_TRIANGLES read a triangle as the
+            // 16-byte elements it lies in, the last one's up to 8 bytes beyond it.
+            bytes.resize(bytes.len().max(size_of::<T>()).next_multiple_of(16), 0);
+            storage_bytes(gpu, label, &bytes)
         })
         .collect()
 }
@@ -992,10 +996,14 @@ fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
     } else {
         items
     };
+    storage_bytes(gpu, label, bytemuck::cast_slice(items))
+}
+
+fn storage_bytes(gpu: &Gpu, label: &str, contents: &[u8]) -> wgpu::Buffer {
     gpu.device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
-            contents: bytemuck::cast_slice(items),
+            contents,
             usage: wgpu::BufferUsages::STORAGE,
         })
 }

@@ -30,7 +30,8 @@ pub(crate) const DRIVER_HINT: &str = "install a Vulkan driver: on Debian/Ubuntu 
 pub(crate) const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::SUBGROUP)
     .union(wgpu::Features::TIMESTAMP_QUERY)
-    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES);
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
+    .union(wgpu::Features::SHADER_INT64);
 
 /// Invocations that share one node fetch in the packet traversal.
 pub(crate) const PACKET_LANES: u32 = 8;
@@ -86,6 +87,7 @@ impl Gpu {
             precision,
             algorithm,
             f64_available: self.has_f64(),
+            int64_available: self.has_int64(),
             certainty: false,
             casts: shader::Casts::Camera,
             count: false,
@@ -112,6 +114,14 @@ impl Gpu {
     /// on the GPU, and the f64 rechecks of robust f32.
     pub fn has_f64(&self) -> bool {
         self.device.features().contains(wgpu::Features::SHADER_F64)
+    }
+
+    /// Whether kernels may use 64-bit integers here (`SHADER_INT64`): a kernel that loads
+    /// nodes and triangles ray by ray loads them as 64-bit words ([`Variant::wide_loads`]).
+    pub(crate) fn has_int64(&self) -> bool {
+        self.device
+            .features()
+            .contains(wgpu::Features::SHADER_INT64)
     }
 
     /// Whether the BVH is traversed by packets here ([`crate::Tuning::packets`]): subgroups of

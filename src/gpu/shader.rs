@@ -70,6 +70,9 @@ pub(crate) struct Variant {
     /// The device has f64 shaders: an f32 robust kernel rechecks near-zero triangle edge
     /// functions exactly in f64.
     pub f64_available: bool,
+    /// The device has 64-bit integers: a kernel that loads per ray loads its nodes and
+    /// triangles as 64-bit words ([`Variant::wide_loads`]).
+    pub int64_available: bool,
     /// Also decide, per pixel, whether hit/miss and id are certain (robust set only; the
     /// first pass of adaptive precision).
     pub certainty: bool,
@@ -183,6 +186,7 @@ impl Variant {
             precision,
             algorithm,
             f64_available: true,
+            int64_available: false,
             certainty: false,
             casts: Casts::Camera,
             count: false,
@@ -265,6 +269,8 @@ impl Variant {
     /// `RAY_BY_RAY` (BVH traversed ray by ray: no packets, or a hook's rays where its subgroup
     /// is not whole), `PACKETS` (BVH traversed by subgroups together,
     /// [`Variant::uses_packets`]), `EIGHT_LANES` (packets of subgroups of exactly 8),
+    /// `WIDE_LOADS` and `WIDE_TRIANGLES` (nodes, and f32 triangles, loaded as 64-bit words,
+    /// [`Variant::wide_loads`]),
     /// `CHUNKS_2..4` (triangles and nodes in several bindings), `CONSTANT_PLANES` (loops over
     /// the planes to `PLANE_COUNT`), and for the outputs: `ID` (`out_id` written), `SURFACE`
     /// (`out_surface` written: distance or normal asked for), `NORMAL` and `DISTANCE`
@@ -317,6 +323,9 @@ impl Variant {
             if !self.uses_packets() || hook_rays {
                 d.push("RAY_BY_RAY");
             }
+            if self.wide_loads() {
+                d.push("WIDE_LOADS");
+            }
             if self.uses_packets() {
                 d.push("PACKETS");
                 if self.eight_lanes {
@@ -326,6 +335,9 @@ impl Variant {
                     d.push("LANES");
                 }
             }
+        }
+        if self.wide_loads() && self.precision == Float::F32 {
+            d.push("WIDE_TRIANGLES");
         }
         for (present, name) in [
             (self.kinds.spheres, "SPHERES"),
@@ -382,6 +394,16 @@ impl Variant {
             Casts::Pixels => false,
         };
         self.packets && self.uses_bvh() && coherent
+    }
+
+    /// Whether the kernel loads BVH nodes, and in f32 triangles, as 64-bit words (`WIDE_LOADS`,
+    /// `WIDE_TRIANGLES`, shaders/bindings.wgsl): where it loads them per ray, without packets,
+    /// and assembled from shaders/ alone (a user's hook may read the bindings). On llvmpipe each
+    /// load of a per-lane offset is a loop over the lanes, so a node in two loads rather than
+    /// four and a triangle in three rather than five cost fewer loops
+    /// (docs/performance.md#incoherent-rays).
+    pub(crate) fn wide_loads(&self) -> bool {
+        self.int64_available && !self.uses_packets() && self.is_ours()
     }
 
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
@@ -676,8 +698,8 @@ pub(crate) fn kernel_source(variant: &Variant) -> Result<String> {
     assemble(ENTRY_MODULE, variant)
 }
 
-/// Every variant a device may build: both precisions, both algorithms, with and without f64,
-/// the robust ones with and without the certainty test, and the list ones, with and
+/// Every variant a device may build: both precisions, both algorithms, with and without f64
+/// (and 64-bit integers: [`Variant::wide_loads`]), the robust ones with and without the certainty test, and the list ones, with and
 /// without a BVH (per ray, and where they may, [`Variant::uses_packets`], by packets, with
 /// subgroup votes or on 8-lane subgroups) and in one or several chunks; the plain ones also with each output alone
 /// and with none.
@@ -707,6 +729,9 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         precision,
                         algorithm,
                         f64_available,
+                        // With f64 and without: the per-ray kernels with WIDE_LOADS and
+                        // without each go through the whole matrix.
+                        int64_available: f64_available,
                         certainty,
                         casts,
                         count,

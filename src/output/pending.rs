@@ -119,6 +119,18 @@ pub(crate) fn place_dir(temporary: &Path, path: &Path) -> Result<()> {
     placed.map_err(|e| Error::io(path, format!("cannot write: {e}")))
 }
 
+/// Removes folder `path`, again while it is there: another thread may still be writing a view's
+/// files into it (not under the registry's lock, which only its placing takes), and a file
+/// created during a removal leaves the folder not empty. That thread writes at most the rest of
+/// one view's files before it waits on the lock, so a few tries empty it.
+fn remove_dir_while_written(path: &Path) {
+    for _ in 0..1000 {
+        if std::fs::remove_dir_all(path).is_ok() || !path.exists() {
+            return;
+        }
+    }
+}
+
 /// Whether a file in `dir` is registered.
 #[cfg(test)]
 pub(crate) fn holds_any_in(dir: &Path) -> bool {
@@ -134,10 +146,9 @@ pub fn abandon(code: i32, message: &str) -> ! {
     let held = registry();
     for path in held.iter() {
         match path.is_dir() {
-            true => std::fs::remove_dir_all(path),
-            false => std::fs::remove_file(path),
+            true => remove_dir_while_written(path),
+            false => std::fs::remove_file(path).unwrap_or(()),
         }
-        .ok();
     }
     eprintln!("{message}");
     #[cfg(unix)]

@@ -726,3 +726,91 @@ fn adaptive_rays_near_far_planes_decide_as_f64() {
         "{occluded} of 20000 occluded"
     );
 }
+
+/// The device of `gpu` opened again with its optional features but `without`, and storage
+/// bindings of 8 KiB, so that a mesh of a few hundred triangles takes several.
+fn small_binding_gpu(gpu: &raycast::gpu::Gpu, without: wgpu::Features) -> raycast::gpu::Gpu {
+    let adapter = gpu.adapter.clone();
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: 1 << 13,
+        ..adapter.limits()
+    };
+    let features = adapter.features() & (raycast::gpu::OPTIONAL_FEATURES - without);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_features: features,
+        required_limits: limits,
+        ..Default::default()
+    }))
+    .expect("the adapter opens a second device");
+    raycast::gpu::Gpu::from_parts(adapter, device, queue)
+}
+
+/// Kernels that load per ray read nodes, and in f32 triangles, as 64-bit words on a device
+/// with `SHADER_INT64` (`WIDE_LOADS`, `WIDE_TRIANGLES`): incoherent rays' hits and counts and
+/// the closest points to scattered points are then the same bits as with 32-bit loads (the
+/// same device without it), in both precisions (the algorithm sets load alike), and in f32 the
+/// CPU reference's. The mesh's
+/// triangles lie in several bindings, odd and even ones at each binding's end.
+#[test]
+fn wide_and_narrow_loads_give_the_same_answers() {
+    use raycast::gpu::shader::{Casts, Variant};
+    use raycast::math::Float;
+    let wide = small_binding_gpu(gpu(), wgpu::Features::empty());
+    let narrow = small_binding_gpu(gpu(), wgpu::Features::SHADER_INT64);
+    let per_ray = |g: &raycast::gpu::Gpu, precision| Variant {
+        casts: Casts::Rays,
+        bvh: true,
+        packets: false,
+        ..g.variant(precision, raycast::Algorithm::Robust)
+    };
+    for (precision, defines) in [
+        (Float::F32, &["WIDE_LOADS", "WIDE_TRIANGLES"][..]),
+        (Float::F64, &["WIDE_LOADS"][..]),
+    ] {
+        let w = per_ray(&wide, precision).defines();
+        let n = per_ray(&narrow, precision).defines();
+        assert!(defines.iter().all(|d| w.contains(d)), "{w:?}");
+        assert!(!n.iter().any(|d| d.starts_with("WIDE")), "{n:?}");
+        assert!(!w.contains(&"WIDE_TRIANGLES") || precision == Float::F32);
+    }
+    let scene = random_scene(5, [4, 4]);
+    let triangles: usize = (scene.objects.iter())
+        .map(|o| match o {
+            raycast::scene::Object::Soup { triangles, .. } => triangles.len(),
+            raycast::scene::Object::Triangle { .. } => 1,
+            _ => 0,
+        })
+        .sum();
+    let per_binding = 1 << raycast::gpu::shader::chunk_bits_for(1 << 13, Float::F32);
+    assert!(
+        triangles > per_binding,
+        "{triangles} triangles fit one binding"
+    );
+    let target = Target::from_scene(scene);
+    let rays = common::incoherent_rays(2000, 3.0, 7);
+    let points: Vec<[f64; 3]> = rays.iter().map(|r| r.origin).collect();
+    for m in ["f32:robust", "f64:robust"] {
+        let on = |g: &raycast::gpu::Gpu| {
+            let m = mode(&format!("gpu:{m}"));
+            let hits = target.cast(Some(g), m, &rays).unwrap();
+            let count = target.count(Some(g), m, &rays).unwrap();
+            let accel = raycast::commit_mode(Some(g), &target.geometry, m).unwrap();
+            (hits, count, accel.closest(&points).unwrap())
+        };
+        let (wide_hits, wide_count, wide_closest) = on(&wide);
+        let (narrow_hits, narrow_count, narrow_closest) = on(&narrow);
+        assert_eq!(wide_count, narrow_count, "counts, {m}");
+        assert_eq!(wide_closest, narrow_closest, "closest points, {m}");
+        let hit = wide_hits.id().iter().filter(|&&id| id >= 0).count();
+        assert!(hit > 200 && hit < 1800, "{hit} of 2000 rays hit ({m})");
+        match (wide_hits, narrow_hits) {
+            (AnyHits::F32(w), AnyHits::F32(n)) => {
+                assert_same(&w, &n, m);
+                let cpu = f32_hits(target.cast(None, mode(&format!("cpu:{m}")), &rays).unwrap());
+                assert_same(&w, &cpu, &format!("{m} against the CPU"));
+            }
+            (AnyHits::F64(w), AnyHits::F64(n)) => assert_same(&w, &n, m),
+            _ => panic!("precisions differ ({m})"),
+        }
+    }
+}
