@@ -937,11 +937,9 @@ fn chunked_upload<T: Pod>(
     (0..variant.chunks as usize)
         .map(|k| {
             let part = items.get(k * chunk..).unwrap_or(&[]);
-            let mut bytes = bytemuck::cast_slice(&part[..part.len().min(chunk)]).to_vec();
-            // Zeros to a whole 16 bytes: kernels with WIDE_TRIANGLES read a triangle as the
-            // 16-byte elements it lies in, the last one's up to 8 bytes beyond it.
-            bytes.resize(bytes.len().max(size_of::<T>()).next_multiple_of(16), 0);
-            storage_bytes(gpu, label, &bytes)
+            // Kernels with WIDE_TRIANGLES read a triangle as the 16-byte elements it lies in,
+            // the last one's up to 8 bytes beyond it.
+            padded_storage_buffer(gpu, label, &part[..part.len().min(chunk)], 16)
         })
         .collect()
 }
@@ -990,22 +988,33 @@ fn readback_buffer(gpu: &Gpu, size: u64) -> wgpu::Buffer {
 /// A storage buffer holding `items`, or one zeroed element when there are none
 /// (WGSL bindings may not be empty; the count in `Params` stays 0).
 fn storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
+    padded_storage_buffer(gpu, label, items, wgpu::COPY_BUFFER_ALIGNMENT)
+}
+
+/// [`storage_buffer`] with zeros after `items` to a multiple of `align` bytes, written into the
+/// buffer's memory as it is created (no padded copy of a large mesh first).
+fn padded_storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], align: u64) -> wgpu::Buffer {
     let placeholder = [T::zeroed()];
     let items = if items.is_empty() {
         &placeholder
     } else {
         items
     };
-    storage_bytes(gpu, label, bytemuck::cast_slice(items))
-}
-
-fn storage_bytes(gpu: &Gpu, label: &str, contents: &[u8]) -> wgpu::Buffer {
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE,
-        })
+    let bytes: &[u8] = bytemuck::cast_slice(items);
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: (bytes.len() as u64).next_multiple_of(align),
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: true,
+    });
+    // A new buffer's memory reads as zeros, the padding included.
+    buffer
+        .get_mapped_range_mut(..)
+        .expect("a buffer mapped at creation has a mapped range")
+        .slice(..bytes.len())
+        .copy_from_slice(bytes);
+    buffer.unmap();
+    buffer
 }
 
 /// GPU time of compute passes from timestamp queries: one written at the beginning and one at

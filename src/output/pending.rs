@@ -145,9 +145,10 @@ pub(crate) fn holds_any_in(dir: &Path) -> bool {
 pub fn abandon(code: i32, message: &str) -> ! {
     let held = registry();
     for path in held.iter() {
-        match path.is_dir() {
-            true => remove_dir_while_written(path),
-            false => std::fs::remove_file(path).unwrap_or(()),
+        if path.is_dir() {
+            remove_dir_while_written(path);
+        } else {
+            let _ = std::fs::remove_file(path);
         }
     }
     eprintln!("{message}");

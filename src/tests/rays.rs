@@ -104,20 +104,31 @@ fn assert_close(g: &Hits<f64>, c: &Hits<f64>, label: &str) {
 /// staging buffers, as on a discrete GPU) and with storage bindings of 64 KiB, so that a few
 /// thousand rays take several dispatches.
 fn staging_gpu(gpu: &raycast::gpu::Gpu) -> raycast::gpu::Gpu {
+    let staging = reopened_gpu(gpu, 1 << 16, wgpu::Features::empty());
+    assert!(!staging.host_memory());
+    staging
+}
+
+/// The device of `gpu` opened again with its optional features but `without` (and so without
+/// host-mapped buffers) and storage bindings of `binding` bytes.
+fn reopened_gpu(
+    gpu: &raycast::gpu::Gpu,
+    binding: u64,
+    without: wgpu::Features,
+) -> raycast::gpu::Gpu {
     let adapter = gpu.adapter.clone();
     let limits = wgpu::Limits {
-        max_storage_buffer_binding_size: 1 << 16,
+        max_storage_buffer_binding_size: binding,
         ..adapter.limits()
     };
+    let features = adapter.features() & (raycast::gpu::OPTIONAL_FEATURES - without);
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-        required_features: adapter.features() & raycast::gpu::OPTIONAL_FEATURES,
+        required_features: features,
         required_limits: limits,
         ..Default::default()
     }))
     .expect("the adapter opens a second device");
-    let staging = raycast::gpu::Gpu::from_parts(adapter, device, queue);
-    assert!(!staging.host_memory());
-    staging
+    raycast::gpu::Gpu::from_parts(adapter, device, queue)
 }
 
 /// Coherent rays are traced in packets: an image's in 4x2 tiles (a width that is no multiple of
@@ -727,24 +738,6 @@ fn adaptive_rays_near_far_planes_decide_as_f64() {
     );
 }
 
-/// The device of `gpu` opened again with its optional features but `without`, and storage
-/// bindings of 8 KiB, so that a mesh of a few hundred triangles takes several.
-fn small_binding_gpu(gpu: &raycast::gpu::Gpu, without: wgpu::Features) -> raycast::gpu::Gpu {
-    let adapter = gpu.adapter.clone();
-    let limits = wgpu::Limits {
-        max_storage_buffer_binding_size: 1 << 13,
-        ..adapter.limits()
-    };
-    let features = adapter.features() & (raycast::gpu::OPTIONAL_FEATURES - without);
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-        required_features: features,
-        required_limits: limits,
-        ..Default::default()
-    }))
-    .expect("the adapter opens a second device");
-    raycast::gpu::Gpu::from_parts(adapter, device, queue)
-}
-
 /// Kernels that load per ray read nodes, and in f32 triangles, as 64-bit words on a device
 /// with `SHADER_INT64` (`WIDE_LOADS`, `WIDE_TRIANGLES`): incoherent rays' hits and counts and
 /// the closest points to scattered points are then the same bits as with 32-bit loads (the
@@ -755,8 +748,9 @@ fn small_binding_gpu(gpu: &raycast::gpu::Gpu, without: wgpu::Features) -> raycas
 fn wide_and_narrow_loads_give_the_same_answers() {
     use raycast::gpu::shader::{Casts, Variant};
     use raycast::math::Float;
-    let wide = small_binding_gpu(gpu(), wgpu::Features::empty());
-    let narrow = small_binding_gpu(gpu(), wgpu::Features::SHADER_INT64);
+    // Bindings of 8 KiB, so that the mesh's triangles take several.
+    let wide = reopened_gpu(gpu(), 1 << 13, wgpu::Features::empty());
+    let narrow = reopened_gpu(gpu(), 1 << 13, wgpu::Features::SHADER_INT64);
     let per_ray = |g: &raycast::gpu::Gpu, precision| Variant {
         casts: Casts::Rays,
         bvh: true,
