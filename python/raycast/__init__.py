@@ -22,8 +22,8 @@ renders (``render``, lit by the course's ray tracer with ``lit=True`` or coloure
 hook file with ``shader=``; ``render_views`` for other cameras or an orbit), ``raycast.info()``
 for the adapter, ``raycast.trimesh``, a drop-in for trimesh's ``mesh.ray`` (imported on its
 own: ``from raycast.trimesh import RayMeshIntersector``), and ``raycast.distributed``, datasets
-of many scenes and views rendered to files on a Ray cluster (``pip install
-"raycast[distributed]"``).
+of many scenes and views rendered to files on a Ray cluster (with Ray Data: ``pip install
+"ray[data]>=2.9"``).
 
 Inputs: arrays are NumPy arrays of any int or float dtype and layout, lists, Open3D tensors,
 or anything with ``__array__`` or ``__dlpack__`` (torch, JAX, CuPy...), on the CPU (a GPU
@@ -49,6 +49,12 @@ import numpy as np
 from . import _raycast
 
 __all__ = ["Array", "RaycastingScene", "load", "info"]
+
+# The package's version: python/Cargo.toml's, which maturin gives the wheel too.
+__version__: str = _raycast.__version__
+
+# Submodules imported on first use (`__getattr__`).
+_SUBMODULES = ("trimesh", "distributed")
 
 # What the array arguments accept: NumPy arrays, lists, Open3D tensors, anything with
 # `__array__` or `__dlpack__` (see `_as_numpy`).
@@ -96,11 +102,19 @@ _LIST_FIELDS = {"ray_ids": (), "t_hit": (), **_IDS}
 def __getattr__(name: str) -> Any:
     """``raycast.trimesh`` and ``raycast.distributed`` imported on first use, so that ``import
     raycast`` needs neither trimesh nor Ray and costs nothing for those who do not use them."""
-    if name in ("trimesh", "distributed"):
+    if name in _SUBMODULES:
         import importlib
 
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> List[str]:
+    """The package's public names, its submodules and its dunders (``__version__``...): not
+    the modules and typing names its code imports (``np``, ``os``, ``Any``...), which ``from
+    raycast import *`` leaves out too (``__all__``)."""
+    dunders = [name for name in globals() if name.startswith("__") and name.endswith("__")]
+    return sorted({*__all__, *_SUBMODULES, *dunders})
 
 
 def info() -> Dict[str, Any]:
@@ -488,17 +502,19 @@ class RaycastingScene:
         device: str = "gpu",
         lit: bool = False,
         shader: Optional[Union[str, os.PathLike]] = None,
+        size: Optional[Sequence[int]] = None,
     ) -> Dict[str, Any]:
         """The scene file's camera rendered (scenes from ``raycast.load``): ``id`` (int32,
         -1 on a miss), ``distance`` (inf on a miss) and ``normal`` (..., 3) images, rows from
-        the top, as the command line's npy files hold them.
+        the top, as the command line's npy files hold them. ``size`` ``(width, height)`` in
+        pixels replaces the camera's resolution, as the command line's ``--size`` does.
 
         With ``lit=True`` (the course's ray tracer from the scene's materials and lights, the
         hook shaders/examples/raytrace.wgsl on the GPU, its mirror on the CPU) or a shade hook
         file ``shader`` (GPU), also ``color`` (uint8 RGBA, (..., 4)) and ``hook_rays``, the
         rays the hook cast (None where it casts none)."""
         _options(precision, device)
-        return self._render(precision, device, lit, shader, None)
+        return self._render(precision, device, lit, shader, None, _image_size(size))
 
     def render_views(
         self,
@@ -574,9 +590,10 @@ class RaycastingScene:
         lit: bool,
         shader: Optional[Union[str, os.PathLike]],
         camera: Any,
+        size: Optional[List[int]] = None,
     ) -> Dict[str, Any]:
         out = self._scene.render(
-            precision, device, lit, None if shader is None else os.fspath(shader), camera
+            precision, device, lit, None if shader is None else os.fspath(shader), camera, size
         )
         shape = (out["height"], out["width"])
         fields = {"id": (), "distance": (), "normal": (3,), "color": (4,)}
@@ -627,6 +644,25 @@ def _bind(names: tuple, args: tuple, kwargs: dict) -> list:
     if missing:
         raise TypeError(f"create_rays_pinhole: missing {', '.join(missing)}")
     return [values[n] for n in names]
+
+
+def _image_size(size: Any) -> Optional[List[int]]:
+    """`size` as the command line's ``--size WxH`` takes it: None, or ``(width, height)``,
+    two integers of at least 1 (a u32 each)."""
+    if size is None:
+        return None
+    if isinstance(size, (str, bytes, Mapping)) or not isinstance(size, (Sequence, np.ndarray)):
+        raise TypeError(f"size: expected (width, height), got {type(size).__name__}")
+    if len(size) != 2:
+        raise ValueError(f"size: expected (width, height), got {len(size)} numbers")
+    for n in size:
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)):
+            raise TypeError(f"size: expected integers (width, height), got {n!r}")
+    width, height = (int(n) for n in size)
+    if not (1 <= width < 2**32 and 1 <= height < 2**32):
+        got = f"({width}, {height})"
+        raise ValueError(f"size: expected (width, height) of at least 1 each, got {got}")
+    return [width, height]
 
 
 def _size(width: Any, height: Any) -> tuple:

@@ -6,6 +6,8 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
+__version__: str
+
 class Scene:
     def __init__(self) -> None: ...
     @staticmethod
@@ -72,9 +74,11 @@ class Scene:
         lit: bool = ...,
         shader: Optional[str] = ...,
         camera: Optional[Camera] = ...,
+        size: Optional[List[int]] = ...,
     ) -> Dict[str, Any]:
-        """The scene file's camera (or ``camera``) rendered: flat ``id``, ``distance``,
-        ``normal`` (and ``color``, ``hook_rays``), ``width`` and ``height``."""
+        """The scene file's camera (or ``camera``) rendered, at ``size`` [width, height] where
+        given: flat ``id``, ``distance``, ``normal`` (and ``color``, ``hook_rays``), ``width``
+        and ``height``."""
     def views(
         self, cameras: Optional[str] = ..., orbit: Optional[int] = ...
     ) -> List[Tuple[str, Camera]]:

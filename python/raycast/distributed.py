@@ -18,8 +18,9 @@ running it again.
 Workers are given the paths made absolute from the driver's working directory: on a cluster of
 several machines they must lie on a filesystem every machine mounts at the same place.
 
-Ray is optional: ``pip install "raycast[distributed]"``. ``import raycast.distributed`` does
-not import it; ``render`` does.
+Ray is optional: ``pip install "ray[data]>=2.9"`` (the package's ``distributed`` extra: ``pip
+install "./python[distributed]"`` from a checkout installs both). ``import raycast.distributed``
+does not import it; ``render`` does.
 """
 
 from __future__ import annotations
@@ -30,7 +31,10 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _raycast
+from . import _image_size, _raycast
+
+# What Ray Data the package's `distributed` extra asks for (python/pyproject.toml).
+_RAY_REQUIREMENT = "ray[data]>=2.9"
 
 __all__ = ["render"]
 
@@ -44,7 +48,7 @@ def _ray() -> Any:
         import ray.data  # noqa: F401 (Ray Data is an extra of Ray)
     except ImportError as e:
         raise ImportError(
-            f'raycast.distributed needs Ray Data ({e}): pip install "raycast[distributed]"'
+            f'raycast.distributed needs Ray Data ({e}): pip install "{_RAY_REQUIREMENT}"'
         ) from None
     return ray
 
@@ -172,14 +176,7 @@ def _job(
     if isinstance(formats, str):
         formats = formats.split(",")
     formats = [str(f).strip() for f in formats]
-    if size is not None:
-        if (
-            isinstance(size, (str, bytes))
-            or len(size) != 2
-            or not all(isinstance(n, (int, np.integer)) and n >= 1 for n in size)
-        ):
-            raise ValueError(f"size: expected (width, height), positive integers, got {size!r}")
-        size = [int(n) for n in size]
+    size = _image_size(size)
     if precision not in (None, "f32", "f64", "adaptive"):
         raise ValueError(f"precision: expected None, f32, f64 or adaptive, got {precision!r}")
     if device not in ("gpu", "cpu"):

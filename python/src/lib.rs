@@ -415,10 +415,12 @@ impl Scene {
         intersections_dict(py, hits, on.precision == Precision::F64)
     }
 
-    /// Renders the scene file's camera (or `camera`, from `camera` or `orbit`): id, distance
-    /// and normal images as flat arrays and the image size; with `lit` (the course's ray
-    /// tracer) or a shade hook file `shader`, also the colours and the rays the hook cast.
-    #[pyo3(signature = (precision, device, lit=false, shader=None, camera=None))]
+    /// Renders the scene file's camera (or `camera`, from `camera` or `orbit`), at `size`
+    /// where given (`--size`): id, distance and normal images as flat arrays and the image
+    /// size; with `lit` (the course's ray tracer) or a shade hook file `shader`, also the
+    /// colours and the rays the hook cast.
+    #[pyo3(signature = (precision, device, lit=false, shader=None, camera=None, size=None))]
+    #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -427,6 +429,7 @@ impl Scene {
         lit: bool,
         shader: Option<PathBuf>,
         camera: Option<PyRef<'_, ViewCamera>>,
+        size: Option<[u32; 2]>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let on = on(device, precision)?;
         let viewer = self.file("render")?;
@@ -443,7 +446,8 @@ impl Scene {
         let (images, [w, h]) = py
             .detach(|| {
                 let mut viewer = viewer.lock().expect("the scene's lock");
-                let camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
+                let mut camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
+                camera.resolution = size.unwrap_or(camera.resolution);
                 let size = camera.resolution;
                 let images = viewer.render(camera, |scene| match gpu {
                     Some(gpu) => gpu.render(scene, &options),
@@ -655,5 +659,7 @@ fn _raycast(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ViewCamera>()?;
     m.add_class::<ViewJob>()?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
+    // The package's version, python/Cargo.toml's (maturin gives the wheel the same).
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
