@@ -34,7 +34,9 @@ they are when C-contiguous, others converted once to float64); ``t_hit`` is in u
 ray's direction, as Open3D's. Query points are shape ``(..., 3)``. Results keep the leading
 dimensions of the rays or points (``list_intersections`` flattens them, as Open3D does); float
 results are float32 for f32 and adaptive, float64 for f64. Bad input raises ValueError or
-TypeError naming the argument. Queries release the GIL.
+TypeError naming the argument. Queries release the GIL. Rays with NaN or infinite coordinates
+or a zero direction, and points with NaN or infinite coordinates, get Open3D's answers (a
+miss; a nan or inf distance, occupancy 0), as a depth image's invalid pixels need.
 """
 
 from __future__ import annotations
@@ -42,7 +44,8 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+import re
+from typing import Any, Dict, Iterator, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -97,6 +100,78 @@ _IDS = {"geometry_ids": (), "primitive_ids": (), "primitive_uvs": (2,)}
 _HIT_FIELDS = {"t_hit": (), **_IDS, "primitive_normals": (3,)}
 _CLOSEST_FIELDS = {"points": (3,), **_IDS, "primitive_normals": (3,)}
 _LIST_FIELDS = {"ray_ids": (), "t_hit": (), **_IDS}
+
+_INVALID_ID = 4294967295
+
+# What Open3D 0.20 answers for a ray with a NaN or infinite coordinate or a zero direction,
+# which the library refuses: a miss (python/tests/data/make_open3d_invalid.py records it).
+_MISS = {
+    "t_hit": math.inf,
+    "geometry_ids": _INVALID_ID,
+    "primitive_ids": _INVALID_ID,
+    "primitive_uvs": 0.0,
+    "primitive_normals": 0.0,
+}
+# A closest-point query's answer at a NaN or infinite point: Open3D's ids and distance (nan,
+# or inf where no coordinate is NaN: set by `_closest`); its point, uvs and normal are
+# whatever memory held, so raycast gives a NaN point and a miss's zeros.
+_NO_SURFACE = {
+    "points": math.nan,
+    "distance": math.nan,
+    "geometry_ids": _INVALID_ID,
+    "primitive_ids": _INVALID_ID,
+    "primitive_uvs": 0.0,
+    "primitive_normals": 0.0,
+}
+
+
+# The numbers a row of each result has.
+_ROW_SIZES = {key: math.prod(tail) for key, tail in {**_HIT_FIELDS, **_CLOSEST_FIELDS}.items()}
+
+
+class _Rows(NamedTuple):
+    """Rays or query points as the library takes them: `flat`, (n, 6) or (n, 3), the leading
+    `shape` they were given in (the results'), the argument's `name`, and `valid`, the
+    indices of the rows the library is asked about (None: all of them). The others hold NaN
+    or infinity (or a zero direction), which the library refuses and Open3D answers without
+    a surface (a miss, a nan distance...)."""
+
+    flat: np.ndarray
+    shape: Tuple[int, ...]
+    name: str
+    valid: Optional[np.ndarray]
+
+    def query(self, query: Any, *args: Any) -> Any:
+        """``query(rows, *args)`` of the valid rows. The library's error naming one of them
+        (``points[k]: ...``) names it as it was given (``query_points[i, j]: ...``)."""
+        try:
+            return query(self.flat if self.valid is None else self.flat[self.valid], *args)
+        except ValueError as e:
+            row = re.match(r"\w+\[(\d+)\]", str(e))
+            if row is None:
+                raise
+            k = int(row.group(1)) if self.valid is None else int(self.valid[int(row.group(1))])
+            index = ", ".join(str(int(i)) for i in np.unravel_index(k, self.shape))
+            name = f"{self.name}[{index}]" if self.shape else self.name
+            raise ValueError(name + str(e)[row.end() :]) from None
+
+    def spread(self, values: Any, fill: Any, key: str = "") -> Any:
+        """The flat results `values` of the valid rows as those of every row (`values`
+        itself where all are valid), each other row's numbers `fill` (`_ROW_SIZES[key]`
+        numbers a row, 1 for other keys)."""
+        if self.valid is None:
+            return values
+        values = np.asarray(values)
+        size = _ROW_SIZES.get(key, 1)
+        whole = np.full((len(self.flat), size), fill, dtype=values.dtype)
+        whole[self.valid] = values.reshape(len(self.valid), size)
+        return whole.reshape(-1)
+
+    def spread_each(self, results: Mapping[str, Any], fills: Mapping[str, Any]) -> Mapping:
+        """`spread` of each of the native `results` named in `fills`, with its fill."""
+        if self.valid is None:
+            return results
+        return {key: self.spread(results[key], fill, key) for key, fill in fills.items()}
 
 
 def __getattr__(name: str) -> Any:
@@ -184,30 +259,31 @@ def _float_array(
     return np.ascontiguousarray(array, dtype=np.float32 if keep else np.float64)
 
 
-def _rays(rays: ArrayLike) -> tuple:
-    """The rays as an (n, 6) float32 or float64 array (float32 is read as it is: widening a
-    copy of 2M rays took 0.02 s of a 0.35 s cast), the leading shape to give the results, and
-    the width of the image they are rows of, if they have two leading dimensions or more (the
-    GPU then traces tiles of neighbouring rows together, as it does a camera's)."""
+def _rays(rays: ArrayLike) -> Tuple[_Rows, Optional[int]]:
+    """The rays as `_Rows` of an (n, 6) float32 or float64 array (float32 is read as it is:
+    widening a copy of 2M rays took 0.02 s of a 0.35 s cast), valid where finite with a
+    direction not zero, and the width of the image they are rows of, if they have two leading
+    dimensions or more and all are valid (the GPU then traces tiles of neighbouring rows
+    together, as it does a camera's)."""
     array = _float_array(rays, "rays", 6, keep_float32=True)
     shape = array.shape[:-1]
-    width = shape[-1] if len(shape) >= 2 and shape[-1] > 0 else None
-    return array.reshape(-1, 6), shape, width
+    flat = array.reshape(-1, 6)
+    rows = _Rows(flat, shape, "rays", _valid(_raycast.invalid_rays(flat)))
+    image = len(shape) >= 2 and shape[-1] > 0 and rows.valid is None
+    return rows, shape[-1] if image else None
 
 
-def _query_points(query_points: ArrayLike) -> Tuple[np.ndarray, Tuple[int, ...]]:
-    """The points as a C-contiguous (n, 3) float64 array and the leading shape to give the
-    results. NaN and infinity are refused here: a point has no distance to anything there."""
+def _query_points(query_points: ArrayLike) -> _Rows:
+    """The points as `_Rows` of a C-contiguous (n, 3) float64 array, valid where finite."""
     array = _float_array(query_points, "query_points", 3)
-    shape = array.shape[:-1]
     flat = array.reshape(-1, 3)
-    finite = np.isfinite(flat).all(axis=1)
-    if not finite.all():
-        first = int(np.argmin(finite))
-        index = ", ".join(str(int(i)) for i in np.unravel_index(first, shape))
-        name = f"query_points[{index}]" if shape else "query_points"
-        raise ValueError(f"{name}: expected finite coordinates, got {flat[first].tolist()}")
-    return flat, shape
+    return _Rows(flat, array.shape[:-1], "query_points", _valid(_raycast.invalid_points(flat)))
+
+
+def _valid(invalid: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """The indices of the rows not `invalid` (a mask from `_raycast.invalid_rays` or
+    `invalid_points`, None where no row is)."""
+    return None if invalid is None else np.flatnonzero(~invalid)
 
 
 def _options(precision: str, device: str) -> None:
@@ -283,7 +359,7 @@ class RaycastingScene:
     """Objects to cast rays at and measure distances to: triangle meshes, spheres and planes
     (Open3D's ``RaycastingScene``, plus spheres, planes, precision and device)."""
 
-    INVALID_ID: int = 4294967295
+    INVALID_ID: int = _INVALID_ID
 
     def __init__(self) -> None:
         self._scene = _raycast.Scene()
@@ -346,11 +422,12 @@ class RaycastingScene:
         ``geometry_ids`` and ``primitive_ids`` (uint32, ``INVALID_ID`` on a miss),
         ``primitive_uvs`` (..., 2) and ``primitive_normals`` (..., 3), with the rays'
         leading dimensions. float32 for f32 and adaptive, float64 for f64. ``nthreads`` is
-        accepted for Open3D compatibility and ignored."""
+        accepted for Open3D compatibility and ignored. A ray with a NaN or infinite
+        coordinate or a zero direction misses, as in Open3D (uvs and normals 0)."""
         _options(precision, device)
-        flat, shape, width = _rays(rays)
-        out = self._scene.cast(flat, width, precision, device)
-        return _results(out, shape, _HIT_FIELDS)
+        rows, width = _rays(rays)
+        out = rows.spread_each(rows.query(self._scene.cast, width, precision, device), _MISS)
+        return _results(out, rows.shape, _HIT_FIELDS)
 
     def test_occlusions(
         self,
@@ -362,11 +439,13 @@ class RaycastingScene:
         device: str = "gpu",
     ) -> Array:
         """Whether each ray hits anything with ``tnear <= t <= tfar`` (bool, the rays' leading
-        shape). ``nthreads`` is accepted for Open3D compatibility and ignored."""
+        shape; False for the rays ``cast_rays`` misses as invalid). ``nthreads`` is accepted
+        for Open3D compatibility and ignored."""
         _options(precision, device)
-        flat, shape, width = _rays(rays)
-        hit = self._scene.occluded(flat, width, (float(tnear), float(tfar)), precision, device)
-        return _result(hit, shape)
+        rows, width = _rays(rays)
+        t_range = (float(tnear), float(tfar))
+        hit = rows.query(self._scene.occluded, width, t_range, precision, device)
+        return _result(rows.spread(hit, False), rows.shape)
 
     def count_intersections(
         self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"
@@ -375,11 +454,12 @@ class RaycastingScene:
         as Open3D counts them: a mesh's triangles once each, a crossing through an edge or
         corner that triangles of one mesh share once (so that an odd count means the ray
         started inside a closed mesh), a sphere twice from outside and once from inside.
-        Counted by the CPU reference, from ``list_intersections``'s hits."""
+        Counted by the CPU reference, from ``list_intersections``'s hits; 0 for the rays
+        ``cast_rays`` misses as invalid."""
         _options(precision, device)
-        flat, shape, _ = _rays(rays)
-        splits = self._scene.list_intersections(flat, precision, device)["ray_splits"]
-        return _result(np.diff(splits.astype(np.int64)).astype(np.int32), shape)
+        rows, _ = _rays(rays)
+        splits = self._list_intersections(rows, precision, device)["ray_splits"]
+        return _result(np.diff(splits.astype(np.int64)).astype(np.int32), rows.shape)
 
     def list_intersections(
         self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"
@@ -388,13 +468,25 @@ class RaycastingScene:
         (ray ``i`` is row ``i`` of ``rays.reshape(-1, 6)``) and the hits of ray ``i`` are
         entries ``ray_splits[i]:ray_splits[i + 1]`` of ``ray_ids``, ``t_hit``,
         ``geometry_ids``, ``primitive_ids`` (uint32) and ``primitive_uvs`` (k, 2), nearest
-        first. ``ray_splits`` (uint32) has one entry more than there are rays."""
+        first. ``ray_splits`` (uint32) has one entry more than there are rays. The rays
+        ``cast_rays`` misses as invalid have no hits."""
         _options(precision, device)
-        flat, _, _ = _rays(rays)
-        out = self._scene.list_intersections(flat, precision, device)
+        rows, _ = _rays(rays)
+        out = self._list_intersections(rows, precision, device)
         results = {"ray_splits": _result(out["ray_splits"], (-1,))}
         results.update(_results(out, (-1,), _LIST_FIELDS))
         return results
+
+    def _list_intersections(self, rows: _Rows, precision: str, device: str) -> Mapping:
+        """The native ``list_intersections`` of the valid rays, as those of every ray: the
+        others have no hits."""
+        out = rows.query(self._scene.list_intersections, precision, device)
+        if rows.valid is None:
+            return out
+        counts = rows.spread(np.diff(out["ray_splits"].astype(np.int64)), 0)
+        splits = np.concatenate([[0], np.cumsum(counts)]).astype(np.uint32)
+        ray_ids = rows.valid[out["ray_ids"]].astype(np.uint32)
+        return {**out, "ray_splits": splits, "ray_ids": ray_ids}
 
     def compute_closest_points(
         self,
@@ -407,11 +499,12 @@ class RaycastingScene:
         dict of ``points`` (..., 3), ``geometry_ids`` and ``primitive_ids`` (uint32;
         ``INVALID_ID`` where the scene is empty), ``primitive_uvs`` (..., 2, the point's
         barycentric coordinates in its triangle) and ``primitive_normals`` (..., 3), with the
-        points' leading dimensions. float32 for f32 and adaptive, float64 for f64."""
+        points' leading dimensions. float32 for f32 and adaptive, float64 for f64. At a point
+        with a NaN or infinite coordinate the ids are ``INVALID_ID``, as in Open3D, the point
+        NaN, uvs and normal 0 (Open3D's are undefined there)."""
         _options(precision, device)
-        flat, shape = _query_points(query_points)
-        out = self._scene.closest(flat, precision, device)
-        return _results(out, shape, _CLOSEST_FIELDS)
+        rows = _query_points(query_points)
+        return _results(self._closest(rows, precision, device), rows.shape, _CLOSEST_FIELDS)
 
     def compute_distance(
         self,
@@ -421,10 +514,24 @@ class RaycastingScene:
         device: str = "gpu",
     ) -> Array:
         """The distance from each query point (shape (..., 3)) to the nearest surface, with
-        the points' leading dimensions."""
+        the points' leading dimensions: as in Open3D, nan at a point with a NaN coordinate,
+        inf at one with an infinite coordinate and no NaN."""
         _options(precision, device)
-        flat, shape = _query_points(query_points)
-        return _result(self._scene.closest(flat, precision, device)["distance"], shape)
+        rows = _query_points(query_points)
+        return _result(self._closest(rows, precision, device)["distance"], rows.shape)
+
+    def _closest(self, rows: _Rows, precision: str, device: str) -> Mapping:
+        """The native closest-point query at the valid points, with Open3D's answers
+        (`_NO_SURFACE`) at the others."""
+        out = rows.query(self._scene.closest, precision, device)
+        if rows.valid is None:
+            return out
+        out = rows.spread_each(out, _NO_SURFACE)
+        # Open3D's distance from the point to a finite one: inf, unless a coordinate is NaN.
+        far = np.ones(len(rows.flat), dtype=bool)
+        far[rows.valid] = False
+        out["distance"][far & ~np.isnan(rows.flat).any(axis=1)] = math.inf
+        return out
 
     def compute_signed_distance(
         self,
@@ -437,10 +544,11 @@ class RaycastingScene:
     ) -> Array:
         """The distance from each query point to the nearest surface, negative inside (see
         ``compute_occupancy`` for ``nsamples`` and ``sign``), with the points' leading
-        dimensions."""
-        flat, shape, inside = self._inside(query_points, nsamples, sign, precision, device)
-        distance = self._scene.closest(flat, precision, device)["distance"]
-        return _result(np.where(inside, -distance, distance), shape)
+        dimensions; at a point with a NaN or infinite coordinate, ``compute_distance``'s
+        nan or inf, as in Open3D."""
+        rows, inside = self._inside(query_points, nsamples, sign, precision, device)
+        distance = self._closest(rows, precision, device)["distance"]
+        return _result(np.where(inside, -distance, distance), rows.shape)
 
     def compute_occupancy(
         self,
@@ -461,19 +569,21 @@ class RaycastingScene:
         intersect each other. ``sign="winding"`` (not in Open3D) is inside where the
         generalized winding number (``compute_winding_number``) is over 0.5: right for
         meshes with holes, overlapping parts or doubled faces where parity fails; it ignores
-        ``nsamples``."""
-        _, shape, inside = self._inside(query_points, nsamples, sign, precision, device)
-        return _result(inside.astype(_float_dtype(precision)), shape)
+        ``nsamples``. A point with a NaN or infinite coordinate is outside (0.0), as in
+        Open3D."""
+        rows, inside = self._inside(query_points, nsamples, sign, precision, device)
+        return _result(inside.astype(_float_dtype(precision)), rows.shape)
 
     def _inside(
         self, query_points: ArrayLike, nsamples: Any, sign: str, precision: str, device: str
-    ) -> Tuple[np.ndarray, Tuple[int, ...], np.ndarray]:
-        """The query points flattened, their leading dimensions, and whether each is inside
-        (``compute_occupancy``'s rules), every argument checked first."""
+    ) -> Tuple[_Rows, np.ndarray]:
+        """The query points and whether each is inside (``compute_occupancy``'s rules; a
+        point that is not valid is not), every argument checked first."""
         _options(precision, device)
         nsamples = _inside_options(nsamples, sign)
-        flat, shape = _query_points(query_points)
-        return flat, shape, self._scene.inside(flat, sign, nsamples, precision, device)
+        rows = _query_points(query_points)
+        inside = rows.query(self._scene.inside, sign, nsamples, precision, device)
+        return rows, rows.spread(inside, False)
 
     def compute_winding_number(
         self,
@@ -491,10 +601,11 @@ class RaycastingScene:
         Generalized Winding Numbers", 2013). A sphere counts 1 inside, a plane 1 behind its
         normal. Computed on the CPU in f64 whatever ``precision`` and ``device`` say:
         exactly for the triangles near the point, by the dipoles of far groups of them
-        (Barill et al. 2018)."""
+        (Barill et al. 2018). NaN at a point with a NaN or infinite coordinate."""
         _options(precision, device)
-        flat, shape = _query_points(query_points)
-        return _result(self._scene.winding(flat, precision, device), shape)
+        rows = _query_points(query_points)
+        winding = rows.query(self._scene.winding, precision, device)
+        return _result(rows.spread(winding, math.nan), rows.shape)
 
     def render(
         self,

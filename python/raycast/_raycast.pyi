@@ -114,3 +114,10 @@ class ViewJob:
         """Rewrites OUT/manifest.jsonl from the output folder; its path."""
 
 def info() -> Dict[str, Any]: ...
+def invalid_rays(
+    rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
+) -> Optional[npt.NDArray[np.bool_]]:
+    """Which (n, 6) rays have a NaN or infinite coordinate or a zero direction; None where
+    none has."""
+def invalid_points(points: npt.NDArray[np.float64]) -> Optional[npt.NDArray[np.bool_]]:
+    """Which (n, 3) points have a NaN or infinite coordinate; None where none has."""

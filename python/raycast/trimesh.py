@@ -29,8 +29,8 @@ Where it differs from trimesh's:
   each), and a ray that only touches the surface there enters and leaves, two hits at one point;
   ``intersects_location`` (and ``intersects_id`` with ``return_locations``) give each point
   once, as both of trimesh's do.
-- A ray whose direction is zero or not finite hits nothing, where raycast's own queries
-  refuse it.
+- A ray whose direction is zero or not finite, or whose origin is not finite, hits nothing,
+  as in raycast's own queries (and Open3D's).
 
 This module needs neither trimesh nor Open3D: only the mesh object it is given, with
 ``vertices`` and ``faces``.

@@ -101,6 +101,72 @@ fn ray_list<'a>(rays: &'a RayArray<'_>, width: Option<usize>) -> PyResult<RayLis
     })
 }
 
+/// Which rays Open3D answers as misses, whatever the scene: those with a NaN or infinite
+/// coordinate or a zero direction (the library refuses them). None where there are none, the
+/// common case, found in one pass that allocates nothing.
+#[pyfunction]
+fn invalid_rays<'py>(
+    py: Python<'py>,
+    rays: RayArray<'_>,
+) -> PyResult<Option<Bound<'py, PyArray1<bool>>>> {
+    let mask = match &rays {
+        RayArray::F32(a) => invalid_rows(py, rows_of::<f32, 6>(a, "rays")?, invalid_ray),
+        RayArray::F64(a) => invalid_rows(py, rows_of::<f64, 6>(a, "rays")?, invalid_ray),
+    };
+    Ok(mask.map(|m| PyArray1::from_vec(py, m)))
+}
+
+/// Which query points Open3D answers without a surface (nan or inf distances, occupancy 0):
+/// those with a NaN or infinite coordinate. None where there are none.
+#[pyfunction]
+fn invalid_points<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'_, f64>,
+) -> PyResult<Option<Bound<'py, PyArray1<bool>>>> {
+    let rows = rows_of::<f64, 3>(&points, "query_points")?;
+    let mask = invalid_rows(py, rows, |p| !finite(p));
+    Ok(mask.map(|m| PyArray1::from_vec(py, m)))
+}
+
+/// Whether the ray `row` (origin, direction) is one Open3D answers as a miss.
+fn invalid_ray<T: Into<f64> + Copy>(row: &[T; 6]) -> bool {
+    let x = row.map(Into::into);
+    !finite(&x) | ((x[3] == 0.0) & (x[4] == 0.0) & (x[5] == 0.0))
+}
+
+/// Whether every number is finite, without branches, so that a scan of many vectorises.
+fn finite(x: &[f64]) -> bool {
+    x.iter().fold(true, |ok, x| ok & x.is_finite())
+}
+
+/// A C-contiguous (n, N) array as its rows, without copying.
+fn rows_of<'a, T: numpy::Element + bytemuck::Pod, const N: usize>(
+    array: &'a PyReadonlyArray2<'_, T>,
+    name: &str,
+) -> PyResult<&'a [[T; N]]>
+where
+    [T; N]: bytemuck::Pod,
+{
+    let flat = (array.as_slice())
+        .map_err(|_| PyValueError::new_err(format!("{name}: expected a contiguous array")))?;
+    bytemuck::try_cast_slice(flat)
+        .map_err(|_| PyValueError::new_err(format!("{name}: expected rows of {N} numbers")))
+}
+
+/// Whether each row is `invalid`, or None where none is; with the GIL released.
+fn invalid_rows<T: Sync, const N: usize>(
+    py: Python<'_>,
+    rows: &[[T; N]],
+    invalid: impl Fn(&[T; N]) -> bool + Sync,
+) -> Option<Vec<bool>> {
+    py.detach(|| {
+        // Blocks of rows without branches inside, so that they vectorise.
+        let any_in = |block: &[[T; N]]| block.iter().fold(false, |any, row| any | invalid(row));
+        let any = rows.chunks(1024).any(any_in);
+        any.then(|| rows.iter().map(&invalid).collect())
+    })
+}
+
 /// A vector of fixed-size arrays as the flat vector of their elements, without copying.
 fn flat<T: bytemuck::Pod, const N: usize>(v: Vec<[T; N]>) -> Vec<T>
 where
@@ -127,11 +193,7 @@ fn hits_dict<'py, T: numpy::Element + bytemuck::Pod>(
 
 /// Query points as the Python half passes them: (n, 3) float64, C-contiguous.
 fn point_list<'a>(points: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [[f64; 3]]> {
-    let flat = points
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("query_points: expected a contiguous array"))?;
-    bytemuck::try_cast_slice(flat)
-        .map_err(|_| PyValueError::new_err("query_points: expected rows of 3 numbers"))
+    rows_of(points, "query_points")
 }
 
 /// A vector of f64 as NumPy float32 (f32 and adaptive queries, as Open3D's) or float64.
@@ -659,6 +721,8 @@ fn _raycast(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ViewCamera>()?;
     m.add_class::<ViewJob>()?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
+    m.add_function(wrap_pyfunction!(invalid_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(invalid_points, m)?)?;
     // The package's version, python/Cargo.toml's (maturin gives the wheel the same).
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
