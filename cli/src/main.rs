@@ -65,9 +65,10 @@ enum Command {
         #[arg(long, value_delimiter = ',', default_value = "png")]
         format: Vec<Format>,
         /// The depth npy, npz, exr and depth16 hold: distance (from the ray's origin,
-        /// distance.npy) or z (planar, along the viewing axis, z.npy).
-        #[arg(long, default_value = "distance")]
-        depth: output::Depth,
+        /// distance.npy) or z (planar, along the viewing axis, z.npy). Default: distance in
+        /// npy, npz and exr, z in depth16 (what RGB-D datasets store).
+        #[arg(long, value_name = "distance|z")]
+        depth: Option<output::Depth>,
         /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
         /// 65535 (1000: millimetres for scenes in metres).
         #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
@@ -456,12 +457,14 @@ fn run(command: Command) -> Result<ExitCode> {
                 precision: precision.unwrap_or(device.default_precision()),
                 algorithm,
             };
-            let encoding = output::Encoding {
+            let mut encoding = output::Encoding {
                 background,
-                depth,
                 depth_scale,
                 ..output::Encoding::new(&format, outputs.as_deref())?
             };
+            if let Some(depth) = depth {
+                (encoding.depth, encoding.depth16) = (depth, depth);
+            }
             let view = scene::CameraOverrides {
                 eye,
                 look_at,
