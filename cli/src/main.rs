@@ -85,6 +85,12 @@ enum Command {
         /// Vertical field of view in degrees (replaces the scene's image plane; perspective).
         #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
         fov: Option<f64>,
+        /// Which parts of an OBJ file given as a scene are objects of their own, each with its
+        /// id: objects (each `o`), groups (each `g` of each object) or none (the whole file).
+        /// STL and PLY files are one object. Default: objects. A scene file's soups say it
+        /// with "split".
+        #[arg(long, value_name = "objects|groups|none")]
+        split: Option<scene::Split>,
         /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
         #[arg(long, default_value = "gpu")]
         device: Device,
@@ -451,6 +457,7 @@ fn run(command: Command) -> Result<ExitCode> {
             look_at,
             up,
             fov,
+            split,
         } => {
             let mode = Mode {
                 device,
@@ -487,11 +494,24 @@ fn run(command: Command) -> Result<ExitCode> {
                     message: "renders many views: give --views or --orbit".into(),
                 });
             }
+            if split.is_some() && !scenes.iter().any(|s| scene::is_mesh_file(s)) {
+                return Err(raycast::Error::Argument {
+                    option: "--split".into(),
+                    message:
+                        "splits mesh files given as scenes; in a scene file, give a soup \"split\""
+                            .into(),
+                });
+            }
             if views.is_none() && scenes.len() > 1 {
+                let meshes = scenes.iter().filter(|s| scene::is_mesh_file(s)).count();
+                let together = match meshes > 1 {
+                    true => "; to render meshes together, list them as soups of one scene file",
+                    false => "",
+                };
                 return Err(raycast::Error::Argument {
                     option: "scenes".into(),
                     message: format!(
-                        "{} scene files given; one is rendered at a time, or many with --views or --orbit",
+                        "{} scene files given; one is rendered at a time, or many with --views or --orbit{together}",
                         scenes.len()
                     ),
                 });
@@ -514,6 +534,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 encoding,
                 emit_shader,
                 view,
+                split: split.unwrap_or_default(),
             };
             match views {
                 Some(views) => {
