@@ -65,9 +65,10 @@ enum Command {
         #[arg(long, value_delimiter = ',', default_value = "png")]
         format: Vec<Format>,
         /// The depth npy, npz, exr and depth16 hold: distance (from the ray's origin,
-        /// distance.npy) or z (planar, along the viewing axis, z.npy).
-        #[arg(long, default_value = "distance")]
-        depth: output::Depth,
+        /// distance.npy) or z (planar, along the viewing axis, z.npy). Default: distance in
+        /// npy, npz and exr, z in depth16 (what RGB-D datasets store).
+        #[arg(long, value_name = "distance|z")]
+        depth: Option<output::Depth>,
         /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
         /// 65535 (1000: millimetres for scenes in metres).
         #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
@@ -84,6 +85,12 @@ enum Command {
         /// Vertical field of view in degrees (replaces the scene's image plane; perspective).
         #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
         fov: Option<f64>,
+        /// Which parts of an OBJ file given as a scene are objects of their own, each with its
+        /// id: objects (each `o`), groups (each `g` of each object) or none (the whole file).
+        /// STL and PLY files are one object. Default: objects. A scene file's soups say it
+        /// with "split".
+        #[arg(long, value_name = "objects|groups|none")]
+        split: Option<scene::Split>,
         /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
         #[arg(long, default_value = "gpu")]
         device: Device,
@@ -450,18 +457,21 @@ fn run(command: Command) -> Result<ExitCode> {
             look_at,
             up,
             fov,
+            split,
         } => {
             let mode = Mode {
                 device,
                 precision: precision.unwrap_or(device.default_precision()),
                 algorithm,
             };
-            let encoding = output::Encoding {
+            let mut encoding = output::Encoding {
                 background,
-                depth,
                 depth_scale,
                 ..output::Encoding::new(&format, outputs.as_deref())?
             };
+            if let Some(depth) = depth {
+                (encoding.depth, encoding.depth16) = (depth, depth);
+            }
             let view = scene::CameraOverrides {
                 eye,
                 look_at,
@@ -484,11 +494,24 @@ fn run(command: Command) -> Result<ExitCode> {
                     message: "renders many views: give --views or --orbit".into(),
                 });
             }
+            if split.is_some() && !scenes.iter().any(|s| scene::is_mesh_file(s)) {
+                return Err(raycast::Error::Argument {
+                    option: "--split".into(),
+                    message:
+                        "splits mesh files given as scenes; in a scene file, give a soup \"split\""
+                            .into(),
+                });
+            }
             if views.is_none() && scenes.len() > 1 {
+                let meshes = scenes.iter().filter(|s| scene::is_mesh_file(s)).count();
+                let together = match meshes > 1 {
+                    true => "; to render meshes together, list them as soups of one scene file",
+                    false => "",
+                };
                 return Err(raycast::Error::Argument {
                     option: "scenes".into(),
                     message: format!(
-                        "{} scene files given; one is rendered at a time, or many with --views or --orbit",
+                        "{} scene files given; one is rendered at a time, or many with --views or --orbit{together}",
                         scenes.len()
                     ),
                 });
@@ -511,6 +534,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 encoding,
                 emit_shader,
                 view,
+                split: split.unwrap_or_default(),
             };
             match views {
                 Some(views) => {

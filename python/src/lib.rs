@@ -621,6 +621,7 @@ impl ViewJob {
             encoding: Encoding::new(&formats, None).map_err(to_py)?,
             emit_shader: None,
             view: Default::default(),
+            split: Default::default(),
         };
         let views = match views {
             ViewsArg::Orbit(n) => Views::Orbit(n),

@@ -39,7 +39,7 @@ ELSEWHERE = {
 }
 
 # Where a page tells the reader to save its JSON blocks, by page and block number (from 0).
-SAVED_AS = {("docs/guide.md", 0): "myscene.json"}
+SAVED_AS = {("docs/guide.md", 0): "myscene.json", ("docs/guide.md", 1): "together.json"}
 
 # The guide's scene names a mesh, `mymesh.obj`, the reader brings: a unit cube at the origin.
 CUBE_OBJ = "\n".join(

@@ -1,5 +1,9 @@
 //! The depth the files hold (distance from the ray's origin, or planar z), `depth16.png`, and
 //! `camera.json`: what other tools need to go back from pixels and depths to 3D points.
+//!
+//! `depth16.png` holds planar z unless asked otherwise, as every RGB-D dataset's depth images
+//! do (and as Open3D's `create_from_depth_image` reads them); the float arrays hold distance
+//! unless asked otherwise, so `distance.npy` means what it always has.
 
 use std::borrow::Cow;
 use std::str::FromStr;
@@ -14,7 +18,8 @@ use crate::kernel::frame::Frame;
 use crate::math::{Real, length};
 use crate::scene::{Camera, Lens, Projection};
 
-/// Which depth `distance.npy`/`z.npy`, the EXR's `Z` and `depth16.png` hold.
+/// Which depth a file holds: the npy and npz arrays (`distance.npy` or `z.npy`) and the EXR's
+/// `Z` ([`super::Encoding::depth`]), or `depth16.png` ([`super::Encoding::depth16`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Depth {
     /// Euclidean distance from the ray's origin to the hit (`distance.npy`).
@@ -45,7 +50,8 @@ impl Depth {
         }
     }
 
-    fn name(self) -> &'static str {
+    /// The name `--depth` and `camera.json` give it.
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Depth::Distance => "distance",
             Depth::Z => "z",
@@ -105,10 +111,17 @@ fn rows4(m: DMat4) -> [[f64; 4]; 4] {
     m.transpose().to_cols_array_2d()
 }
 
+/// What `depth16.png` holds, where one is written: its depth and its levels per scene unit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Depth16 {
+    pub depth: Depth,
+    pub scale: f64,
+}
+
 /// `camera.json`: the render's size, pixel intrinsics `K` and extrinsics in OpenCV's
-/// convention (docs/cli.md#camerajson), which depth the files hold, and the camera as the
-/// scene describes it.
-pub(crate) fn camera_json(camera: &Camera, depth: Depth, depth_scale: Option<f64>) -> EncodedFile {
+/// convention (docs/cli.md#camerajson), which depth the arrays hold (`depth`) and
+/// `depth16.png` holds where it is written, and the camera as the scene describes it.
+pub(crate) fn camera_json(camera: &Camera, depth: Depth, depth16: Option<Depth16>) -> EncodedFile {
     let [nx, ny] = camera.resolution;
     let projection = match camera.projection {
         Projection::Perspective => "perspective",
@@ -154,7 +167,8 @@ pub(crate) fn camera_json(camera: &Camera, depth: Depth, depth_scale: Option<f64
         "near": camera.focal_length,
         "scene_camera": scene,
     });
-    if let Some(scale) = depth_scale {
+    if let Some(Depth16 { depth, scale }) = depth16 {
+        value["depth16"] = json!(depth.name());
         value["depth16_scale"] = json!(scale);
     }
     // One line a field, matrices by rows.

@@ -10,6 +10,7 @@ pub(crate) mod pending;
 mod pictures;
 pub(crate) mod stream;
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
@@ -24,7 +25,7 @@ pub(crate) use color::color_rgba8;
 pub(crate) use color::pixel_coverage;
 #[cfg(test)]
 pub(crate) use color::{PixelCoverage, opaque, over};
-pub(crate) use depth::{camera_json, depth16_levels};
+pub(crate) use depth::{Depth16, camera_json, depth16_levels};
 pub(crate) use npy::encode_npy;
 #[cfg(test)]
 pub(crate) use pictures::PALETTE;
@@ -44,7 +45,8 @@ pub enum Format {
     Npz,
     /// `render.exr`: channels `Z`, `N.X`, `N.Y`, `N.Z`, `id` (and `A` with `--spp`).
     Exr,
-    /// `depth16.png`: 16-bit grey, the depth times `--depth-scale`, rounded.
+    /// `depth16.png`: 16-bit grey, the depth (planar z unless `--depth` says otherwise) times
+    /// `--depth-scale`, rounded.
     Depth16,
 }
 
@@ -119,8 +121,12 @@ pub struct Encoding {
     /// The opaque colour `color.png` is composited over (`--background`); `None`: transparent,
     /// premultiplied alpha.
     pub background: Option<[u8; 3]>,
-    /// The depth the npy, npz and EXR files and `depth16.png` hold (`--depth`).
+    /// The depth the npy and npz arrays and the EXR's `Z` hold: distance by default
+    /// (`distance.npy`); `--depth` sets it and `depth16`.
     pub depth: Depth,
+    /// The depth `depth16.png` holds: planar z by default, what RGB-D datasets store and
+    /// Open3D's `create_from_depth_image` back-projects.
+    pub depth16: Depth,
     /// `depth16.png`'s levels per scene unit (`--depth-scale`).
     pub depth_scale: f64,
 }
@@ -172,14 +178,55 @@ impl Encoding {
             outputs,
             background: None,
             depth: Depth::Distance,
+            depth16: Depth::Z,
             depth_scale: DEFAULT_DEPTH_SCALE,
         })
     }
 
     /// `camera.json` for a render of `camera` in this encoding.
     pub(crate) fn camera_json(&self, camera: &Camera) -> EncodedFile {
-        let scale = self.formats.contains(&Format::Depth16);
-        camera_json(camera, self.depth, scale.then_some(self.depth_scale))
+        let depth16 = self.formats.contains(&Format::Depth16).then_some(Depth16 {
+            depth: self.depth16,
+            scale: self.depth_scale,
+        });
+        camera_json(camera, self.depth, depth16)
+    }
+
+    /// The depths the files of `images` hold, rows `first_row..` of an image `camera` renders.
+    pub(crate) fn depths<'a, T: Real>(
+        &self,
+        images: &'a Images<T>,
+        camera: &Camera,
+        first_row: u32,
+    ) -> Depths<'a, T> {
+        let has = |f: &[Format]| self.formats.iter().any(|x| f.contains(x));
+        let of = |depth: Depth| depth.of(images, camera, first_row);
+        // Planar z costs a pass over the image: made only for the files that hold it.
+        let arrays = match has(&[Format::Npy, Format::Npz, Format::Exr]) {
+            true => of(self.depth),
+            false => Cow::Borrowed(images.distance.as_slice()),
+        };
+        let depth16 =
+            (has(&[Format::Depth16]) && self.depth16 != self.depth).then(|| of(self.depth16));
+        Depths { arrays, depth16 }
+    }
+}
+
+/// The depths of one image (or band) as an [`Encoding`] writes them.
+pub(crate) struct Depths<'a, T: Clone> {
+    /// The npy and npz arrays' and the EXR's ([`Encoding::depth`]).
+    arrays: Cow<'a, [T]>,
+    /// `depth16.png`'s ([`Encoding::depth16`]) where it differs from the arrays'.
+    depth16: Option<Cow<'a, [T]>>,
+}
+
+impl<T: Clone> Depths<'_, T> {
+    fn arrays(&self) -> &[T] {
+        &self.arrays
+    }
+
+    fn depth16(&self) -> &[T] {
+        self.depth16.as_deref().unwrap_or(&self.arrays)
     }
 }
 
@@ -194,22 +241,23 @@ pub(crate) fn encode<T: Real>(
     encoding: &Encoding,
     camera: &Camera,
 ) -> Vec<EncodedFile> {
-    let depth = encoding.depth.of(images, camera, 0);
+    let depths = encoding.depths(images, camera, 0);
     let mut files: Vec<EncodedFile> = (encoding.formats.iter())
-        .flat_map(|&f| encode_format(images, f, encoding, &depth))
+        .flat_map(|&f| encode_format(images, f, encoding, &depths))
         .collect();
     files.push(encoding.camera_json(camera));
     files
 }
 
-/// The files of one format (see [`encode`]); `depth` holds the images' depths as `encoding`
+/// The files of one format (see [`encode`]); `depths` holds the images' depths as `encoding`
 /// asks for them.
 pub(super) fn encode_format<T: Real>(
     images: &Images<T>,
     format: Format,
     encoding: &Encoding,
-    depth: &[T],
+    depths: &Depths<T>,
 ) -> Vec<EncodedFile> {
+    let depth = depths.arrays();
     let outputs = encoding.outputs;
     match format {
         // Each picture compressed on a thread of its own: the writer of a dataset's views
@@ -228,7 +276,10 @@ pub(super) fn encode_format<T: Real>(
             depth,
         ))],
         Format::Exr => vec![exr::encode_exr(images, depth, outputs)],
-        Format::Depth16 => vec![depth16_picture(images, depth, encoding.depth_scale).to_png()],
+        Format::Depth16 => {
+            let picture = depth16_picture(images, depths.depth16(), encoding.depth_scale);
+            vec![picture.to_png()]
+        }
     }
 }
 

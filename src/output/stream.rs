@@ -86,7 +86,7 @@ impl BandWriter {
     /// raw pixels, the other formats encoded.
     fn band_files<T: Real>(&self, band: &Images<T>) -> Vec<BandFile> {
         let encoding = &self.encoding;
-        let depth = encoding.depth.of(band, &self.camera, self.rows_written);
+        let depths = encoding.depths(band, &self.camera, self.rows_written);
         let mut files = Vec::new();
         for &format in &encoding.formats {
             match format {
@@ -96,11 +96,11 @@ impl BandWriter {
                 }
                 Format::Depth16 => files.push(BandFile::Picture(depth16_picture(
                     band,
-                    &depth,
+                    depths.depth16(),
                     encoding.depth_scale,
                 ))),
                 _ => {
-                    let encoded = encode_format(band, format, encoding, &depth);
+                    let encoded = encode_format(band, format, encoding, &depths);
                     files.extend(encoded.into_iter().map(BandFile::Encoded));
                 }
             }

@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
-use crate::scene::{self, CameraOverrides, Object, Scene};
+use crate::scene::{self, CameraOverrides, Object, Scene, Split};
 
 /// Everything a render to files is asked for.
 #[derive(Clone, Debug)]
@@ -54,6 +54,9 @@ pub struct RenderFiles {
     pub emit_shader: Option<PathBuf>,
     /// Camera settings replacing the scene's (or a mesh's default view's).
     pub view: CameraOverrides,
+    /// Which parts of a mesh file given as the scene are objects of their own (a scene file's
+    /// soups say it themselves).
+    pub split: Split,
 }
 
 /// What a render to files did, for the user.
@@ -245,7 +248,10 @@ impl RenderFiles {
             if let Ok(loaded) = Scene::load(scene) {
                 let base = scene.parent().unwrap_or(Path::new(""));
                 for object in &loaded.objects {
-                    if let Object::Soup { path, .. } = object {
+                    // The parts of a split mesh file name it each.
+                    if let Object::Soup { path, .. } = object
+                        && !files.contains(&base.join(path))
+                    {
                         files.push(base.join(path));
                     }
                 }
@@ -277,6 +283,7 @@ impl RenderFiles {
     ///     encoding: Encoding::new(&[Format::Png, Format::Npy], None)?,
     ///     emit_shader: None,
     ///     view: Default::default(),
+    ///     split: Default::default(),
     /// };
     /// let summary = render.run(Some(&Gpu::new()?), None)?;
     /// println!("{}", summary.lines().join("\n"));
@@ -284,7 +291,7 @@ impl RenderFiles {
     /// ```
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<&Progress>) -> Result<Summary> {
         self.check()?;
-        let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view)?;
+        let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
         if let Some(path) = &self.scene
             && !self.shaded()
             && !scene.lighting.is_empty()
@@ -499,6 +506,7 @@ mod tests {
             encoding: Encoding::new(&[Format::Png], None).unwrap(),
             emit_shader: None,
             view: CameraOverrides::default(),
+            split: Split::default(),
         }
     }
 

@@ -664,7 +664,7 @@ fn load<'a>(
         *loaded = None;
         let path = job.scenes[s].as_deref();
         let view = scene::CameraOverrides::default();
-        let scene = scene::load_viewed(path, spec.render.size, &view)?;
+        let scene = scene::load_viewed(path, spec.render.size, &view, spec.render.split)?;
         let bounds = scene_bounds(&scene);
         *loaded = Some(Loaded {
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),

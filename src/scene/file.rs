@@ -8,8 +8,8 @@ use serde::Deserialize;
 use glam::DVec3;
 
 use super::{
-    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, OBJECT_VALUES, Object, Projection,
-    Scene, Triangle, camera,
+    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, MeshPart, OBJECT_VALUES, Object,
+    Projection, Scene, Split, Triangle, camera,
 };
 use crate::error::{Error, Result};
 use crate::math::{Vec3, length, normalize};
@@ -136,6 +136,9 @@ enum ObjectFile {
         stl: Option<String>,
         obj: Option<String>,
         ply: Option<String>,
+        /// Which parts of an OBJ file are objects of their own (default: each `o`).
+        #[serde(default)]
+        split: Option<Split>,
         #[serde(default)]
         #[allow(dead_code)]
         comment: Option<serde_json::Value>,
@@ -145,6 +148,10 @@ enum ObjectFile {
         values: Option<Vec<f64>>,
     },
 }
+
+/// Resolves a soup's mesh file name, in the parts a [`Split`] asks for: what a scene's loader
+/// is given.
+pub(crate) type LoadMesh<'a> = dyn FnMut(&str, Split) -> Result<Vec<MeshPart>> + 'a;
 
 impl ObjectFile {
     fn material(&self) -> Option<&str> {
@@ -166,12 +173,9 @@ impl ObjectFile {
     }
 }
 
-/// Parses and validates scene JSON. `file` names the source in error messages.
-pub(super) fn parse(
-    text: &str,
-    file: &Path,
-    load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
-) -> Result<Scene> {
+/// Parses and validates scene JSON. `file` names the source in error messages. A soup split
+/// in several parts is as many objects, one after the other.
+pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result<Scene> {
     let raw: SceneFile = deserialize(text, file)?;
     let checker = Checker {
         file,
@@ -186,8 +190,10 @@ pub(super) fn parse(
         .enumerate()
         .map(|(i, o)| checker.object(i, o, load_mesh))
         .collect::<Result<Vec<_>>>()?;
+    let counts: Vec<usize> = objects.iter().map(Vec::len).collect();
+    let objects: Vec<Object> = objects.into_iter().flatten().collect();
     let camera = checker.camera(&raw.camera, &objects)?;
-    let lighting = checker.lighting(&raw)?;
+    let lighting = checker.lighting(&raw, &counts)?;
     Ok(Scene {
         camera,
         objects,
@@ -257,27 +263,26 @@ impl ViewCamera {
     }
 }
 
-/// A scene of the mesh file `path` alone (object 0) with the camera `camera(bounds)` makes
-/// for the mesh's bounding box; the mesh's numbers are checked as a scene's.
+/// A scene of the mesh file `path` alone, its parts as `split` asks objects 0, 1, ..., with
+/// the camera `camera(bounds)` makes for the mesh's bounding box; the mesh's numbers are
+/// checked as a scene's.
 pub(super) fn mesh_scene(
     path: &Path,
+    split: Split,
     camera: impl FnOnce(Option<(DVec3, DVec3)>) -> Result<Camera>,
 ) -> Result<Scene> {
-    let triangles = super::mesh::load_mesh(path)?;
-    Checker {
+    let parts = super::mesh::load_mesh_parts(path, split)?;
+    let checker = Checker {
         file: path,
         camera: "camera",
-    }
-    .mesh_values("", &triangles)?;
-    let objects = vec![Object::Soup {
-        path: path.to_owned(),
-        triangles,
-    }];
+    };
+    let objects = checker.soups(path, "", parts)?;
+    let n = objects.len();
     Ok(Scene {
         camera: camera(super::bounds(&objects))?,
         lighting: Lighting {
-            object_materials: vec![None],
-            object_values: vec![[0.0; OBJECT_VALUES]],
+            object_materials: vec![None; n],
+            object_values: vec![[0.0; OBJECT_VALUES]; n],
             ..Lighting::default()
         },
         objects,
@@ -606,14 +611,10 @@ impl Checker<'_> {
         Ok((lens, near))
     }
 
-    fn object(
-        &self,
-        i: usize,
-        o: &ObjectFile,
-        load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
-    ) -> Result<Object> {
+    /// The objects of `objects[i]`: one, or a soup's parts.
+    fn object(&self, i: usize, o: &ObjectFile, load_mesh: &mut LoadMesh) -> Result<Vec<Object>> {
         let field = |name: &str| format!("objects[{i}].{name}");
-        Ok(match o {
+        Ok(vec![match o {
             ObjectFile::Sphere { center, radius, .. } => Object::Sphere {
                 center: self.vector(&field("center"), *center)?,
                 radius: self.positive(&field("radius"), *radius)?,
@@ -632,7 +633,13 @@ impl Checker<'_> {
                 }
                 Object::Triangle { corners: c }
             }
-            ObjectFile::Soup { stl, obj, ply, .. } => {
+            ObjectFile::Soup {
+                stl,
+                obj,
+                ply,
+                split,
+                ..
+            } => {
                 let name = match (stl, obj, ply) {
                     (Some(name), None, None)
                     | (None, Some(name), None)
@@ -644,14 +651,29 @@ impl Checker<'_> {
                         ));
                     }
                 };
-                let triangles = load_mesh(name)?;
-                self.mesh_values(&format!("objects[{i}] "), &triangles)?;
-                Object::Soup {
-                    path: name.into(),
-                    triangles,
-                }
+                let parts = load_mesh(name, split.unwrap_or_default())?;
+                return self.soups(Path::new(name), &format!("objects[{i}] "), parts);
             }
-        })
+        }])
+    }
+
+    /// The objects of a mesh file's `parts`, each a soup of the file `path`; `place` starts
+    /// errors, which name the part where there are several.
+    fn soups(&self, path: &Path, place: &str, parts: Vec<MeshPart>) -> Result<Vec<Object>> {
+        let several = parts.len() > 1;
+        (parts.into_iter())
+            .map(|part| {
+                let place = match several {
+                    true => format!("{place}part `{}` ", part.name),
+                    false => place.to_owned(),
+                };
+                self.mesh_values(&place, &part.triangles)?;
+                Ok(Object::Soup {
+                    path: path.to_owned(),
+                    triangles: part.triangles,
+                })
+            })
+            .collect()
     }
 
     /// Finite components, each at least 0.
@@ -664,7 +686,9 @@ impl Checker<'_> {
         Ok(Vec3::from_array(v))
     }
 
-    fn lighting(&self, raw: &SceneFile) -> Result<Lighting> {
+    /// The scene's materials and lights, and each object's: those of the scene file's
+    /// `objects[i]` for each of the `counts[i]` objects it makes.
+    fn lighting(&self, raw: &SceneFile, counts: &[usize]) -> Result<Lighting> {
         let mut materials: Vec<Material> = Vec::with_capacity(raw.materials.len());
         let mut by_name: HashMap<&str, usize> = HashMap::new();
         for (i, m) in raw.materials.iter().enumerate() {
@@ -737,8 +761,8 @@ impl Checker<'_> {
         Ok(Lighting {
             materials,
             lights,
-            object_materials,
-            object_values,
+            object_materials: per_object(object_materials, counts),
+            object_values: per_object(object_values, counts),
         })
     }
 
@@ -779,6 +803,13 @@ impl Checker<'_> {
     }
 }
 
+/// `values[i]` repeated `counts[i]` times, for each `i`.
+fn per_object<T: Clone>(values: Vec<T>, counts: &[usize]) -> Vec<T> {
+    (values.into_iter().zip(counts))
+        .flat_map(|(v, &n)| std::iter::repeat_n(v, n))
+        .collect()
+}
+
 /// What is wrong with a scene number `x`, if anything: not finite, or beyond [`MAX_MAGNITUDE`].
 fn number_problem(x: f64) -> Option<String> {
     if !x.is_finite() {
@@ -795,6 +826,55 @@ fn number_problem(x: f64) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The scene of `objects` (JSON) with a fixed camera, its soups the OBJ `MESH`.
+    fn scene_of(objects: &str) -> Result<Scene> {
+        const MESH: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\no a\ng x\nf 1 2 3\ng y\nf 1 2 3\n\
+                            o b\nf 1 2 3\n";
+        let text = format!(
+            r#"{{"camera": {{"eye": [0, 0, 5], "look": [0, 0, -1], "up": [0, 1, 0], "fov": 40}},
+                "materials": [{{"name": "m", "ka": [0, 0, 0], "kd": [0, 0, 0], "ks": [0, 0, 0],
+                                "km": [0, 0, 0], "phong_exponent": 1}}],
+                "objects": {objects}}}"#
+        );
+        parse(&text, Path::new("s.json"), &mut |name, split| {
+            super::super::parse_mesh_parts(MESH.as_bytes(), Path::new(name), split)
+        })
+    }
+
+    #[test]
+    fn a_split_soup_is_an_object_a_part_and_shares_its_material_and_values() {
+        let soups = |split: &str| {
+            format!(
+                r#"[{{"type": "soup", "obj": "m.obj", {split} "material": "m", "values": [7]}},
+                    {{"type": "sphere", "center": [0, 0, 0], "radius": 1, "values": [9]}}]"#
+            )
+        };
+        for (split, parts) in [
+            ("", 2),
+            (r#""split": "objects","#, 2),
+            (r#""split": "groups","#, 3),
+            (r#""split": "none","#, 1),
+        ] {
+            let scene = scene_of(&soups(split)).unwrap();
+            let n = parts + 1;
+            assert_eq!(scene.objects.len(), n, "{split}");
+            assert!(matches!(scene.objects[parts], Object::Sphere { .. }));
+            let mut materials = vec![Some(0); parts];
+            materials.push(None);
+            assert_eq!(scene.lighting.object_materials, materials, "{split}");
+            let values: Vec<f64> = scene.lighting.object_values.iter().map(|v| v[0]).collect();
+            let mut want = vec![7.0; parts];
+            want.push(9.0);
+            assert_eq!(values, want, "{split}");
+        }
+        let err = scene_of(&soups(r#""split": "grups","#)).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("unknown variant `grups`, did you mean `groups`?"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn edit_distance_counts_insertions_deletions_and_substitutions() {

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use crate::math::Vec3;
 
 pub use camera::{Camera, CameraOverrides, Lens, Projection};
-pub use mesh::{load_mesh, parse_mesh};
+pub use mesh::{MeshPart, Split, load_mesh, load_mesh_parts, parse_mesh, parse_mesh_parts};
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
 pub(crate) const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
@@ -32,7 +32,8 @@ pub(crate) const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny
 /// One triangle by its corners, in the order that fixes its normal.
 pub type Triangle = [Vec3<f64>; 3];
 
-/// A scene object. Its id is its index in [`Scene::objects`]; a soup is one object.
+/// A scene object. Its id is its index in [`Scene::objects`]; a soup is one object (a mesh
+/// file split in parts, [`Split`], is a soup for each).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Object {
     /// A sphere.
@@ -201,21 +202,23 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 }
 
 /// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
-/// that mesh alone, `Scene::of_mesh`), or without one the built-in default scene, with its
-/// resolution replaced by `size` where given (`--size`): the command line's loader.
+/// that mesh alone, `Scene::of_mesh`, an object for each OBJ object), or without one the
+/// built-in default scene, with its resolution replaced by `size` where given (`--size`): the
+/// command line's loader.
 pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
-    load_viewed(path, size, &CameraOverrides::default())
+    load_viewed(path, size, &CameraOverrides::default(), Split::default())
 }
 
 /// [`load_sized`] with the camera's settings replaced by `view`'s ([`CameraOverrides`]; for a
-/// mesh file they replace those of its default view).
+/// mesh file they replace those of its default view), a mesh file split as `split` asks.
 pub(crate) fn load_viewed(
     path: Option<&Path>,
     size: Option<[u32; 2]>,
     view: &CameraOverrides,
+    split: Split,
 ) -> Result<Scene> {
     if let Some(path) = path.filter(|p| is_mesh_file(p)) {
-        return Scene::of_mesh(path, size.unwrap_or(DEFAULT_RESOLUTION), view);
+        return Scene::of_mesh(path, size.unwrap_or(DEFAULT_RESOLUTION), view, split);
     }
     let mut scene = match path {
         Some(path) => Scene::load(path)?,
@@ -231,7 +234,7 @@ pub(crate) fn load_viewed(
 }
 
 /// Whether `path` names a mesh file (`.obj`, `.stl`, `.ply`, any case) rather than a scene.
-pub(crate) fn is_mesh_file(path: &Path) -> bool {
+pub fn is_mesh_file(path: &Path) -> bool {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     ["obj", "stl", "ply"]
         .iter()
@@ -249,24 +252,42 @@ impl Scene {
     pub fn load(path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let base = path.parent().unwrap_or(Path::new(""));
-        file::parse(&text, path, &mut |name| mesh::load_mesh(&base.join(name)))
+        file::parse(&text, path, &mut |name, split| {
+            mesh::load_mesh_parts(&base.join(name), split)
+        })
     }
 
-    /// The mesh file `path` as a scene of one object, seen by its default view
-    /// ([`CameraOverrides::framing`]) at `resolution` pixels, with `view`'s settings.
+    /// The mesh file `path` as a scene of its parts as `split` asks (one object for an STL or
+    /// PLY file), seen by its default view ([`CameraOverrides::framing`]) at `resolution`
+    /// pixels, with `view`'s settings.
     pub(crate) fn of_mesh(
         path: &Path,
         resolution: [u32; 2],
         view: &CameraOverrides,
+        split: Split,
     ) -> Result<Scene> {
-        file::mesh_scene(path, |bounds| view.framing(bounds, resolution))
+        file::mesh_scene(path, split, |bounds| view.framing(bounds, resolution))
     }
 
-    /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves soup paths.
+    /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves soup paths
+    /// to their triangles: every soup is one object, whatever its `split`
+    /// ([`Scene::from_json_parts`] splits them).
     pub fn from_json(
         text: &str,
         name: &Path,
         load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
+    ) -> Result<Scene> {
+        file::parse(text, name, &mut |path, _| {
+            load_mesh(path).map(MeshPart::whole)
+        })
+    }
+
+    /// [`Scene::from_json`] with soups split as their `split` asks: `load_mesh` resolves a
+    /// soup's path into those parts ([`load_mesh_parts`] for files on disk), each an object.
+    pub fn from_json_parts(
+        text: &str,
+        name: &Path,
+        load_mesh: &mut dyn FnMut(&str, Split) -> Result<Vec<MeshPart>>,
     ) -> Result<Scene> {
         file::parse(text, name, load_mesh)
     }
@@ -274,9 +295,9 @@ impl Scene {
     /// The built-in default scene (the course bunny in a room with two spheres).
     pub(crate) fn default_scene() -> Scene {
         let name = Path::new("<built-in default scene>");
-        Scene::from_json(DEFAULT_SCENE_JSON, name, &mut |file| {
+        Scene::from_json_parts(DEFAULT_SCENE_JSON, name, &mut |file, split| {
             assert_eq!(file, "bunny.stl", "the default scene embeds only bunny.stl");
-            mesh::parse_stl(DEFAULT_SCENE_BUNNY, Path::new(file))
+            mesh::parse_mesh_parts(DEFAULT_SCENE_BUNNY, Path::new(file), split)
         })
         .expect("the built-in default scene is valid")
     }

@@ -170,6 +170,7 @@ fn watched(options: &Options) -> Vec<PathBuf> {
             .expect("png's own outputs are an encoding"),
         emit_shader: None,
         view: Default::default(),
+        split: Default::default(),
     };
     files.watched_files()
 }

@@ -840,6 +840,16 @@ fn bad_format_depth_and_camera_options_name_the_option() {
         (VALID, &["--depth", "zz"], &["--depth", "zz"]),
         (
             VALID,
+            &["--split", "grups"],
+            &["--split", "grups", "groups"],
+        ),
+        (
+            VALID,
+            &["--split", "groups"],
+            &["--split", "scene file", "\"split\""],
+        ),
+        (
+            VALID,
             &["--depth-scale", "0"],
             &["--depth-scale", "positive"],
         ),
@@ -883,8 +893,24 @@ fn bad_mesh_files_rendered_directly_name_the_file() {
     let missing = dir.path().join("missing.stl");
     let good = dir.path().join("good.obj");
     std::fs::write(&good, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let parts_obj = dir.path().join("parts.obj");
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\no a\nf 1 2 3\no b\ng c\nf 1 2 4\n";
+    std::fs::write(&parts_obj, text).unwrap();
+    let huge_part = dir.path().join("huge-part.obj");
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 1e30 0\no a\nf 1 2 3\no b\nf 1 2 4\n";
+    std::fs::write(&huge_part, text).unwrap();
     for (mesh, args, parts) in [
         (&huge, &[][..], &["huge.obj", "triangle 0", "1e30"][..]),
+        (
+            &parts_obj,
+            &["--split", "groups"],
+            &["parts.obj: line 8: face index 4 but only 3 vertices so far"],
+        ),
+        (
+            &huge_part,
+            &[],
+            &["huge-part.obj", "part `b` triangle 0", "1e30"],
+        ),
         (&missing, &[], &["missing.stl", "cannot read"]),
         // The default view looks at the box's centre, (0.5, 0.5, 0), up +y.
         (&good, &["--eye", "0.5,0.5,0"], &["--eye", "looked at"]),

@@ -222,7 +222,7 @@ fn depth16(dir: &Path) -> Vec<u16> {
 fn depth16_is_the_depth_times_the_scale_rounded() {
     let scene = course("sphere-and-plane");
     for (extra, depth, scale) in [
-        (&[][..], "distance", 1000.0),
+        (&["--depth", "distance"][..], "distance", 1000.0),
         (
             &["--depth", "z", "--depth-scale", "20000"][..],
             "z",
@@ -250,6 +250,90 @@ fn depth16_is_the_depth_times_the_scale_rounded() {
             "{depth}: {beyond} beyond the range"
         );
     }
+}
+
+/// camera.json as JSON.
+fn camera_json(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("camera.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+#[test]
+fn depth16_holds_planar_z_unless_asked_and_camera_json_says_which() {
+    let scene = course("sphere-and-plane");
+    let base = [scene.as_str(), "--size", "64x36", "--device", "cpu"];
+    let run = |extra: &[&str]| render(&[&base[..], extra].concat());
+    let default = run(&["--format", "npy,depth16"]);
+    let z = run(&["--format", "npy,depth16", "--depth", "z"]);
+    let distance = run(&["--format", "depth16", "--depth", "distance"]);
+    // The arrays keep distance by default; depth16 holds z, as it does with --depth z.
+    assert!(default.path().join("distance.npy").exists());
+    assert!(!default.path().join("z.npy").exists());
+    assert_eq!(depth16(default.path()), depth16(z.path()));
+    assert_ne!(depth16(default.path()), depth16(distance.path()));
+    for (dir, arrays, depth16) in [
+        (&default, "distance", "z"),
+        (&z, "z", "z"),
+        (&distance, "distance", "distance"),
+    ] {
+        let json = camera_json(dir.path());
+        assert_eq!(json["depth"], arrays);
+        assert_eq!(json["depth16"], depth16);
+        assert_eq!(json["depth16_scale"], 1000.0);
+    }
+    // Without depth16, camera.json does not describe one.
+    let png = run(&[]);
+    assert!(camera_json(png.path()).get("depth16").is_none());
+}
+
+/// The world points Open3D's `PointCloud.create_from_depth_image(depth, intrinsic, extrinsic,
+/// depth_scale)` makes of depth16.png (cpp/open3d/geometry/PointCloudFactory.cpp), by pixel
+/// with its level: for column `u` and row `v` with a level above 0, z = level / depth_scale
+/// (in float32, as Open3D's float depth image holds it), x = (u - cx) z / fx,
+/// y = (v - cy) z / fy, and the point is inverse(extrinsic) (x, y, z, 1); the intrinsics are
+/// camera.json's `K`, the extrinsic its `world_to_camera`.
+fn open3d_points(dir: &Path, depth_scale: f64) -> Vec<(usize, DVec3)> {
+    let json = camera_json(dir);
+    let rows = |key: &str| -> Vec<Vec<f64>> { serde_json::from_value(json[key].clone()).unwrap() };
+    let k = rows("K");
+    let (fx, fy, cx, cy) = (k[0][0], k[1][1], k[0][2], k[1][2]);
+    let e = rows("world_to_camera");
+    let extrinsic =
+        DMat4::from_cols_array_2d(&[0, 1, 2, 3].map(|c| [e[0][c], e[1][c], e[2][c], e[3][c]]));
+    let camera_pose = extrinsic.inverse();
+    let width = json["width"].as_u64().unwrap() as usize;
+    (depth16(dir).iter().enumerate())
+        .filter(|(_, level)| **level > 0)
+        .map(|(p, &level)| {
+            let (u, v) = ((p % width) as f64, (p / width) as f64);
+            let z = f64::from(f32::from(level) / depth_scale as f32);
+            let local = DVec3::new((u - cx) * z / fx, (v - cy) * z / fy, z);
+            (p, camera_pose.transform_point3(local))
+        })
+        .collect()
+}
+
+#[test]
+fn depth16_back_projected_as_open3d_does_puts_the_floor_on_its_plane() {
+    // The course's floor, y = -0.5 (object 1), under a sphere.
+    let scene = common::repo_path("scenes/ray-tracing/sphere-and-plane.json");
+    let scene = scene.display().to_string();
+    let args = [scene.as_str(), "--size", "160x90", "--device", "cpu"];
+    let floor_error = |extra: &[&str]| {
+        let out = render(&[&args[..], &["--format", "npy,depth16"], extra].concat());
+        let ids = npy_values(&out.path().join("id.npy"));
+        let floor: Vec<f64> = (open3d_points(out.path(), 1000.0).into_iter())
+            .filter(|(p, _)| ids[*p] == 1.0)
+            .map(|(_, point)| (point.y + 0.5).abs())
+            .collect();
+        assert!(floor.len() > 2000, "{} floor pixels", floor.len());
+        floor.into_iter().fold(0.0, f64::max)
+    };
+    let error = floor_error(&[]);
+    assert!(error <= 1e-3, "the floor lands up to {error} off y = -0.5");
+    // Distance read as if it were z puts the floor far off its plane.
+    let error = floor_error(&["--depth", "distance"]);
+    assert!(error > 0.01, "distance puts the floor only {error} off");
 }
 
 #[test]

@@ -396,3 +396,166 @@ fn a_mesh_far_from_the_origin_renders_like_one_at_the_origin() {
         }
     }
 }
+
+/// Squares facing +z on the plane z = 0, y in [-0.5, 0.5], each by its x range: two OBJ objects
+/// of two groups each, and (`square.stl`) one more.
+const SQUARES: [(f64, f64); 5] = [
+    (-3.0, -2.0),
+    (-1.5, -0.5),
+    (0.5, 1.5),
+    (2.0, 3.0),
+    (4.0, 5.0),
+];
+
+/// The OBJ of the first four squares: `o left` with groups `a` and `b`, `o right` with `a`
+/// and `c`.
+fn squares_obj() -> String {
+    let mut text = String::new();
+    let names = ["o left\ng a", "g b", "o right\ng a", "g c"];
+    for (k, (name, (x0, x1))) in names.iter().zip(SQUARES).enumerate() {
+        text += &format!("{name}\nv {x0} -0.5 0\nv {x1} -0.5 0\nv {x1} 0.5 0\nv {x0} 0.5 0\n");
+        let v = 4 * k + 1;
+        text += &format!("f {} {} {} {}\n", v, v + 1, v + 2, v + 3);
+    }
+    text
+}
+
+/// The fifth square as ASCII STL.
+fn square_stl() -> String {
+    let (x0, x1) = SQUARES[4];
+    let facet = |[a, b, c]: [[f64; 2]; 3]| {
+        let v = |[x, y]: [f64; 2]| format!("      vertex {x} {y} 0\n");
+        format!(
+            "  facet normal 0 0 1\n    outer loop\n{}{}{}    endloop\n  endfacet\n",
+            v(a),
+            v(b),
+            v(c)
+        )
+    };
+    let [p, q, r, s] = [[x0, -0.5], [x1, -0.5], [x1, 0.5], [x0, 0.5]];
+    format!(
+        "solid square\n{}{}endsolid square\n",
+        facet([p, q, r]),
+        facet([p, r, s])
+    )
+}
+
+/// `id.npy`'s ids, row by row.
+fn id_npy(dir: &std::path::Path) -> Vec<i32> {
+    let bytes = std::fs::read(dir.join("id.npy")).unwrap();
+    let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let data = &bytes[10 + header..];
+    data.chunks(4)
+        .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
+        .collect()
+}
+
+/// The camera the split tests render with: from (0, 0, 6) looking down -z, 60 degrees
+/// vertically, 192x72 pixels; `K` as camera.json gives it, focal length and centre.
+const EYE_Z: f64 = 6.0;
+const SIZE: [usize; 2] = [192, 72];
+
+/// Checks every pixel of a render of the squares into `dir`: it hits exactly where its centre
+/// lies inside a square (by more than 1e-6), and then carries `ids[k]` of square `k`; every
+/// id of `ids` appears. The pixel's centre on the plane z = 0 follows from camera.json's `K`.
+fn check_square_ids(dir: &std::path::Path, ids: &[i32]) {
+    let text = std::fs::read_to_string(dir.join("camera.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let k = |r: usize, c: usize| json["K"][r][c].as_f64().unwrap();
+    let (fx, fy, cx, cy) = (k(0, 0), k(1, 1), k(0, 2), k(1, 2));
+    let found = id_npy(dir);
+    assert_eq!(found.len(), SIZE[0] * SIZE[1]);
+    let mut seen = vec![0; ids.len()];
+    for (p, &id) in found.iter().enumerate() {
+        let (i, j) = ((p / SIZE[0]) as f64, (p % SIZE[0]) as f64);
+        let (x, y) = ((j - cx) / fx * EYE_Z, -(i - cy) / fy * EYE_Z);
+        let inside = |lo: f64, hi: f64, v: f64| v > lo + 1e-6 && v < hi - 1e-6;
+        let outside = |lo: f64, hi: f64, v: f64| v < lo - 1e-6 || v > hi + 1e-6;
+        let square = (SQUARES[..ids.len()].iter()).position(|&(x0, x1)| inside(x0, x1, x));
+        match square {
+            Some(s) if inside(-0.5, 0.5, y) => {
+                assert_eq!(id, ids[s], "pixel ({i}, {j}) on square {s}");
+                seen[s] += 1;
+            }
+            _ if outside(-0.5, 0.5, y)
+                && (SQUARES[..ids.len()].iter()).all(|&(x0, x1)| outside(x0, x1, x)) =>
+            {
+                assert_eq!(id, -1, "pixel ({i}, {j}) is off every square");
+            }
+            _ => {} // within 1e-6 of an edge
+        }
+    }
+    assert!(
+        seen.iter().all(|&n| n >= 50),
+        "pixels of each square: {seen:?}"
+    );
+}
+
+/// `raycast render ARGS --device cpu --format npy --size 192x72 -o DIR`; panics unless it
+/// succeeds.
+fn render_npy(dir: &std::path::Path, args: &[&str]) -> TempDir {
+    let out = tempfile::tempdir_in(dir).unwrap();
+    let size = format!("{}x{}", SIZE[0], SIZE[1]);
+    let output = common::raycast()
+        .arg("render")
+        .args(args)
+        .args(["--device", "cpu", "--format", "npy", "--size", &size, "-o"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "render {args:?}:\n{stderr}");
+    out
+}
+
+#[test]
+fn obj_objects_and_groups_render_with_ids_of_their_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("squares.obj");
+    std::fs::write(&obj, squares_obj()).unwrap();
+    std::fs::write(dir.path().join("square.stl"), square_stl()).unwrap();
+    let obj = obj.to_str().unwrap();
+    let view = ["--eye", "0,0,6", "--look-at", "0,0,0", "--fov", "60"];
+    // A mesh file given as the scene: each `o` by default, each `g` of each `o`, or whole.
+    for (split, ids) in [
+        (&[][..], &[0, 0, 1, 1][..]),
+        (&["--split", "objects"], &[0, 0, 1, 1]),
+        (&["--split", "groups"], &[0, 1, 2, 3]),
+        (&["--split", "none"], &[0, 0, 0, 0]),
+    ] {
+        let out = render_npy(dir.path(), &[&[obj][..], &view, split].concat());
+        check_square_ids(out.path(), ids);
+    }
+    // A scene file renders several meshes together, each split as its soup says.
+    let scene = dir.path().join("together.json");
+    let camera =
+        format!(r#"{{"eye": [0, 0, {EYE_Z}], "look": [0, 0, -1], "up": [0, 1, 0], "fov": 60}}"#);
+    for (split, ids) in [("groups", &[0, 1, 2, 3, 4]), ("objects", &[0, 0, 1, 1, 2])] {
+        let json = format!(
+            r#"{{"camera": {camera}, "objects": [
+                {{"type": "soup", "obj": "squares.obj", "split": "{split}"}},
+                {{"type": "soup", "stl": "square.stl"}}]}}"#
+        );
+        std::fs::write(&scene, json).unwrap();
+        let out = render_npy(dir.path(), &[scene.to_str().unwrap()]);
+        check_square_ids(out.path(), ids);
+    }
+}
+
+#[test]
+fn several_mesh_files_without_views_point_to_a_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let output = common::raycast()
+        .args(["render", "a.obj", "b.stl", "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("2 scene files given") && stderr.contains("soups of one scene file"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

@@ -12,34 +12,99 @@ mod text;
 
 use std::fmt;
 use std::path::Path;
+use std::str::FromStr;
 
 use super::Triangle;
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
-/// Loads a mesh by extension: `.obj` as OBJ, `.ply` as PLY, anything else as STL.
+/// Which parts of a mesh file become objects of their own, each with its id: OBJ files name
+/// objects (`o`) and groups (`g`); an STL or PLY file is always one object. A scene file's
+/// soup names it in lower case (`"split": "groups"`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    /// Each object (`o`) of an OBJ file.
+    #[default]
+    Objects,
+    /// Each group (`g`) of each object of an OBJ file.
+    Groups,
+    /// The whole file is one object.
+    None,
+}
+
+impl Split {
+    /// Its name in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Split::Objects => "objects",
+            Split::Groups => "groups",
+            Split::None => "none",
+        }
+    }
+}
+
+impl FromStr for Split {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let all = [Split::Objects, Split::Groups, Split::None];
+        let name = s.trim();
+        (all.into_iter().find(|x| x.name() == name))
+            .ok_or_else(|| format!("unknown split `{name}` (expected objects, groups or none)"))
+    }
+}
+
+/// One object of a mesh file ([`Split`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshPart {
+    /// Its OBJ names: the object's, `object/group` for a group, "" for a whole file.
+    pub name: String,
+    /// Its triangles, in the file's order.
+    pub triangles: Vec<Triangle>,
+}
+
+impl MeshPart {
+    /// A whole file's triangles as its one part.
+    pub(crate) fn whole(triangles: Vec<Triangle>) -> Vec<MeshPart> {
+        vec![MeshPart {
+            name: String::new(),
+            triangles,
+        }]
+    }
+}
+
+/// Loads a mesh by extension: `.obj` as OBJ, `.ply` as PLY, anything else as STL; all of its
+/// triangles, in the file's order.
 pub fn load_mesh(path: &Path) -> Result<Vec<Triangle>> {
+    let mut parts = load_mesh_parts(path, Split::None)?;
+    Ok(parts.pop().map(|p| p.triangles).unwrap_or_default())
+}
+
+/// Loads a mesh as [`load_mesh`] does, in the parts `split` asks for (at least one).
+pub fn load_mesh_parts(path: &Path, split: Split) -> Result<Vec<MeshPart>> {
     let bytes = std::fs::read(path).map_err(|e| Error::Mesh {
         file: path.to_owned(),
         message: format!("cannot read mesh file: {e}"),
     })?;
-    parse_mesh(&bytes, path)
+    parse_mesh_parts(&bytes, path, split)
 }
 
 /// Parses a mesh file's `bytes`, by the extension of `path` as [`load_mesh`] does; `path`
 /// names the file in errors.
 pub fn parse_mesh(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
-    let parsed = match Format::of(path) {
-        Format::Stl => stl::parse(bytes),
-        Format::Obj => obj::parse(bytes),
-        Format::Ply => ply::parse(bytes),
-    };
-    parsed.map_err(|e| e.in_file(path))
+    let mut parts = parse_mesh_parts(bytes, path, Split::None)?;
+    Ok(parts.pop().map(|p| p.triangles).unwrap_or_default())
 }
 
-/// Parses STL bytes (binary or ASCII); `path` names the file in errors.
-pub(crate) fn parse_stl(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
-    stl::parse(bytes).map_err(|e| e.in_file(path))
+/// Parses a mesh file's `bytes` as [`parse_mesh`] does, in the parts `split` asks for (at
+/// least one).
+pub fn parse_mesh_parts(bytes: &[u8], path: &Path, split: Split) -> Result<Vec<MeshPart>> {
+    let parsed = match Format::of(path) {
+        Format::Stl => stl::parse(bytes).map(MeshPart::whole),
+        Format::Obj => obj::parse(bytes, split),
+        Format::Ply => ply::parse(bytes).map(MeshPart::whole),
+    };
+    parsed.map_err(|e| e.in_file(path))
 }
 
 /// The mesh formats, chosen by file extension.

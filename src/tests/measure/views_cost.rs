@@ -48,6 +48,7 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
         encoding: Encoding::new(&[Format::Png], None)?,
         emit_shader: None,
         view: Default::default(),
+        split: Default::default(),
     };
     println!("adapter: {}; {path}, {n} views, {mode}", gpu.info().name);
     println!(
