@@ -212,7 +212,7 @@ enum Command {
     },
     /// Time each kernel specialization on each scene, with it and with it turned off
     /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
-    /// markdown and write it to --out.
+    /// markdown (and write it to --output).
     Specializations {
         /// Scene files, or folders of scene files (their *.json, in name order).
         #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES)]
@@ -227,9 +227,10 @@ enum Command {
         /// Leave out the BVH crossover measurement (random spheres and triangles, n = 2..256).
         #[arg(long)]
         no_crossover: bool,
-        /// The markdown file to write (whole or not at all).
-        #[arg(long, value_name = "FILE", default_value = "docs/specializations.md")]
-        out: PathBuf,
+        /// Also write the markdown to this file (whole or not at all), e.g.
+        /// docs/specializations.md.
+        #[arg(short, long, value_name = "FILE", alias = "out")]
+        output: Option<PathBuf>,
     },
     /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
     /// the error, with its line and column.
@@ -578,10 +579,10 @@ fn run(command: Command) -> Result<ExitCode> {
             torus,
             runs,
             no_crossover,
-            out,
+            output,
         } => {
-            let (torus, runs) = (torus.as_deref(), runs as usize);
-            study::specializations::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
+            let (torus, runs, output) = (torus.as_deref(), runs as usize, output.as_deref());
+            study::specializations::command(&scenes, torus, runs, !no_crossover, output, say_on)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::CheckShader { file } => {
