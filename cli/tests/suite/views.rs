@@ -107,6 +107,9 @@ fn every_view_is_the_single_render_of_its_camera_byte_for_byte() {
     args.extend(size.iter().chain(&formats));
     let stdout = succeeds(&args);
     assert_eq!(rendered(&stdout), 6, "{stdout}");
+    // The scenes' folders and the manifest, and no lock file left.
+    let names = ["bunny", "manifest.jsonl", "two-spheres-and-plane"];
+    assert_eq!(common::file_names(&out), names);
     let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
     let lines: Vec<serde_json::Value> = manifest
         .lines()
