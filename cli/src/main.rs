@@ -346,10 +346,17 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     // Stopped by a signal, remove the files being written first: output is all or nothing.
-    // A server stops serving and exits normally.
+    // A server stops serving and exits normally; so does `render --watch`, whose documented
+    // way out is Ctrl-C, quietly (the last whole render stays).
     let stop = || {
-        if !raycast_cli::serve::stop() {
-            raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+        if raycast_cli::serve::stop() {
+            return;
+        }
+        match watch::watching() {
+            true => raycast::output::abandon(0, ""),
+            false => {
+                raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+            }
         }
     };
     if let Err(e) = ctrlc::set_handler(stop) {
@@ -698,6 +705,9 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
         });
     }
     spec.check()?;
+    if watch {
+        watch::start();
+    }
     // One device for every render, so kernels compiled once stay cached.
     let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
     let render_once = || {
