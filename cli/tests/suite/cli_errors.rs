@@ -142,6 +142,17 @@ fn empty_scene_file_is_an_error() {
     assert_has(&message, &["scene.json:1:0: ", "EOF"]);
 }
 
+#[test]
+fn a_list_given_as_a_scene_says_what_a_scene_file_is() {
+    let message = run_err(r#"[{"name": "front", "eye": [0, 0, 2]}]"#, &[]);
+    assert_has(
+        &message,
+        &[
+            "scene.json:1:1: a scene file is a JSON object with a `camera` and `objects`, got a list (is it a views file?)",
+        ],
+    );
+}
+
 // 2. Unknown object type.
 
 #[test]

@@ -321,7 +321,18 @@ fn bad_views_are_one_line_errors_before_anything_renders() {
             "[0].up: is parallel to [0].look",
         ),
         ("[]".into(), "no views"),
-        (r#"{"name": "a"}"#.into(), "invalid type"),
+        (
+            r#"{"name": "a"}"#.into(),
+            ":1:1: a views file is a JSON list of cameras, got an object (is it a scene file?)",
+        ),
+        (
+            std::fs::read_to_string(common::repo_path(BUNNY)).unwrap(),
+            "a views file is a JSON list of cameras, got an object (is it a scene file?)",
+        ),
+        (
+            "\n  \"views\"".into(),
+            ":2:3: a views file is a JSON list of cameras, got a string",
+        ),
     ];
     for (k, (text, expected)) in cases.iter().enumerate() {
         let views = dir.path().join(format!("views{k}.json"));
