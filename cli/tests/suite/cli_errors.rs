@@ -607,10 +607,12 @@ fn output_folder_under_a_regular_file() {
     assert_eq!(output.status.code(), Some(2), "stderr:\n{stderr}");
     assert!(output.stdout.is_empty());
     assert_eq!(stderr.lines().count(), 1, "one line, got:\n{stderr}");
-    assert!(
-        stderr.starts_with(&format!("error: {}: ", out.display())),
-        "message must name the output folder: {stderr}"
+    let expected = format!(
+        "error: {}: {} is a file, not a folder",
+        out.display(),
+        afile.display()
     );
+    assert_eq!(stderr.trim_end(), expected);
     // Nothing else written: the scratch folder holds what the test put there, unchanged.
     assert_eq!(file_names(case.dir.path()), ["afile", "scene.json"]);
     assert_eq!(std::fs::read(&afile).unwrap(), b"");
