@@ -273,10 +273,9 @@ enum Command {
         #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = clap::value_parser!(u64).range(1..=study::bench::MAX_RAYS as u64))]
         rays: Option<u64>,
     },
-    /// Write a benchmark scene: `torus` (the peers' displaced torus, 518,400 triangles, in a
-    /// binary PLY beside the scene file) or `spheres` (100 spheres), seen by the peers' camera.
+    #[command(about = study::workload::about())]
     Workload {
-        /// torus or spheres.
+        #[arg(help = study::workload::help())]
         name: String,
         /// Output folder (created if missing).
         #[arg(short, long, default_value = ".")]
