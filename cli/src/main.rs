@@ -23,15 +23,22 @@ struct Cli {
     command: Command,
 }
 
+/// What every command's scene argument takes ([`scene::load_sized`]), for its help.
+macro_rules! scene_file {
+    () => {
+        "scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view \
+         (docs/cli.md)"
+    };
+}
+
 // Parsed once per run: the size of the largest variant costs nothing.
 #[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to id, depth and normal images.
     Render {
-        /// Scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view
-        /// (docs/cli.md). Without it, the built-in default scene is rendered. With --views or
-        /// --orbit, any number of them.
+        #[arg(help = concat!("A ", scene_file!(), ". Without it, the built-in default scene is \
+            rendered. With --views or --orbit, any number of them"))]
         scenes: Vec<PathBuf>,
         /// Render every scene from each camera of this views file (a JSON list of cameras of
         /// the scene format, each with a `name`) into OUTPUT/<scene stem>/<name>/, with
@@ -142,7 +149,7 @@ enum Command {
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
-        /// Scene file (JSON).
+        #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -153,7 +160,8 @@ enum Command {
         /// Second render, the reference for relative errors.
         #[arg(long, default_value = "cpu:f64:robust")]
         b: Mode,
-        /// Render side b from this scene instead (same camera size), to compare two scenes.
+        /// Render side b from this scene (or mesh) instead (same camera size), to compare two
+        /// scenes.
         #[arg(long)]
         b_scene: Option<PathBuf>,
         /// Also write mismatch.png and distance_error.png into this folder.
@@ -173,8 +181,7 @@ enum Command {
     },
     /// Render scenes in every mode and print a markdown table of each against a reference.
     Accuracy {
-        /// Scene files (JSON).
-        #[arg(required = true)]
+        #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -193,8 +200,7 @@ enum Command {
     /// Time and error of every mode the device supports, against CPU f64 robust: writes
     /// tradeoff.csv, tradeoff.md and tradeoff.png into DIR.
     Tradeoff {
-        /// Scene files (JSON).
-        #[arg(required = true)]
+        #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -214,8 +220,8 @@ enum Command {
     /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
     /// markdown (and write it to --output).
     Specializations {
-        /// Scene files, or folders of scene files (their *.json, in name order).
-        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES)]
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES,
+            help = concat!("Each a ", scene_file!(), ", or a folder of scene files (its *.json, in name order)"))]
         scenes: Vec<PathBuf>,
         /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
         /// where it exists (else the table says it was not measured).
@@ -241,7 +247,7 @@ enum Command {
     /// Time the stages of a frame (build, upload, trace) and the primary-ray rate, per mode and
     /// acceleration: median of N runs after one warm-up.
     Bench {
-        /// Scene file (JSON).
+        #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -291,7 +297,7 @@ enum Command {
     /// a mesh or the hook is saved, hook errors shown on the page, the camera moved with the
     /// mouse, the CPU reference and the difference a click away (docs/serve.md). Ctrl-C stops.
     Serve {
-        /// Scene file (JSON) or mesh file (.obj, .stl, .ply); without it, the built-in scene.
+        #[arg(help = concat!("A ", scene_file!(), ". Without it, the built-in default scene"))]
         #[arg(value_name = "SCENE_OR_MESH")]
         scene: Option<PathBuf>,
         /// Shade hook colouring the colour tab (see render --shader).
