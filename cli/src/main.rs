@@ -9,6 +9,7 @@ use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::scene;
 use raycast::{Algorithm, Device, Gpu, Mode, Precision, RenderOptions, Result, Search};
+use raycast_cli::render::ModeArg;
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress, watch};
 
@@ -154,12 +155,13 @@ enum Command {
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
-        /// First render, DEVICE[:PRECISION][:ALGORITHM].
-        #[arg(long, default_value = "gpu:f32:robust")]
-        a: Mode,
-        /// Second render, the reference for relative errors.
-        #[arg(long, default_value = "cpu:f64:robust")]
-        b: Mode,
+        /// First render, DEVICE[:PRECISION][:ALGORITHM]; a device alone renders in its default
+        /// precision, as `raycast render` does (on the GPU adaptive, f32 with --shader or --lit).
+        #[arg(long, default_value = "gpu")]
+        a: ModeArg,
+        /// Second render, the reference for relative errors (`cpu`: cpu:f64:robust).
+        #[arg(long, default_value = "cpu")]
+        b: ModeArg,
         /// Render side b from this scene (or mesh) instead (same camera size), to compare two
         /// scenes.
         #[arg(long)]
@@ -258,9 +260,10 @@ enum Command {
         /// Print one JSON object per configuration, one per line, and nothing else on stdout.
         #[arg(long)]
         json: bool,
-        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
+        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive; a device alone is
+        /// its one-kernel default: gpu:f32, cpu:f64).
         #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
-        mode: Vec<Mode>,
+        mode: Vec<ModeArg>,
         /// Comma-separated accelerations: auto (a BVH where spheres / 32 + triangles / 8 >= 1),
         /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
@@ -310,8 +313,9 @@ enum Command {
         #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// The GPU's arithmetic: f32, f64 (needs SHADER_F64) or adaptive (without a hook).
-        #[arg(long, default_value = "f32")]
-        precision: Precision,
+        /// Default: as `raycast render`'s, adaptive (f32 with --shader or --lit).
+        #[arg(long)]
+        precision: Option<Precision>,
         /// The port to listen on (0: any free one; the address is printed).
         #[arg(long, default_value_t = 8421)]
         port: u16,
@@ -466,7 +470,8 @@ fn run(command: Command) -> Result<ExitCode> {
         } => {
             let mode = Mode {
                 device,
-                precision: precision.unwrap_or(device.default_precision()),
+                // Resolved by the render where not given (`default_precision`).
+                precision: precision.unwrap_or(Precision::default_for(device, algorithm, false)),
                 algorithm,
             };
             let encoding = output::Encoding {
@@ -559,7 +564,7 @@ fn run(command: Command) -> Result<ExitCode> {
             scene,
             b_scene,
             size,
-            modes: [a, b],
+            modes: [a, b].map(|m| m.resolve(lit || shader.is_some())),
             out_dir: output,
             bounds: fail_above,
             shader,
@@ -616,7 +621,8 @@ fn run(command: Command) -> Result<ExitCode> {
             let shade = raycast::ShadeHook::requested(lit, shader.as_deref())?;
             let options = study::bench::Options {
                 runs: runs as usize,
-                modes: mode,
+                // A frame is timed as one kernel: never adaptive.
+                modes: mode.into_iter().map(|m| m.resolve(true)).collect(),
                 accels: accel,
                 shade,
                 rays: rays.map(|n| n as usize),
@@ -633,12 +639,17 @@ fn run(command: Command) -> Result<ExitCode> {
             port,
             bind,
         } => {
+            let hooked = lit || shader.is_some();
             let options = raycast_cli::serve::Options {
                 scene,
                 shader,
                 lit,
                 size,
-                precision,
+                precision: precision.unwrap_or(Precision::default_for(
+                    Device::Gpu,
+                    Algorithm::Robust,
+                    hooked,
+                )),
                 bind,
                 port,
             };
