@@ -9,6 +9,7 @@ use raycast::images::Output;
 use raycast::output::{self, Format};
 use raycast::scene;
 use raycast::{Algorithm, Device, Gpu, Mode, Precision, RenderOptions, Result, Search};
+use raycast_cli::render::ModeArg;
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress, watch};
 
@@ -23,15 +24,22 @@ struct Cli {
     command: Command,
 }
 
+/// What every command's scene argument takes ([`scene::load_sized`]), for its help.
+macro_rules! scene_file {
+    () => {
+        "scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view \
+         (docs/cli.md)"
+    };
+}
+
 // Parsed once per run: the size of the largest variant costs nothing.
 #[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to id, depth and normal images.
     Render {
-        /// Scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view
-        /// (docs/cli.md). Without it, the built-in default scene is rendered. With --views or
-        /// --orbit, any number of them.
+        #[arg(help = concat!("A ", scene_file!(), ". Without it, the built-in default scene is \
+            rendered. With --views or --orbit, any number of them"))]
         scenes: Vec<PathBuf>,
         /// Render every scene from each camera of this views file (a JSON list of cameras of
         /// the scene format, each with a `name`) into OUTPUT/<scene stem>/<name>/, with
@@ -149,18 +157,20 @@ enum Command {
     },
     /// Render a scene two ways and print how they differ, as one JSON object.
     Compare {
-        /// Scene file (JSON).
+        #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
-        /// First render, DEVICE[:PRECISION][:ALGORITHM].
-        #[arg(long, default_value = "gpu:f32:robust")]
-        a: Mode,
-        /// Second render, the reference for relative errors.
-        #[arg(long, default_value = "cpu:f64:robust")]
-        b: Mode,
-        /// Render side b from this scene instead (same camera size), to compare two scenes.
+        /// First render, DEVICE[:PRECISION][:ALGORITHM]; a device alone renders in its default
+        /// precision, as `raycast render` does (on the GPU adaptive, f32 with --shader or --lit).
+        #[arg(long, default_value = "gpu")]
+        a: ModeArg,
+        /// Second render, the reference for relative errors (`cpu`: cpu:f64:robust).
+        #[arg(long, default_value = "cpu")]
+        b: ModeArg,
+        /// Render side b from this scene (or mesh) instead (same camera size), to compare two
+        /// scenes.
         #[arg(long)]
         b_scene: Option<PathBuf>,
         /// Also write mismatch.png and distance_error.png into this folder.
@@ -180,8 +190,7 @@ enum Command {
     },
     /// Render scenes in every mode and print a markdown table of each against a reference.
     Accuracy {
-        /// Scene files (JSON).
-        #[arg(required = true)]
+        #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -200,8 +209,7 @@ enum Command {
     /// Time and error of every mode the device supports, against CPU f64 robust: writes
     /// tradeoff.csv, tradeoff.md and tradeoff.png into DIR.
     Tradeoff {
-        /// Scene files (JSON).
-        #[arg(required = true)]
+        #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -219,10 +227,10 @@ enum Command {
     },
     /// Time each kernel specialization on each scene, with it and with it turned off
     /// (interleaved, median of --runs GPU kernel times), and the BVH crossover; print the
-    /// markdown and write it to --out.
+    /// markdown (and write it to --output).
     Specializations {
-        /// Scene files, or folders of scene files (their *.json, in name order).
-        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES)]
+        #[arg(long, value_name = "DIR_OR_FILES", num_args = 1.., default_value = study::specializations::DEFAULT_SCENES,
+            help = concat!("Each a ", scene_file!(), ", or a folder of scene files (its *.json, in name order)"))]
         scenes: Vec<PathBuf>,
         /// The 518,400-triangle torus of benches/peers.sh. Default: target/bench/torus.json
         /// where it exists (else the table says it was not measured).
@@ -234,9 +242,10 @@ enum Command {
         /// Leave out the BVH crossover measurement (random spheres and triangles, n = 2..256).
         #[arg(long)]
         no_crossover: bool,
-        /// The markdown file to write (whole or not at all).
-        #[arg(long, value_name = "FILE", default_value = "docs/specializations.md")]
-        out: PathBuf,
+        /// Also write the markdown to this file (whole or not at all), e.g.
+        /// docs/specializations.md.
+        #[arg(short, long, value_name = "FILE", alias = "out")]
+        output: Option<PathBuf>,
     },
     /// Check a shade hook file (see render --shader) without rendering: prints `FILE: ok` or
     /// the error, with its line and column.
@@ -247,7 +256,7 @@ enum Command {
     /// Time the stages of a frame (build, upload, trace) and the primary-ray rate, per mode and
     /// acceleration: median of N runs after one warm-up.
     Bench {
-        /// Scene file (JSON).
+        #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
         #[arg(long, value_parser = scene::parse_size)]
@@ -258,9 +267,10 @@ enum Command {
         /// Print one JSON object per configuration, one per line, and nothing else on stdout.
         #[arg(long)]
         json: bool,
-        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive).
+        /// Comma-separated modes, DEVICE[:PRECISION][:ALGORITHM] (not adaptive; a device alone is
+        /// its one-kernel default: gpu:f32, cpu:f64).
         #[arg(long, value_delimiter = ',', default_value = "gpu:f32:robust")]
-        mode: Vec<Mode>,
+        mode: Vec<ModeArg>,
         /// Comma-separated accelerations: auto (a BVH where spheres / 32 + triangles / 8 >= 1),
         /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
@@ -279,10 +289,9 @@ enum Command {
         #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = clap::value_parser!(u64).range(1..=study::bench::MAX_RAYS as u64))]
         rays: Option<u64>,
     },
-    /// Write a benchmark scene: `torus` (the peers' displaced torus, 518,400 triangles, in a
-    /// binary PLY beside the scene file) or `spheres` (100 spheres), seen by the peers' camera.
+    #[command(about = study::workload::about())]
     Workload {
-        /// torus or spheres.
+        #[arg(help = study::workload::help())]
         name: String,
         /// Output folder (created if missing).
         #[arg(short, long, default_value = ".")]
@@ -298,7 +307,7 @@ enum Command {
     /// a mesh or the hook is saved, hook errors shown on the page, the camera moved with the
     /// mouse, the CPU reference and the difference a click away (docs/serve.md). Ctrl-C stops.
     Serve {
-        /// Scene file (JSON) or mesh file (.obj, .stl, .ply); without it, the built-in scene.
+        #[arg(help = concat!("A ", scene_file!(), ". Without it, the built-in default scene"))]
         #[arg(value_name = "SCENE_OR_MESH")]
         scene: Option<PathBuf>,
         /// Shade hook colouring the colour tab (see render --shader).
@@ -311,8 +320,9 @@ enum Command {
         #[arg(long, value_parser = scene::parse_size)]
         size: Option<[u32; 2]>,
         /// The GPU's arithmetic: f32, f64 (needs SHADER_F64) or adaptive (without a hook).
-        #[arg(long, default_value = "f32")]
-        precision: Precision,
+        /// Default: as `raycast render`'s, adaptive (f32 with --shader or --lit).
+        #[arg(long)]
+        precision: Option<Precision>,
         /// The port to listen on (0: any free one; the address is printed).
         #[arg(long, default_value_t = 8421)]
         port: u16,
@@ -352,10 +362,17 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     // Stopped by a signal, remove the files being written first: output is all or nothing.
-    // A server stops serving and exits normally.
+    // A server stops serving and exits normally; so does `render --watch`, whose documented
+    // way out is Ctrl-C, quietly (the last whole render stays).
     let stop = || {
-        if !raycast_cli::serve::stop() {
-            raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+        if raycast_cli::serve::stop() {
+            return;
+        }
+        match watch::watching() {
+            true => raycast::output::abandon(0, ""),
+            false => {
+                raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
+            }
         }
     };
     if let Err(e) = ctrlc::set_handler(stop) {
@@ -461,7 +478,8 @@ fn run(command: Command) -> Result<ExitCode> {
         } => {
             let mode = Mode {
                 device,
-                precision: precision.unwrap_or(device.default_precision()),
+                // Resolved by the render where not given (`default_precision`).
+                precision: precision.unwrap_or(Precision::default_for(device, algorithm, false)),
                 algorithm,
             };
             let mut encoding = output::Encoding {
@@ -570,7 +588,7 @@ fn run(command: Command) -> Result<ExitCode> {
             scene,
             b_scene,
             size,
-            modes: [a, b],
+            modes: [a, b].map(|m| m.resolve(lit || shader.is_some())),
             out_dir: output,
             bounds: fail_above,
             shader,
@@ -602,10 +620,10 @@ fn run(command: Command) -> Result<ExitCode> {
             torus,
             runs,
             no_crossover,
-            out,
+            output,
         } => {
-            let (torus, runs) = (torus.as_deref(), runs as usize);
-            study::specializations::command(&scenes, torus, runs, !no_crossover, &out, say_on)?;
+            let (torus, runs, output) = (torus.as_deref(), runs as usize, output.as_deref());
+            study::specializations::command(&scenes, torus, runs, !no_crossover, output, say_on)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::CheckShader { file } => {
@@ -627,7 +645,8 @@ fn run(command: Command) -> Result<ExitCode> {
             let shade = raycast::ShadeHook::requested(lit, shader.as_deref())?;
             let options = study::bench::Options {
                 runs: runs as usize,
-                modes: mode,
+                // A frame is timed as one kernel: never adaptive.
+                modes: mode.into_iter().map(|m| m.resolve(true)).collect(),
                 accels: accel,
                 shade,
                 rays: rays.map(|n| n as usize),
@@ -644,12 +663,17 @@ fn run(command: Command) -> Result<ExitCode> {
             port,
             bind,
         } => {
+            let hooked = lit || shader.is_some();
             let options = raycast_cli::serve::Options {
                 scene,
                 shader,
                 lit,
                 size,
-                precision,
+                precision: precision.unwrap_or(Precision::default_for(
+                    Device::Gpu,
+                    Algorithm::Robust,
+                    hooked,
+                )),
                 bind,
                 port,
             };
@@ -721,6 +745,9 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
         });
     }
     spec.check()?;
+    if watch {
+        watch::start();
+    }
     // One device for every render, so kernels compiled once stay cached.
     let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
     let render_once = || {

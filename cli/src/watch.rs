@@ -2,7 +2,21 @@
 //! `render --watch` and `serve` render again on.
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::SystemTime;
+
+/// Set once `render --watch` starts: an interrupt is then its way out, not a failure.
+static WATCHING: AtomicBool = AtomicBool::new(false);
+
+/// Marks this process as watching, for [`watching`].
+pub fn start() {
+    WATCHING.store(true, Ordering::SeqCst);
+}
+
+/// Whether `render --watch` runs in this process (read by the interrupt handler).
+pub fn watching() -> bool {
+    WATCHING.load(Ordering::SeqCst)
+}
 
 /// A file's modification time and length, `None` while it cannot be read.
 pub type Stamp = Option<(SystemTime, u64)>;

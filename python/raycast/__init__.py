@@ -286,8 +286,9 @@ def _valid(invalid: Optional[np.ndarray]) -> Optional[np.ndarray]:
     return None if invalid is None else np.flatnonzero(~invalid)
 
 
-def _options(precision: str, device: str) -> None:
-    if precision not in _PRECISIONS:
+def _options(precision: Optional[str], device: str, render: bool = False) -> None:
+    # A render may leave the precision to the command line's default (None).
+    if not (render and precision is None) and precision not in _PRECISIONS:
         raise ValueError(f"precision: expected one of {', '.join(_PRECISIONS)}, got {precision!r}")
     if device not in _DEVICES:
         raise ValueError(f"device: expected one of {', '.join(_DEVICES)}, got {device!r}")
@@ -609,7 +610,7 @@ class RaycastingScene:
 
     def render(
         self,
-        precision: str = "f32",
+        precision: Optional[str] = None,
         device: str = "gpu",
         lit: bool = False,
         shader: Optional[Union[str, os.PathLike]] = None,
@@ -623,14 +624,17 @@ class RaycastingScene:
         With ``lit=True`` (the course's ray tracer from the scene's materials and lights, the
         hook shaders/examples/raytrace.wgsl on the GPU, its mirror on the CPU) or a shade hook
         file ``shader`` (GPU), also ``color`` (uint8 RGBA, (..., 4)) and ``hook_rays``, the
-        rays the hook cast (None where it casts none)."""
-        _options(precision, device)
+        rays the hook cast (None where it casts none).
+
+        ``precision`` None renders as the command line does by default: on the GPU adaptive
+        (f32 with a hook), on the CPU f64."""
+        _options(precision, device, render=True)
         return self._render(precision, device, lit, shader, None, _image_size(size))
 
     def render_views(
         self,
         cameras: Union[int, Sequence[Mapping[str, Any]]],
-        precision: str = "f32",
+        precision: Optional[str] = None,
         device: str = "gpu",
         lit: bool = False,
         shader: Optional[Union[str, os.PathLike]] = None,
@@ -647,14 +651,14 @@ class RaycastingScene:
         renders what ``render`` renders for a scene file with that camera. Every camera is
         checked before the first view renders: a bad one raises ValueError (or TypeError)
         naming it (``cameras[2]: camera.fov: ...``)."""
-        _options(precision, device)
+        _options(precision, device, render=True)
         views = self._views(cameras)  # here, not at the first view: bad cameras raise now
         return self._render_each(views, precision, device, lit, shader)
 
     def _render_each(
         self,
         views: List[Tuple[str, Any]],
-        precision: str,
+        precision: Optional[str],
         device: str,
         lit: bool,
         shader: Optional[Union[str, os.PathLike]],
@@ -696,7 +700,7 @@ class RaycastingScene:
 
     def _render(
         self,
-        precision: str,
+        precision: Optional[str],
         device: str,
         lit: bool,
         shader: Optional[Union[str, os.PathLike]],

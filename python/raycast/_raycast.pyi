@@ -69,7 +69,7 @@ class Scene:
         or "winding"."""
     def render(
         self,
-        precision: str,
+        precision: Optional[str],
         device: str,
         lit: bool = ...,
         shader: Optional[str] = ...,

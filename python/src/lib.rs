@@ -59,17 +59,20 @@ struct On {
 }
 
 fn on(device: &str, precision: &str) -> PyResult<On> {
-    let gpu = match device {
-        "gpu" => true,
-        "cpu" => false,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "unknown device `{other}` (expected gpu or cpu)"
-            )));
-        }
-    };
+    let gpu = on_gpu(device)?;
     let precision = precision.parse().map_err(PyValueError::new_err)?;
     Ok(On { gpu, precision })
+}
+
+/// Whether `device` ("gpu" or "cpu") is the GPU.
+fn on_gpu(device: &str) -> PyResult<bool> {
+    match device {
+        "gpu" => Ok(true),
+        "cpu" => Ok(false),
+        other => Err(PyValueError::new_err(format!(
+            "unknown device `{other}` (expected gpu or cpu)"
+        ))),
+    }
 }
 
 /// Rays as the Python half passes them: (n, 6) float32 (as Open3D's callers hold them) or
@@ -480,28 +483,30 @@ impl Scene {
     /// Renders the scene file's camera (or `camera`, from `camera` or `orbit`), at `size`
     /// where given (`--size`): id, distance and normal images as flat arrays and the image
     /// size; with `lit` (the course's ray tracer) or a shade hook file `shader`, also the
-    /// colours and the rays the hook cast.
+    /// colours and the rays the hook cast. `precision` `None`: the render's default
+    /// (`Precision::default_for`), as the command line's.
     #[pyo3(signature = (precision, device, lit=false, shader=None, camera=None, size=None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
         py: Python<'py>,
-        precision: &str,
+        precision: Option<&str>,
         device: &str,
         lit: bool,
         shader: Option<PathBuf>,
         camera: Option<PyRef<'_, ViewCamera>>,
         size: Option<[u32; 2]>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let on = on(device, precision)?;
+        let on_gpu = on_gpu(device)?;
+        let precision = (precision.map(str::parse).transpose()).map_err(PyValueError::new_err)?;
         let viewer = self.file("render")?;
         let camera = camera.map(|c| c.camera.clone());
         let options = RenderOptions {
-            precision: Some(on.precision),
+            precision,
             shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
             ..RenderOptions::default()
         };
-        let gpu = match on.gpu {
+        let gpu = match on_gpu {
             true => Some(gpu()?),
             false => None,
         };
@@ -581,7 +586,7 @@ enum ViewsArg {
 #[pymethods]
 impl ViewJob {
     /// The command line's job: `formats` as `--format`, `precision` unset as without
-    /// `--precision` (the device's default: adaptive on the GPU), the robust algorithms.
+    /// `--precision` (the render's default, `Precision::default_for`), the robust algorithms.
     #[new]
     #[pyo3(signature = (scenes, views, out, formats, size=None, precision=None, device="gpu", force=false))]
     #[allow(clippy::too_many_arguments)]
@@ -608,7 +613,12 @@ impl ViewJob {
             size,
             mode: Mode {
                 device,
-                precision: precision.unwrap_or(device.default_precision()),
+                // Resolved by the render where not given (`default_precision`).
+                precision: precision.unwrap_or(Precision::default_for(
+                    device,
+                    Algorithm::Robust,
+                    false,
+                )),
                 algorithm: Algorithm::Robust,
             },
             default_precision: precision.is_none(),

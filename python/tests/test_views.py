@@ -67,6 +67,21 @@ def test_render_views_equal_render_of_a_scene_file_with_each_camera(tmp_path, pr
             assert np.array_equal(view[key], image), (camera["name"], key)
 
 
+def test_render_without_a_precision_is_the_command_lines_default_render(tmp_path):
+    """`render()` without a precision writes what `raycast render` without `--precision`
+    writes: adaptive on the GPU (f32 with a hook), f64 on the CPU."""
+    fields = {k: v for k, v in CAMERAS[1].items() if k != "name"}
+    path = scene_with(tmp_path, "small", fields)
+    for device, hook in [("gpu", []), ("gpu", ["--lit"]), ("cpu", [])]:
+        out = tmp_path / f"{device}{len(hook)}"
+        cli(path, "--format", "png,npy", "--device", device, *hook, "-o", out)
+        images = raycast.load(path).render(device=device, lit=bool(hook))
+        for key in ("id", "distance", "normal"):
+            expected = np.load(out / f"{key}.npy")
+            assert images[key].dtype == expected.dtype, (device, hook, key)
+            assert np.array_equal(images[key], expected), (device, hook, key)
+
+
 def test_render_views_on_the_gpu_lit_takes_numpy_values_and_default_names():
     camera = {k: v for k, v in CAMERAS[1].items() if k != "name"}
     camera["eye"] = np.array(camera["eye"])

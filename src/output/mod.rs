@@ -343,8 +343,15 @@ pub fn encode_png_rgb(img: &image::RgbImage) -> Vec<u8> {
 
 /// Creates `dir` if needed and checks a file can be created in it, before any rendering.
 pub fn check_writable(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Error::io(dir, format!("cannot create folder: {e}")))?;
+    std::fs::create_dir_all(dir).map_err(|e| {
+        // The system's "File exists" or "Not a directory" where the folder, or one above it,
+        // is a file: name that file.
+        match dir.ancestors().find(|a| a.exists() && !a.is_dir()) {
+            Some(file) if file == dir => Error::io(dir, "is a file, not a folder"),
+            Some(file) => Error::io(dir, format!("{} is a file, not a folder", file.display())),
+            None => Error::io(dir, format!("cannot create folder: {e}")),
+        }
+    })?;
     let probe = dir.join(format!(".raycast-write-test-{}", std::process::id()));
     let created = pending::create(&probe);
     pending::discard([probe.as_path()]);

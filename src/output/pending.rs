@@ -137,8 +137,8 @@ pub(crate) fn holds_any_in(dir: &Path) -> bool {
     registry().iter().any(|p| p.parent() == Some(dir))
 }
 
-/// Removes every registered temporary file, prints `message` as the one line on stderr and
-/// exits with `code`, still holding the registry so that no file is created or renamed after
+/// Removes every registered temporary file, prints `message` (unless empty) as the one line on
+/// stderr and exits with `code`, still holding the registry so that no file is created or renamed after
 /// the removal. For a signal handler on the way out: on unix it leaves by `_exit`, without the
 /// exit handlers (a GPU driver's among them) that could hang while another thread is inside
 /// the driver.
@@ -151,7 +151,9 @@ pub fn abandon(code: i32, message: &str) -> ! {
             let _ = std::fs::remove_file(path);
         }
     }
-    eprintln!("{message}");
+    if !message.is_empty() {
+        eprintln!("{message}");
+    }
     #[cfg(unix)]
     // SAFETY: `_exit` ends the process at once; stderr is unbuffered, so the message is out.
     unsafe {

@@ -12,7 +12,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::mode::default_precision;
 use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
 use super::{Progress, adaptive, check_kernels, render_streamed, supersample, timed};
 use crate::algorithm::Algorithm;
@@ -31,8 +30,9 @@ pub struct RenderFiles {
     pub size: Option<[u32; 2]>,
     /// The device, precision and algorithm set.
     pub mode: Mode,
-    /// No precision was asked for: on the GPU the render takes the default (adaptive where it
-    /// can, f32 for a hook, a kernel or bands), and `mode.precision` is not read.
+    /// No precision was asked for: the render takes the default ([`Precision::default_for`]:
+    /// on the GPU adaptive where it can, f32 for a hook, a kernel or bands), and
+    /// `mode.precision` is not read.
     pub default_precision: bool,
     /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
     pub spp: Option<u32>,
@@ -155,7 +155,7 @@ impl RenderFiles {
             || self.band_rows.is_some()
             || (huge && self.spp.is_none());
         Mode {
-            precision: default_precision(device, self.mode.algorithm, single_kernel),
+            precision: Precision::default_for(device, self.mode.algorithm, single_kernel),
             ..self.mode
         }
     }

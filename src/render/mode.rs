@@ -17,32 +17,6 @@ pub enum Device {
     Cpu,
 }
 
-impl Device {
-    /// f32 on the GPU (what GPUs are fast at), f64 on the CPU (the reference).
-    pub fn default_precision(self) -> Precision {
-        match self {
-            Device::Gpu => Precision::F32,
-            Device::Cpu => Precision::F64,
-        }
-    }
-}
-
-/// The precision a GPU or CPU render takes when none is asked for: on the GPU adaptive
-/// precision (f64's hits and ids at close to f32's cost) where it can run, which is with the
-/// robust set and not where the render needs a `single_kernel` (a hook, a kernel file, bands),
-/// else f32; on the CPU f64.
-pub(crate) fn default_precision(
-    device: Device,
-    algorithm: Algorithm,
-    single_kernel: bool,
-) -> Precision {
-    match device {
-        Device::Gpu if single_kernel || algorithm != Algorithm::Robust => Precision::F32,
-        Device::Gpu => Precision::Adaptive,
-        Device::Cpu => device.default_precision(),
-    }
-}
-
 /// The precision of a render or a query: f32 or f64 throughout, or adaptive (robust f32, with
 /// the pixels or rays it cannot be sure of cast again in f64: f64's hits and ids at close to
 /// f32's cost; docs/robustness.md).
@@ -54,6 +28,24 @@ pub enum Precision {
     F64,
     /// Robust f32, the uncertain pixels or rays cast again in f64 (the robust set only).
     Adaptive,
+}
+
+impl Precision {
+    /// The precision of a render that asks for none: the one rule for every render of the
+    /// library, the command line (`render`, `serve`, a mode written without a precision:
+    /// `compare --a gpu`) and Python's `render()`.
+    ///
+    /// On the GPU adaptive precision (f64's hits and ids at close to f32's cost), where it can
+    /// run: with the robust set, and where the render does not need a `single_kernel` (a shade
+    /// hook, a kernel file, bands, a kernel to emit or time alone), else f32. On the CPU, the
+    /// reference, f64.
+    pub fn default_for(device: Device, algorithm: Algorithm, single_kernel: bool) -> Precision {
+        match device {
+            Device::Gpu if single_kernel || algorithm != Algorithm::Robust => Precision::F32,
+            Device::Gpu => Precision::Adaptive,
+            Device::Cpu => Precision::F64,
+        }
+    }
 }
 
 impl From<Float> for Precision {
@@ -102,8 +94,9 @@ impl FromStr for Device {
 pub(crate) const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
 
 /// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
-/// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the device's default precision
-/// and the robust set.
+/// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the robust set in the default
+/// precision of a render without a hook ([`Precision::default_for`]: `gpu:adaptive:robust`,
+/// `cpu:f64:robust`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mode {
     /// Where it renders.
@@ -121,7 +114,7 @@ impl FromStr for Mode {
         let device: Device = parts.next().unwrap_or_default().parse()?;
         let mut mode = Mode {
             device,
-            precision: device.default_precision(),
+            precision: Precision::default_for(device, DEFAULT_ALGORITHM, false),
             algorithm: DEFAULT_ALGORITHM,
         };
         if let Some(p) = parts.next() {
@@ -160,6 +153,8 @@ mod tests {
             algorithm: Algorithm::Robust,
         };
         assert_eq!(m, expected);
+        let m: Mode = "gpu".parse().unwrap();
+        assert_eq!(m.to_string(), "gpu:adaptive:robust");
         let m: Mode = "gpu:adaptive".parse().unwrap();
         assert_eq!(m.precision, Precision::Adaptive);
         let m: Mode = "gpu:f64:textbook".parse().unwrap();

@@ -3,7 +3,6 @@
 
 use std::sync::Arc;
 
-use super::mode::default_precision;
 use super::{AnyImages, Device, Mode, Precision, Progress, Request, render_streamed, supersample};
 use crate::algorithm::Algorithm;
 use crate::cpu::margin::{Margins, margins};
@@ -33,9 +32,9 @@ pub struct Cpu;
 /// ```
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
-    /// `None`: the device's own. On the GPU, adaptive precision (f64's hits and ids at close
-    /// to f32's cost) where the render runs one kernel of the robust set without a hook, else
-    /// f32; on the CPU, f64.
+    /// `None`: the default ([`Precision::default_for`]): on the GPU adaptive precision (f64's
+    /// hits and ids at close to f32's cost) with the robust set and without a hook or a kernel,
+    /// else f32; on the CPU f64.
     pub precision: Option<Precision>,
     /// The intersection formulas: robust (default) or the lecture's textbook ones.
     pub algorithm: Algorithm,
@@ -144,13 +143,14 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
-    /// The mode these options render in on `device`, the default precision resolved.
+    /// The mode these options render in on `device`: their precision, else the default
+    /// ([`Precision::default_for`]; a shade hook or a kernel needs a single kernel).
     pub(crate) fn mode(&self, device: Device) -> Mode {
         let single_kernel = self.shade.is_some() || self.kernel.is_some();
         Mode {
             device,
             precision: (self.precision)
-                .unwrap_or_else(|| default_precision(device, self.algorithm, single_kernel)),
+                .unwrap_or_else(|| Precision::default_for(device, self.algorithm, single_kernel)),
             algorithm: self.algorithm,
         }
     }

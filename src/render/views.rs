@@ -402,8 +402,8 @@ impl RenderViews {
 
     /// Rewrites `OUT/manifest.jsonl` from what the output folder holds: a line for every pair
     /// of the job, in job order, `done` with its files where its folder is complete, else
-    /// `pending`. Under an exclusive lock on `OUT/.manifest.lock`, so that of shards finishing
-    /// together the last writes last and sees every view.
+    /// `pending`. Under an exclusive lock on `OUT/.manifest.lock` (removed as it is released),
+    /// so that of shards finishing together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
         output::check_writable(&self.render.out_dir)?;
         self.manifest_of(&self.job()?, &self.file_names())
@@ -413,7 +413,7 @@ impl RenderViews {
     /// the files `names`.
     fn manifest_of(&self, job: &Job, names: &[String]) -> Result<PathBuf> {
         let out = &self.render.out_dir;
-        let _lock = lock(&out.join(".manifest.lock"))?;
+        let _lock = Lock::new(&out.join(".manifest.lock"))?;
         let mut text = String::new();
         for p in 0..job.len() {
             let (s, v) = job.pair(p);
@@ -806,29 +806,90 @@ fn scene_weight(path: Option<&Path>) -> f64 {
     (2.0 + bytes as f64 / 50.0).log2()
 }
 
-/// An exclusive lock on `path` (created if missing), held until the value is dropped.
-fn lock(path: &Path) -> Result<std::fs::File> {
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(path)
-        .map_err(|e| Error::io(path, format!("cannot create the lock file: {e}")))?;
-    #[cfg(unix)]
-    {
-        use std::os::fd::AsRawFd;
-        // SAFETY: flock on a file descriptor this function owns; released when it is closed.
-        if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
-            let e = std::io::Error::last_os_error();
-            return Err(Error::io(path, format!("cannot lock: {e}")));
+/// An exclusive lock on the file `path`, created if missing, held until the value is dropped,
+/// which removes the file: a dataset's folder keeps no lock file once its runs end.
+///
+/// Removing a lock file others may wait on is safe by one rule: the file is removed only by
+/// its lock's holder, before it lets go, and a process that got the lock then checks that
+/// `path` is still the file it locked. A waiter woken on a removed file locked nothing that
+/// counts, and tries again on the file now at `path` (or a new one).
+#[derive(Debug)]
+struct Lock {
+    path: PathBuf,
+    /// Released when closed, after `drop` has removed the file.
+    _file: std::fs::File,
+}
+
+impl Lock {
+    fn new(path: &Path) -> Result<Lock> {
+        loop {
+            let file = std::fs::OpenOptions::new()
+                .create(true)
+                .truncate(false)
+                .write(true)
+                .open(path)
+                .map_err(|e| Error::io(path, format!("cannot create the lock file: {e}")))?;
+            #[cfg(unix)]
+            {
+                use std::os::fd::AsRawFd;
+                use std::os::unix::fs::MetadataExt;
+                // SAFETY: flock on a file descriptor this function owns; released when it is
+                // closed.
+                if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
+                    let e = std::io::Error::last_os_error();
+                    return Err(Error::io(path, format!("cannot lock: {e}")));
+                }
+                let identity = |m: std::fs::Metadata| (m.dev(), m.ino());
+                let locked = file.metadata().map(identity).ok();
+                if locked.is_none() || locked != std::fs::metadata(path).ok().map(identity) {
+                    continue;
+                }
+            }
+            return Ok(Lock {
+                path: path.to_owned(),
+                _file: file,
+            });
         }
     }
-    Ok(file)
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        // Still held here: the file is closed, and the lock released, after this.
+        let _ = std::fs::remove_file(&self.path);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Threads that each take the lock many times, read a count, pause and write it plus one:
+    /// with every lock exclusive no increment is lost, though each release removes the file
+    /// the others wait on; and no lock file is left.
+    #[cfg(unix)]
+    #[test]
+    fn the_manifest_lock_excludes_and_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (lock, count) = (dir.path().join(".lock"), dir.path().join("count"));
+        std::fs::write(&count, "0").unwrap();
+        let (threads, rounds) = (4, 50);
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| {
+                    for _ in 0..rounds {
+                        let _held = Lock::new(&lock).unwrap();
+                        let n: u32 = std::fs::read_to_string(&count).unwrap().parse().unwrap();
+                        std::thread::sleep(Duration::from_micros(200));
+                        std::fs::write(&count, (n + 1).to_string()).unwrap();
+                    }
+                });
+            }
+        });
+        let n: u32 = std::fs::read_to_string(&count).unwrap().parse().unwrap();
+        assert_eq!(n, threads * rounds);
+        assert!(!lock.exists());
+    }
 
     #[test]
     fn shards_parse_as_i_of_n() {

@@ -176,7 +176,8 @@ impl ObjectFile {
 /// Parses and validates scene JSON. `file` names the source in error messages. A soup split
 /// in several parts is as many objects, one after the other.
 pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result<Scene> {
-    let raw: SceneFile = deserialize(text, file)?;
+    let raw: SceneFile =
+        deserialize(text, file).map_err(|e| wrong_shape(text, file, Shape::Scene).unwrap_or(e))?;
     let checker = Checker {
         file,
         camera: "camera",
@@ -215,7 +216,8 @@ pub(crate) struct ViewCamera {
 /// with a `name`. Every camera is checked here against no objects, so a bad field is refused
 /// before anything renders.
 pub(crate) fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
-    let cameras: Vec<CameraFile> = deserialize(text, file)?;
+    let cameras: Vec<CameraFile> =
+        deserialize(text, file).map_err(|e| wrong_shape(text, file, Shape::Views).unwrap_or(e))?;
     if cameras.is_empty() {
         return Err(Error::SceneValue {
             file: file.to_owned(),
@@ -317,6 +319,45 @@ fn deserialize<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Resul
         message: strip_position(&e.to_string()),
     })?;
     Ok(raw)
+}
+
+/// What a scene file or a views file holds at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shape {
+    /// A scene file: an object.
+    Scene,
+    /// A views file: a list of cameras.
+    Views,
+}
+
+/// The error for `text`, meant as a file of `shape`, where it is JSON of another shape: what
+/// the file should hold and what it holds, guessing the other kind of file (a scene file given
+/// as views, or the reverse), at the value's start; `None` where the shape is right or the
+/// text is no JSON, whose own error says more.
+fn wrong_shape(text: &str, file: &Path, shape: Shape) -> Option<Error> {
+    use serde_json::Value;
+    let value: Value = serde_json::from_str(text).ok()?;
+    let got = match (&value, shape) {
+        (Value::Object(_), Shape::Scene) | (Value::Array(_), Shape::Views) => return None,
+        (Value::Object(_), Shape::Views) => "an object (is it a scene file?)",
+        (Value::Array(_), Shape::Scene) => "a list (is it a views file?)",
+        (Value::String(_), _) => "a string",
+        (Value::Number(_), _) => "a number",
+        (Value::Bool(_), _) => "a boolean",
+        (Value::Null, _) => "null",
+    };
+    let expected = match shape {
+        Shape::Scene => "a scene file is a JSON object with a `camera` and `objects`",
+        Shape::Views => "a views file is a JSON list of cameras",
+    };
+    let before = &text[..text.len() - text.trim_start().len()];
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    Some(Error::SceneSyntax {
+        file: file.to_owned(),
+        line: before.matches('\n').count() + 1,
+        column: before[line_start..].chars().count() + 1,
+        message: format!("{expected}, got {got}"),
+    })
 }
 
 /// serde's "unknown field `objcts`, expected one of `camera`, `objects`, ..." (or variant, for

@@ -212,14 +212,18 @@ fn fov_degrees(camera: &Camera) -> f64 {
 
 /// Starts the thread that reloads the files when one changes.
 pub(super) fn watch(shared: Arc<Shared>) {
+    // The first stamps are taken here, before the page's address is printed, not whenever the
+    // thread first runs: a file saved once the page is up is always seen as changed.
+    let mut files = shared.watched();
+    let mut before = watch::stamps(&files);
     std::thread::spawn(move || {
         loop {
-            let files = shared.watched();
-            let before = watch::stamps(&files);
             while watch::stamps(&files) == before {
                 std::thread::sleep(POLL);
             }
             shared.reload();
+            files = shared.watched();
+            before = watch::stamps(&files);
         }
     });
 }

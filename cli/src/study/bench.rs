@@ -661,7 +661,7 @@ mod tests {
     fn configurations_are_mode_major() {
         let options = Options {
             runs: 1,
-            modes: vec!["gpu".parse().unwrap(), "cpu:f32".parse().unwrap()],
+            modes: vec!["gpu:f32".parse().unwrap(), "cpu:f32".parse().unwrap()],
             accels: vec![Search::Bvh, Search::BruteForce],
             ..Options::default()
         };

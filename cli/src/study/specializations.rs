@@ -507,15 +507,15 @@ pub fn document(report: &Report) -> String {
 /// `raycast specializations`: measures every specialization on the scenes of `scenes` (files,
 /// or folders of them, [`scene_files`]) and the torus (`torus`, else [`DEFAULT_TORUS`] where
 /// it exists, else a note that it was not), `runs` rounds each, and with `with_crossover` where a
-/// BVH starts to pay; progress on stderr. Writes the [`document`] to `out` (whole or not at
-/// all) and prints it on stdout. Scenes are validated and `out`'s folder checked before the
-/// GPU is opened.
+/// BVH starts to pay; progress on stderr. Prints the [`document`] on stdout and writes it to
+/// `out` where given (whole or not at all). Scenes are validated and `out`'s folder checked
+/// before the GPU is opened.
 pub fn command(
     scenes: &[PathBuf],
     torus: Option<&Path>,
     runs: usize,
     with_crossover: bool,
-    out: &Path,
+    out: Option<&Path>,
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     let mut files = scene_files(scenes)?;
@@ -529,7 +529,9 @@ pub fn command(
         )),
     }
     let named = load_scenes(&files, None)?;
-    output::check_parent_writable(out)?;
+    if let Some(out) = out {
+        output::check_parent_writable(out)?;
+    }
     let gpu = Gpu::new()?;
     let (mut rows, mut spreads) = (Vec::new(), Vec::new());
     for (k, scene) in named.iter().enumerate() {
@@ -559,9 +561,13 @@ pub fn command(
         crossover,
     };
     let text = document(&report);
-    output::write_file(out, text.as_bytes())?;
+    if let Some(out) = out {
+        output::write_file(out, text.as_bytes())?;
+    }
     say(Stream::Stdout, text.trim_end());
-    say(Stream::Stderr, &format!("wrote {}", out.display()));
+    if let Some(out) = out {
+        say(Stream::Stderr, &format!("wrote {}", out.display()));
+    }
     Ok(())
 }
 

@@ -22,8 +22,38 @@ use raycast::{Error, Result};
 /// The peers' torus: `nu` around the axis, `nv` around the tube.
 pub const TORUS_GRID: [usize; 2] = [720, 360];
 
-/// The workloads, as `raycast workload` names them.
-pub const NAMES: [&str; 3] = ["torus", "spheres", "lit-bunny"];
+/// The workloads, as `raycast workload` names them, and what each writes: its help.
+pub const WORKLOADS: [(&str, &str); 3] = [
+    (
+        "torus",
+        "the peers' displaced torus, 518,400 triangles (or --triangles), in a binary PLY beside \
+         the scene file",
+    ),
+    ("spheres", "100 spheres in the torus's box"),
+    (
+        "lit-bunny",
+        "the course's ray-tracing bunny (its scene and mesh, its own camera), for `bench --lit`",
+    ),
+];
+
+/// The workloads' names, comma-separated.
+fn names() -> String {
+    WORKLOADS.map(|(name, _)| name).join(", ")
+}
+
+/// `raycast workload`'s line in the command list.
+pub fn about() -> String {
+    format!("Write a benchmark scene as files: {}", names())
+}
+
+/// `raycast workload NAME`'s help: every workload and what it writes.
+pub fn help() -> String {
+    let each = WORKLOADS.map(|(name, what)| format!("{name}: {what}"));
+    format!(
+        "Which: {}. The torus and the spheres are seen by the peers' camera at --size.",
+        each.join("; ")
+    )
+}
 
 /// The peers' camera as a scene file's `camera`, at `resolution`.
 pub fn peer_camera(resolution: [u32; 2]) -> serde_json::Value {
@@ -170,7 +200,7 @@ pub fn write(
         _ => {
             return Err(Error::Argument {
                 option: "workload".into(),
-                message: format!("`{name}` is none of {}", NAMES.join(", ")),
+                message: format!("`{name}` is none of {}", names()),
             });
         }
     };
@@ -202,5 +232,15 @@ mod tests {
         );
         assert!(v.iter().all(|p| p[2].abs() < 0.4 * 1.2));
         assert_eq!(torus_grid(5_000_000), [2236, 1118]);
+    }
+
+    /// The list the help is made from and the workloads `write` knows are the same.
+    #[test]
+    fn every_listed_workload_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, _) in WORKLOADS {
+            write(name, dir.path(), [8, 8], Some(8)).unwrap();
+        }
+        assert!(write("cube", dir.path(), [8, 8], None).is_err());
     }
 }

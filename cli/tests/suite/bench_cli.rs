@@ -336,6 +336,24 @@ fn frames_too_large_to_render_whole_are_refused() {
     assert!(line.starts_with("error: --size: 8192x4097: "), "{line}");
 }
 
+/// `raycast workload --help` and the command list name every workload `workload` writes.
+#[test]
+fn the_workload_help_names_every_workload() {
+    let help = |args: &[&str]| {
+        let out = common::raycast().args(args).output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let (command, list) = (help(&["workload", "--help"]), help(&["help"]));
+    let line = list
+        .lines()
+        .find(|l| l.trim_start().starts_with("workload "));
+    for (name, _) in raycast_cli::study::workload::WORKLOADS {
+        assert!(command.contains(&format!("{name}: ")), "{name}: {command}");
+        assert!(line.is_some_and(|l| l.contains(name)), "{name}: {list}");
+    }
+}
+
 /// `raycast workload`: the peers' torus (its size by `--triangles`) and spheres as scene files
 /// that load, with the peers' camera; an unknown name writes nothing.
 #[test]

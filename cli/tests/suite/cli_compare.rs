@@ -195,3 +195,74 @@ fn colours_are_compared_when_a_hook_colours_both_sides() {
     );
     assert!(report(&run(&[]))["color"].is_null());
 }
+
+/// Without `--a` and `--b`, the renders `raycast render` makes by default on each device:
+/// adaptive on the GPU (whose hits and ids are f64's), f32 there with a hook, f64 on the CPU.
+#[test]
+fn the_default_sides_are_renders_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, _) = write_scenes(dir.path());
+    let plain = raycast(&["compare", a.to_str().unwrap()]);
+    assert_eq!(
+        plain.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&plain.stderr)
+    );
+    let r = report(&plain);
+    assert_eq!(r["a"]["mode"], "gpu:adaptive:robust");
+    assert_eq!(r["b"]["mode"], "cpu:f64:robust");
+    assert_eq!(
+        (r["hit_mismatch"].as_u64(), r["id_mismatch"].as_u64()),
+        (Some(0), Some(0))
+    );
+    let lit = raycast(&["compare", a.to_str().unwrap(), "--lit"]);
+    assert_eq!(
+        lit.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&lit.stderr)
+    );
+    assert_eq!(report(&lit)["a"]["mode"], "gpu:f32:robust");
+}
+
+/// `compare`, `bench`, `accuracy` and `tradeoff` take mesh files as `render` does, and their
+/// help says so.
+#[test]
+fn the_scene_arguments_take_meshes_as_their_help_says() {
+    for command in [
+        "compare", "bench", "accuracy", "tradeoff", "render", "serve",
+    ] {
+        let help = raycast(&[command, "--help"]);
+        let help = String::from_utf8_lossy(&help.stdout);
+        assert!(
+            help.contains("or a mesh file (.obj, .stl, .ply)"),
+            "{command}: {help}"
+        );
+    }
+    let mesh = common::repo_path("scenes/bunny.stl");
+    let mesh = mesh.to_str().unwrap();
+    let size = ["--size", "16x9"];
+    let out = raycast(
+        &[
+            &["compare", mesh, "--a", "cpu:f32", "--b", "cpu:f64"],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(report(&out)["pixels"], 144);
+    let bench = ["bench", mesh, "--mode", "cpu:f32", "--runs", "1", "--json"];
+    let out = raycast(&[&bench[..], &size[..]].concat());
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

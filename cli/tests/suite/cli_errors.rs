@@ -142,6 +142,17 @@ fn empty_scene_file_is_an_error() {
     assert_has(&message, &["scene.json:1:0: ", "EOF"]);
 }
 
+#[test]
+fn a_list_given_as_a_scene_says_what_a_scene_file_is() {
+    let message = run_err(r#"[{"name": "front", "eye": [0, 0, 2]}]"#, &[]);
+    assert_has(
+        &message,
+        &[
+            "scene.json:1:1: a scene file is a JSON object with a `camera` and `objects`, got a list (is it a views file?)",
+        ],
+    );
+}
+
 // 2. Unknown object type.
 
 #[test]
@@ -596,10 +607,12 @@ fn output_folder_under_a_regular_file() {
     assert_eq!(output.status.code(), Some(2), "stderr:\n{stderr}");
     assert!(output.stdout.is_empty());
     assert_eq!(stderr.lines().count(), 1, "one line, got:\n{stderr}");
-    assert!(
-        stderr.starts_with(&format!("error: {}: ", out.display())),
-        "message must name the output folder: {stderr}"
+    let expected = format!(
+        "error: {}: {} is a file, not a folder",
+        out.display(),
+        afile.display()
     );
+    assert_eq!(stderr.trim_end(), expected);
     // Nothing else written: the scratch folder holds what the test put there, unchanged.
     assert_eq!(file_names(case.dir.path()), ["afile", "scene.json"]);
     assert_eq!(std::fs::read(&afile).unwrap(), b"");

@@ -62,10 +62,8 @@ fn an_output_path_that_is_a_file() {
     std::fs::write(&file, b"kept").unwrap();
     let output = render_bunny().arg("-o").arg(&file).output().unwrap();
     let message = one_error(&output);
-    assert!(
-        message.starts_with(&format!("error: {}: ", file.display())),
-        "{message}"
-    );
+    let expected = format!("error: {}: is a file, not a folder", file.display());
+    assert_eq!(message.trim_end(), expected);
     assert_eq!(std::fs::read(&file).unwrap(), b"kept");
     assert_eq!(file_names(dir.path()), ["taken"]);
 }

@@ -70,14 +70,10 @@ fn frames_are_the_files_render_and_compare_write() {
     let camera = format!("eye={eye}&look_at={look_at}&up={up}&size={SIZE}");
     let flags = ["--eye", &eye, "--look-at", &look_at, "--up", &up];
 
+    // Both without --precision: serve's default is render's (f32 with a hook).
     let gpu = dir.path().join("gpu");
     let hook_file = dir.path().join("hook.wgsl");
-    let mut args = vec![
-        "--precision",
-        "f32",
-        "--shader",
-        hook_file.to_str().unwrap(),
-    ];
+    let mut args = vec!["--shader", hook_file.to_str().unwrap()];
     args.extend(flags);
     render_files(&gpu, &args);
     for (tab, file) in [
@@ -222,6 +218,8 @@ fn bad_requests_get_a_4xx_answer_and_change_nothing() {
     let frame = format!("/frame?tab=normal&size={SIZE}");
     let before = server.get(&frame);
     assert_eq!(before.status, 200);
+    // Without a hook or --precision, render's default.
+    assert_eq!(before.header("X-Mode"), Some("gpu:adaptive:robust"));
     let state_before = state(&server);
     let long = format!("/frame?tab={}", "x".repeat(5000));
     let gets: [(&str, u16, &str); 18] = [

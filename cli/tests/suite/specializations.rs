@@ -1,6 +1,7 @@
 //! `raycast specializations`: one row per specialization and scene, times where they apply and
-//! the reason where not, the same markdown printed and written, a missing torus noted; bad
-//! input is a one-line error with exit code 2 and writes nothing.
+//! the reason where not, the same markdown printed and written with `-o`, nothing written
+//! without it, a missing torus noted; bad input is a one-line error with exit code 2 and writes
+//! nothing.
 
 use crate::common;
 
@@ -30,7 +31,7 @@ fn every_specialization_is_measured_or_says_why_not() {
             "--runs",
             "1",
             "--no-crossover",
-            "--out",
+            "-o",
             out_file.to_str().unwrap(),
         ],
         dir.path(),
@@ -99,6 +100,7 @@ fn bad_input_is_one_line_and_writes_nothing() {
         vec!["--scenes", bad.to_str().unwrap()],
         vec!["--torus", missing_torus.to_str().unwrap()],
     ] {
+        // `--out`, the option's former name, is kept as a hidden alias of `-o`.
         let mut all = vec!["specializations", "--out", out_file.to_str().unwrap()];
         all.extend(args);
         let out = raycast(&all, &common::repo_path(""));
@@ -108,4 +110,31 @@ fn bad_input_is_one_line_and_writes_nothing() {
         assert!(stderr.starts_with("error: "), "{stderr}");
         assert!(!out_file.exists());
     }
+}
+
+#[test]
+fn without_output_the_markdown_is_printed_and_nothing_written() {
+    // A checkout's layout: the former default, docs/specializations.md, must not be written.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("docs")).unwrap();
+    let scene = common::repo_path("scenes/course/triangle.json");
+    let args = ["--runs", "1", "--no-crossover", "--scenes"];
+    let mut all = vec!["specializations"];
+    all.extend(args);
+    all.push(scene.to_str().unwrap());
+    let out = raycast(&all, dir.path());
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.starts_with("# Kernel specializations"), "{stdout}");
+    assert!(stdout.contains("| triangle | "), "{stdout}");
+    assert_eq!(
+        common::file_names(&dir.path().join("docs")),
+        Vec::<String>::new()
+    );
+    assert_eq!(common::file_names(dir.path()), vec!["docs".to_owned()]);
 }

@@ -107,6 +107,9 @@ fn every_view_is_the_single_render_of_its_camera_byte_for_byte() {
     args.extend(size.iter().chain(&formats));
     let stdout = succeeds(&args);
     assert_eq!(rendered(&stdout), 6, "{stdout}");
+    // The scenes' folders and the manifest, and no lock file left.
+    let names = ["bunny", "manifest.jsonl", "two-spheres-and-plane"];
+    assert_eq!(common::file_names(&out), names);
     let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
     let lines: Vec<serde_json::Value> = manifest
         .lines()
@@ -318,7 +321,18 @@ fn bad_views_are_one_line_errors_before_anything_renders() {
             "[0].up: is parallel to [0].look",
         ),
         ("[]".into(), "no views"),
-        (r#"{"name": "a"}"#.into(), "invalid type"),
+        (
+            r#"{"name": "a"}"#.into(),
+            ":1:1: a views file is a JSON list of cameras, got an object (is it a scene file?)",
+        ),
+        (
+            std::fs::read_to_string(common::repo_path(BUNNY)).unwrap(),
+            "a views file is a JSON list of cameras, got an object (is it a scene file?)",
+        ),
+        (
+            "\n  \"views\"".into(),
+            ":2:3: a views file is a JSON list of cameras, got a string",
+        ),
     ];
     for (k, (text, expected)) in cases.iter().enumerate() {
         let views = dir.path().join(format!("views{k}.json"));
