@@ -68,6 +68,7 @@ fn a_closed_room_brings_the_eye_nearer_with_the_image_plane_before_the_objects()
     scene.objects.push(plane([0.0, 0.0, 1.6], [0.0, 0.0, -1.0]));
     scene.camera.eye = [0.0, 0.0, 1.5].into();
     let views = Views::Orbit(Orbit::new(8));
+    let bunny = raycast::scene::bounds(&scene.objects[..1]).unwrap();
     for (name, camera) in views.cameras(&scene).unwrap() {
         let e = camera.eye;
         let inside = e.x.abs() < 1.0 && e.y.abs() < 1.0 && e.z > -1.0 && e.z < 1.6;
@@ -78,6 +79,21 @@ fn a_closed_room_brings_the_eye_nearer_with_the_image_plane_before_the_objects()
         // The field of view stays the course camera's (1.7777777778 by 1 at focal length 1).
         let ratio = [width, height].map(|x| x / camera.focal_length);
         assert!((ratio[0] - 1.7777777778).abs() < 1e-9 && (ratio[1] - 1.0).abs() < 1e-9);
+        // Rays start at the image plane: no corner of the bunny's box is nearer along the view.
+        let ((lo, hi), forward) = (bunny, camera.look.normalize());
+        for k in 0..8 {
+            let pick = |bit: usize, a: f64, b: f64| if k & bit == 0 { a } else { b };
+            let corner = glam::DVec3::new(
+                pick(1, lo.x, hi.x),
+                pick(2, lo.y, hi.y),
+                pick(4, lo.z, hi.z),
+            );
+            let depth = (corner - camera.eye).dot(forward);
+            assert!(
+                depth >= camera.focal_length - 1e-12,
+                "{name}: a corner at {depth}"
+            );
+        }
     }
     for (name, share) in shares(&scene, &views) {
         assert!(share >= 0.05, "{name}: bunny on {share}");
