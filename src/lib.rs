@@ -75,5 +75,5 @@ pub use crate::{
     render::viewer::Viewer,
     render::views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary},
     render::{AnyImages, Progress, STREAM_PIXELS, peak_rss_mib},
-    scene::Scene,
+    scene::{Orbit, Scene},
 };

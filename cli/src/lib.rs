@@ -32,6 +32,8 @@ pub fn flag(name: &str) -> Option<String> {
         "up" => "--up",
         "fov" => "--fov",
         "orbit" => "--orbit",
+        "orbit_radius" => "--orbit-radius",
+        "orbit_elevation" => "--orbit-elevation",
         "views" => "--views",
         "shard" => "--shard",
         _ => return None,

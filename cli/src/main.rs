@@ -46,10 +46,20 @@ enum Command {
         /// OUTPUT/manifest.jsonl (docs/datasets.md).
         #[arg(long, value_name = "FILE", conflicts_with = "orbit")]
         views: Option<PathBuf>,
-        /// Render every scene from N views around its bounding sphere (orbit-000, ...), as
-        /// --views does.
+        /// Render every scene from N views around its objects (orbit-000, ...), as --views
+        /// does: a turntable about the camera's up direction (--up) from where it stands
+        /// (--eye), looking at the objects' centre (--look-at), kept on the objects' side of
+        /// every plane (docs/datasets.md#orbits).
         #[arg(long, value_name = "N")]
         orbit: Option<u32>,
+        /// With --orbit: the eye's distance from the centre (default: far enough for the
+        /// objects' box to fit the image; nearer where planes leave less room).
+        #[arg(long, value_name = "R", allow_hyphen_values = true)]
+        orbit_radius: Option<f64>,
+        /// With --orbit: the views' elevation above the turntable's plane, degrees in (-90, 90)
+        /// (default: the camera's, within 80).
+        #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
+        orbit_elevation: Option<f64>,
         /// With --views or --orbit: render views whose folder is complete again (they are
         /// skipped otherwise).
         #[arg(long)]
@@ -450,6 +460,8 @@ fn run(command: Command) -> Result<ExitCode> {
             scenes,
             views,
             orbit,
+            orbit_radius,
+            orbit_elevation,
             force,
             shard,
             shard_count,
@@ -496,10 +508,29 @@ fn run(command: Command) -> Result<ExitCode> {
                 up,
                 fov,
             };
-            let views = match (views, orbit) {
-                (Some(file), _) => Some(raycast::Views::File(file)),
-                (None, Some(n)) => Some(raycast::Views::Orbit(n)),
-                (None, None) => None,
+            let orbit_only = [
+                ("--orbit-radius", orbit_radius.is_some()),
+                ("--orbit-elevation", orbit_elevation.is_some()),
+            ];
+            if let (None, Some((flag, _))) = (orbit, orbit_only.iter().find(|(_, given)| *given)) {
+                return Err(raycast::Error::Argument {
+                    option: (*flag).into(),
+                    message: "sets an orbit's views: give --orbit".into(),
+                });
+            }
+            // An orbit starts from the camera settings; a views file's cameras are refused them.
+            let (views, view) = match (views, orbit) {
+                (Some(file), _) => (Some(raycast::Views::File(file)), view),
+                (None, Some(views)) => {
+                    let orbit = raycast::Orbit {
+                        views,
+                        radius: orbit_radius,
+                        elevation: orbit_elevation,
+                        camera: view,
+                    };
+                    (Some(raycast::Views::Orbit(orbit)), Default::default())
+                }
+                (None, None) => (None, view),
             };
             let batch_only = [
                 ("--force", force),
@@ -557,9 +588,13 @@ fn run(command: Command) -> Result<ExitCode> {
             match views {
                 Some(views) => {
                     if watch {
+                        let many = match views {
+                            raycast::Views::Orbit(_) => "--orbit",
+                            _ => "--views",
+                        };
                         return Err(raycast::Error::Argument {
                             option: "--watch".into(),
-                            message: "watches one render; not with --views or --orbit".into(),
+                            message: format!("watches one render; not with {many}"),
                         });
                     }
                     let batch = raycast::RenderViews {

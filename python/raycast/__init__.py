@@ -638,6 +638,9 @@ class RaycastingScene:
         device: str = "gpu",
         lit: bool = False,
         shader: Optional[Union[str, os.PathLike]] = None,
+        *,
+        orbit_radius: Optional[float] = None,
+        orbit_elevation: Optional[float] = None,
     ) -> Iterator[Dict[str, Any]]:
         """The scene (from ``raycast.load``) rendered from each of ``cameras``, one view at a
         time: an iterator of dicts as ``render`` returns them, each with the view's ``name``.
@@ -647,12 +650,15 @@ class RaycastingScene:
         ``height``, or ``fov``, or ``intrinsics``; ``resolution``, ``near``, ``type``), each
         with an optional ``name`` (default ``view-000``, ``view-001``, ...), as a views file
         lists them; numbers may be NumPy values or arrays. Or a number N: N views around the
-        scene (``orbit-000``, ...), as ``raycast render --orbit N`` renders them. A view
+        scene (``orbit-000``, ...), as ``raycast render --orbit N`` renders them, the eye
+        ``orbit_radius`` from the centre and ``orbit_elevation`` degrees above the turntable
+        where given (``--orbit-radius``, ``--orbit-elevation``; docs/datasets.md#orbits). A view
         renders what ``render`` renders for a scene file with that camera. Every camera is
         checked before the first view renders: a bad one raises ValueError (or TypeError)
         naming it (``cameras[2]: camera.fov: ...``)."""
         _options(precision, device, render=True)
-        views = self._views(cameras)  # here, not at the first view: bad cameras raise now
+        # here, not at the first view: bad cameras raise now
+        views = self._views(cameras, orbit_radius, orbit_elevation)
         return self._render_each(views, precision, device, lit, shader)
 
     def _render_each(
@@ -668,14 +674,28 @@ class RaycastingScene:
             images["name"] = name
             yield images
 
-    def _views(self, cameras: Any) -> List[Tuple[str, Any]]:
+    def _views(
+        self,
+        cameras: Any,
+        orbit_radius: Optional[float] = None,
+        orbit_elevation: Optional[float] = None,
+    ) -> List[Tuple[str, Any]]:
         """The named native cameras of `cameras`, every one checked here, before anything
         renders: an orbit's, or those of a list of camera dicts as a views file lists them."""
+        orbit = {"orbit_radius": orbit_radius, "orbit_elevation": orbit_elevation}
+        for name, value in orbit.items():
+            number = isinstance(value, (int, float, np.integer, np.floating))
+            if value is not None and (isinstance(value, (bool, np.bool_)) or not number):
+                raise TypeError(f"{name}: expected a number, got {type(value).__name__}")
         if isinstance(cameras, (int, np.integer)) and not isinstance(cameras, (bool, np.bool_)):
             n = int(cameras)
             if not 1 <= n < 2**32:
                 raise ValueError(f"cameras: expected at least 1 orbit view, got {n}")
-            return self._scene.views(orbit=n)
+            numbers = {k: None if v is None else float(v) for k, v in orbit.items()}
+            return self._scene.views(orbit=n, **numbers)
+        given = [name for name, value in orbit.items() if value is not None]
+        if given:
+            raise ValueError(f"{given[0]}: sets an orbit's views; give cameras as a number of views")
         if isinstance(cameras, (str, bytes, Mapping)) or not isinstance(cameras, Sequence):
             raise TypeError(
                 "cameras: expected a list of camera dicts or a number of orbit views, got "

@@ -80,11 +80,16 @@ class Scene:
         given: flat ``id``, ``distance``, ``normal`` (and ``color``, ``hook_rays``), ``width``
         and ``height``."""
     def views(
-        self, cameras: Optional[str] = ..., orbit: Optional[int] = ...
+        self,
+        cameras: Optional[str] = ...,
+        orbit: Optional[int] = ...,
+        orbit_radius: Optional[float] = ...,
+        orbit_elevation: Optional[float] = ...,
     ) -> List[Tuple[str, Camera]]:
         """The named cameras of a views file's JSON text (``cameras``) or of an orbit of
-        ``orbit`` views, for this scene, as ``raycast render --views``/``--orbit`` renders
-        them; errors are ValueErrors naming ``cameras[k]``."""
+        ``orbit`` views (at ``orbit_radius`` and ``orbit_elevation`` where given), for this
+        scene, as ``raycast render --views``/``--orbit`` renders them; errors are ValueErrors
+        naming ``cameras[k]``."""
 
 class Camera:
     """A camera for ``Scene.render``, from ``Scene.views``."""

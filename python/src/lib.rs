@@ -310,19 +310,25 @@ impl Scene {
 
     /// The views of this scene file's scene, named: the cameras of `cameras` (a views file's
     /// JSON text: a list of cameras in the scene format, each with a `name`), or an orbit of
-    /// `orbit` views, as `raycast render --views` or `--orbit` renders them. Errors name a
-    /// camera as `cameras[k]`.
-    #[pyo3(signature = (cameras=None, orbit=None))]
+    /// `orbit` views (at `orbit_radius` and `orbit_elevation` where given), as `raycast render
+    /// --views` or `--orbit` renders them. Errors name a camera as `cameras[k]`.
+    #[pyo3(signature = (cameras=None, orbit=None, orbit_radius=None, orbit_elevation=None))]
     fn views(
         &self,
         py: Python<'_>,
         cameras: Option<String>,
         orbit: Option<u32>,
+        orbit_radius: Option<f64>,
+        orbit_elevation: Option<f64>,
     ) -> PyResult<Vec<(String, ViewCamera)>> {
         let viewer = self.file("render_views")?;
         let views = match (cameras, orbit) {
             (Some(text), None) => Views::Json(text),
-            (None, Some(n)) => Views::Orbit(n),
+            (None, Some(views)) => Views::Orbit(raycast::Orbit {
+                radius: orbit_radius,
+                elevation: orbit_elevation,
+                ..raycast::Orbit::new(views)
+            }),
             _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
         };
         let named = py
@@ -634,7 +640,7 @@ impl ViewJob {
             split: Default::default(),
         };
         let views = match views {
-            ViewsArg::Orbit(n) => Views::Orbit(n),
+            ViewsArg::Orbit(n) => Views::Orbit(raycast::Orbit::new(n)),
             ViewsArg::File(path) => Views::File(path),
         };
         Ok(ViewJob {

@@ -108,6 +108,21 @@ def test_render_views_orbit_renders_what_the_command_line_writes(tmp_path, camer
             assert np.array_equal(view[key], np.load(folder / f"{key}.npy")), (view["name"], key)
 
 
+def test_render_views_orbit_radius_and_elevation_are_the_command_line_options(tmp_path):
+    path = scene_with(tmp_path, "scene", {k: v for k, v in CAMERAS[0].items() if k != "name"})
+    options = ("--orbit-radius", 2.5, "--orbit-elevation", -10)
+    out = tmp_path / "out"
+    cli(path, "--orbit", 3, *options, "--format", "npy", "--precision", "f32", "-o", out)
+    scene = raycast.load(path)
+    views = list(scene.render_views(3, precision="f32", orbit_radius=2.5, orbit_elevation=-10))
+    default = next(scene.render_views(1, precision="f32"))
+    assert not np.array_equal(views[0]["distance"], default["distance"])
+    for view in views:
+        folder = out / "scene" / view["name"]
+        for key in ("id", "distance", "normal"):
+            assert np.array_equal(view[key], np.load(folder / f"{key}.npy")), (view["name"], key)
+
+
 GOOD = {k: v for k, v in CAMERAS[0].items() if k != "name"}
 
 
@@ -134,6 +149,30 @@ def test_bad_cameras_raise_naming_the_camera(cameras, error, message):
         scene.render_views(cameras)  # raises at the call, before any view renders
     assert str(raised.value).startswith(message)
     assert "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    "options, error, message",
+    [
+        ({"orbit_radius": 0}, ValueError, "orbit_radius: must be a positive distance"),
+        ({"orbit_radius": float("inf")}, ValueError, "orbit_radius: must be a positive distance"),
+        ({"orbit_elevation": 90}, ValueError, "orbit_elevation: must be between -90 and 90"),
+        ({"orbit_elevation": float("nan")}, ValueError, "orbit_elevation: must be between"),
+        ({"orbit_radius": "far"}, TypeError, "orbit_radius: expected a number, got str"),
+        ({"orbit_elevation": True}, TypeError, "orbit_elevation: expected a number, got bool"),
+    ],
+)
+def test_bad_orbit_options_raise_naming_the_option(options, error, message):
+    scene = raycast.load(BUNNY)
+    with pytest.raises(error) as raised:
+        scene.render_views(3, **options)
+    assert str(raised.value).startswith(message)
+
+
+@pytest.mark.parametrize("option", ["orbit_radius", "orbit_elevation"])
+def test_orbit_options_with_a_list_of_cameras_raise(option):
+    with pytest.raises(ValueError, match=f"^{option}: sets an orbit's views"):
+        raycast.load(BUNNY).render_views([GOOD], **{option: 1.0})
 
 
 def test_threads_render_one_loaded_scene_at_once():

@@ -31,7 +31,7 @@ use crate::images::{Coverage, Images};
 use crate::output::{self, pending};
 use crate::prepare::bvh::{Topology, sharing_topology};
 use crate::render::AnyImages;
-use crate::scene::{self, Object, Scene, ViewCamera};
+use crate::scene::{self, Object, Orbit, Scene, ViewCamera};
 
 /// The job's manifest, in the output folder.
 const MANIFEST: &str = "manifest.jsonl";
@@ -44,13 +44,22 @@ pub enum Views {
     File(PathBuf),
     /// A views file's text, given in memory (named `<views>` in errors).
     Json(String),
-    /// This many views around each scene's bounding sphere, named `orbit-000`, `orbit-001`, ...:
-    /// a turntable about the scene camera's up direction, starting from where it stands, far
-    /// enough for the sphere to fit the image (docs/datasets.md#orbits).
-    Orbit(u32),
+    /// Views around each scene's bounded objects, named `orbit-000`, `orbit-001`, ...: a
+    /// turntable about the scene camera's up direction, from where it stands, on the objects'
+    /// side of every plane ([`Orbit`], docs/datasets.md#orbits).
+    Orbit(Orbit),
 }
 
 impl Views {
+    /// Why a camera setting of the render is refused: a views file's cameras are whole, an
+    /// orbit takes its settings in [`Orbit::camera`].
+    fn camera_refusal(&self) -> String {
+        match self {
+            Views::Orbit(_) => "sets the orbit's start: give it in Orbit::camera instead".into(),
+            _ => "sets one camera, and every view of `views` has its own".into(),
+        }
+    }
+
     /// The name of a views file in errors.
     fn file(&self) -> &Path {
         match self {
@@ -64,16 +73,9 @@ impl Views {
         let text = match self {
             Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?,
             Views::Json(text) => text.clone(),
-            Views::Orbit(0) => {
-                return Err(Error::Argument {
-                    option: "orbit".into(),
-                    message: "needs at least 1 view, got 0".into(),
-                });
-            }
-            Views::Orbit(n) => {
-                let width = (n - 1).to_string().len().max(3);
-                let names = (0..*n).map(|k| format!("orbit-{k:0width$}")).collect();
-                return Ok((names, Vec::new()));
+            Views::Orbit(orbit) => {
+                orbit.check()?;
+                return Ok((orbit.names(), Vec::new()));
             }
         };
         let cameras = scene::parse_views(&text, self.file())?;
@@ -101,15 +103,10 @@ impl Views {
         v: usize,
         scene: &Scene,
         base: &scene::Camera,
-        [bounded, all]: [Option<Bounds>; 2],
+        bounds: [Option<Bounds>; 2],
     ) -> Result<scene::Camera> {
         match self {
-            Views::Orbit(n) => {
-                let sphere = bounded
-                    .or(all)
-                    .unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
-                Ok(base.orbit(sphere, all, v as u32, *n))
-            }
+            Views::Orbit(orbit) => orbit.view(base, &scene.objects, bounds, v as u32),
             _ => cameras[v].camera(self.file(), &scene.objects),
         }
     }
@@ -217,7 +214,7 @@ pub struct RenderViews {
     pub force: bool,
     /// How every view is rendered and written: its `out_dir` is the job's `OUT`; its `size`
     /// sets every view's resolution. Its `scene`, `view` and `emit_shader` are not used and
-    /// must be unset.
+    /// must be unset (an orbit takes camera settings in [`Orbit::camera`]).
     pub render: RenderFiles,
 }
 
@@ -316,11 +313,14 @@ impl RenderViews {
             })
         };
         let r = &self.render;
-        if r.scene.is_some() || !r.view.is_empty() {
+        if r.scene.is_some() {
             return refuse(
-                "views",
-                "every view sets the camera: give the scenes alone, without camera settings",
+                "scene",
+                "every view renders the job's scenes: leave it unset",
             );
+        }
+        if let Some(option) = r.view.given().first() {
+            return refuse(option, &self.views.camera_refusal());
         }
         if r.emit_shader.is_some() {
             return refuse("emit_shader", "writes one kernel; render one view for it");

@@ -221,6 +221,17 @@ impl CameraOverrides {
         *self == CameraOverrides::default()
     }
 
+    /// The names of the settings given.
+    pub(crate) fn given(&self) -> Vec<&'static str> {
+        let given = [
+            ("eye", self.eye.is_some()),
+            ("look_at", self.look_at.is_some()),
+            ("up", self.up.is_some()),
+            ("fov", self.fov.is_some()),
+        ];
+        given.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect()
+    }
+
     fn refuse(option: &str, message: impl Into<String>) -> Error {
         Error::Argument {
             option: option.into(),
@@ -229,7 +240,7 @@ impl CameraOverrides {
     }
 
     /// The values checked: finite, within the scene's limits, a field of view in (0, 180).
-    fn check(&self) -> Result<()> {
+    pub(crate) fn check(&self) -> Result<()> {
         for (option, v) in [
             ("eye", self.eye),
             ("look_at", self.look_at),
@@ -351,70 +362,6 @@ impl CameraOverrides {
         settings.apply(&framed)
     }
 }
-
-impl Camera {
-    /// View `k` of `n` around the sphere bounding `bounds` (`--orbit N`): a turntable about
-    /// this camera's up direction through the sphere's centre, starting where this camera
-    /// stands (its direction from the centre, its elevation kept within 80 degrees), every view
-    /// looking at the centre with this camera's lens, resolution and up. The eye is far enough
-    /// for the sphere to fit the image (its narrower field of view, as a mesh's default view
-    /// frames it) and to lie beyond the image plane, where rays start. A field-of-view or
-    /// intrinsics camera's `near` and depth scale follow the new eye as a scene file's would
-    /// (`scene_bounds`: the box of every object).
-    pub(crate) fn orbit(
-        &self,
-        bounds: (DVec3, DVec3),
-        scene_bounds: Option<(DVec3, DVec3)>,
-        k: u32,
-        n: u32,
-    ) -> Camera {
-        let (lo, hi) = bounds;
-        let centre = (lo + hi) / 2.0;
-        let radius = ((hi - lo).length() / 2.0).max(f64::MIN_POSITIVE);
-        let up = self.up.normalize();
-        let from = match (self.eye - centre).try_normalize() {
-            Some(d) => d,
-            None => -self.look.normalize(),
-        };
-        let level = from - up * from.dot(up);
-        let level = level
-            .try_normalize()
-            .unwrap_or_else(|| self.look.cross(up).normalize().cross(up));
-        let elevation = from
-            .dot(up)
-            .clamp(-1.0, 1.0)
-            .asin()
-            .clamp(-ORBIT_ELEVATION, ORBIT_ELEVATION);
-        let turn = std::f64::consts::TAU * f64::from(k) / f64::from(n);
-        let around = level * turn.cos() + up.cross(level) * turn.sin();
-        let direction = around * elevation.cos() + up * elevation.sin();
-        let plane = self.image_plane();
-        let d = self.focal_length;
-        let distance = match self.projection {
-            Projection::Orthographic => radius + d,
-            Projection::Perspective => {
-                let half = (plane.width.min(plane.height) / 2.0 / d).atan();
-                (radius / half.sin()).max(radius + d)
-            }
-        };
-        let eye = centre + direction * distance;
-        let mut camera = Camera {
-            eye,
-            look: centre - eye,
-            up: self.up,
-            ..self.clone()
-        };
-        if !matches!(self.lens, Lens::Size { .. }) {
-            camera.focal_length = default_near(eye, scene_bounds);
-            camera.depth_white = default_depth_white(eye, scene_bounds).max(camera.focal_length);
-        }
-        camera
-    }
-}
-
-/// The highest and lowest an orbit's views look from, radians (80 degrees): beyond, the view
-/// direction would near the up direction.
-const ORBIT_ELEVATION: f64 = 80.0 * std::f64::consts::PI / 180.0;
 
 /// The image plane's distance for a camera that gives none (a field of view or intrinsics
 /// without `near`): 1/1000 of the distance from `eye` to the farthest corner of `bounds`, the

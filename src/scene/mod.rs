@@ -9,6 +9,7 @@ mod file;
 pub(crate) use file::MAX_MAGNITUDE;
 pub(crate) use file::{ViewCamera, parse_views};
 mod mesh;
+mod orbit;
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +21,7 @@ use crate::math::Vec3;
 
 pub use camera::{Camera, CameraOverrides, Lens, Projection};
 pub use mesh::{MeshPart, Split, load_mesh, load_mesh_parts, parse_mesh, parse_mesh_parts};
+pub use orbit::Orbit;
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
 pub(crate) const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];

@@ -15,6 +15,7 @@ mod hooks;
 mod layers;
 mod measure;
 mod no_f64_device;
+mod orbits;
 mod points;
 mod rays;
 mod specialized_kernels;

@@ -353,6 +353,8 @@ fn bad_views_are_one_line_errors_before_anything_renders() {
         );
         assert!(!out.exists(), "{text}: nothing written");
     }
+    let views = dir.path().join("views.json");
+    std::fs::write(&views, format!(r#"[{{"name": "a", {camera}}}]"#)).unwrap();
     for (args, expected) in [
         (
             vec![BUNNY, "--orbit", "0"],
@@ -369,8 +371,58 @@ fn bad_views_are_one_line_errors_before_anything_renders() {
             "would share the folder `bunny`",
         ),
         (
-            vec![BUNNY, "--orbit", "2", "--eye", "1,2,3"],
-            "every view sets the camera",
+            vec![BUNNY, "--views", views.to_str().unwrap(), "--eye", "1,2,3"],
+            "--eye: sets one camera, and every view of --views has its own",
+        ),
+        (
+            vec![BUNNY, "--views", views.to_str().unwrap(), "--watch"],
+            "--watch: watches one render; not with --views",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--watch"],
+            "--watch: watches one render; not with --orbit",
+        ),
+        (
+            vec![BUNNY, "--orbit-radius", "2"],
+            "--orbit-radius: sets an orbit's views: give --orbit",
+        ),
+        (
+            vec![
+                BUNNY,
+                "--views",
+                views.to_str().unwrap(),
+                "--orbit-elevation",
+                "2",
+            ],
+            "--orbit-elevation: sets an orbit's views: give --orbit",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--orbit-radius", "0"],
+            "--orbit-radius: must be a positive distance",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--orbit-radius", "-1"],
+            "--orbit-radius: must be a positive distance",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--orbit-radius", "far"],
+            "'--orbit-radius <R>'",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--orbit-elevation", "90"],
+            "--orbit-elevation: must be between -90 and 90 degrees",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--orbit-elevation", "nan"],
+            "--orbit-elevation: must be between -90 and 90 degrees",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--up", "0,0,0"],
+            "--up: must be a non-zero vector",
+        ),
+        (
+            vec![BUNNY, "--orbit", "2", "--fov", "180"],
+            "--fov: must be between 0 and 180",
         ),
         (
             vec![BUNNY, "--orbit", "2", "--shard", "auto"],
@@ -429,5 +481,138 @@ fn a_signal_leaves_only_complete_views() {
         for name in names {
             assert_eq!(common::file_names(&scene.join(&name)).len(), 5, "{name}");
         }
+    }
+}
+
+/// The `scene_camera` of each view's camera.json under `scene`, by view name.
+fn scene_cameras(scene: &Path) -> Vec<serde_json::Value> {
+    common::file_names(scene)
+        .iter()
+        .map(|name| {
+            let text = std::fs::read_to_string(scene.join(name).join("camera.json")).unwrap();
+            let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+            json["scene_camera"].clone()
+        })
+        .collect()
+}
+
+fn vector(value: &serde_json::Value) -> glam::DVec3 {
+    glam::DVec3::from(serde_json::from_value::<[f64; 3]>(value.clone()).unwrap())
+}
+
+/// The columns of the pixels in the two highest rows that hit something, of an `id.npy`
+/// (int32, version 1 header) `width` pixels wide.
+fn highest_hits(path: &Path, width: usize) -> Vec<usize> {
+    let bytes = std::fs::read(path).unwrap();
+    let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let ids = bytes[10 + header..].chunks_exact(4);
+    let hits: Vec<usize> = (ids.enumerate())
+        .filter(|(_, id)| i32::from_le_bytes((*id).try_into().unwrap()) >= 0)
+        .map(|(p, _)| p)
+        .collect();
+    let top = hits.first().map_or(0, |p| p / width);
+    let highest = hits.iter().filter(|p| *p / width <= top + 1);
+    highest.map(|p| p % width).collect()
+}
+
+/// A square pyramid standing on z = 0 with its apex at z = 2: a z-up mesh.
+const PYRAMID: &str = "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nv 0 0 2\n\
+    f 1 3 2\nf 1 4 3\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n";
+
+/// A z-up mesh orbited with `--up 0,0,1` (#66: refused before, and on its side without
+/// `--up`): every view keeps that up, the eyes turn about the z axis through the mesh's
+/// centre at one height and distance, an eighth of a turn apart, and each sees the pyramid
+/// upright: its apex the highest point, on the image's vertical centre line.
+#[test]
+fn a_z_up_mesh_orbits_upright_about_the_up_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("pyramid.obj");
+    std::fs::write(&mesh, PYRAMID).unwrap();
+    let out = dir.path().join("out");
+    let (mesh, folder) = (mesh.to_str().unwrap(), out.to_str().unwrap());
+    succeeds(&[
+        mesh,
+        "--orbit",
+        "8",
+        "--up",
+        "0,0,1",
+        "--device",
+        "cpu",
+        "--size",
+        "48x48",
+        "--format",
+        "npy",
+        "--outputs",
+        "id",
+        "-o",
+        folder,
+    ]);
+    let scene = out.join("pyramid");
+    let cameras = scene_cameras(&scene);
+    assert_eq!(cameras.len(), 8);
+    let centre = glam::DVec3::new(0.0, 0.0, 1.0);
+    let first = vector(&cameras[0]["eye"]) - centre;
+    for (k, camera) in cameras.iter().enumerate() {
+        assert_eq!(vector(&camera["up"]), glam::DVec3::Z, "view {k}");
+        let eye = vector(&camera["eye"]);
+        let offset = eye - centre;
+        assert!((eye + vector(&camera["look"]) - centre).length() < 1e-9);
+        assert!((offset.z - first.z).abs() < 1e-9, "view {k}: {offset}");
+        let (a, b) = (first.truncate(), offset.truncate());
+        assert!((a.length() - b.length()).abs() < 1e-9, "view {k}: {offset}");
+        let turn = (b.y.atan2(b.x) - a.y.atan2(a.x)).rem_euclid(std::f64::consts::TAU);
+        assert!((turn / std::f64::consts::FRAC_PI_4 - k as f64).abs() < 1e-9);
+        let apex = highest_hits(&scene.join(format!("orbit-00{k}/id.npy")), 48);
+        let column = apex.iter().sum::<usize>() as f64 / apex.len() as f64;
+        assert!(
+            apex.len() <= 6 && (column - 23.5).abs() <= 1.0,
+            "view {k}: the two highest rows hit at columns {apex:?}, not an apex at the centre"
+        );
+    }
+}
+
+/// `--eye` gives the first view's direction from the centre, `--look-at` the centre, `--fov`
+/// the lens, `--orbit-radius` and `--orbit-elevation` the eye's distance and height.
+#[test]
+fn an_orbit_starts_where_eye_look_at_fov_radius_and_elevation_say() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    succeeds(&[
+        "scenes/course/sphere-and-plane.json",
+        "--orbit",
+        "4",
+        "--eye",
+        "3,1,0",
+        "--look-at",
+        "0,0.25,0",
+        "--fov",
+        "30",
+        "--orbit-radius",
+        "6",
+        "--orbit-elevation",
+        "20",
+        "--device",
+        "cpu",
+        "--size",
+        "32x18",
+        "--outputs",
+        "id",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let cameras = scene_cameras(&out.join("sphere-and-plane"));
+    let centre = glam::DVec3::new(0.0, 0.25, 0.0);
+    let (rise, level) = 20f64.to_radians().sin_cos();
+    for (k, camera) in cameras.iter().enumerate() {
+        assert_eq!(camera["fov"], 30.0, "view {k}");
+        let eye = vector(&camera["eye"]);
+        assert!((eye + vector(&camera["look"]) - centre).length() < 1e-9);
+        // A quarter turn about +y each view, from +x (where --eye stands).
+        let (sin, cos) = (std::f64::consts::FRAC_PI_2 * k as f64).sin_cos();
+        let expected = centre + 6.0 * glam::DVec3::new(level * cos, rise, -level * sin);
+        assert!(
+            (eye - expected).length() < 1e-9,
+            "view {k}: {eye} against {expected}"
+        );
     }
 }
