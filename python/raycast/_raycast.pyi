@@ -113,8 +113,9 @@ class ViewJob:
         """Checks the job and that OUT is writable; the number of (scene, view) pairs, scene
         by scene."""
     def render(self, pairs: List[int]) -> int:
-        """Renders these pairs into their folders (those not complete already, unless
-        forced), one view's files written while the next renders; how many it rendered."""
+        """Renders these pairs into their folders (those not complete already with the
+        same record, unless forced), one view's files written while the next renders; how
+        many it rendered."""
     def write_manifest(self) -> Path:
         """Rewrites OUT/manifest.jsonl from the output folder; its path."""
 

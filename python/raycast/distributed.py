@@ -12,8 +12,9 @@ scene it rendered last loaded and prepared (its BVH's shape, its kernels) for th
 Each view is rendered and written by the library's own code into
 ``OUT/<scene stem>/<view name>/``, whole or not at all, and the driver then rewrites
 ``OUT/manifest.jsonl``: the files are byte for byte those the command line writes. Views whose
-folder is complete are skipped unless ``force``, so a run stopped part way is resumed by
-running it again.
+folder is complete, with a record (``job.json``) of the same options, scene and camera, are
+skipped unless ``force``, so a run stopped part way is resumed by running it again; views of
+other options or of a changed scene are rendered again (docs/datasets.md).
 
 Workers are given the paths made absolute from the driver's working directory: on a cluster of
 several machines they must lie on a filesystem every machine mounts at the same place.
@@ -94,9 +95,10 @@ def render(
     one actor a CPU; ``concurrency`` sets the number of actors instead. ``batch_size`` views
     go to an actor at a time (default: a scene's views, at most an even share of the job).
 
-    Returns ``rendered`` and ``skipped`` (complete already) view counts, ``views`` (the
-    job's) and ``manifest`` (its path). A bad argument raises ValueError or TypeError before
-    Ray starts; an error while rendering is raised as Ray reports it."""
+    Returns ``rendered`` (stale views among them) and ``skipped`` (complete already) view
+    counts, ``views`` (the job's) and ``manifest`` (its path). A bad argument raises
+    ValueError or TypeError before Ray starts; an error while rendering is raised as Ray
+    reports it."""
     job = _job(scenes, views, out, formats, size, precision, device, force)
     _count("num_gpus", num_gpus, 0)
     _count("concurrency", concurrency, 1)

@@ -665,9 +665,9 @@ impl ViewJob {
         .map_err(to_py)
     }
 
-    /// Renders the views `pairs` in order (each skipped where its folder is complete, unless
-    /// the job forces), each into its folder, one view's files written while the next
-    /// renders; how many it rendered.
+    /// Renders the views `pairs` in order (each skipped where its folder is complete with the
+    /// same record, unless the job forces), each into its folder, one view's files written
+    /// while the next renders; how many it rendered.
     fn render(&mut self, py: Python<'_>, pairs: Vec<usize>) -> PyResult<usize> {
         let gpu = match self.job.render.mode.device {
             Device::Gpu => Some(gpu()?),

@@ -5,6 +5,7 @@ pub(crate) mod adaptive;
 pub(crate) mod files;
 pub(crate) mod mode;
 pub(crate) mod options;
+pub(crate) mod record;
 pub(crate) mod supersample;
 pub(crate) mod viewer;
 pub(crate) mod views;

@@ -4,8 +4,9 @@
 //! The job is every (scene, view) pair: the scenes in the order given, each with every view in
 //! the views file's order (or the orbit's). A view's files go to `OUT/<scene stem>/<view name>/`,
 //! written into a hidden folder beside it and renamed into place, so a view's folder is there
-//! whole or not at all and a run started again skips the views already there
-//! ([`RenderViews::force`] renders them again). A scene is loaded once, the shape of its BVH
+//! whole or not at all. Its record (`job.json`, [`record`]) says what it was rendered with: a
+//! run started again skips the views whose folder holds their files and the same record, and
+//! renders the others again ([`RenderViews::force`] renders every one again). A scene is loaded once, the shape of its BVH
 //! built once ([`Topology`]) and its kernels compiled once (the device's pipeline cache); a view
 //! redoes only what its camera changes: the primitives measured from its eye, the BVH's boxes,
 //! the render and the files. Each view is the same render as the single render of that scene
@@ -14,8 +15,9 @@
 //! A shard ([`Shard`]) renders a contiguous share of the pairs, of about equal estimated cost,
 //! so that a scene's views mostly stay in one shard and its preparation is done once.
 //! `OUT/manifest.jsonl` lists every pair of the job with its status, `done` where its folder
-//! is complete, else `pending`: each run rewrites it whole once its own views are done, under a
-//! lock, so the last shard to finish writes the manifest of the whole job.
+//! is complete, `stale` where it holds another job's files, else `pending`: each run rewrites
+//! it whole once its own views are done, under a lock, so the last shard to finish writes the
+//! manifest of the whole job.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -23,8 +25,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
+use serde_json::Value;
 
 use super::files::RenderFiles;
+use super::record::{self, Found};
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::images::{Coverage, Images};
@@ -223,6 +227,9 @@ pub struct RenderViews {
 pub struct ViewsSummary {
     /// Views rendered, views skipped as complete, and views of this shard.
     pub counts: [usize; 3],
+    /// Of the views rendered, those rendered again as stale: their folder held the files of
+    /// another job (other options, a changed scene) or of a version without records.
+    pub stale: usize,
     /// Views of the whole job.
     pub job: usize,
     /// The shard run, if one was.
@@ -246,8 +253,9 @@ impl ViewsSummary {
         });
         vec![
             format!(
-                "rendered {rendered} views in {seconds:.3} s ({:.1} views/s), skipped {skipped} complete{share}",
-                rendered as f64 / seconds.max(1e-9)
+                "rendered {rendered} views in {seconds:.3} s ({:.1} views/s), skipped {skipped} complete, rendered again {} stale{share}",
+                rendered as f64 / seconds.max(1e-9),
+                self.stale
             ),
             format!("wrote {}", self.manifest.display()),
         ]
@@ -366,6 +374,7 @@ impl RenderViews {
         Ok(ViewRenderer {
             job: self.job()?,
             names: self.file_names(),
+            record: record::job_part(&self.render)?,
             spec: self.clone(),
             loaded: None,
         })
@@ -376,8 +385,8 @@ impl RenderViews {
         Ok(self.job()?.share(shard))
     }
 
-    /// Renders every view of `shard` (or of the job) whose folder is not complete (or every
-    /// one with [`RenderViews::force`]), then rewrites the manifest. `on_view(done, total)` is
+    /// Renders every view of `shard` (or of the job) whose folder is not complete, or holds
+    /// another job's files (every one with [`RenderViews::force`]), then rewrites the manifest. `on_view(done, total)` is
     /// called as each view of the share is rendered or skipped.
     pub fn run(
         &self,
@@ -389,10 +398,11 @@ impl RenderViews {
         let mut renderer = self.renderer()?;
         let share = renderer.job.share(shard);
         output::check_writable(&self.render.out_dir)?;
-        let rendered = renderer.render_all(gpu, &share, on_view)?;
-        let manifest = self.manifest_of(&renderer.job, &renderer.names)?;
+        let [rendered, stale] = renderer.render_all(gpu, &share, on_view)?;
+        let manifest = self.manifest_of(&renderer.job, &renderer.names, &renderer.record)?;
         Ok(ViewsSummary {
             counts: [rendered, share.len() - rendered, share.len()],
+            stale,
             job: renderer.job.len(),
             shard,
             elapsed: clock.elapsed(),
@@ -401,29 +411,38 @@ impl RenderViews {
     }
 
     /// Rewrites `OUT/manifest.jsonl` from what the output folder holds: a line for every pair
-    /// of the job, in job order, `done` with its files where its folder is complete, else
-    /// `pending`. Under an exclusive lock on `OUT/.manifest.lock` (removed as it is released),
-    /// so that of shards finishing together the last writes last and sees every view.
+    /// of the job, in job order, `done` with its files where its folder is complete with a
+    /// record of this job's options, `stale` where it holds another's, else `pending`. Under an
+    /// exclusive lock on `OUT/.manifest.lock` (removed as it is released), so that of shards
+    /// finishing together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
         output::check_writable(&self.render.out_dir)?;
-        self.manifest_of(&self.job()?, &self.file_names())
+        let job_part = record::job_part(&self.render)?;
+        self.manifest_of(&self.job()?, &self.file_names(), &job_part)
     }
 
     /// [`RenderViews::write_manifest`] of `job`, this job checked, whose complete views hold
-    /// the files `names`.
-    fn manifest_of(&self, job: &Job, names: &[String]) -> Result<PathBuf> {
+    /// the files `names` and records whose shared part is `job_part`. The scenes and the views'
+    /// cameras are not compared: that needs the scenes loaded, which the run whose share a view
+    /// is in does.
+    fn manifest_of(&self, job: &Job, names: &[String], job_part: &Value) -> Result<PathBuf> {
         let out = &self.render.out_dir;
         let _lock = Lock::new(&out.join(".manifest.lock"))?;
         let mut text = String::new();
         for p in 0..job.len() {
             let (s, v) = job.pair(p);
-            let done = complete(&job.folder(out, p), names);
+            let found = record::found(&job.folder(out, p), names, job_part, true);
+            let done = found == Found::Complete;
             let line = serde_json::json!({
                 "scene": job.scenes[s].as_ref().map_or("<default scene>".into(), |p| p.display().to_string()),
                 "view": job.names[v],
                 "dir": format!("{}/{}", job.stems[s], job.names[v]),
                 "files": if done { names } else { &[] },
-                "status": if done { "done" } else { "pending" },
+                "status": match found {
+                    Found::Complete => "done",
+                    Found::Stale => "stale",
+                    Found::Missing => "pending",
+                },
             });
             text.push_str(&line.to_string());
             text.push('\n');
@@ -463,6 +482,8 @@ pub struct ViewRenderer {
     job: Job,
     /// The files a complete view's folder holds.
     names: Vec<String>,
+    /// The part of the views' records the job shares ([`record::job_part`]).
+    record: Value,
     loaded: Option<Loaded>,
 }
 
@@ -479,6 +500,8 @@ struct Loaded {
     bounds: [Option<Bounds>; 2],
     /// The camera the scene (or a mesh's default view) comes with, at the job's size.
     camera: scene::Camera,
+    /// The digest of its files, in its views' records ([`record::scene_digest`]).
+    digest: String,
     topology: Option<Arc<Topology>>,
     /// The temporary folders killed runs left in its folder, by view name: removed before
     /// that view renders (only the run rendering a view writes its temporary folders).
@@ -487,13 +510,14 @@ struct Loaded {
 
 impl ViewRenderer {
     /// Renders the views `pairs` in order, each view's files written on a thread of their own
-    /// while the next view renders; returns how many it rendered (the rest were complete).
+    /// while the next view renders; returns how many it rendered (the rest were complete),
+    /// and how many of those were stale.
     fn render_all(
         &mut self,
         gpu: Option<&Gpu>,
         pairs: &[usize],
         on_view: &mut dyn FnMut(usize, usize),
-    ) -> Result<usize> {
+    ) -> Result<[usize; 2]> {
         let (send, receive) = std::sync::mpsc::sync_channel::<Box<ViewWrite>>(1);
         std::thread::scope(|scope| {
             let writer = scope.spawn(move || -> Result<()> {
@@ -502,10 +526,10 @@ impl ViewRenderer {
                 }
                 Ok(())
             });
-            let mut rendered = 0;
+            let [mut rendered, mut stale] = [0, 0];
             let mut outcome = Ok(());
             for (k, &p) in pairs.iter().enumerate() {
-                let started = match self.start(gpu, p) {
+                let (started, was) = match self.start(gpu, p) {
                     Ok(started) => started,
                     Err(e) => {
                         outcome = Err(e);
@@ -513,6 +537,7 @@ impl ViewRenderer {
                     }
                 };
                 rendered += usize::from(!matches!(started, Started::Complete));
+                stale += usize::from(was == Found::Stale);
                 if let Started::Rendered(write) = started
                     && let Err(std::sync::mpsc::SendError(write)) = send.send(write)
                 {
@@ -524,7 +549,7 @@ impl ViewRenderer {
             }
             drop(send);
             let written = writer.join().expect("the writer does not panic");
-            outcome.and(written).map(|()| rendered)
+            outcome.and(written).map(|()| [rendered, stale])
         })
     }
 
@@ -533,12 +558,14 @@ impl ViewRenderer {
     /// view's files while the next renders; returns how many it rendered.
     pub fn render(&mut self, gpu: Option<&Gpu>, pairs: &[usize]) -> Result<usize> {
         self.render_all(gpu, pairs, &mut |_, _| {})
+            .map(|[rendered, _]| rendered)
     }
 
     /// Renders view `pair` unless it is complete; the files of a whole image are left to
     /// write ([`ViewWrite::finish`], which may run on another thread while the next view
-    /// renders), a render in bands writes them as it goes.
-    fn start(&mut self, gpu: Option<&Gpu>, pair: usize) -> Result<Started> {
+    /// renders), a render in bands writes them as it goes. Also returns what its folder held
+    /// (not looked at when forced: [`Found::Missing`]).
+    fn start(&mut self, gpu: Option<&Gpu>, pair: usize) -> Result<(Started, Found)> {
         if pair >= self.job.len() {
             return Err(Error::Argument {
                 option: "pair".into(),
@@ -547,12 +574,13 @@ impl ViewRenderer {
         }
         let out = &self.spec.render.out_dir;
         let folder = self.job.folder(out, pair);
-        if !self.spec.force && complete(&folder, &self.names) {
-            return Ok(Started::Complete);
-        }
         let (s, v) = self.job.pair(pair);
         let ViewRenderer {
-            spec, job, loaded, ..
+            spec,
+            job,
+            loaded,
+            names,
+            record,
         } = self;
         let loaded = load(loaded, job, spec, s)?;
         let (scene, base) = (&loaded.scene, &loaded.camera);
@@ -562,6 +590,15 @@ impl ViewRenderer {
         if let Some(size) = spec.render.size {
             camera.resolution = size;
         }
+        let record = record::view_record(record, &loaded.digest, &camera);
+        let found = match spec.force {
+            true => Found::Missing,
+            false => record::found(&folder, names, &record, false),
+        };
+        if found == Found::Complete {
+            return Ok((Started::Complete, found));
+        }
+        let record = record::encode(&record);
         loaded.scene.camera = camera;
         for stale in loaded.stale.remove(&job.names[v]).unwrap_or_default() {
             let _ = std::fs::remove_dir_all(stale);
@@ -576,17 +613,20 @@ impl ViewRenderer {
         let images = sharing_topology(scene, topology, || files.images_of(gpu, scene));
         let written = match images {
             Ok(Some(images)) => {
-                return Ok(Started::Rendered(Box::new(ViewWrite {
+                let write = ViewWrite {
                     images,
                     encoding: files.encoding,
                     camera: scene.camera.clone(),
+                    record,
                     temporary,
                     folder,
-                })));
+                };
+                return Ok((Started::Rendered(Box::new(write)), found));
             }
             Ok(None) => {
                 make_temporary(&temporary)?;
                 sharing_topology(scene, topology, || files.run_loaded(gpu, None, scene))
+                    .and_then(|_| write_record(&temporary, &record))
             }
             Err(e) => Err(e),
         };
@@ -597,7 +637,7 @@ impl ViewRenderer {
                 return Err(e);
             }
         }
-        Ok(Started::Written)
+        Ok((Started::Written, found))
     }
 }
 
@@ -621,28 +661,38 @@ fn make_temporary(temporary: &Path) -> Result<()> {
     pending::create_dir(temporary)
 }
 
-/// A view's images and where they go: a temporary folder, renamed to the view's once every
-/// file is written.
+/// Writes a view's record (`record`, encoded) into its temporary folder.
+fn write_record(temporary: &Path, record: &[u8]) -> Result<()> {
+    let path = temporary.join(record::RECORD);
+    std::fs::write(&path, record).map_err(|e| Error::io(&path, format!("cannot write: {e}")))
+}
+
+/// A view's images, its record and where they go: a temporary folder, renamed to the view's
+/// once every file is written.
 struct ViewWrite {
     images: AnyImages,
     encoding: output::Encoding,
     camera: scene::Camera,
+    record: Vec<u8>,
     temporary: PathBuf,
     folder: PathBuf,
 }
 
 impl ViewWrite {
-    /// Writes the files, then puts the folder in place; on an error leaves no folder behind.
-    /// The files are those [`AnyImages::write`] writes, written straight into the temporary
-    /// folder, which is what appears whole or not at all.
+    /// Writes the files and the record, then puts the folder in place; on an error leaves no
+    /// folder behind. The files are those [`AnyImages::write`] writes, written straight into
+    /// the temporary folder, which is what appears whole or not at all.
     fn finish(self) -> Result<()> {
         let files = self.images.encode(&self.encoding, &self.camera);
         make_temporary(&self.temporary)?;
-        let written = files.iter().try_for_each(|f| {
-            let path = self.temporary.join(f.name);
-            std::fs::write(&path, &f.bytes)
-                .map_err(|e| Error::io(&path, format!("cannot write: {e}")))
-        });
+        let written = files
+            .iter()
+            .try_for_each(|f| {
+                let path = self.temporary.join(f.name);
+                std::fs::write(&path, &f.bytes)
+                    .map_err(|e| Error::io(&path, format!("cannot write: {e}")))
+            })
+            .and_then(|()| write_record(&self.temporary, &self.record));
         match written {
             Ok(_) => pending::place_dir(&self.temporary, &self.folder),
             Err(e) => {
@@ -667,6 +717,7 @@ fn load<'a>(
         let scene = scene::load_viewed(path, spec.render.size, &view, spec.render.split)?;
         let bounds = scene_bounds(&scene);
         *loaded = Some(Loaded {
+            digest: record::scene_digest(path, &scene)?,
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
             index: s,
             camera: scene.camera.clone(),
@@ -692,11 +743,6 @@ fn stale_folders(folder: &Path) -> HashMap<String, Vec<PathBuf>> {
         }
     }
     stale
-}
-
-/// Whether a view's `folder` holds every one of `names`.
-fn complete(folder: &Path, names: &[String]) -> bool {
-    folder.is_dir() && names.iter().all(|n| folder.join(n).is_file())
 }
 
 /// The folder each scene's views go in: its file's stem (`default` for the built-in scene),

@@ -1,6 +1,7 @@
 //! `raycast render SCENE... --views FILE | --orbit N`: every view the same bytes as the single
 //! render of its camera, shards that together write what one run writes, runs that resume
-//! where a killed one stopped, and bad views refused before anything renders.
+//! where a killed one stopped, views of other options or changed scenes rendered again, and
+//! bad views refused before anything renders.
 
 use crate::common;
 
@@ -45,6 +46,17 @@ fn rendered(stdout: &str) -> usize {
     line.split_whitespace().nth(1).unwrap().parse().unwrap()
 }
 
+/// The number after `rendered again` on the summary line: how many of the views rendered were
+/// stale.
+fn stale(stdout: &str) -> usize {
+    let line = stdout.lines().next().unwrap();
+    let (_, rest) = line.split_once("rendered again ").expect(line);
+    rest.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+/// The record of what a view's folder was rendered with, beside the render's files.
+const RECORD: &str = "job.json";
+
 const BUNNY: &str = "scenes/course/bunny.json";
 const SPHERES: &str = "scenes/course/two-spheres-and-plane.json";
 
@@ -68,14 +80,16 @@ fn with_camera(scene: &str, camera: &serde_json::Value, dir: &Path, name: &str) 
     file
 }
 
-/// Asserts that the view folder `view` holds exactly what the single render of `scene` writes.
+/// Asserts that the view folder `view` holds exactly what the single render of `scene` writes,
+/// and its record.
 fn same_as_single(view: &Path, scene: &Path, extra: &[&str], dir: &Path) {
     let single = dir.join("single");
     let _ = std::fs::remove_dir_all(&single);
     let mut args = vec![scene.to_str().unwrap(), "-o", single.to_str().unwrap()];
     args.extend(extra);
     succeeds(&args);
-    let (a, b) = (tree(view), tree(&single));
+    let (mut a, b) = (tree(view), tree(&single));
+    assert!(a.remove(RECORD).is_some(), "{}: no record", view.display());
     assert_eq!(
         a.keys().collect::<Vec<_>>(),
         b.keys().collect::<Vec<_>>(),
@@ -246,6 +260,7 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
         "color.png",
         "depth.png",
         "id.png",
+        RECORD,
         "normal.png",
     ];
     let mut stamps = BTreeMap::new();
@@ -294,6 +309,230 @@ fn a_killed_run_resumes_without_rendering_its_finished_views_again() {
     assert_eq!(rendered(&succeeds(&small)), 3);
     assert_eq!(rendered(&succeeds(&small)), 0, "complete already");
     assert_eq!(rendered(&succeeds(&[&small[..], &["--force"]].concat())), 3);
+}
+
+/// A job's options: each flag with its value (`None` for a switch), in order.
+type Options<'a> = Vec<(&'a str, Option<&'a str>)>;
+
+/// `options` with each of `changes` set: its value replaced where the flag is there, else
+/// added.
+fn changed<'a>(options: &Options<'a>, changes: &Options<'a>) -> Options<'a> {
+    let mut options = options.clone();
+    for &(flag, value) in changes {
+        match options.iter_mut().find(|(f, _)| *f == flag) {
+            Some(option) => option.1 = value,
+            None => options.push((flag, value)),
+        }
+    }
+    options
+}
+
+/// Runs the job of `options` into `out`, asserting that it renders `expected` views of which
+/// `again` stale, and skips the rest of `total` as complete.
+fn resumes(options: &Options, out: &Path, [expected, again, total]: [usize; 3]) {
+    let mut args: Vec<&str> = vec!["-o", out.to_str().unwrap()];
+    for &(flag, value) in options {
+        args.push(flag);
+        args.extend(value);
+    }
+    let stdout = succeeds(&args);
+    assert_eq!(
+        (rendered(&stdout), stale(&stdout)),
+        (expected, again),
+        "{args:?}: {stdout}"
+    );
+    let skipped = format!("skipped {} complete", total - expected);
+    assert!(stdout.contains(&skipped), "{args:?}: {stdout}");
+}
+
+/// Asserts that a resumed job's folder `out` holds exactly what a fresh run of `options` writes
+/// (the manifest too): no file of another job is left.
+fn as_fresh(options: &Options, out: &Path, dir: &Path) {
+    let fresh = dir.join("fresh");
+    let _ = std::fs::remove_dir_all(&fresh);
+    resumes(options, &fresh, [2, 0, 2]);
+    assert!(tree(&fresh) == tree(out), "{options:?}");
+}
+
+/// Copies the course bunny's scene file and mesh into `dir`, to be changed there.
+fn own_bunny(dir: &Path) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    for file in ["bunny.json", "bunny.stl"] {
+        std::fs::copy(repo_path(&format!("scenes/course/{file}")), dir.join(file)).unwrap();
+    }
+    dir.join("bunny.json")
+}
+
+/// Each option that changes a view's files, and the scene's and its mesh's contents: a job
+/// run again with it changed renders every view again as stale, leaving what a fresh run
+/// writes; run once more, it skips every view. A view whose record is missing (a folder of a
+/// version without records) is stale too. On the CPU, 2 views of 16x9 pixels each.
+#[test]
+fn a_changed_option_or_scene_renders_the_views_again_and_the_same_skip_them() {
+    let dir = tempfile::tempdir().unwrap();
+    type Edit = fn(&Path);
+    let none: Edit = |_| {};
+    let move_a_wall: Edit = |scene| {
+        let text = std::fs::read_to_string(scene).unwrap();
+        let moved = text.replacen("[-1,0,0]", "[-1.25,0,0]", 1);
+        assert_ne!(moved, text);
+        std::fs::write(scene, moved).unwrap();
+    };
+    let move_a_vertex: Edit = |scene| {
+        let mesh = scene.with_file_name("bunny.stl");
+        let mut bytes = std::fs::read(&mesh).unwrap();
+        // Binary STL: the first triangle's first corner's x after its normal.
+        let x = &mut bytes[96..100];
+        let moved = f32::from_le_bytes(x.try_into().unwrap()) * 1.01;
+        x.copy_from_slice(&moved.to_le_bytes());
+        std::fs::write(&mesh, bytes).unwrap();
+    };
+    let forget_a_record: Edit = |scene| {
+        let view = scene.parent().unwrap().join("out/bunny/orbit-001");
+        std::fs::remove_file(view.join(RECORD)).unwrap();
+    };
+    let cases: [(Options, Edit, usize); 14] = [
+        (vec![("--size", Some("16x8"))], none, 2),
+        (vec![("--precision", Some("f32"))], none, 2),
+        (vec![("--algorithm", Some("textbook"))], none, 2),
+        (vec![("--format", Some("png,depth16,npy"))], none, 2),
+        (vec![("--outputs", Some("id,distance"))], none, 2),
+        (vec![("--depth", Some("z"))], none, 2),
+        (vec![("--depth-scale", Some("500"))], none, 2),
+        (vec![("--spp", Some("4"))], none, 2),
+        (vec![("--background", Some("255,255,255"))], none, 2),
+        (vec![("--lit", None)], none, 2),
+        (vec![("--device", Some("gpu"))], none, 2),
+        (vec![], move_a_wall, 2),
+        (vec![], move_a_vertex, 2),
+        (vec![], forget_a_record, 1),
+    ];
+    for (k, (changes, edit, again)) in cases.into_iter().enumerate() {
+        let case = dir.path().join(format!("case{k}"));
+        let scene = own_bunny(&case);
+        let out = case.join("out");
+        let base: Options = vec![
+            (scene.to_str().unwrap(), None),
+            ("--orbit", Some("2")),
+            ("--size", Some("16x9")),
+            ("--device", Some("cpu")),
+            ("--format", Some("png,depth16")),
+        ];
+        resumes(&base, &out, [2, 0, 2]);
+        if k == 0 {
+            resumes(&base, &out, [0, 0, 2]);
+        }
+        edit(&scene);
+        let options = changed(&base, &changes);
+        resumes(&options, &out, [again, again, 2]);
+        resumes(&options, &out, [0, 0, 2]);
+        as_fresh(&options, &out, &case);
+        // --force renders every view again, stale or not.
+        if k == 0 {
+            let forced = changed(&options, &vec![("--force", None)]);
+            resumes(&forced, &out, [2, 0, 2]);
+            // A shard of the first options again: the manifest calls the other shard's view,
+            // of other options, stale.
+            let shard = changed(&base, &vec![("--shard", Some("0/2"))]);
+            resumes(&shard, &out, [1, 1, 1]);
+            let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
+            let status: Vec<String> = manifest
+                .lines()
+                .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+                .map(|l| l["status"].as_str().unwrap().to_owned())
+                .collect();
+            assert_eq!(status, ["done", "stale"]);
+        }
+    }
+}
+
+/// The options that change a GPU render's files beyond the CPU's: the shade hook's and the
+/// kernel file's text, bands. Each changed renders both views again; the same skips them.
+#[test]
+fn a_changed_hook_kernel_or_band_renders_the_views_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let hook = dir.path().join("hook.wgsl");
+    let kernel = dir.path().join("kernel.wgsl");
+    let shade = |rgb: &str| {
+        let source =
+            format!("fn shade(hit: ShadeHit) -> vec4<f32> {{ return vec4<f32>({rgb}, 1.0); }}\n");
+        std::fs::write(&hook, source).unwrap();
+    };
+    let base: Options = vec![
+        (BUNNY, None),
+        ("--orbit", Some("2")),
+        ("--size", Some("16x9")),
+        ("--precision", Some("f32")),
+    ];
+    // The kernel a view of this job assembles, as the single render of the scene writes it.
+    let single = dir.path().join("single");
+    succeeds(&[
+        BUNNY,
+        "--size",
+        "16x9",
+        "--precision",
+        "f32",
+        "-o",
+        single.to_str().unwrap(),
+        "--emit-shader",
+        kernel.to_str().unwrap(),
+    ]);
+    resumes(&base, &out, [2, 0, 2]);
+    let banded = changed(&base, &vec![("--band-rows", Some("4"))]);
+    resumes(&banded, &out, [2, 2, 2]);
+    resumes(&banded, &out, [0, 0, 2]);
+    let shaded = changed(&base, &vec![("--shader", Some(hook.to_str().unwrap()))]);
+    shade("1.0, 0.0, 0.0");
+    resumes(&shaded, &out, [2, 2, 2]);
+    resumes(&shaded, &out, [0, 0, 2]);
+    shade("0.0, 1.0, 0.0");
+    resumes(&shaded, &out, [2, 2, 2]);
+    resumes(&shaded, &out, [0, 0, 2]);
+    let own_kernel = changed(&base, &vec![("--kernel", Some(kernel.to_str().unwrap()))]);
+    resumes(&own_kernel, &out, [2, 2, 2]);
+    resumes(&own_kernel, &out, [0, 0, 2]);
+    let mut text = std::fs::read_to_string(&kernel).unwrap();
+    text.push_str("// edited\n");
+    std::fs::write(&kernel, text).unwrap();
+    resumes(&own_kernel, &out, [2, 2, 2]);
+    resumes(&own_kernel, &out, [0, 0, 2]);
+}
+
+/// With a views file, only the views whose camera changed are rendered again.
+#[test]
+fn a_changed_camera_renders_that_view_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let views = dir.path().join("views.json");
+    let write = |eye: &str| {
+        let text = format!(
+            r#"[{{"name": "a", "eye": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40}},
+                {{"name": "b", "eye": {eye}, "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40}}]"#
+        );
+        std::fs::write(&views, text).unwrap();
+    };
+    let options: Options = vec![
+        (BUNNY, None),
+        ("--views", Some(views.to_str().unwrap())),
+        ("--size", Some("16x9")),
+        ("--device", Some("cpu")),
+    ];
+    write("[1, 0.5, 2]");
+    resumes(&options, &out, [2, 0, 2]);
+    let a = std::fs::metadata(out.join("bunny/a/id.png"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    write("[1, 0.75, 2]");
+    resumes(&options, &out, [1, 1, 2]);
+    resumes(&options, &out, [0, 0, 2]);
+    let after = std::fs::metadata(out.join("bunny/a/id.png"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    assert_eq!(a, after, "view a kept");
+    as_fresh(&options, &out, dir.path());
 }
 
 #[test]
@@ -479,7 +718,7 @@ fn a_signal_leaves_only_complete_views() {
             "{names:?}"
         );
         for name in names {
-            assert_eq!(common::file_names(&scene.join(&name)).len(), 5, "{name}");
+            assert_eq!(common::file_names(&scene.join(&name)).len(), 6, "{name}");
         }
     }
 }
