@@ -78,6 +78,16 @@ pub enum Error {
     /// No GPU adapter, or the device could not run the request.
     #[error("{0}")]
     Device(String),
+    /// A render would hold more memory than the machine has: refused before it starts.
+    /// `option` names the argument that asks for it (with its value), as in
+    /// [`Error::Argument`].
+    #[error("{option}: {message}")]
+    Memory {
+        /// The argument (and its value).
+        option: String,
+        /// How much the render needs, how much there is, and what to lower.
+        message: String,
+    },
 }
 
 /// The library's result type.
@@ -87,12 +97,12 @@ impl Error {
     /// This error with the arguments it names spelled as a tool spells them: `spelling`
     /// gives the spelling of an API name (`precision`) where the tool has one
     /// (`--precision`). It renames the first word of [`Error::Argument::option`] and every
-    /// name written in backticks in an argument's or a device's message, or in a shader
-    /// error's hint (its message quotes code).
+    /// name written in backticks in an argument's, a memory refusal's or a device's message,
+    /// or in a shader error's hint (its message quotes code).
     pub fn spelled(mut self, spelling: &dyn Fn(&str) -> Option<String>) -> Error {
         let text = |t: &mut String| *t = respell(t, spelling);
         match &mut self {
-            Error::Argument { option, message } => {
+            Error::Argument { option, message } | Error::Memory { option, message } => {
                 let (name, rest) = option.split_once(' ').unwrap_or((option, ""));
                 if let Some(flag) = spelling(name) {
                     *option = [flag.as_str(), rest].join(if rest.is_empty() { "" } else { " " });

@@ -22,6 +22,7 @@ pub fn flag(name: &str) -> Option<String> {
         "shade" | "shader" => "--shader",
         "kernel" => "--kernel",
         "samples_per_pixel" => "--spp",
+        "size" => "--size",
         "formats" => "--format",
         "outputs" => "--outputs",
         "background" => "--background",

@@ -13,6 +13,12 @@ use raycast_cli::render::ModeArg;
 use raycast_cli::study::{self, Stream};
 use raycast_cli::{compare, progress, watch};
 
+mod allocator;
+
+/// The system's allocator, but a refused allocation ends the command with one line, exit 2.
+#[global_allocator]
+static ALLOCATOR: allocator::ExitOnFailure = allocator::ExitOnFailure;
+
 #[derive(Parser)]
 #[command(
     name = "raycast",

@@ -47,6 +47,7 @@ fn to_py(e: raycast::Error) -> PyErr {
         | raycast::Error::SceneValue { .. }
         | raycast::Error::Mesh { .. } => PyValueError::new_err(e.to_string()),
         raycast::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+        raycast::Error::Memory { .. } => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
         _ => PyRuntimeError::new_err(e.to_string()),
     }
 }

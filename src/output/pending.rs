@@ -9,7 +9,8 @@
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, MutexGuard, PoisonError};
+use std::sync::{Mutex, MutexGuard, PoisonError, TryLockError};
+use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
 
@@ -137,14 +138,35 @@ pub(crate) fn holds_any_in(dir: &Path) -> bool {
     registry().iter().any(|p| p.parent() == Some(dir))
 }
 
+/// How long [`abandon`] waits for the registry: far longer than any registry operation (a
+/// set of renames) takes; held longer, it is held by the thread that calls `abandon`.
+const ABANDON_WAIT: Duration = Duration::from_secs(10);
+
+/// The registry, waited for at most `wait`; `None` where it stays held: by the calling thread
+/// itself, where an allocation failed inside a registry operation.
+fn registry_within(wait: Duration) -> Option<MutexGuard<'static, Vec<PathBuf>>> {
+    let start = Instant::now();
+    loop {
+        match PENDING.try_lock() {
+            Ok(held) => return Some(held),
+            Err(TryLockError::Poisoned(held)) => return Some(held.into_inner()),
+            Err(TryLockError::WouldBlock) if start.elapsed() < wait => {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Err(TryLockError::WouldBlock) => return None,
+        }
+    }
+}
+
 /// Removes every registered temporary file, prints `message` (unless empty) as the one line on
-/// stderr and exits with `code`, still holding the registry so that no file is created or renamed after
-/// the removal. For a signal handler on the way out: on unix it leaves by `_exit`, without the
-/// exit handlers (a GPU driver's among them) that could hang while another thread is inside
-/// the driver.
+/// stderr and exits with `code`, still holding the registry so that no file is created or
+/// renamed after the removal. For a signal handler on the way out, and for the command line's
+/// allocator when the system refuses memory: on unix it leaves by `_exit`, without the exit
+/// handlers (a GPU driver's among them) that could hang while another thread is inside the
+/// driver. Where the registry stays held (10 s) it leaves without removing the files.
 pub fn abandon(code: i32, message: &str) -> ! {
-    let held = registry();
-    for path in held.iter() {
+    let held = registry_within(ABANDON_WAIT);
+    for path in held.iter().flat_map(|h| h.iter()) {
         if path.is_dir() {
             remove_dir_while_written(path);
         } else {

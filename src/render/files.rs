@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
-use super::{Progress, adaptive, check_kernels, render_streamed, supersample, timed};
+use super::{Progress, adaptive, check_kernels, memory, render_streamed, supersample, timed};
 use crate::algorithm::Algorithm;
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
@@ -228,6 +228,22 @@ impl RenderFiles {
         Ok(())
     }
 
+    /// Refuses a render of `size` pixels whose images, held whole, need more memory than
+    /// this machine has ([`memory`]); one in bands holds a band and passes.
+    pub(crate) fn check_memory(&self, size: [u32; 2]) -> Result<()> {
+        let huge = u64::from(size[0]) * u64::from(size[1]) > STREAM_PIXELS;
+        self.resolved(huge).check_resolved_memory(size, huge)
+    }
+
+    fn check_resolved_memory(&self, size: [u32; 2], huge: bool) -> Result<()> {
+        if self.in_bands(huge) {
+            return Ok(());
+        }
+        let spp = self.spp.unwrap_or(1);
+        let could_band = self.spp.is_none() && self.kernel.is_none();
+        memory::check_whole_render(size, spp, self.mode.precision, self.shaded(), could_band)
+    }
+
     /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
     fn shaded(&self) -> bool {
         self.shader.is_some() || self.lit
@@ -323,6 +339,7 @@ impl RenderFiles {
         scene: &Scene,
         huge: bool,
     ) -> Result<Summary> {
+        self.check_resolved_memory(scene.camera.resolution, huge)?;
         let (request, gpu) = self.request(gpu, scene)?;
         output::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
@@ -413,6 +430,7 @@ impl RenderFiles {
         if resolved.in_bands(huge) {
             return Ok(None);
         }
+        resolved.check_resolved_memory(scene.camera.resolution, huge)?;
         let (request, gpu) = resolved.request(gpu, scene)?;
         let (images, _) = resolved.render_whole(scene, gpu, None, &request)?;
         Ok(Some(images))

@@ -3,6 +3,7 @@
 
 pub(crate) mod adaptive;
 pub(crate) mod files;
+pub(crate) mod memory;
 pub(crate) mod mode;
 pub(crate) mod options;
 pub(crate) mod record;
@@ -259,6 +260,9 @@ fn dispatch(
     timed: bool,
 ) -> Result<(AnyImages, Option<f64>)> {
     check_request(mode, request)?;
+    let shaded = request.shade.is_some() && request.outputs.color;
+    let bands = request.kernel.is_none();
+    memory::check_whole_render(scene.camera.resolution, 1, mode.precision, shaded, bands)?;
     if mode.precision == Precision::Adaptive {
         let gpu = match (mode.device, mode.algorithm, gpu) {
             (Device::Gpu, Algorithm::Robust, Some(gpu)) => gpu,

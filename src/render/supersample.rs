@@ -26,8 +26,10 @@
 //!   channel, rounded to nearest (the hook ran once per sample).
 //!
 //! Memory: the fine render is held whole before it is reduced, `N` times the memory of a plain
-//! render (20 bytes a sample in f32, 36 in f64: 640x360 at 256 spp is about 1.2 GB in f32).
-//! Rendering and reducing in bands of rows would bound it; that is not done yet.
+//! render (20 bytes a sample in f32, 36 in f64: 640x360 at 256 spp is about 1.2 GB in f32); a
+//! render that cannot fit in this machine's memory is refused before it starts
+//! ([`render::memory`]). Rendering and reducing in bands of rows would bound it; that is not
+//! done yet.
 
 use rayon::prelude::*;
 
@@ -235,6 +237,9 @@ pub(crate) fn supersample_request(
         // Before sample_scene, which copies the scene (meshes included).
         return render(scene, request, 1);
     }
+    let shaded = request.shade.is_some() && request.outputs.color;
+    let size = scene.camera.resolution;
+    render::memory::check_whole_render(size, spp, mode.precision, shaded, false)?;
     let (fine_scene, s) = sample_scene(scene, spp)?;
     let fine_request = sample_request(request, spp);
     let fine = render(&fine_scene, &fine_request, s);

@@ -312,7 +312,8 @@ impl Job {
 
 impl RenderViews {
     /// Checks everything that can be checked before rendering (the options, the scenes' folder
-    /// names, every view's name and camera fields) and lists the job's pairs.
+    /// names, every view's name and camera fields, the memory of the views whose size is
+    /// known) and lists the job's pairs.
     fn job(&self) -> Result<Job> {
         let refuse = |option: &str, message: &str| {
             Err(Error::Argument {
@@ -341,12 +342,18 @@ impl RenderViews {
         let stems = scene_stems(&scenes)?;
         let (names, cameras) = self.views.parse()?;
         let weights: Vec<f64> = scenes.iter().map(|s| scene_weight(s.as_deref())).collect();
+        // A view's size where it is known before its scene is loaded.
+        let size = |v: usize| {
+            r.size
+                .or_else(|| cameras.get(v).and_then(|c| c.resolution()))
+        };
+        let mut sizes: Vec<[u32; 2]> = (0..names.len()).filter_map(size).collect();
+        sizes.sort_unstable();
+        sizes.dedup();
+        sizes.into_iter().try_for_each(|s| r.check_memory(s))?;
         let pixels: Vec<f64> = (0..names.len())
             .map(|v| {
-                let size = r
-                    .size
-                    .or_else(|| cameras.get(v).and_then(|c| c.resolution()));
-                let [nx, ny] = size.unwrap_or(scene::DEFAULT_RESOLUTION);
+                let [nx, ny] = size(v).unwrap_or(scene::DEFAULT_RESOLUTION);
                 f64::from(nx) * f64::from(ny)
             })
             .collect();

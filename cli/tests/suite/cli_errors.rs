@@ -502,6 +502,110 @@ fn size_wider_than_the_device_can_dispatch() {
     assert_has(&message, &["resolution", "600000x1"]);
 }
 
+/// The renders whose images cannot fit in this machine's memory: refused before they start
+/// with one line naming the option, exit 2, and no output folder at all. The request
+/// (the course bunny at 1920x1080 and 4096 samples a pixel, 178 GB held whole) and images of
+/// 100000x100000 pixels held whole (on the CPU, in adaptive precision, as a dataset's views)
+/// need more than any machine the suite runs on; `RAYCAST_MEMORY` sets what there is.
+#[test]
+fn renders_beyond_memory_are_refused_before_they_start() {
+    let bunny = |dir: &TempDir| Case {
+        scene: common::repo_path("scenes/course/bunny.json"),
+        out: dir.path().join("out"),
+        dir: tempfile::tempdir().unwrap(),
+    };
+    let huge = ["--size", "100000x100000"];
+    /// Arguments, environment, parts of the message.
+    type Refusal<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a [&'a str]);
+    let cases: &[Refusal] = &[
+        (
+            &["--size", "1920x1080", "--spp", "4096"],
+            &[],
+            &[
+                "--spp 4096: 1920x1080 pixels of 4096 samples",
+                "GB",
+                "lower --spp or --size",
+            ],
+        ),
+        (
+            &[huge[0], huge[1], "--device", "cpu"],
+            &[],
+            &["--size 100000x100000", "(f64) needs 360 GB", "in bands"],
+        ),
+        (
+            &[huge[0], huge[1], "--precision", "adaptive"],
+            &[],
+            &["--size 100000x100000", "(adaptive) needs 210 GB"],
+        ),
+        (
+            &[huge[0], huge[1], "--device", "cpu", "--orbit", "2"],
+            &[],
+            &["--size 100000x100000", "(f64) needs 360 GB"],
+        ),
+        (
+            &["--size", "640x360", "--device", "cpu"],
+            &[("RAYCAST_MEMORY", "8M")],
+            &[
+                "--size 640x360",
+                "needs 8.3 MB",
+                "more than the 8.0 MB RAYCAST_MEMORY allows",
+            ],
+        ),
+        (
+            &["--device", "cpu"],
+            &[("RAYCAST_MEMORY", "lots")],
+            &["RAYCAST_MEMORY: must be a number of bytes", "`lots`"],
+        ),
+    ];
+    for (args, envs, parts) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let case = bunny(&dir);
+        let message = case.fail(args, envs);
+        assert_has(&message, parts);
+        assert!(!case.out.exists(), "{args:?}: no output folder");
+    }
+    // Within what RAYCAST_MEMORY allows, the same render runs.
+    let dir = tempfile::tempdir().unwrap();
+    let case = bunny(&dir);
+    let output = case.run(
+        &["--size", "64x36", "--device", "cpu"],
+        &[("RAYCAST_MEMORY", "8M")],
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// An allocation the system refuses (here under a 2 GB address-space limit, `ulimit -v`, with
+/// the estimate lifted by `RAYCAST_MEMORY`) ends the command with one line and exit 2, not
+/// Rust's abort (exit 134), and leaves no file.
+#[cfg(unix)]
+#[test]
+fn a_refused_allocation_ends_with_one_line_not_an_abort() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let scene = common::repo_path("scenes/course/bunny.json");
+    let command =
+        "ulimit -v 2000000 && exec \"$0\" render \"$1\" --size 12000x12000 --device cpu -o \"$2\"";
+    let output = std::process::Command::new("sh")
+        .args(["-c", command, env!("CARGO_BIN_EXE_raycast")])
+        .arg(&scene)
+        .arg(&out)
+        .env("RAYCAST_MEMORY", "1T")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: out of memory: the system refused ")
+            && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    assert_no_files(&out);
+}
+
 // 12. Mesh files.
 
 fn soup(kind: &str, file: &str) -> String {
