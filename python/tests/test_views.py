@@ -82,6 +82,14 @@ def test_render_without_a_precision_is_the_command_lines_default_render(tmp_path
             assert np.array_equal(images[key], expected), (device, hook, key)
 
 
+def test_a_view_beyond_memory_raises_memory_error_before_it_renders():
+    """A view whose images cannot fit in this machine's memory (100000x100000 pixels held
+    whole in f64 on the CPU: 360 GB) is refused before it renders (docs/cli.md#memory)."""
+    huge = dict(CAMERAS[1], name="huge", resolution=[100000, 100000])
+    with pytest.raises(MemoryError, match=r"size 100000x100000: .* needs 360 GB"):
+        next(raycast.load(BUNNY).render_views([huge], precision="f64", device="cpu"))
+
+
 def test_render_views_on_the_gpu_lit_takes_numpy_values_and_default_names():
     camera = {k: v for k, v in CAMERAS[1].items() if k != "name"}
     camera["eye"] = np.array(camera["eye"])
