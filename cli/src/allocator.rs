@@ -79,7 +79,9 @@ fn refused(size: usize) -> ! {
     line.push("error: out of memory: the system refused ");
     line.push_number(size);
     line.push(" bytes; no partial file left");
-    raycast::output::abandon(EXIT, line.as_str())
+    // An allocator must not unwind: should printing the line panic (stderr closed), leave.
+    let _ = std::panic::catch_unwind(|| raycast::output::abandon(EXIT, line.as_str()));
+    leave(b"error: out of memory\n")
 }
 
 /// Writes `message` on stderr and exits, allocating nothing.
