@@ -4,8 +4,8 @@
 //! others again, so that a view never keeps files of other options or of a changed scene.
 //!
 //! The record holds what changes the files: raycast's version, the options (size, device,
-//! precision as asked, algorithm, samples, bands, the hook's and the kernel file's text, the
-//! encoding), a digest of the scene (its file and the mesh files it loads) and the view's
+//! precision as asked, algorithm, samples, bands, how a mesh file splits into objects, the
+//! hook's and the kernel file's text, the encoding), a digest of the scene (its file and the mesh files it loads) and the view's
 //! camera as rendered (its size among its fields). Not the paths: a job given absolute paths
 //! (as `raycast.distributed` gives its workers) writes the same records. Not the adapter: a
 //! job resumed on another GPU keeps the views the first one rendered.
@@ -69,6 +69,8 @@ pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
             "algorithm": render.mode.algorithm.to_string(),
             "spp": render.spp,
             "band_rows": render.band_rows,
+            // A mesh file's objects: its ids.
+            "split": format!("{:?}", render.split),
             "lit": render.lit,
             "shader": shader,
             "kernel": text(render.kernel.as_deref())?,

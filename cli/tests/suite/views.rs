@@ -363,10 +363,11 @@ fn own_bunny(dir: &Path) -> PathBuf {
     dir.join("bunny.json")
 }
 
-/// Each option that changes a view's files, and the scene's and its mesh's contents: a job
-/// run again with it changed renders every view again as stale, leaving what a fresh run
-/// writes; run once more, it skips every view. A view whose record is missing (a folder of a
-/// version without records) is stale too. On the CPU, 2 views of 16x9 pixels each.
+/// Each option that changes a view's files (the orbit's among them), and the scene's and its
+/// mesh's contents: a job run again with it changed renders every view again as stale,
+/// leaving what a fresh run writes; run once more, it skips every view. A view whose record is
+/// missing (a folder of a version without records) is stale too. On the CPU, 2 views of 16x9
+/// pixels each.
 #[test]
 fn a_changed_option_or_scene_renders_the_views_again_and_the_same_skip_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -391,7 +392,7 @@ fn a_changed_option_or_scene_renders_the_views_again_and_the_same_skip_them() {
         let view = scene.parent().unwrap().join("out/bunny/orbit-001");
         std::fs::remove_file(view.join(RECORD)).unwrap();
     };
-    let cases: [(Options, Edit, usize); 14] = [
+    let cases: [(Options, Edit, usize); 17] = [
         (vec![("--size", Some("16x8"))], none, 2),
         (vec![("--precision", Some("f32"))], none, 2),
         (vec![("--algorithm", Some("textbook"))], none, 2),
@@ -403,6 +404,9 @@ fn a_changed_option_or_scene_renders_the_views_again_and_the_same_skip_them() {
         (vec![("--background", Some("255,255,255"))], none, 2),
         (vec![("--lit", None)], none, 2),
         (vec![("--device", Some("gpu"))], none, 2),
+        (vec![("--orbit-radius", Some("0.9"))], none, 2),
+        (vec![("--orbit-elevation", Some("30"))], none, 2),
+        (vec![("--eye", Some("0.3,0.2,0.9"))], none, 2),
         (vec![], move_a_wall, 2),
         (vec![], move_a_vertex, 2),
         (vec![], forget_a_record, 1),
@@ -497,6 +501,31 @@ fn a_changed_hook_kernel_or_band_renders_the_views_again() {
     std::fs::write(&kernel, text).unwrap();
     resumes(&own_kernel, &out, [2, 2, 2]);
     resumes(&own_kernel, &out, [0, 0, 2]);
+}
+
+/// `--split` changes a mesh file's ids: an OBJ of two objects split otherwise renders every
+/// view again, and the same skips them.
+#[test]
+fn a_changed_split_renders_a_meshs_views_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("two.obj");
+    std::fs::write(
+        &mesh,
+        "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 2 0 0\nv 3 0 0\nv 2 1 0\nf 4 5 6\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let base: Options = vec![
+        (mesh.to_str().unwrap(), None),
+        ("--orbit", Some("2")),
+        ("--size", Some("16x9")),
+        ("--device", Some("cpu")),
+    ];
+    resumes(&base, &out, [2, 0, 2]);
+    let whole = changed(&base, &vec![("--split", Some("none"))]);
+    resumes(&whole, &out, [2, 2, 2]);
+    resumes(&whole, &out, [0, 0, 2]);
+    as_fresh(&whole, &out, dir.path());
 }
 
 /// With a views file, only the views whose camera changed are rendered again.
