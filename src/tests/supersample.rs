@@ -317,10 +317,11 @@ fn reduce_of_a_rendered_fine_image_matches_supersample() {
     let scene = sphere_scene(20, 15, 4.0, 3.0);
     let mut fine_scene = scene.clone();
     fine_scene.camera.resolution = [60, 45];
-    let fine: Images<f32> = match render::render(&fine_scene, mode("gpu"), Some(gpu()), None) {
-        Ok(AnyImages::F32(i)) => i,
-        other => panic!("{other:?}"),
-    };
+    let fine: Images<f32> =
+        match render::render(&fine_scene, mode("gpu:f32:robust"), Some(gpu()), None) {
+            Ok(AnyImages::F32(i)) => i,
+            other => panic!("{other:?}"),
+        };
     let direct = supersample::reduce(&fine, 3);
     assert_eq!(
         supersample(&scene, "gpu:f32:robust", 9),
