@@ -3,7 +3,7 @@
 //! three runs. `cargo run --release -p raycast-benches --bin bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
 use std::path::Path;
 
-use raycast::scene::{Scene, Triangle};
+use raycast::scene::{MeshPart, Scene, Triangle};
 use raycast::{Gpu, Precision, RenderOptions, Search, Tuning};
 
 /// A torus around the z axis (radii 1 and 0.4) of 2 * nu * nv triangles.
@@ -67,8 +67,13 @@ fn main() {
             "resolution": [1920, 1080]}, "objects": [{"type": "soup", "obj": "torus.obj"}]}"#;
         let mesh = torus(nu, nv);
         let triangles = mesh.len();
-        let scene =
-            Scene::from_json(json, Path::new("torus.json"), &mut |_| Ok(mesh.clone())).unwrap();
+        let scene = Scene::from_json(json, Path::new("torus.json"), &mut |_, _| {
+            Ok(vec![MeshPart {
+                name: String::new(),
+                triangles: mesh.clone(),
+            }])
+        })
+        .unwrap();
         drop(mesh);
         let mut builds = Vec::new();
         let mut kernels = Vec::new();

@@ -74,6 +74,6 @@ pub use crate::{
     render::options::{Cpu, RenderOptions, Tuning},
     render::viewer::Viewer,
     render::views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary},
-    render::{AnyImages, Progress, STREAM_PIXELS, peak_rss_mib},
+    render::{AnyImages, Progress, STREAM_PIXELS},
     scene::{Orbit, Scene},
 };

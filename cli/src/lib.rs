@@ -36,6 +36,7 @@ pub fn flag(name: &str) -> Option<String> {
         "orbit_radius" => "--orbit-radius",
         "orbit_elevation" => "--orbit-elevation",
         "views" => "--views",
+        "split" => "--split",
         "shard" => "--shard",
         _ => return None,
     };
@@ -61,4 +62,46 @@ pub fn parse_vector(s: &str) -> std::result::Result<glam::DVec3, String> {
         [x, y, z] if parts.len() == 3 => Ok(glam::DVec3::new(x, y, z)),
         _ => Err(format!("expected X,Y,Z (three numbers), got `{s}`")),
     }
+}
+
+/// An image size written `WIDTHxHEIGHT` (`--size 640x360`), each at least 1.
+pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
+    let err = || format!("expected WIDTHxHEIGHT such as 640x360, got `{s}`");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let w: u32 = w.trim().parse().map_err(|_| err())?;
+    let h: u32 = h.trim().parse().map_err(|_| err())?;
+    if w == 0 || h == 0 {
+        return Err(format!("image size must be at least 1x1, got `{s}`"));
+    }
+    Ok([w, h])
+}
+
+/// An opaque colour as `--background` takes it: `R,G,B`, each in 0..255.
+pub fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
+    let err = || {
+        format!("expected R,G,B with each of the three in 0..255, such as 255,255,255, got `{s}`")
+    };
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(err());
+    }
+    let mut rgb = [0u8; 3];
+    for (c, part) in rgb.iter_mut().zip(parts) {
+        *c = part.trim().parse().map_err(|_| err())?;
+    }
+    Ok(rgb)
+}
+
+/// `VmHWM` (peak resident set) of this process (Linux; `None` elsewhere) in MiB, from /proc/self/status.
+pub fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line
+        .trim_start_matches("VmHWM:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib / 1024.0)
 }

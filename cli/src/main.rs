@@ -82,7 +82,7 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         output: PathBuf,
         /// Image size in pixels, e.g. 1920x1080 (overrides the scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// Comma-separated output formats: png, ppm, npy, npz (render.npz), exr (render.exr),
         /// depth16 (depth16.png). camera.json is written beside every render.
@@ -136,7 +136,7 @@ enum Command {
         spp: Option<u32>,
         /// Composite color.png over this opaque colour, R,G,B in 0..255 (default: transparent,
         /// premultiplied alpha).
-        #[arg(long, value_name = "R,G,B", value_parser = output::parse_background)]
+        #[arg(long, value_name = "R,G,B", value_parser = raycast_cli::parse_background)]
         background: Option<[u8; 3]>,
         /// Also write the assembled WGSL kernel this render ran (specialized for the scene and
         /// the mode) to this file.
@@ -176,7 +176,7 @@ enum Command {
         #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// First render, DEVICE[:PRECISION][:ALGORITHM]; a device alone renders in its default
         /// precision, as `raycast render` does (on the GPU adaptive, f32 with --shader or --lit).
@@ -209,7 +209,7 @@ enum Command {
         #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// The mode every other is compared with, DEVICE[:PRECISION][:ALGORITHM].
         #[arg(long, default_value = "cpu:f64:robust")]
@@ -228,7 +228,7 @@ enum Command {
         #[arg(required = true, help = concat!("Each a ", scene_file!()))]
         scenes: Vec<PathBuf>,
         /// Image size in pixels (overrides every scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// Timed runs per mode, after one warm-up run; the median is reported.
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
@@ -275,7 +275,7 @@ enum Command {
         #[arg(help = concat!("A ", scene_file!()))]
         scene: PathBuf,
         /// Image size in pixels (overrides the scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// Timed runs per configuration, after one warm-up run; the median is reported.
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
@@ -313,7 +313,7 @@ enum Command {
         #[arg(short, long, default_value = ".")]
         output: PathBuf,
         /// Image size in pixels.
-        #[arg(long, value_parser = scene::parse_size, default_value = "1920x1080")]
+        #[arg(long, value_parser = raycast_cli::parse_size, default_value = "1920x1080")]
         size: [u32; 2],
         /// The torus's triangles, about (a grid twice as long around as across).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
@@ -333,7 +333,7 @@ enum Command {
         #[arg(long, conflicts_with = "shader")]
         lit: bool,
         /// Full image size in pixels, e.g. 1280x720 (overrides the scene's resolution).
-        #[arg(long, value_parser = scene::parse_size)]
+        #[arg(long, value_parser = raycast_cli::parse_size)]
         size: Option<[u32; 2]>,
         /// The GPU's arithmetic: f32, f64 (needs SHADER_F64) or adaptive (without a hook).
         /// Default: as `raycast render`'s, adaptive (f32 with --shader or --lit).
@@ -549,24 +549,11 @@ fn run(command: Command) -> Result<ExitCode> {
                     message: "renders many views: give --views or --orbit".into(),
                 });
             }
-            if split.is_some() && !scenes.iter().any(|s| scene::is_mesh_file(s)) {
-                return Err(raycast::Error::Argument {
-                    option: "--split".into(),
-                    message:
-                        "splits mesh files given as scenes; in a scene file, give a soup \"split\""
-                            .into(),
-                });
-            }
             if views.is_none() && scenes.len() > 1 {
-                let meshes = scenes.iter().filter(|s| scene::is_mesh_file(s)).count();
-                let together = match meshes > 1 {
-                    true => "; to render meshes together, list them as soups of one scene file",
-                    false => "",
-                };
                 return Err(raycast::Error::Argument {
                     option: "scenes".into(),
                     message: format!(
-                        "{} scene files given; one is rendered at a time, or many with --views or --orbit{together}",
+                        "{} scene files given; one is rendered at a time, or many with --views or --orbit; to render meshes together, list them as soups of one scene file",
                         scenes.len()
                     ),
                 });
@@ -792,8 +779,13 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
     // One device for every render, so kernels compiled once stay cached.
     let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
     let render_once = || {
-        progress::cpu_rows(|p| spec.run(gpu.as_ref(), p.as_deref()))
-            .map(|s| s.lines().into_iter().for_each(say))
+        let mut summary = progress::cpu_rows(|p| spec.run(gpu.as_ref(), p.as_deref()))?;
+        // A render in bands reports the process's peak memory, which the bands keep bounded.
+        if summary.bands.is_some() {
+            summary.peak_mib = raycast_cli::peak_rss_mib();
+        }
+        summary.lines().into_iter().for_each(say);
+        Ok(())
     };
     if !watch {
         return render_once();

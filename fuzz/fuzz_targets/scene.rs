@@ -6,6 +6,11 @@ use libfuzzer_sys::fuzz_target;
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
         let triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]].map(Into::into);
-        let _ = raycast::Scene::from_json(text, "fuzz.json".as_ref(), &mut |_| Ok(vec![triangle]));
+        let _ = raycast::Scene::from_json(text, "fuzz.json".as_ref(), &mut |_, _| {
+            Ok(vec![raycast::scene::MeshPart {
+                name: String::new(),
+                triangles: vec![triangle],
+            }])
+        });
     }
 });

@@ -326,9 +326,10 @@ impl Scene {
         let views = match (cameras, orbit) {
             (Some(text), None) => Views::Json(text),
             (None, Some(views)) => Views::Orbit(raycast::Orbit {
+                views,
                 radius: orbit_radius,
                 elevation: orbit_elevation,
-                ..raycast::Orbit::new(views)
+                ..raycast::Orbit::default()
             }),
             _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
         };
@@ -641,7 +642,10 @@ impl ViewJob {
             split: Default::default(),
         };
         let views = match views {
-            ViewsArg::Orbit(n) => Views::Orbit(raycast::Orbit::new(n)),
+            ViewsArg::Orbit(n) => Views::Orbit(raycast::Orbit {
+                views: n,
+                ..raycast::Orbit::default()
+            }),
             ViewsArg::File(path) => Views::File(path),
         };
         Ok(ViewJob {

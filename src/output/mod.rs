@@ -94,22 +94,6 @@ pub struct EncodedFile {
     pub bytes: Vec<u8>,
 }
 
-/// An opaque colour as `--background` takes it: `R,G,B`, each in 0..255.
-pub fn parse_background(s: &str) -> std::result::Result<[u8; 3], String> {
-    let err = || {
-        format!("expected R,G,B with each of the three in 0..255, such as 255,255,255, got `{s}`")
-    };
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 3 {
-        return Err(err());
-    }
-    let mut rgb = [0u8; 3];
-    for (c, part) in rgb.iter_mut().zip(parts) {
-        *c = part.trim().parse().map_err(|_| err())?;
-    }
-    Ok(rgb)
-}
-
 /// The files a render writes: in which formats, of which outputs, `color.png` composited over
 /// what, and which depth.
 #[derive(Clone, Debug, PartialEq)]

@@ -1075,8 +1075,8 @@ mod tests {
                 ]
             })
             .collect();
-        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_| {
-            Ok(mesh.clone())
+        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
+            Ok(crate::scene::MeshPart::whole(mesh.clone()))
         })
         .unwrap()
     }

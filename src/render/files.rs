@@ -21,6 +21,23 @@ use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
 use crate::scene::{self, CameraOverrides, Object, Scene, Split};
 
+/// Refuses a `split` other than the default where none of `scenes` is a mesh file (`None`: the
+/// built-in default scene): it splits mesh files given as scenes, and a scene file's soups say
+/// their own.
+pub(crate) fn check_split<'a>(
+    split: Split,
+    mut scenes: impl Iterator<Item = Option<&'a Path>>,
+) -> Result<()> {
+    if split != Split::default() && !scenes.any(|s| s.is_some_and(scene::is_mesh_file)) {
+        return Err(Error::Argument {
+            option: "split".into(),
+            message: "splits mesh files given as scenes; in a scene file, give a soup \"split\""
+                .into(),
+        });
+    }
+    Ok(())
+}
+
 /// Everything a render to files is asked for.
 #[derive(Clone, Debug)]
 pub struct RenderFiles {
@@ -55,7 +72,7 @@ pub struct RenderFiles {
     /// Camera settings replacing the scene's (or a mesh's default view's).
     pub view: CameraOverrides,
     /// Which parts of a mesh file given as the scene are objects of their own (a scene file's
-    /// soups say it themselves).
+    /// soups say it themselves: [`RenderFiles::check`] refuses any but the default for one).
     pub split: Split,
 }
 
@@ -80,7 +97,9 @@ pub struct Summary {
     pub elapsed: Duration,
     /// Rows per band, when rendered in bands.
     pub bands: Option<u32>,
-    /// The process's peak memory in MiB, where known (reported for renders in bands).
+    /// The process's peak memory in MiB, where known: [`RenderFiles::run`] leaves it `None`,
+    /// for the caller to set (`raycast render` does for renders in bands), and [`Summary::lines`]
+    /// reports it for renders in bands.
     pub peak_mib: Option<f64>,
     /// Adaptive precision: the fraction of pixels cast again in f64, and whether on the GPU.
     pub recast: Option<(f64, bool)>,
@@ -171,6 +190,13 @@ impl RenderFiles {
 
     /// Refuses the option combinations that cannot render, before anything is read.
     pub fn check(&self) -> Result<()> {
+        self.check_options()?;
+        check_split(self.split, std::iter::once(self.scene.as_deref()))
+    }
+
+    /// [`RenderFiles::check`] but for `scene` and `split`, which a job of many scenes checks
+    /// against its own ([`super::views::RenderViews`]).
+    pub(crate) fn check_options(&self) -> Result<()> {
         self.resolved(false).check_resolved()
     }
 
@@ -372,7 +398,6 @@ impl RenderFiles {
                 summary.hook_rays = hook_rays;
                 summary.elapsed = elapsed;
                 summary.bands = Some(rows);
-                summary.peak_mib = super::peak_rss_mib();
             }
             _ => {
                 let (images, elapsed) = timed(|| self.render_whole(scene, gpu, progress, &request));

@@ -334,11 +334,12 @@ impl RenderViews {
         if r.emit_shader.is_some() {
             return refuse("emit_shader", "writes one kernel; render one view for it");
         }
-        r.check()?;
+        r.check_options()?;
         let scenes: Vec<Option<PathBuf>> = match self.scenes.is_empty() {
             true => vec![None],
             false => self.scenes.iter().cloned().map(Some).collect(),
         };
+        super::files::check_split(r.split, scenes.iter().map(Option::as_deref))?;
         let stems = scene_stems(&scenes)?;
         let (names, cameras) = self.views.parse()?;
         let weights: Vec<f64> = scenes.iter().map(|s| scene_weight(s.as_deref())).collect();
@@ -385,11 +386,6 @@ impl RenderViews {
             spec: self.clone(),
             loaded: None,
         })
-    }
-
-    /// The views of `shard` (the whole job without one), as indices of the job's pairs.
-    pub fn share(&self, shard: Option<Shard>) -> Result<Vec<usize>> {
-        Ok(self.job()?.share(shard))
     }
 
     /// Renders every view of `shard` (or of the job) whose folder is not complete, or holds
@@ -560,9 +556,10 @@ impl ViewRenderer {
         })
     }
 
-    /// Renders the views `pairs` of the job (indices of [`RenderViews::share`]'s) in order, each
-    /// into its folder unless its folder is complete and the job does not force, writing each
-    /// view's files while the next renders; returns how many it rendered.
+    /// Renders the views `pairs` of the job (indices of its pairs, below the count
+    /// [`RenderViews::check`] returns) in order, each into its folder unless its folder is
+    /// complete and the job does not force, writing each view's files while the next renders;
+    /// returns how many it rendered.
     pub fn render(&mut self, gpu: Option<&Gpu>, pairs: &[usize]) -> Result<usize> {
         self.render_all(gpu, pairs, &mut |_, _| {})
             .map(|[rendered, _]| rendered)

@@ -879,7 +879,7 @@ mod tests {
                 "objects": {objects}}}"#
         );
         parse(&text, Path::new("s.json"), &mut |name, split| {
-            super::super::parse_mesh_parts(MESH.as_bytes(), Path::new(name), split)
+            super::super::parse_mesh(MESH.as_bytes(), Path::new(name), split)
         })
     }
 

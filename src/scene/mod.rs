@@ -20,7 +20,8 @@ use rayon::prelude::*;
 use crate::math::Vec3;
 
 pub use camera::{Camera, CameraOverrides, Lens, Projection};
-pub use mesh::{MeshPart, Split, load_mesh, load_mesh_parts, parse_mesh, parse_mesh_parts};
+pub(crate) use mesh::load_mesh_parts;
+pub use mesh::{MeshPart, Split, load_mesh, parse_mesh};
 pub use orbit::Orbit;
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
@@ -191,18 +192,6 @@ pub fn bounds<'a>(objects: impl IntoIterator<Item = &'a Object>) -> Option<(DVec
     (lo.x <= hi.x).then_some((lo, hi))
 }
 
-/// An image size written `WIDTHxHEIGHT` (`--size 640x360`), each at least 1.
-pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
-    let err = || format!("expected WIDTHxHEIGHT such as 640x360, got `{s}`");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let w: u32 = w.trim().parse().map_err(|_| err())?;
-    let h: u32 = h.trim().parse().map_err(|_| err())?;
-    if w == 0 || h == 0 {
-        return Err(format!("image size must be at least 1x1, got `{s}`"));
-    }
-    Ok([w, h])
-}
-
 /// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
 /// that mesh alone, `Scene::of_mesh`, an object for each OBJ object), or without one the
 /// built-in default scene, with its resolution replaced by `size` where given (`--size`): the
@@ -236,7 +225,7 @@ pub(crate) fn load_viewed(
 }
 
 /// Whether `path` names a mesh file (`.obj`, `.stl`, `.ply`, any case) rather than a scene.
-pub fn is_mesh_file(path: &Path) -> bool {
+pub(crate) fn is_mesh_file(path: &Path) -> bool {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     ["obj", "stl", "ply"]
         .iter()
@@ -255,7 +244,7 @@ impl Scene {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let base = path.parent().unwrap_or(Path::new(""));
         file::parse(&text, path, &mut |name, split| {
-            mesh::load_mesh_parts(&base.join(name), split)
+            load_mesh_parts(&base.join(name), split)
         })
     }
 
@@ -271,22 +260,10 @@ impl Scene {
         file::mesh_scene(path, split, |bounds| view.framing(bounds, resolution))
     }
 
-    /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves soup paths
-    /// to their triangles: every soup is one object, whatever its `split`
-    /// ([`Scene::from_json_parts`] splits them).
+    /// Parses scene JSON from memory; `name` labels errors, `load_mesh` resolves a soup's path
+    /// into the parts its `split` asks for, each an object ([`parse_mesh`] parses a mesh
+    /// file's bytes so; a loader that returns one part makes the soup one object).
     pub fn from_json(
-        text: &str,
-        name: &Path,
-        load_mesh: &mut dyn FnMut(&str) -> Result<Vec<Triangle>>,
-    ) -> Result<Scene> {
-        file::parse(text, name, &mut |path, _| {
-            load_mesh(path).map(MeshPart::whole)
-        })
-    }
-
-    /// [`Scene::from_json`] with soups split as their `split` asks: `load_mesh` resolves a
-    /// soup's path into those parts ([`load_mesh_parts`] for files on disk), each an object.
-    pub fn from_json_parts(
         text: &str,
         name: &Path,
         load_mesh: &mut dyn FnMut(&str, Split) -> Result<Vec<MeshPart>>,
@@ -297,9 +274,9 @@ impl Scene {
     /// The built-in default scene (the course bunny in a room with two spheres).
     pub(crate) fn default_scene() -> Scene {
         let name = Path::new("<built-in default scene>");
-        Scene::from_json_parts(DEFAULT_SCENE_JSON, name, &mut |file, split| {
+        Scene::from_json(DEFAULT_SCENE_JSON, name, &mut |file, split| {
             assert_eq!(file, "bunny.stl", "the default scene embeds only bunny.stl");
-            mesh::parse_mesh_parts(DEFAULT_SCENE_BUNNY, Path::new(file), split)
+            mesh::parse_mesh(DEFAULT_SCENE_BUNNY, Path::new(file), split)
         })
         .expect("the built-in default scene is valid")
     }

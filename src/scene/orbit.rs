@@ -135,17 +135,20 @@ struct Wall {
     margin: f64,
 }
 
-impl Orbit {
-    /// An orbit of `views` views with every other setting its default.
-    pub fn new(views: u32) -> Orbit {
+/// One view with every setting its default: `Orbit { views: n, ..Orbit::default() }` is an
+/// orbit of `n` views.
+impl Default for Orbit {
+    fn default() -> Orbit {
         Orbit {
-            views,
+            views: 1,
             radius: None,
             elevation: None,
             camera: CameraOverrides::default(),
         }
     }
+}
 
+impl Orbit {
     /// Refuses settings out of range, naming them.
     pub(crate) fn check(&self) -> Result<()> {
         let refuse = |option: &str, message: String| {

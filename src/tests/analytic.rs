@@ -218,7 +218,7 @@ fn build(cam: &Cam, objs: &[Obj]) -> (Scene, Cam, Vec<Obj>) {
         cam.json(),
         objects.join(", ")
     );
-    let scene = Scene::from_json(&text, Path::new("test.json"), &mut |_| unreachable!())
+    let scene = Scene::from_json(&text, Path::new("test.json"), &mut |_, _| unreachable!())
         .unwrap_or_else(|e| panic!("{e}\n{text}"));
     let c = &scene.camera;
     let plane = c.image_plane();

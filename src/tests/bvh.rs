@@ -19,7 +19,7 @@ use raycast::cpu;
 use raycast::gpu::shader::Variant;
 use raycast::math::{Float, Real, Vec3, vec3};
 use raycast::prepare::bvh::{Bvh, MAX_DEPTH, Search};
-use raycast::scene::Scene;
+use raycast::scene::{MeshPart, Scene};
 
 /// `n` random small triangles in a cube of side 2 seen from z = 5: boxes overlap in depth, so
 /// the traversal's ordering and culling both matter.
@@ -42,12 +42,12 @@ fn dense_soup(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
                         {{"type": "sphere", "center": [0.2, 0.1, 0], "radius": 0.5}}]}}"#
     );
     let half = n / 2;
-    Scene::from_json(&json, Path::new("dense.json"), &mut |p| {
-        Ok(if p.ends_with("a.obj") {
+    Scene::from_json(&json, Path::new("dense.json"), &mut |p, _| {
+        Ok(MeshPart::whole(if p.ends_with("a.obj") {
             triangles[..half].to_vec()
         } else {
             triangles[half..].to_vec()
-        })
+        }))
     })
     .unwrap()
 }
@@ -70,7 +70,7 @@ fn sphere_cloud(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
             "objects": [{}]}}"#,
         spheres.join(",")
     );
-    Scene::from_json(&json, Path::new("spheres.json"), &mut |_| unreachable!()).unwrap()
+    Scene::from_json(&json, Path::new("spheres.json"), &mut |_, _| unreachable!()).unwrap()
 }
 
 /// The extreme scenes built so that f32 overflows or underflows even in kernel units: there

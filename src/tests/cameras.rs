@@ -20,7 +20,7 @@ fn with_camera(name: &str, camera: impl Fn(&Course) -> Value) -> Scene {
     Scene::from_json(
         &scene.to_string(),
         Path::new("rewritten.json"),
-        &mut |file| raycast::scene::load_mesh(&base.join(file)),
+        &mut |file, split| raycast::scene::load_mesh_parts(&base.join(file), split),
     )
     .unwrap_or_else(|e| panic!("{name}: {e}"))
 }

@@ -382,7 +382,8 @@ fn rays_in_a_triangle_plane_or_a_plane_miss_without_nan() {
         {"type": "sphere", "center": [0, 0, -6], "radius": 1},
         {"type": "triangle", "corners": [[-1, 0, -2], [1, 0, -2], [0, 0, -4]]},
         {"type": "plane", "point": [5, 0, 0], "normal": [0, 1, 0]}]}"#;
-    let scene = Scene::from_json(json, Path::new("edge-on.json"), &mut |_| unreachable!()).unwrap();
+    let scene =
+        Scene::from_json(json, Path::new("edge-on.json"), &mut |_, _| unreachable!()).unwrap();
     // Row 16 of 33 is the centre row: its rays have vs = 0 and lie in the plane y = 0.
     let centre_row = |ids: &[i32]| ids[16 * 33..17 * 33].to_vec();
     for a in [Textbook, Robust] {

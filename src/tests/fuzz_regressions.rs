@@ -34,7 +34,7 @@ fn each_input(target: &str, read: fn(&[u8], &Path)) -> usize {
 #[test]
 fn ply_inputs_the_fuzzer_found() {
     let read = |bytes: &[u8], path: &Path| {
-        let _ = raycast::scene::parse_mesh(bytes, path);
+        let _ = raycast::scene::parse_mesh(bytes, path, raycast::scene::Split::None);
     };
     assert!(each_input("ply", read) >= 1);
 }

@@ -41,7 +41,10 @@ fn shares(scene: &Scene, views: &Views) -> Vec<(String, f64)> {
 
 #[test]
 fn every_view_of_an_orbit_sees_the_bounded_objects_of_every_course_scene() {
-    let orbit = Views::Orbit(Orbit::new(24));
+    let orbit = Views::Orbit(Orbit {
+        views: 24,
+        ..Orbit::default()
+    });
     for path in common::scene_files("scenes/course") {
         let scene = Scene::load(&path).unwrap();
         for (name, share) in shares(&scene, &orbit) {
@@ -67,7 +70,10 @@ fn a_closed_room_brings_the_eye_nearer_with_the_image_plane_before_the_objects()
     };
     scene.objects.push(plane([0.0, 0.0, 1.6], [0.0, 0.0, -1.0]));
     scene.camera.eye = [0.0, 0.0, 1.5].into();
-    let views = Views::Orbit(Orbit::new(8));
+    let views = Views::Orbit(Orbit {
+        views: 8,
+        ..Orbit::default()
+    });
     let bunny = raycast::scene::bounds(&scene.objects[..1]).unwrap();
     for (name, camera) in views.cameras(&scene).unwrap() {
         let e = camera.eye;

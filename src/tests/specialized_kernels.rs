@@ -10,7 +10,7 @@ use std::path::Path;
 use raycast::Algorithm::{Robust, Textbook};
 use raycast::gpu::shader::Kinds;
 use raycast::math::Float;
-use raycast::scene::Scene;
+use raycast::scene::{MeshPart, Scene};
 
 const OBJECTS: [&str; 4] = [
     r#"{"type": "sphere", "center": [0.3, 0.1, -3], "radius": 0.6}"#,
@@ -26,8 +26,13 @@ fn scene(objects: &[&str]) -> Scene {
             "objects": [{}]}}"#,
         objects.join(",")
     );
-    Scene::from_json(&json, Path::new("kinds.json"), &mut |_| {
-        Ok(common::sphere_mesh([-0.6, 0.2, -4.0], 0.8, 8, 6))
+    Scene::from_json(&json, Path::new("kinds.json"), &mut |_, _| {
+        Ok(MeshPart::whole(common::sphere_mesh(
+            [-0.6, 0.2, -4.0],
+            0.8,
+            8,
+            6,
+        )))
     })
     .unwrap()
 }

@@ -20,7 +20,7 @@ use raycast::render::{self, AnyImages, Mode};
 use raycast::{Images, Scene};
 
 fn scene(json: &str) -> Scene {
-    Scene::from_json(json, Path::new("test.json"), &mut |_| unreachable!()).unwrap()
+    Scene::from_json(json, Path::new("test.json"), &mut |_, _| unreachable!()).unwrap()
 }
 
 fn mode(s: &str) -> Mode {

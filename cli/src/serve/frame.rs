@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use raycast::images::Output;
 use raycast::output::encode_png_rgb;
-use raycast::scene::{self, Camera, CameraOverrides};
+use raycast::scene::{Camera, CameraOverrides};
 use raycast::{AnyImages, Cpu, Device, Encoding, Format, Mode, Precision, RenderOptions};
 
 use super::state::{Current, Shared};
@@ -109,7 +109,7 @@ fn source(value: &str) -> Result<Source, String> {
 }
 
 fn size(value: &str) -> Result<[u32; 2], String> {
-    let [w, h] = scene::parse_size(value).map_err(|e| format!("size: {e}"))?;
+    let [w, h] = crate::parse_size(value).map_err(|e| format!("size: {e}"))?;
     if w > MAX_SIDE || h > MAX_SIDE {
         return Err(format!(
             "size: at most {MAX_SIDE} pixels a side, got {w}x{h}"

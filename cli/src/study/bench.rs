@@ -317,7 +317,7 @@ pub fn measure(
         timed.push(run_once(scene, mode, accel, gpu, options)?);
         tick();
     }
-    let peak_rss_mb = raycast::peak_rss_mib();
+    let peak_rss_mb = crate::peak_rss_mib();
     let column = |f: fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
     let build_s = column(|r| r.build_s);
     let trace_s = column(|r| r.trace_s);
@@ -441,7 +441,7 @@ fn measure_rays(
         secondary_mrays_per_s: None,
         mrays_from: "wall",
         hit_fraction: hits as f64 / n as f64,
-        peak_rss_mb: raycast::peak_rss_mib(),
+        peak_rss_mb: crate::peak_rss_mib(),
         bytes_per_triangle: None,
         bvh_nodes: None,
         adapter: info.as_ref().map(|i| i.name.clone()),
@@ -723,7 +723,7 @@ mod tests {
     #[test]
     fn peak_rss_reads_proc() {
         if Path::new("/proc/self/status").exists() {
-            assert!(raycast::peak_rss_mib().is_some_and(|m| m > 0.0));
+            assert!(crate::peak_rss_mib().is_some_and(|m| m > 0.0));
         }
     }
 }

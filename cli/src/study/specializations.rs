@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
 use raycast::Precision;
 use raycast::output;
-use raycast::scene::Scene;
+use raycast::scene::{MeshPart, Scene};
 use raycast::{Error, Gpu, Outputs, RenderOptions, Result, Search, Tuning};
 
 /// Above this many triangles brute force is not timed (the torus's 518,400 would take minutes
@@ -721,7 +721,7 @@ fn random_spheres(n: usize, rng: &mut Rng) -> Scene {
         r#"{{{CROSSOVER_CAMERA}, "objects": [{}]}}"#,
         objects.join(",")
     );
-    Scene::from_json(&json, Path::new("spheres.json"), &mut |_| unreachable!())
+    Scene::from_json(&json, Path::new("spheres.json"), &mut |_, _| unreachable!())
         .expect("a generated scene is valid")
 }
 
@@ -742,11 +742,13 @@ fn random_triangles(n: usize, rng: &mut Rng) -> Scene {
         .collect();
     let json =
         format!(r#"{{{CROSSOVER_CAMERA}, "objects": [{{"type": "soup", "obj": "m.obj"}}]}}"#);
-    Scene::from_json(
-        &json,
-        Path::new("triangles.json"),
-        &mut |_| Ok(mesh.clone()),
-    )
+    Scene::from_json(&json, Path::new("triangles.json"), &mut |_, _| {
+        let triangles = mesh.clone();
+        Ok(vec![MeshPart {
+            name: String::new(),
+            triangles,
+        }])
+    })
     .expect("a generated scene is valid")
 }
 

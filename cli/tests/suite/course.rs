@@ -295,8 +295,9 @@ fn ray_tracing_scenes_load_with_their_materials_and_lights() {
         for object in top["objects"].as_array_mut().unwrap() {
             object.as_object_mut().unwrap().remove("material");
         }
-        let plain = raycast::Scene::from_json(&plain.to_string(), &path, &mut |mesh| {
-            raycast::scene::load_mesh(&dir.join(mesh))
+        let plain = raycast::Scene::from_json(&plain.to_string(), &path, &mut |mesh, split| {
+            let mesh = dir.join(mesh);
+            raycast::scene::parse_mesh(&std::fs::read(&mesh).unwrap(), &mesh, split)
         })
         .unwrap();
         assert!(plain.lighting.is_empty());

@@ -277,7 +277,7 @@ fn hit_positions_are_in_world_coordinates() {
     let json = r#"{"camera": {"eye": [300, 200, 5], "look": [0, 0, -1], "up": [0, 1, 0],
         "focal_length": 2, "width": 1.6, "height": 1.2, "resolution": [40, 30]},
         "objects": [{"type": "sphere", "center": [300, 200, 0], "radius": 1}]}"#;
-    let scene = Scene::from_json(json, Path::new("far.json"), &mut |_| unreachable!()).unwrap();
+    let scene = Scene::from_json(json, Path::new("far.json"), &mut |_, _| unreachable!()).unwrap();
     // Red where |position - centre| is the radius to 1e-3 (f32 ulps at 300 are 3e-5);
     // green on every hit; transparent on a miss.
     let hook = hook(
@@ -519,7 +519,7 @@ fn hooks_see_world_coordinates_at_every_power_of_two_scale() {
     let json = r#"{"camera": {"eye": [0.75, 0.5, 0.25], "look": [0, 0, -1], "up": [0, 1, 0],
         "focal_length": 0.5, "width": 0.375, "height": 0.25, "resolution": [40, 30]},
         "objects": [{"type": "sphere", "center": [0.75, 0.5, -0.5], "radius": 0.125}]}"#;
-    let base = Scene::from_json(json, Path::new("small.json"), &mut |_| unreachable!()).unwrap();
+    let base = Scene::from_json(json, Path::new("small.json"), &mut |_, _| unreachable!()).unwrap();
     let mut reference = None;
     for k in [-40, -7, 0, 9, 40] {
         let s = 2f64.powi(k);

@@ -35,7 +35,7 @@ pub enum Split {
 
 impl Split {
     /// Its name in scene files and on the command line.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Split::Objects => "objects",
             Split::Groups => "groups",
@@ -81,24 +81,18 @@ pub fn load_mesh(path: &Path) -> Result<Vec<Triangle>> {
 }
 
 /// Loads a mesh as [`load_mesh`] does, in the parts `split` asks for (at least one).
-pub fn load_mesh_parts(path: &Path, split: Split) -> Result<Vec<MeshPart>> {
+pub(crate) fn load_mesh_parts(path: &Path, split: Split) -> Result<Vec<MeshPart>> {
     let bytes = std::fs::read(path).map_err(|e| Error::Mesh {
         file: path.to_owned(),
         message: format!("cannot read mesh file: {e}"),
     })?;
-    parse_mesh_parts(&bytes, path, split)
+    parse_mesh(&bytes, path, split)
 }
 
-/// Parses a mesh file's `bytes`, by the extension of `path` as [`load_mesh`] does; `path`
+/// Parses a mesh file's `bytes`, by the extension of `path` as [`load_mesh`] does, in the
+/// parts `split` asks for (at least one; [`Split::None`]: the whole file as one part); `path`
 /// names the file in errors.
-pub fn parse_mesh(bytes: &[u8], path: &Path) -> Result<Vec<Triangle>> {
-    let mut parts = parse_mesh_parts(bytes, path, Split::None)?;
-    Ok(parts.pop().map(|p| p.triangles).unwrap_or_default())
-}
-
-/// Parses a mesh file's `bytes` as [`parse_mesh`] does, in the parts `split` asks for (at
-/// least one).
-pub fn parse_mesh_parts(bytes: &[u8], path: &Path, split: Split) -> Result<Vec<MeshPart>> {
+pub fn parse_mesh(bytes: &[u8], path: &Path, split: Split) -> Result<Vec<MeshPart>> {
     let parsed = match Format::of(path) {
         Format::Stl => stl::parse(bytes).map(MeshPart::whole),
         Format::Obj => obj::parse(bytes, split),

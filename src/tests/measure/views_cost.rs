@@ -32,7 +32,11 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
     let mode: Mode = format!("gpu:{}", value("--precision", "f32")).parse()?;
     let gpu = Gpu::new()?;
     let mut scene = raycast::Scene::load(path.as_ref())?;
-    let cameras = Views::Orbit(raycast::Orbit::new(n)).cameras(&scene)?;
+    let cameras = Views::Orbit(raycast::Orbit {
+        views: n,
+        ..raycast::Orbit::default()
+    })
+    .cameras(&scene)?;
     let dir = tempfile::tempdir()?;
     let files = RenderFiles {
         scene: None,

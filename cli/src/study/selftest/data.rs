@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use raycast::scene::{Scene, parse_mesh_parts};
+use raycast::scene::{Scene, parse_mesh};
 use raycast::{Error, Result};
 
 /// A file of the repository, by its path there.
@@ -92,10 +92,10 @@ pub fn file(path: &str) -> Result<&'static [u8]> {
 pub fn scene(path: &str) -> Result<Scene> {
     let text = String::from_utf8_lossy(file(path)?);
     let folder = Path::new(path).parent().unwrap_or(Path::new(""));
-    Scene::from_json_parts(&text, Path::new(path), &mut |name, split| {
+    Scene::from_json(&text, Path::new(path), &mut |name, split| {
         let mesh_path = folder.join(name);
         let mesh_name = mesh_path.to_string_lossy().replace('\\', "/");
-        parse_mesh_parts(file(&mesh_name)?, &mesh_path, split)
+        parse_mesh(file(&mesh_name)?, &mesh_path, split)
     })
 }
 

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use raycast::rays::Ray;
-use raycast::scene::{Scene, Triangle};
+use raycast::scene::{MeshPart, Scene, Triangle};
 
 /// The course's six scenes, by name.
 pub const COURSE_SCENES: [&str; 6] = [
@@ -83,8 +83,12 @@ pub fn random_scene(seed: u64, resolution: [u32; 2]) -> Scene {
     );
     let center = rng.point(-1.5, 1.5);
     let radius = rng.range(0.5, 1.2);
-    Scene::from_json(&json, Path::new("random.json"), &mut |_| {
-        Ok(sphere_mesh(center, radius, 12, 8))
+    Scene::from_json(&json, Path::new("random.json"), &mut |_, _| {
+        let triangles = sphere_mesh(center, radius, 12, 8);
+        Ok(vec![MeshPart {
+            name: String::new(),
+            triangles,
+        }])
     })
     .expect("a random scene is a valid scene")
 }
