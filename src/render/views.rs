@@ -92,26 +92,20 @@ impl Views {
     /// [`RenderViews`] job renders them (without a `size`).
     pub fn cameras(&self, scene: &Scene) -> Result<Vec<(String, scene::Camera)>> {
         let (names, cameras) = self.parse()?;
-        let bounds = scene_bounds(scene);
-        let camera = |v| self.camera(&cameras, v, scene, &scene.camera, bounds);
-        (0..names.len())
-            .map(|v| Ok((names[v].clone(), camera(v)?)))
-            .collect()
+        let cameras = self.cameras_of(&cameras, scene)?;
+        Ok(names.into_iter().zip(cameras).collect())
     }
 
-    /// View `v`'s camera for `scene`, whose own camera (at the job's size) is `base` and whose
-    /// bounds are `bounds` ([`scene_bounds`]).
-    fn camera(
-        &self,
-        cameras: &[ViewCamera],
-        v: usize,
-        scene: &Scene,
-        base: &scene::Camera,
-        bounds: [Option<Bounds>; 2],
-    ) -> Result<scene::Camera> {
+    /// Every view's camera for `scene`, whose own camera (at the job's size) is the orbit's
+    /// start; `cameras` are a views file's.
+    fn cameras_of(&self, cameras: &[ViewCamera], scene: &Scene) -> Result<Vec<scene::Camera>> {
         match self {
-            Views::Orbit(orbit) => orbit.view(base, &scene.objects, bounds, v as u32),
-            _ => cameras[v].camera(self.file(), &scene.objects),
+            Views::Orbit(orbit) => {
+                orbit.cameras(&scene.camera, &scene.objects, scene_bounds(scene))
+            }
+            _ => (cameras.iter())
+                .map(|c| c.camera(self.file(), &scene.objects))
+                .collect(),
         }
     }
 }
@@ -498,11 +492,8 @@ type Bounds = (DVec3, DVec3);
 struct Loaded {
     index: usize,
     scene: Scene,
-    /// Its objects' bounds: those of its spheres and triangles (an orbit's sphere), and of
-    /// every object (a camera's default `near`).
-    bounds: [Option<Bounds>; 2],
-    /// The camera the scene (or a mesh's default view) comes with, at the job's size.
-    camera: scene::Camera,
+    /// Its views' cameras, in the job's order ([`Views::cameras`]).
+    cameras: Vec<scene::Camera>,
     /// The digest of its files, in its views' records ([`record::scene_digest`]).
     digest: String,
     topology: Option<Arc<Topology>>,
@@ -587,10 +578,7 @@ impl ViewRenderer {
             record,
         } = self;
         let loaded = load(loaded, job, spec, s)?;
-        let (scene, base) = (&loaded.scene, &loaded.camera);
-        let mut camera = spec
-            .views
-            .camera(&job.cameras, v, scene, base, loaded.bounds)?;
+        let mut camera = loaded.cameras[v].clone();
         if let Some(size) = spec.render.size {
             camera.resolution = size;
         }
@@ -719,14 +707,12 @@ fn load<'a>(
         let path = job.scenes[s].as_deref();
         let view = scene::CameraOverrides::default();
         let scene = scene::load_viewed(path, spec.render.size, &view, spec.render.split)?;
-        let bounds = scene_bounds(&scene);
         *loaded = Some(Loaded {
             digest: record::scene_digest(path, &scene)?,
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
             index: s,
-            camera: scene.camera.clone(),
+            cameras: spec.views.cameras_of(&job.cameras, &scene)?,
             scene,
-            bounds,
             topology: None,
         });
     }

@@ -187,24 +187,31 @@ impl Orbit {
             .collect()
     }
 
-    /// View `k`'s camera for a scene of `objects` whose own camera is `base`; `bounded` is the
-    /// box of its spheres and triangles, `all` that of every object (docs/datasets.md#orbits).
-    pub(crate) fn view(
+    /// Every view's camera for a scene of `objects` whose own camera is `base`; `bounded` is
+    /// the box of its spheres and triangles, `all` that of every object
+    /// (docs/datasets.md#orbits). The ring is found once for all the views.
+    pub(crate) fn cameras(
         &self,
         base: &Camera,
         objects: &[Object],
         [bounded, all]: [Option<Bounds>; 2],
-        k: u32,
-    ) -> Result<Camera> {
+    ) -> Result<Vec<Camera>> {
         let start = self.start(base)?;
         let ring = self.ring(&start, objects, bounded, all);
+        (0..self.views)
+            .map(|k| self.view(&start, &ring, all, k))
+            .collect()
+    }
+
+    /// View `k`'s camera on `ring`, from `start` (`all` the box of every object).
+    fn view(&self, start: &Camera, ring: &Ring, all: Option<Bounds>, k: u32) -> Result<Camera> {
         let direction = ring.turntable.direction(ring.arc.azimuth(k, self.views));
         let eye = ring.centre + direction * ring.distance;
         let mut camera = Camera {
             eye,
             look: ring.centre - eye,
             up: start.up,
-            ..start
+            ..start.clone()
         };
         match camera.lens {
             Lens::Size { .. } => {
