@@ -70,6 +70,20 @@ pub struct Stages {
     pub trace_s: f64,
     /// The kernel's GPU time summed over tiles (timestamp queries), where the device has them.
     pub kernel_s: Option<f64>,
+    /// Of `trace_s`: the inputs (a list of pixels or rays) written for the device.
+    pub write_s: f64,
+    /// Of `trace_s`: the host waiting for the device (the kernel and the copies that the
+    /// host's work did not overlap).
+    pub wait_s: f64,
+    /// Of `trace_s`: the outputs read from mapped memory into the layout they are delivered
+    /// in.
+    pub convert_s: f64,
+    /// The GPU's time copying the outputs to memory the host maps, summed over tiles
+    /// (timestamps inside command encoders); `None` where the host maps the kernel's outputs
+    /// themselves or the device has no such timestamps.
+    pub copy_s: Option<f64>,
+    /// Bytes of output read back from the device.
+    pub readback_bytes: u64,
     /// The rays the shade hook cast (`trace`, `occluded`), where it casts any.
     pub hook_rays: Option<u64>,
     /// Nodes of the BVH the render went through (`None`: brute force).

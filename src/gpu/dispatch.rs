@@ -427,6 +427,7 @@ pub(crate) fn run<R: GpuReal>(
             };
             Ok((list_groups(gpu, groups), count as u64, first as usize))
         };
+        let writing = std::time::Instant::now();
         let (groups, pixels, start) = match rays {
             Rays::Camera => (
                 [nx.div_ceil(WORKGROUP), count.div_ceil(WORKGROUP)],
@@ -461,6 +462,7 @@ pub(crate) fn run<R: GpuReal>(
                 written
             }
         };
+        stages.write_s += writing.elapsed().as_secs_f64();
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -482,10 +484,12 @@ pub(crate) fn run<R: GpuReal>(
         if let Some(counter) = &mut hook_rays {
             counter.add(gpu)?;
         }
+        stages.readback_bytes += outputs.bytes(pixels);
         match (sink.as_mut(), hits.as_mut()) {
             (_, Some(hits)) => read_hits(
                 gpu,
                 &outputs,
+                &mut stages,
                 pixels as usize,
                 start,
                 hits,
@@ -493,15 +497,16 @@ pub(crate) fn run<R: GpuReal>(
             )?,
             (Some(sink), None) => {
                 let mut tile = new_images([nx, count]);
-                read_tile(gpu, &outputs, &variant, pixels as usize, 0, &mut tile, None)?;
+                let read = (pixels as usize, 0);
+                read_tile(gpu, &outputs, &mut stages, &variant, read, &mut tile, None)?;
                 sink(first, tile)?;
             }
             (None, None) => read_tile(
                 gpu,
                 &outputs,
+                &mut stages,
                 &variant,
-                pixels as usize,
-                start,
+                (pixels as usize, start),
                 &mut images,
                 certainty.as_deref_mut(),
             )?,
@@ -574,6 +579,9 @@ pub(crate) fn upload<R: GpuReal>(
     if variant.shade.is_some() {
         buffers.extend(upload_hook_scene(gpu, prepared));
     }
+    // The copies out of the buffers' staging memory wait for the next submission: made here,
+    // they count as the upload, not as the first cast's wait.
+    gpu.queue.submit([]);
     gpu.device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Device(format!("GPU upload did not finish: {e}")))?;
@@ -1234,8 +1242,23 @@ impl OutputBuffers {
         }
     }
 
-    /// Runs `f` on the first `pixels` pixels of each output, mapped once the GPU has finished.
-    fn read(&self, gpu: &Gpu, pixels: u64, f: impl FnOnce(&Mapped)) -> Result<()> {
+    /// Bytes of the first `pixels` pixels of every output.
+    fn bytes(&self, pixels: u64) -> u64 {
+        let per_pixel: u64 = (self.slots.iter())
+            .map(|(slot, _, _)| slot.pixel_bytes(self.precision))
+            .sum();
+        pixels * per_pixel
+    }
+
+    /// Runs `f` on the first `pixels` pixels of each output, mapped once the GPU has finished;
+    /// adds the time waited for the GPU and the time of `f` to `stages`.
+    fn read(
+        &self,
+        gpu: &Gpu,
+        stages: &mut Stages,
+        pixels: u64,
+        f: impl FnOnce(&Mapped),
+    ) -> Result<()> {
         let size = |slot: Slot| pixels * slot.pixel_bytes(self.precision);
         // What is mapped: the readback buffer whole (its slots need not start at the mapping
         // alignment), or each output's first `pixels` pixels.
@@ -1247,7 +1270,10 @@ impl OutputBuffers {
                 .map(|(slot, buffer, _)| buffer.slice(..size(*slot).max(4)))
                 .collect(),
         };
+        let waiting = std::time::Instant::now();
         map_buffers(gpu, &parts, wgpu::MapMode::Read)?;
+        stages.wait_s += waiting.elapsed().as_secs_f64();
+        let converting = std::time::Instant::now();
         {
             let views = parts
                 .iter()
@@ -1267,6 +1293,7 @@ impl OutputBuffers {
             f(&Mapped { views, at });
         }
         parts.iter().for_each(|part| part.buffer().unmap());
+        stages.convert_s += converting.elapsed().as_secs_f64();
         Ok(())
     }
 }
@@ -1304,13 +1331,13 @@ impl Mapped {
 fn read_tile<R: GpuReal>(
     gpu: &Gpu,
     outputs: &OutputBuffers,
+    stages: &mut Stages,
     variant: &Variant,
-    pixels: usize,
-    start: usize,
+    (pixels, start): (usize, usize),
     images: &mut Images<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
-    outputs.read(gpu, pixels as u64, |view| {
+    outputs.read(gpu, stages, pixels as u64, |view| {
         let surface: Option<&[[R; 4]]> = view.bytes(Slot::Surface).map(bytemuck::cast_slice);
         let ids: Option<&[i32]> = view.bytes(Slot::Id).map(bytemuck::cast_slice);
         view.copy_certainty(start, certainty);
@@ -1401,13 +1428,14 @@ fn read_hit_values<R: GpuReal>(
 fn read_hits<R: GpuReal>(
     gpu: &Gpu,
     outputs: &OutputBuffers,
+    stages: &mut Stages,
     rays: usize,
     start: usize,
     hits: &mut Hits<R>,
     certainty: Option<&mut [bool]>,
 ) -> Result<()> {
     use rayon::prelude::*;
-    outputs.read(gpu, rays as u64, |view| {
+    outputs.read(gpu, stages, rays as u64, |view| {
         let slot = |slot| view.bytes(slot);
         view.copy_certainty(start, certainty);
         if let Some(counts) = slot(Slot::Count) {
