@@ -18,7 +18,8 @@ struct Params {
                           //   in the robust set, else 0); shade hooks add it back
     unit: real,           // offset 108 / 184: world units per kernel unit, a power of two (the
                           //   kernel sees the scene scaled by 1 / unit, src/prepare/mod.rs)
-}                         // size 112 / 192
+    max_t: real,          // offset 112 / 192: OCCLUDED: the farthest t that occludes
+}                         // size 128 / 224
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
@@ -156,10 +157,16 @@ fn triangle_at(k: u32) -> Triangle {
 #endif
 #if RAY_LIST
 #if !COUNT
+#if !OCCLUDED
 // Per ray: the hit primitive's index among the primitives of its kind in the scene's order, and
 // its barycentric (u, v) (0 on a miss, and for spheres and planes).
 @group(0) @binding(19) var<storage, read_write> out_primitive: array<u32>;
 @group(0) @binding(20) var<storage, read_write> out_uv: array<vec2<real>>;
+#endif
+#endif
+#if OCCLUDED
+// Per ray: 1 if it hits anything with min_t <= t <= max_t, else 0 (OCCLUDED).
+@group(0) @binding(26) var<storage, read_write> out_occluded: array<u32>;
 #endif
 #if COUNT
 // Per ray: how many times it crosses a surface (COUNT).

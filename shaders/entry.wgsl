@@ -134,10 +134,24 @@ fn cast_ray(ray: Ray, index: u32, write: bool) {
         out_count[index] = count;
     }
 #else
-    write_ray(ray, nearest_hit(ray, params.frame.min_t), index, write);
+    write_listed(ray, nearest_hit(ray, params.frame.min_t), index, write);
 #endif
 #endif
 }
+
+#if !COUNT
+// Writes what the list asks of its ray `ray`, whose nearest hit is `hit`, to slot `index` if
+// `write`: whether it is occluded (OCCLUDED), or the hit.
+fn write_listed(ray: Ray, hit: Hit, index: u32, write: bool) {
+#if OCCLUDED
+    if (write) {
+        out_occluded[index] = select(0u, 1u, hit.object >= 0 && hit_t(ray, hit) <= params.max_t);
+    }
+#else
+    write_ray(ray, hit, index, write);
+#endif
+}
+#endif
 
 #if CLOSEST
 // Writes the primitive nearest query point `p`, `hit`, to slot `index` if `write`: the closest
@@ -157,6 +171,7 @@ fn write_closest(p: vec3<real>, hit: Hit, index: u32, write: bool) {
 #endif
 
 #if !COUNT
+#if !OCCLUDED
 // Writes the results of a listed ray `ray`, which found `hit`, to slot `index` if `write`.
 fn write_ray(ray: Ray, hit: Hit, index: u32, write: bool) {
     if (!write) {
@@ -179,6 +194,7 @@ fn write_ray(ray: Ray, hit: Hit, index: u32, write: bool) {
     out_certain[index] = select(0u, 1u, is_pixel_certain(hit) && in_range);
 #endif
 }
+#endif
 #endif
 
 #if PACKETS
@@ -223,7 +239,7 @@ fn main(invocation: Invocation, @builtin(num_workgroups) groups: vec3<u32>) {
     // `rays` rather than loaded again, another loop of loads over the lanes.
     for (var r = 0u; r < LANE_RAYS; r++) {
         let entry = list_entry(invocation, groups, local_index(invocation) + 8u * r);
-        write_ray(lane_ray(rays, r), lane_hit(hits, r), entry.slot, entry.exists);
+        write_listed(lane_ray(rays, r), lane_hit(hits, r), entry.slot, entry.exists);
         swap_rays();
     }
 #else

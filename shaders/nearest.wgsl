@@ -175,19 +175,39 @@ struct HitDetails {
     uv: vec2<real>,
 }
 
+#if TRIANGLES
+// The t a hit on triangle `tri` reports, from the test's `t`. With RECHECK_F64 the plane's:
+// a caller's rays and corners given in f32 reach the kernel unrounded (RayScene's kernel eye),
+// so the plane's t is the f32 answer within about an ulp; decisions keep the test's t. Camera
+// renders keep it too: there the corners are rounded to camera-relative f32, which dominates
+// at grazing angles either way, so the plane's t would cost them time for nothing
+// (docs/performance.md#ray-lists).
+fn triangle_hit_t(ray: Ray, tri: Triangle, t: real) -> real {
+#if RECHECK_F64
+    return plane_t(ray, tri, t);
+#else
+    return t;
+#endif
+}
+#endif
+
+// The t `hit_details` reports for `hit`, alone.
+fn hit_t(ray: Ray, hit: Hit) -> real {
+#if TRIANGLES
+#if RECHECK_F64
+    if (hit.kind == KIND_TRIANGLE) {
+        return triangle_hit_t(ray, triangle_at(hit.index), hit.t);
+    }
+#endif
+#endif
+    return hit.t;
+}
+
 fn hit_details(ray: Ray, hit: Hit) -> HitDetails {
 #if TRIANGLES
     if (hit.kind == KIND_TRIANGLE) {
         let tri = triangle_at(hit.index);
-        var t = hit.t;
-#if RECHECK_F64
-        // A caller's rays and corners given in f32 reach the kernel unrounded (RayScene's
-        // kernel eye), so the plane's t is the f32 answer within about an ulp; decisions keep
-        // the test's t. Camera renders keep it too: there the corners are rounded to
-        // camera-relative f32, which dominates at grazing angles either way, so the plane's t
-        // would cost them time for nothing (docs/performance.md#ray-lists).
-        t = plane_t(ray, tri, t);
-#endif
+        let t = triangle_hit_t(ray, tri, hit.t);
         return HitDetails(triangle_normal(tri), t, triangle_uv(ray, shear_of(ray.direction), tri));
     }
 #endif

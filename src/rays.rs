@@ -23,7 +23,7 @@ pub struct Ray {
 /// enabled "always" or "madvise", Debian's default): the hits of 2M rays are 66 MB of fresh
 /// memory each cast, whose first touches cost far less in 2 MiB pages than in 4 KiB ones
 /// (docs/performance.md#ray-lists). Elsewhere, and for vectors under a few huge pages, nothing.
-fn huge_pages<T>(v: &Vec<T>) {
+pub(crate) fn huge_pages<T>(v: &Vec<T>) {
     #[cfg(target_os = "linux")]
     {
         const HUGE: usize = 2 << 20;

@@ -6,18 +6,21 @@
 //! the outputs the variant writes.
 
 use bytemuck::Pod;
-use wgpu::util::DeviceExt;
 
 use super::Gpu;
+use super::readback::{
+    HookRayCounter, Mapped, OutputBuffers, PartTimer, append_hits, append_occluded, append_pixels,
+    empty_images, map_buffers, surface_bytes,
+};
 use super::shader::{self, Casts, Variant};
 use crate::error::{Error, Result};
-use crate::images::{Images, MISS, Stages};
+use crate::images::{Images, Outputs, Stages};
 use crate::kernel::layout::{
     GpuFrame, GpuParams, GpuPlane, GpuRay, GpuReal, GpuSphere, GpuTriangle, projection_code,
 };
 use crate::math::Float;
 use crate::prepare::{Prepared, Primitives};
-use crate::rays::{Hits, INVALID_ID};
+use crate::rays::Hits;
 use crate::scene::Scene;
 
 /// Workgroup edge in pixels (`@workgroup_size(8, 8)` in shaders/entry.wgsl; the packet kernel
@@ -25,10 +28,6 @@ use crate::scene::Scene;
 const WORKGROUP: u32 = 8;
 /// Invocations per workgroup of a pixel-list kernel (`@workgroup_size(64)`).
 const LIST_WORKGROUP: u32 = 64;
-/// Bytes of output per pixel and unit of precision: `vec4<real>` surface.
-const SURFACE_REALS: u64 = 4;
-/// Bytes of output per pixel: `i32` id.
-const ID_BYTES: u64 = 4;
 
 /// Which rays a [`Job`] casts.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,11 +39,12 @@ pub(crate) enum Rays<'a> {
     /// come back as one row of `list.len()` pixels.
     Pixels(&'a [u32]),
     /// A caller's rays, in world coordinates, hits counted from `t_near` (in units of each
-    /// ray's direction): one invocation per ray. The results come back as
-    /// [`Rendered::hits`], in list order.
+    /// ray's direction; an occlusion variant's up to `t_far`): one invocation per ray. The
+    /// results come back as [`Rendered::hits`] (or [`Rendered::occluded`]), in list order.
     List {
         list: crate::rays::RayList<'a>,
         t_near: f64,
+        t_far: f64,
     },
 }
 
@@ -114,8 +114,27 @@ impl<'a, R> Job<'a, R> {
     /// Casts a caller's rays, hits counted from `t_near` ([`Rays::List`]).
     pub(crate) fn rays(self, list: crate::rays::RayList<'a>, t_near: f64) -> Self {
         Job {
-            rays: Rays::List { list, t_near },
+            rays: Rays::List {
+                list,
+                t_near,
+                t_far: f64::INFINITY,
+            },
             ..self
+        }
+    }
+
+    /// Where the rays are a list: hits beyond `t_far` do not occlude (an occlusion variant).
+    pub(crate) fn t_far(self, t_far: f64) -> Self {
+        match self.rays {
+            Rays::List { list, t_near, .. } => Job {
+                rays: Rays::List {
+                    list,
+                    t_near,
+                    t_far,
+                },
+                ..self
+            },
+            _ => self,
         }
     }
 
@@ -160,6 +179,9 @@ pub(crate) struct Rendered<R> {
     pub hits: Option<Hits<R>>,
     /// Per-pixel (or per-ray) certainty flags, in a certainty variant.
     pub certainty: Option<Vec<bool>>,
+    /// Per ray of a [`Rays::List`] in an occlusion variant: whether it hits anything from
+    /// `t_near` to `t_far`.
+    pub occluded: Option<Vec<bool>>,
     pub stages: Stages,
 }
 
@@ -214,12 +236,12 @@ pub(crate) fn specialized<R: GpuReal>(
             .with_stack_for(prepared.bvh().map(|b| &**b))
             .with_planes(prepared.primitives.planes.len())
     };
-    match (casts, variant.count) {
+    match (casts, variant.count || variant.occluded) {
         (Casts::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
         (Casts::Rays, true) => Ok(variant.with_outputs(crate::images::Outputs::NONE)),
         (_, false) => Ok(variant),
         (_, true) => Err(Error::Device(
-            "intersections are counted for a list of rays only".into(),
+            "intersections are counted, and occlusion tested, for a list of rays only".into(),
         )),
     }
 }
@@ -239,70 +261,16 @@ pub(crate) fn run<R: GpuReal>(
         resident,
     } = job;
     let variant = specialized(variant, rays.casts(), prepared)?;
-    if variant.casts != Casts::Camera && sink.is_some() {
-        return Err(Error::Device(
-            "a list comes back whole; only camera rays are streamed".into(),
-        ));
-    }
-    if variant.precision != R::PRECISION || variant.uses_bvh() != prepared.bvh().is_some() {
-        return Err(Error::Device(format!(
-            "the kernel variant ({} precision, BVH {}) does not fit the prepared scene ({}, BVH {})",
-            variant.precision.name(),
-            variant.uses_bvh(),
-            R::PRECISION.name(),
-            prepared.bvh().is_some()
-        )));
-    }
+    check_job(&variant, sink.is_some(), prepared)?;
     let mut stages = Stages {
         build_s: prepared.build_s,
         ..Stages::default()
     };
-    let [nx, ny] = prepared.resolution();
-    let tile_rows =
-        check_limits(gpu, [nx, ny], &variant, prepared)?.min(max_rows.unwrap_or(u32::MAX));
-    // Entries of a list per dispatch: as many as the largest per-entry buffer allows.
-    let entry_bytes = surface_bytes(R::PRECISION).max(size_of::<GpuRay<R>>() as u64);
-    let list_capacity = (gpu.max_binding() / entry_bytes).min(u32::MAX as u64) as u32;
-    // An image's rays traced by packets go in 8x8 blocks of whole rows (`grid_slot` in
-    // shaders/entry.wgsl), so each dispatch holds whole bands of 8 rows.
-    let grid = match rays {
-        Rays::List { list, .. } if variant.uses_packets() => list
-            .width
-            .and_then(|w| u32::try_from(w).ok())
-            .filter(|&w| w <= list_capacity / 8),
-        _ => None,
-    };
-    let list_step = grid.map_or(list_capacity, |w| list_capacity / (8 * w) * (8 * w));
-    // The dispatches: (first row or list entry, rows or entries).
-    let parts: Vec<(u32, u32)> = match rays {
-        Rays::Camera => (0..ny)
-            .step_by(tile_rows as usize)
-            .map(|row| (row, tile_rows.min(ny - row)))
-            .collect(),
-        _ => {
-            let n = u32::try_from(rays.listed()).map_err(|_| {
-                Error::Device(format!(
-                    "{} rays are more than one job casts (at most {})",
-                    rays.listed(),
-                    u32::MAX
-                ))
-            })?;
-            (0..n)
-                .step_by(list_step as usize)
-                .map(|start| (start, list_step.min(n - start)))
-                .collect()
-        }
-    };
-    let capacity = match rays {
-        Rays::Camera => tile_rows as u64 * nx as u64,
-        // An empty list dispatches nothing, but its buffers may not be empty.
-        _ => (rays.listed() as u64).clamp(1, list_capacity as u64),
-    };
+    let plan = Plan::new(gpu, prepared, &variant, rays, max_rows)?;
 
     let clock = std::time::Instant::now();
     let kernel = pipeline(gpu, variant)?;
     stages.compile_s = clock.elapsed().as_secs_f64();
-    let device = &gpu.device;
 
     let clock = std::time::Instant::now();
     let uploaded_here;
@@ -319,131 +287,327 @@ pub(crate) fn run<R: GpuReal>(
     stages.upload_s = clock.elapsed().as_secs_f64();
 
     let clock = std::time::Instant::now();
-    let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("params"),
-        size: size_of::<GpuParams<R>>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    // The list's buffer, by the kernel's name for it.
-    let list = match rays {
-        Rays::Camera => None,
-        Rays::Pixels(_) => Some(("pixel_list", 4)),
-        Rays::List { .. } => Some(("ray_list", size_of::<GpuRay<R>>() as u64)),
-    };
-    let list_buffer = list.map(|(name, entry)| {
-        let filled_by = match gpu.host_memory() {
-            true => wgpu::BufferUsages::MAP_WRITE,
-            false => wgpu::BufferUsages::COPY_DST,
+    let slots = (0..plan.slots())
+        .map(|_| PartBuffers::new::<R>(gpu, &kernel, &variant, &plan, resident, timed))
+        .collect::<Result<Vec<_>>>()?;
+    let mut delivery = Delivery::new(prepared, &variant, &plan, sink.is_some());
+    let mut kernel_s = (timed && slots[0].timer.is_some()).then_some(0.0);
+    let mut hook_rays = variant.hook_rays.then_some(0);
+    // Part k is written and submitted before part k - 1 is read back, so that the host's
+    // readback of one part overlaps the device's work on the next.
+    let mut in_flight: Option<(&PartBuffers, Part, wgpu::SubmissionIndex)> = None;
+    for (k, &part) in plan.parts.iter().enumerate() {
+        let buffers = &slots[k % slots.len()];
+        let writing = std::time::Instant::now();
+        buffers.write_inputs(gpu, prepared, &plan, part)?;
+        stages.write_s += writing.elapsed().as_secs_f64();
+        let submitted = buffers.submit(gpu, &kernel, &plan, part);
+        if let Some((done, part, index)) = in_flight.replace((buffers, part, submitted)) {
+            let read = done.read_back(gpu, &index, &plan, part, &mut stages, &mut delivery)?;
+            add_counts(read, &mut kernel_s, &mut stages.copy_s, &mut hook_rays);
+            delivery.deliver(part, sink.as_mut())?;
+        }
+    }
+    if let Some((done, part, index)) = in_flight {
+        let read = done.read_back(gpu, &index, &plan, part, &mut stages, &mut delivery)?;
+        add_counts(read, &mut kernel_s, &mut stages.copy_s, &mut hook_rays);
+        delivery.deliver(part, sink.as_mut())?;
+    }
+    stages.trace_s = clock.elapsed().as_secs_f64();
+    stages.kernel_s = kernel_s;
+    stages.hook_rays = hook_rays;
+    let mut rendered = delivery.finish();
+    rendered.images.hook_rays = hook_rays;
+    rendered.stages = stages;
+    gpu.keep_transient(
+        slots
+            .into_iter()
+            .flat_map(PartBuffers::into_buffers)
+            .collect(),
+    );
+    Ok(rendered)
+}
+
+/// An error where `variant` cannot run on `prepared` or cannot stream its results.
+fn check_job<R: GpuReal>(variant: &Variant, streamed: bool, prepared: &Prepared<R>) -> Result<()> {
+    if variant.casts != Casts::Camera && streamed {
+        return Err(Error::Device(
+            "a list comes back whole; only camera rays are streamed".into(),
+        ));
+    }
+    if variant.precision != R::PRECISION || variant.uses_bvh() != prepared.bvh().is_some() {
+        return Err(Error::Device(format!(
+            "the kernel variant ({} precision, BVH {}) does not fit the prepared scene ({}, BVH {})",
+            variant.precision.name(),
+            variant.uses_bvh(),
+            R::PRECISION.name(),
+            prepared.bvh().is_some()
+        )));
+    }
+    Ok(())
+}
+
+/// Adds what one part's counters read ([`PartBuffers::read_back`]) to the job's totals.
+fn add_counts(
+    (kernel, copy, hook): PartCounts,
+    kernel_s: &mut Option<f64>,
+    copy_s: &mut Option<f64>,
+    hook_rays: &mut Option<u64>,
+) {
+    if let (Some(total), Some(s)) = (kernel_s.as_mut(), kernel) {
+        *total += s;
+    }
+    if let Some(s) = copy {
+        *copy_s = Some(copy_s.unwrap_or(0.0) + s);
+    }
+    if let (Some(total), Some(n)) = (hook_rays.as_mut(), hook) {
+        *total += n;
+    }
+}
+
+/// One dispatch of a job: its first image row or list entry, and how many it covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Part {
+    first: u32,
+    count: u32,
+}
+
+/// Parts of a job below this many rays are not split further: each dispatch and readback has
+/// a fixed cost.
+const MIN_PART_RAYS: u64 = 1 << 16;
+/// A job is split into about this many parts, so that all but the last part's readback
+/// overlaps the device's work on the next.
+const PARTS: u64 = 8;
+
+/// How a job's rays are split into dispatches ([`Plan::new`]).
+struct Plan<'a> {
+    rays: Rays<'a>,
+    /// The image's width and height.
+    resolution: [u32; 2],
+    /// The width of the image a ray list's rays are rows of, when traced in packets.
+    grid: Option<u32>,
+    /// Rays each part's buffers hold.
+    capacity: u64,
+    parts: Vec<Part>,
+}
+
+impl<'a> Plan<'a> {
+    /// The parts of `rays`: at most `max_rows` image rows (and what the device's limits allow)
+    /// a part, about [`PARTS`] parts of at least [`MIN_PART_RAYS`] rays, each a whole number of
+    /// bands of 8 rows where packets trace 8x8 blocks (`grid_slot` in shaders/entry.wgsl).
+    /// Two parts' buffers are in use at once: where more than one part is needed, each holds at
+    /// most half of what one dispatch may, so the job holds no more than one such dispatch.
+    fn new<R: GpuReal>(
+        gpu: &Gpu,
+        prepared: &Prepared<R>,
+        variant: &Variant,
+        rays: Rays<'a>,
+        max_rows: Option<u32>,
+    ) -> Result<Plan<'a>> {
+        let [nx, ny] = prepared.resolution();
+        let device_rows = check_limits(gpu, [nx, ny], variant, prepared)?;
+        // Entries of a list per dispatch: as many as the largest per-entry buffer allows.
+        let entry_bytes = surface_bytes(R::PRECISION).max(size_of::<GpuRay<R>>() as u64);
+        let list_capacity = (gpu.max_binding() / entry_bytes).min(u32::MAX as u64) as u32;
+        let grid = match rays {
+            Rays::List { list, .. } if variant.uses_packets() => list
+                .width
+                .and_then(|w| u32::try_from(w).ok())
+                .filter(|&w| w <= list_capacity / 16),
+            _ => None,
         };
-        let buffer = gpu.transient_buffer(&wgpu::BufferDescriptor {
-            label: Some(name),
-            size: capacity * entry,
-            usage: wgpu::BufferUsages::STORAGE | filled_by,
+        let (total, unit, most) = match rays {
+            Rays::Camera => (ny, WORKGROUP, device_rows.min(max_rows.unwrap_or(u32::MAX))),
+            _ => {
+                let n = u32::try_from(rays.listed()).map_err(|_| {
+                    Error::Device(format!(
+                        "{} rays are more than one job casts (at most {})",
+                        rays.listed(),
+                        u32::MAX
+                    ))
+                })?;
+                let unit = grid.map_or(LIST_WORKGROUP, |w| 8 * w);
+                (n, unit, list_capacity)
+            }
+        };
+        // Rays a unit of parts holds: an image row for the camera, a list entry otherwise.
+        let per_count = match rays {
+            Rays::Camera => nx as u64,
+            _ => 1,
+        };
+        let step = part_step(total, unit, most, per_count);
+        let parts: Vec<Part> = (0..total)
+            .step_by(step as usize)
+            .map(|first| Part {
+                first,
+                count: step.min(total - first),
+            })
+            .collect();
+        let capacity = match rays {
+            // An empty list dispatches nothing, but its buffers may not be empty.
+            Rays::Camera => step as u64 * nx as u64,
+            _ => (step as u64).clamp(1, list_capacity as u64),
+        };
+        Ok(Plan {
+            rays,
+            resolution: [nx, ny],
+            grid,
+            capacity,
+            parts,
+        })
+    }
+
+    /// How many parts' buffers are in use at once: two where there are several parts.
+    fn slots(&self) -> usize {
+        self.parts.len().clamp(1, 2)
+    }
+
+    /// Rays of `part`.
+    fn rays_of(&self, part: Part) -> u64 {
+        match self.rays {
+            Rays::Camera => part.count as u64 * self.resolution[0] as u64,
+            _ => part.count as u64,
+        }
+    }
+
+    /// The index of `part`'s first ray among the job's (row-major for the camera).
+    fn start_of(&self, part: Part) -> usize {
+        match self.rays {
+            Rays::Camera => part.first as usize * self.resolution[0] as usize,
+            _ => part.first as usize,
+        }
+    }
+}
+
+/// Rows or entries a part covers: about `total / PARTS`, at least [`MIN_PART_RAYS`] rays
+/// (`per_count` rays each), a multiple of `unit` where `most` allows, and at most `most`,
+/// halved where one part cannot hold everything (module docs of [`Plan::new`]).
+fn part_step(total: u32, unit: u32, most: u32, per_count: u64) -> u32 {
+    let most = most.max(1);
+    if total <= most && (total as u64 * per_count) < 2 * MIN_PART_RAYS {
+        return total.max(1);
+    }
+    let most = match total <= most {
+        true => most,
+        false => (most / 2).max(1),
+    };
+    let min = MIN_PART_RAYS.div_ceil(per_count).min(u32::MAX as u64) as u32;
+    let wanted = (total as u64).div_ceil(PARTS) as u32;
+    let step = wanted.max(min).next_multiple_of(unit);
+    match step <= most {
+        true => step,
+        false if most >= unit => most / unit * unit,
+        false => most,
+    }
+}
+
+/// What one part's counters read: the kernel's and the copy's GPU seconds (where timed) and
+/// the shade hook's rays (where it casts any).
+type PartCounts = (Option<f64>, Option<f64>, Option<u64>);
+
+/// The buffers one part in flight uses, bound to the kernel: its parameters, its list, its
+/// outputs and their readback, its timer and hook-ray counter. A job has one or two
+/// ([`Plan::slots`]); the scene's buffers are shared.
+struct PartBuffers {
+    params: wgpu::Buffer,
+    /// The list's buffer, by the kernel's name for it.
+    list: Option<(&'static str, wgpu::Buffer)>,
+    outputs: OutputBuffers,
+    timer: Option<PartTimer>,
+    hook_rays: Option<HookRayCounter>,
+    bind_group: wgpu::BindGroup,
+}
+
+impl PartBuffers {
+    /// Buffers for one part of `plan`, bound with `resident`'s by the names `kernel` uses.
+    fn new<R: GpuReal>(
+        gpu: &Gpu,
+        kernel: &Compiled,
+        variant: &Variant,
+        plan: &Plan<'_>,
+        resident: &Resident,
+        timed: bool,
+    ) -> Result<PartBuffers> {
+        let device = &gpu.device;
+        let params = gpu.transient_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: size_of::<GpuParams<R>>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        (name, buffer)
-    });
-    let outputs = OutputBuffers::new(gpu, &variant, capacity);
-    let mut buffers: Vec<(String, &wgpu::Buffer)> = resident
-        .buffers
-        .iter()
-        .map(|(name, b)| (name.clone(), b))
-        .collect();
-    buffers.push(("params".into(), &params_buffer));
-    buffers.extend(list_buffer.iter().map(|(name, b)| (name.to_string(), b)));
-    buffers.extend(outputs.named());
-    let mut hook_rays = variant.hook_rays.then(|| HookRayCounter::new(gpu));
-    if let Some(counter) = &hook_rays {
-        buffers.push(("hook_ray_count".into(), &counter.counter));
-    }
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("raycast"),
-        layout: &kernel.pipeline.get_bind_group_layout(0),
-        entries: &kernel.entries(&buffers)?,
-    });
-
-    // Streamed, the tiles go to the sink and only the tile in hand is held.
-    let whole = match rays {
-        Rays::Camera if sink.is_some() => [nx, 0],
-        Rays::Camera => [nx, ny],
-        Rays::Pixels(list) => [list.len() as u32, 1],
-        Rays::List { .. } => [0, 0],
-    };
-    let mut hits = match rays {
-        Rays::List { list, .. } => Some(Hits::with_capacity(list.len(), variant.count)),
-        _ => None,
-    };
-    let new_images = |[w, h]: [u32; 2]| {
-        let mut images = Images::new_miss(w, h, prepared.focal_length);
-        images.color = variant.outputs.color.then(|| vec![[0; 4]; images.len()]);
-        images
-    };
-    let mut images = new_images(whole);
-    let mut certainty = variant
-        .certainty
-        .then(|| vec![false; images.len().max(rays.listed())]);
-    let timer = if timed { PassTimer::new(gpu) } else { None };
-    let mut kernel_s = timer.as_ref().map(|_| 0.0);
-    let mut frame = GpuFrame::new(&prepared.frame);
-    if let Rays::List { t_near, .. } = rays {
-        frame.min_t = R::from_f64(t_near);
-    }
-    let origin = prepared.origin.cast::<R>().to_array();
-    for (first, count) in parts {
-        let params = GpuParams::<R> {
-            frame,
-            projection: projection_code(prepared.frame.projection),
-            // A ray list's nx is its image width (0 when it is not an image's).
-            nx: match variant.casts {
-                Casts::Rays => grid.unwrap_or(0),
-                _ => nx,
-            },
-            ny,
-            row_offset: if variant.casts == Casts::Camera {
-                first
-            } else {
-                0
-            },
-            tile_rows: count,
-            sphere_count: prepared.primitives.spheres.len() as u32,
-            plane_count: prepared.primitives.planes.len() as u32,
-            triangle_count: prepared.primitives.triangles.len() as u32,
-            origin,
-            unit: R::from_f64(prepared.unit),
+        let entry = match plan.rays {
+            Rays::Camera => None,
+            Rays::Pixels(_) => Some(("pixel_list", 4)),
+            Rays::List { .. } => Some(("ray_list", size_of::<GpuRay<R>>() as u64)),
         };
-        gpu.queue
-            .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
-        // Workgroups, pixels cast, and the index of the first in the images.
-        let range = first as usize..(first + count) as usize;
-        // Fills the list buffer with `count` entries of `entry` bytes: `fill(k, bytes)` writes
-        // the entries from `k` of the part on, as many as `bytes` holds.
-        let write_list = |entry: usize, fill: &EntryFill<'_>| -> Result<_> {
-            let (_, buffer) = list_buffer.as_ref().expect("a list has its buffer");
-            fill_buffer(gpu, buffer, count as usize, entry, fill)?;
-            let groups = match grid {
-                Some(w) => w.div_ceil(8) * count.div_ceil(w).div_ceil(8),
-                None => count.div_ceil(LIST_WORKGROUP),
+        let list = entry.map(|(name, entry)| {
+            let filled_by = match gpu.host_memory() {
+                true => wgpu::BufferUsages::MAP_WRITE,
+                false => wgpu::BufferUsages::COPY_DST,
             };
-            Ok((list_groups(gpu, groups), count as u64, first as usize))
+            let buffer = gpu.transient_buffer(&wgpu::BufferDescriptor {
+                label: Some(name),
+                size: plan.capacity * entry,
+                usage: wgpu::BufferUsages::STORAGE | filled_by,
+                mapped_at_creation: false,
+            });
+            (name, buffer)
+        });
+        let outputs = OutputBuffers::new(gpu, variant, plan.capacity);
+        let hook_rays = variant.hook_rays.then(|| HookRayCounter::new(gpu));
+        let mut buffers: Vec<(String, &wgpu::Buffer)> = resident
+            .buffers
+            .iter()
+            .map(|(name, b)| (name.clone(), b))
+            .collect();
+        buffers.push(("params".into(), &params));
+        buffers.extend(list.iter().map(|(name, b)| (name.to_string(), b)));
+        buffers.extend(outputs.named());
+        if let Some(counter) = &hook_rays {
+            buffers.push(("hook_ray_count".into(), &counter.counter));
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("raycast"),
+            layout: &kernel.pipeline.get_bind_group_layout(0),
+            entries: &kernel.entries(&buffers)?,
+        });
+        Ok(PartBuffers {
+            params,
+            list,
+            outputs,
+            timer: if timed { PartTimer::new(gpu) } else { None },
+            hook_rays,
+            bind_group,
+        })
+    }
+
+    /// Writes `part`'s parameters and, for a list, its entries.
+    fn write_inputs<R: GpuReal>(
+        &self,
+        gpu: &Gpu,
+        prepared: &Prepared<R>,
+        plan: &Plan<'_>,
+        part: Part,
+    ) -> Result<()> {
+        let params = part_params(prepared, plan, part);
+        (gpu.queue).write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let count = part.count as usize;
+        let range = part.first as usize..(part.first + part.count) as usize;
+        let Some((_, buffer)) = &self.list else {
+            return Ok(());
         };
-        let writing = std::time::Instant::now();
-        let (groups, pixels, start) = match rays {
-            Rays::Camera => (
-                [nx.div_ceil(WORKGROUP), count.div_ceil(WORKGROUP)],
-                count as u64 * nx as u64,
-                first as usize * nx as usize,
-            ),
-            Rays::Pixels(list) => write_list(4, &|k, bytes| {
+        match plan.rays {
+            Rays::Camera => Ok(()),
+            Rays::Pixels(list) => fill_buffer(gpu, buffer, count, 4, &|k, bytes| {
                 let pixels = &list[range.start + k..];
                 for (to, pixel) in bytes.chunks_exact_mut(4).zip(pixels) {
                     to.copy_from_slice(&pixel.to_ne_bytes());
                 }
-            })?,
+            }),
             Rays::List { list, .. } => {
                 // The rays are checked as they are written (rays::check_rays names a bad one).
                 let bad = std::sync::atomic::AtomicBool::new(false);
-                let written = write_list(size_of::<GpuRay<R>>(), &|k, bytes| {
+                fill_buffer(gpu, buffer, count, size_of::<GpuRay<R>>(), &|k, bytes| {
                     let entries = bytes.chunks_exact_mut(size_of::<GpuRay<R>>());
                     let mut valid = true;
                     for (j, to) in entries.enumerate() {
@@ -456,77 +620,215 @@ pub(crate) fn run<R: GpuReal>(
                         bad.store(true, std::sync::atomic::Ordering::Relaxed);
                     }
                 })?;
-                if bad.into_inner() {
-                    crate::rays::check_rays(list)?;
+                match bad.into_inner() {
+                    true => crate::rays::check_rays(list),
+                    false => Ok(()),
                 }
-                written
             }
-        };
-        stages.write_s += writing.elapsed().as_secs_f64();
-        let mut encoder = device.create_command_encoder(&Default::default());
+        }
+    }
+
+    /// Encodes and submits `part`'s dispatch, the copies of its outputs for reading and its
+    /// counters'.
+    fn submit(
+        &self,
+        gpu: &Gpu,
+        kernel: &Compiled,
+        plan: &Plan<'_>,
+        part: Part,
+    ) -> wgpu::SubmissionIndex {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("raycast"),
-                timestamp_writes: timer.as_ref().map(PassTimer::pass_writes),
+                timestamp_writes: self.timer.as_ref().map(PartTimer::pass_writes),
             });
             pass.set_pipeline(&kernel.pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], 1);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            let [x, y] = workgroups(gpu, plan, part);
+            pass.dispatch_workgroups(x, y, 1);
         }
-        if let Some(timer) = &timer {
-            timer.resolve(&mut encoder);
+        self.outputs
+            .copy_to_readback(&mut encoder, plan.rays_of(part));
+        if let Some(timer) = &self.timer {
+            timer.resolve(&mut encoder, &self.outputs);
         }
-        outputs.copy_to_readback(&mut encoder, pixels);
-        if let Some(counter) = &hook_rays {
+        if let Some(counter) = &self.hook_rays {
             counter.copy_and_reset(&mut encoder);
         }
-        gpu.queue.submit([encoder.finish()]);
-        if let Some(counter) = &mut hook_rays {
-            counter.add(gpu)?;
-        }
-        stages.readback_bytes += outputs.bytes(pixels);
-        match (sink.as_mut(), hits.as_mut()) {
-            (_, Some(hits)) => read_hits(
-                gpu,
-                &outputs,
-                &mut stages,
-                pixels as usize,
-                start,
-                hits,
-                certainty.as_deref_mut(),
-            )?,
-            (Some(sink), None) => {
-                let mut tile = new_images([nx, count]);
-                let read = (pixels as usize, 0);
-                read_tile(gpu, &outputs, &mut stages, &variant, read, &mut tile, None)?;
-                sink(first, tile)?;
+        gpu.queue.submit([encoder.finish()])
+    }
+
+    /// Reads `part`'s results, submitted as `done`, into `delivery`, and its counters.
+    fn read_back<R: GpuReal>(
+        &self,
+        gpu: &Gpu,
+        done: &wgpu::SubmissionIndex,
+        plan: &Plan<'_>,
+        part: Part,
+        stages: &mut Stages,
+        delivery: &mut Delivery<R>,
+    ) -> Result<PartCounts> {
+        let rays = plan.rays_of(part);
+        let start = plan.start_of(part);
+        self.outputs.read(gpu, done, stages, rays, |view| {
+            delivery.append(view, start, rays as usize)
+        })?;
+        let (kernel, copy) = match &self.timer {
+            Some(timer) => {
+                let (kernel, copy) = timer.read_seconds(gpu, done, &self.outputs)?;
+                (Some(kernel), copy)
             }
-            (None, None) => read_tile(
-                gpu,
-                &outputs,
-                &mut stages,
-                &variant,
-                (pixels as usize, start),
-                &mut images,
-                certainty.as_deref_mut(),
-            )?,
-        }
-        if let (Some(timer), Some(total)) = (&timer, &mut kernel_s) {
-            *total += timer.read_seconds(gpu)?;
+            None => (None, None),
+        };
+        let hook = match &self.hook_rays {
+            Some(counter) => Some(counter.read(gpu, done)?),
+            None => None,
+        };
+        Ok((kernel, copy, hook))
+    }
+
+    /// Every transient buffer, for the next job ([`Gpu::keep_transient`]).
+    fn into_buffers(self) -> impl Iterator<Item = wgpu::Buffer> {
+        let list = self.list.map(|(_, b)| b);
+        (self.outputs.into_buffers())
+            .chain(list)
+            .chain(std::iter::once(self.params))
+    }
+}
+
+/// `part`'s parameters: the job's frame, the part's rows or entries, the scene's counts.
+fn part_params<R: GpuReal>(prepared: &Prepared<R>, plan: &Plan<'_>, part: Part) -> GpuParams<R> {
+    let mut frame = GpuFrame::new(&prepared.frame);
+    let mut max_t = R::INFINITY;
+    if let Rays::List { t_near, t_far, .. } = plan.rays {
+        frame.min_t = R::from_f64(t_near);
+        max_t = R::at_most(t_far);
+    }
+    let [nx, ny] = plan.resolution;
+    let camera = matches!(plan.rays, Rays::Camera);
+    GpuParams::<R> {
+        frame,
+        projection: projection_code(prepared.frame.projection),
+        // A ray list's nx is its image width (0 when it is not an image's).
+        nx: match plan.rays {
+            Rays::List { .. } => plan.grid.unwrap_or(0),
+            _ => nx,
+        },
+        ny,
+        row_offset: if camera { part.first } else { 0 },
+        tile_rows: part.count,
+        sphere_count: prepared.primitives.spheres.len() as u32,
+        plane_count: prepared.primitives.planes.len() as u32,
+        triangle_count: prepared.primitives.triangles.len() as u32,
+        origin: prepared.origin.cast::<R>().to_array(),
+        unit: R::from_f64(prepared.unit),
+        max_t,
+        _pad: [R::ZERO; 3],
+    }
+}
+
+/// The workgroups of `part`'s dispatch.
+fn workgroups(gpu: &Gpu, plan: &Plan<'_>, part: Part) -> [u32; 2] {
+    let count = part.count;
+    match (plan.rays, plan.grid) {
+        (Rays::Camera, _) => [
+            plan.resolution[0].div_ceil(WORKGROUP),
+            count.div_ceil(WORKGROUP),
+        ],
+        (_, Some(w)) => list_groups(gpu, w.div_ceil(8) * count.div_ceil(w).div_ceil(8)),
+        (_, None) => list_groups(gpu, count.div_ceil(LIST_WORKGROUP)),
+    }
+}
+
+/// Where a job's results go as its parts are read back: the images (whole, or a part's at a
+/// time for a sink), or a list's hits, and the certainty flags.
+struct Delivery<R> {
+    outputs: Outputs,
+    images: Images<R>,
+    /// The images of the part read last, for a sink.
+    tile: Option<Images<R>>,
+    streamed: bool,
+    focal_length: f64,
+    hits: Option<Hits<R>>,
+    certainty: Option<Vec<bool>>,
+    occluded: Option<Vec<bool>>,
+}
+
+impl<R: GpuReal> Delivery<R> {
+    fn new(prepared: &Prepared<R>, variant: &Variant, plan: &Plan<'_>, streamed: bool) -> Self {
+        let [nx, ny] = plan.resolution;
+        // Streamed, the parts go to the sink and only the part in hand is held.
+        let whole = match plan.rays {
+            Rays::Camera if streamed => [nx, 0],
+            Rays::Camera => [nx, ny],
+            Rays::Pixels(list) => [list.len() as u32, 1],
+            Rays::List { .. } => [0, 0],
+        };
+        let color = variant.outputs.color;
+        let images = empty_images(whole, prepared.focal_length, color);
+        let pixels = whole[0] as usize * whole[1] as usize;
+        let certainty = variant
+            .certainty
+            .then(|| vec![false; pixels.max(plan.rays.listed())]);
+        Delivery {
+            outputs: variant.outputs,
+            images,
+            tile: None,
+            streamed,
+            focal_length: prepared.focal_length,
+            hits: match plan.rays {
+                Rays::List { list, .. } if !variant.occluded => {
+                    Some(Hits::with_capacity(list.len(), variant.count))
+                }
+                _ => None,
+            },
+            certainty,
+            occluded: variant
+                .occluded
+                .then(|| Vec::with_capacity(plan.rays.listed())),
         }
     }
-    stages.trace_s = clock.elapsed().as_secs_f64();
-    stages.kernel_s = kernel_s;
-    stages.hook_rays = hook_rays.map(|c| c.total);
-    images.hook_rays = stages.hook_rays;
-    let list_buffer = list_buffer.map(|(_, b)| b);
-    gpu.keep_transient(outputs.into_buffers().chain(list_buffer).collect());
-    Ok(Rendered {
-        images,
-        hits,
-        certainty,
-        stages,
-    })
+
+    /// Appends the `rays` results of the part from `start` in `view`.
+    fn append(&mut self, view: &Mapped, start: usize, rays: usize) {
+        view.copy_certainty(start, self.certainty.as_deref_mut());
+        if let Some(occluded) = &mut self.occluded {
+            return append_occluded(occluded, view);
+        }
+        if let Some(hits) = &mut self.hits {
+            return append_hits(hits, view);
+        }
+        let images = match self.streamed {
+            true => {
+                let width = self.images.width;
+                let rows = rays as u32 / width.max(1);
+                let color = self.images.color.is_some();
+                self.tile
+                    .insert(empty_images([width, rows], self.focal_length, color))
+            }
+            false => &mut self.images,
+        };
+        append_pixels(images, view, self.outputs, rays);
+    }
+
+    /// Hands the part read last to `sink`, where the job streams.
+    fn deliver(&mut self, part: Part, sink: Option<&mut TileSink<'_, R>>) -> Result<()> {
+        match (sink, self.tile.take()) {
+            (Some(sink), Some(tile)) => sink(part.first, tile),
+            _ => Ok(()),
+        }
+    }
+
+    fn finish(self) -> Rendered<R> {
+        Rendered {
+            images: self.images,
+            hits: self.hits,
+            certainty: self.certainty,
+            occluded: self.occluded,
+            stages: Stages::default(),
+        }
+    }
 }
 
 /// A prepared scene's buffers on one device ([`upload`]), for jobs that cast many times at
@@ -613,53 +915,6 @@ fn upload_hook_scene<R: GpuReal>(gpu: &Gpu, prepared: &Prepared<R>) -> Vec<(Stri
     ]
 }
 
-/// The counter of the rays a shade hook casts (`hook_ray_count`, shaders/shade.wgsl), read
-/// back and zeroed after every dispatch, so that its 32 bits need hold one dispatch's rays.
-struct HookRayCounter {
-    counter: wgpu::Buffer,
-    readback: wgpu::Buffer,
-    total: u64,
-}
-
-impl HookRayCounter {
-    fn new(gpu: &Gpu) -> HookRayCounter {
-        HookRayCounter {
-            counter: gpu
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("hook_ray_count"),
-                    contents: bytemuck::bytes_of(&0u32),
-                    usage: wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::COPY_SRC
-                        | wgpu::BufferUsages::COPY_DST,
-                }),
-            readback: readback_buffer(gpu, 4),
-            total: 0,
-        }
-    }
-
-    /// Copies the dispatch's count for reading and zeroes the counter for the next.
-    fn copy_and_reset(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.copy_buffer_to_buffer(&self.counter, 0, &self.readback, 0, 4);
-        encoder.clear_buffer(&self.counter, 0, None);
-    }
-
-    /// Adds the count copied by [`HookRayCounter::copy_and_reset`] to the total.
-    fn add(&mut self, gpu: &Gpu) -> Result<()> {
-        let slice = self.readback.slice(..);
-        map_buffers(gpu, &[slice], wgpu::MapMode::Read)?;
-        let count = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| Error::Device(format!("GPU ray count readback failed: {e}")))?;
-            u32::from_ne_bytes(view[..4].try_into().expect("4 bytes"))
-        };
-        self.readback.unmap();
-        self.total += count as u64;
-        Ok(())
-    }
-}
-
 /// `groups` workgroups for a list, laid out in rows of at most the device's limit per dimension.
 fn list_groups(gpu: &Gpu, groups: u32) -> [u32; 2] {
     let max_groups = gpu.device.limits().max_compute_workgroups_per_dimension;
@@ -687,7 +942,7 @@ fn fill_buffer(
     }
     if gpu.host_memory() {
         let part = buffer.slice(..size);
-        map_buffers(gpu, &[part], wgpu::MapMode::Write)?;
+        map_buffers(gpu, &[part], wgpu::MapMode::Write, None)?;
         {
             let mut view = part
                 .get_mapped_range_mut()
@@ -952,14 +1207,6 @@ fn chunked_upload<T: Pod>(
         .collect()
 }
 
-fn surface_bytes(precision: Float) -> u64 {
-    SURFACE_REALS
-        * match precision {
-            Float::F32 => 4,
-            Float::F64 => 8,
-        }
-}
-
 /// The most image rows one dispatch can cover at `width` pixels per row under `limits`
 /// (output binding size and workgroups per dimension); 0 if not even one row fits.
 pub(crate) fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Float) -> u32 {
@@ -967,30 +1214,6 @@ pub(crate) fn max_tile_rows(limits: &wgpu::Limits, width: u32, precision: Float)
     let by_memory = binding / (width as u64 * surface_bytes(precision));
     let by_dispatch = limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
     by_memory.min(by_dispatch).min(u32::MAX as u64) as u32
-}
-
-/// A buffer the kernel writes and the host copies out of, or maps itself (`direct`).
-fn output_buffer(gpu: &Gpu, label: &str, size: u64, direct: bool) -> wgpu::Buffer {
-    let read_by = match direct {
-        true => wgpu::BufferUsages::MAP_READ,
-        false => wgpu::BufferUsages::COPY_SRC,
-    };
-    gpu.transient_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size,
-        usage: wgpu::BufferUsages::STORAGE | read_by,
-        mapped_at_creation: false,
-    })
-}
-
-/// A buffer the host maps to read results.
-fn readback_buffer(gpu: &Gpu, size: u64) -> wgpu::Buffer {
-    gpu.transient_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
 }
 
 /// A storage buffer holding `items`, or one zeroed element when there are none
@@ -1023,436 +1246,4 @@ fn padded_storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], align: u64
         .copy_from_slice(bytes);
     buffer.unmap();
     buffer
-}
-
-/// GPU time of compute passes from timestamp queries: one written at the beginning and one at
-/// the end of each pass, resolved and copied to a mappable buffer after it.
-struct PassTimer {
-    query_set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    readback: wgpu::Buffer,
-    /// Nanoseconds per timestamp tick.
-    period_ns: f64,
-}
-
-impl PassTimer {
-    const BYTES: u64 = 2 * wgpu::QUERY_SIZE as u64;
-
-    /// A timer, or `None` when the device has no `TIMESTAMP_QUERY`.
-    fn new(gpu: &Gpu) -> Option<PassTimer> {
-        if !gpu
-            .device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY)
-        {
-            return None;
-        }
-        let period_ns = f64::from(gpu.queue.get_timestamp_period());
-        if period_ns <= 0.0 {
-            return None;
-        }
-        let device = &gpu.device;
-        let query_set = device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("kernel timestamps"),
-            ty: wgpu::QueryType::Timestamp,
-            count: 2,
-        });
-        let buffer = |label, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: Self::BYTES,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        Some(PassTimer {
-            query_set,
-            resolve: buffer(
-                "timestamp resolve",
-                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            ),
-            readback: buffer(
-                "timestamp readback",
-                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            ),
-            period_ns,
-        })
-    }
-
-    /// The pass's timestamp writes: index 0 at its beginning, 1 at its end.
-    fn pass_writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
-        wgpu::ComputePassTimestampWrites {
-            query_set: &self.query_set,
-            beginning_of_pass_write_index: Some(0),
-            end_of_pass_write_index: Some(1),
-        }
-    }
-
-    /// Records the resolve and the copy to the readback buffer, after the timed pass.
-    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.resolve_query_set(&self.query_set, 0..2, &self.resolve, 0);
-        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, Self::BYTES);
-    }
-
-    /// Seconds between the two timestamps of the last submitted timed pass.
-    fn read_seconds(&self, gpu: &Gpu) -> Result<f64> {
-        map_buffers(gpu, &[self.readback.slice(..)], wgpu::MapMode::Read)?;
-        let ticks = {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|e| Error::Device(format!("GPU timestamp readback failed: {e}")))?;
-            let t: &[u64] = bytemuck::cast_slice(&view[..]);
-            t[1].saturating_sub(t[0])
-        };
-        self.readback.unmap();
-        Ok(ticks as f64 * self.period_ns * 1e-9)
-    }
-}
-
-/// Maps `parts` in `mode` and waits until the GPU has finished what was submitted.
-fn map_buffers(gpu: &Gpu, parts: &[wgpu::BufferSlice<'_>], mode: wgpu::MapMode) -> Result<()> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    for part in parts {
-        let tx = tx.clone();
-        part.map_async(mode, move |r| {
-            let _ = tx.send(r);
-        });
-    }
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Device(format!("GPU did not finish: {e}")))?;
-    for _ in parts {
-        rx.recv()
-            .map_err(|e| Error::Device(format!("GPU buffer mapping failed: {e}")))?
-            .map_err(|e| Error::Device(format!("GPU buffer mapping failed: {e}")))?;
-    }
-    Ok(())
-}
-
-/// A per-pixel output buffer of the kernel (shaders/bindings.wgsl).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Slot {
-    /// `out_surface`: normal and distance, `vec4<real>`.
-    Surface,
-    /// `out_id`: `i32`.
-    Id,
-    /// `out_certain`: `u32` flags (certainty variants).
-    Certain,
-    /// `out_color`: the shade hook's colour, `pack4x8unorm`.
-    Color,
-    /// `out_primitive`: `u32` (ray lists).
-    Primitive,
-    /// `out_uv`: `vec2<real>` (ray lists).
-    Uv,
-    /// `out_count`: `u32` (COUNT).
-    Count,
-}
-
-impl Slot {
-    /// The kernel's name for the buffer (shaders/bindings.wgsl).
-    fn name(self) -> &'static str {
-        match self {
-            Slot::Surface => "out_surface",
-            Slot::Id => "out_id",
-            Slot::Certain => "out_certain",
-            Slot::Color => "out_color",
-            Slot::Primitive => "out_primitive",
-            Slot::Uv => "out_uv",
-            Slot::Count => "out_count",
-        }
-    }
-
-    fn pixel_bytes(self, precision: Float) -> u64 {
-        match self {
-            Slot::Surface => surface_bytes(precision),
-            Slot::Uv => surface_bytes(precision) / 2,
-            Slot::Id | Slot::Certain | Slot::Color | Slot::Primitive | Slot::Count => ID_BYTES,
-        }
-    }
-}
-
-/// The output buffers a variant writes, each for `capacity` pixels, and, unless the host maps
-/// them directly ([`Gpu::host_memory`]), one readback buffer holding them one after another (at
-/// `capacity` pixels each).
-struct OutputBuffers {
-    /// Slot, buffer, and its offset in the readback buffer.
-    slots: Vec<(Slot, wgpu::Buffer, u64)>,
-    readback: Option<wgpu::Buffer>,
-    precision: Float,
-}
-
-impl OutputBuffers {
-    /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
-    /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
-    /// colours with a shade hook, a ray list's primitives and barycentrics or counts.
-    fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
-        let o = variant.outputs;
-        let hit_detail = variant.casts == Casts::Rays && !variant.count;
-        // Reals first, so that each slot starts aligned to its element in the readback
-        // buffer whatever the capacity.
-        let wanted = [
-            (o.distance || o.normal, Slot::Surface),
-            (hit_detail, Slot::Uv),
-            (o.id, Slot::Id),
-            (variant.certainty, Slot::Certain),
-            (o.color, Slot::Color),
-            (hit_detail, Slot::Primitive),
-            (variant.count, Slot::Count),
-        ];
-        let direct = gpu.host_memory();
-        let mut slots = Vec::new();
-        let mut offset = 0;
-        for (present, slot) in wanted {
-            if present {
-                let size = capacity * slot.pixel_bytes(variant.precision);
-                slots.push((slot, output_buffer(gpu, slot.name(), size, direct), offset));
-                offset += size;
-            }
-        }
-        OutputBuffers {
-            slots,
-            // A mapped buffer may not be empty.
-            readback: (!direct).then(|| readback_buffer(gpu, offset.max(4))),
-            precision: variant.precision,
-        }
-    }
-
-    /// Every buffer, for the next job ([`Gpu::keep_transient`]).
-    fn into_buffers(self) -> impl Iterator<Item = wgpu::Buffer> {
-        let slots = self.slots.into_iter().map(|(_, b, _)| b);
-        slots.chain(self.readback)
-    }
-
-    /// The buffers by the kernel's names.
-    fn named(&self) -> impl Iterator<Item = (String, &wgpu::Buffer)> {
-        self.slots
-            .iter()
-            .map(|(slot, b, _)| (slot.name().to_owned(), b))
-    }
-
-    /// Records the copies of the first `pixels` pixels of each output to the readback buffer
-    /// (none where the host maps the outputs).
-    fn copy_to_readback(&self, encoder: &mut wgpu::CommandEncoder, pixels: u64) {
-        if let Some(readback) = &self.readback {
-            for (slot, buffer, offset) in &self.slots {
-                let size = pixels * slot.pixel_bytes(self.precision);
-                encoder.copy_buffer_to_buffer(buffer, 0, readback, *offset, size);
-            }
-        }
-    }
-
-    /// Bytes of the first `pixels` pixels of every output.
-    fn bytes(&self, pixels: u64) -> u64 {
-        let per_pixel: u64 = (self.slots.iter())
-            .map(|(slot, _, _)| slot.pixel_bytes(self.precision))
-            .sum();
-        pixels * per_pixel
-    }
-
-    /// Runs `f` on the first `pixels` pixels of each output, mapped once the GPU has finished;
-    /// adds the time waited for the GPU and the time of `f` to `stages`.
-    fn read(
-        &self,
-        gpu: &Gpu,
-        stages: &mut Stages,
-        pixels: u64,
-        f: impl FnOnce(&Mapped),
-    ) -> Result<()> {
-        let size = |slot: Slot| pixels * slot.pixel_bytes(self.precision);
-        // What is mapped: the readback buffer whole (its slots need not start at the mapping
-        // alignment), or each output's first `pixels` pixels.
-        let parts: Vec<wgpu::BufferSlice<'_>> = match &self.readback {
-            Some(readback) => vec![readback.slice(..)],
-            None => self
-                .slots
-                .iter()
-                .map(|(slot, buffer, _)| buffer.slice(..size(*slot).max(4)))
-                .collect(),
-        };
-        let waiting = std::time::Instant::now();
-        map_buffers(gpu, &parts, wgpu::MapMode::Read)?;
-        stages.wait_s += waiting.elapsed().as_secs_f64();
-        let converting = std::time::Instant::now();
-        {
-            let views = parts
-                .iter()
-                .map(|part| part.get_mapped_range())
-                .collect::<std::result::Result<Vec<_>, _>>()
-                .map_err(|e| Error::Device(format!("GPU readback failed: {e}")))?;
-            // Each slot's bytes: in which view, where.
-            let at = self
-                .slots
-                .iter()
-                .enumerate()
-                .map(|(k, (slot, _, offset))| match &self.readback {
-                    Some(_) => (*slot, 0, *offset as usize..(offset + size(*slot)) as usize),
-                    None => (*slot, k, 0..size(*slot) as usize),
-                })
-                .collect();
-            f(&Mapped { views, at });
-        }
-        parts.iter().for_each(|part| part.buffer().unmap());
-        stages.convert_s += converting.elapsed().as_secs_f64();
-        Ok(())
-    }
-}
-
-/// The outputs of one dispatch as the host reads them ([`OutputBuffers::read`]).
-struct Mapped {
-    views: Vec<wgpu::BufferView>,
-    /// Per slot the variant writes: the view holding it and its bytes there.
-    at: Vec<(Slot, usize, std::ops::Range<usize>)>,
-}
-
-impl Mapped {
-    /// The bytes of `slot`, if the variant writes it.
-    fn bytes(&self, slot: Slot) -> Option<&[u8]> {
-        let (_, view, range) = self.at.iter().find(|(s, _, _)| *s == slot)?;
-        Some(&self.views[*view][range.clone()])
-    }
-
-    /// Copies the certainty flags into `certainty` from `start`, where the variant writes them.
-    fn copy_certainty(&self, start: usize, certainty: Option<&mut [bool]>) {
-        if let (Some(certainty), Some(flags)) = (certainty, self.bytes(Slot::Certain)) {
-            let flags: &[u32] = bytemuck::cast_slice(flags);
-            for (k, flag) in flags.iter().enumerate() {
-                certainty[start + k] = *flag != 0;
-            }
-        }
-    }
-}
-
-/// Copies one dispatch's results out of the readback buffer into `images` from pixel index
-/// `start` (row-major; and into `certainty` alike): only the outputs
-/// `variant` asks for; the others keep their miss values. A pixel is a hit where its id says
-/// so, or, without ids, where its surface is not zero (every hit has a distance of at least
-/// `min_t |dir| > 0` and a unit normal).
-fn read_tile<R: GpuReal>(
-    gpu: &Gpu,
-    outputs: &OutputBuffers,
-    stages: &mut Stages,
-    variant: &Variant,
-    (pixels, start): (usize, usize),
-    images: &mut Images<R>,
-    certainty: Option<&mut [bool]>,
-) -> Result<()> {
-    outputs.read(gpu, stages, pixels as u64, |view| {
-        let surface: Option<&[[R; 4]]> = view.bytes(Slot::Surface).map(bytemuck::cast_slice);
-        let ids: Option<&[i32]> = view.bytes(Slot::Id).map(bytemuck::cast_slice);
-        view.copy_certainty(start, certainty);
-        if let (Some(colors), Some(bytes)) = (&mut images.color, view.bytes(Slot::Color)) {
-            let packed: &[u32] = bytemuck::cast_slice(bytes);
-            for (k, c) in packed.iter().enumerate() {
-                // pack4x8unorm puts red in the lowest byte.
-                colors[start + k] = c.to_le_bytes();
-            }
-        }
-        let o = variant.outputs;
-        for k in 0..pixels {
-            let px = start + k;
-            let hit = match (ids, surface) {
-                (Some(ids), _) => ids[k] != MISS,
-                (None, Some(s)) => s[k] != [R::ZERO; 4],
-                (None, None) => false,
-            };
-            if let Some(ids) = ids {
-                images.id[px] = ids[k];
-            }
-            if let (true, Some(s)) = (hit, surface) {
-                let s = s[k];
-                if o.normal {
-                    images.normal[px] = [s[0], s[1], s[2]];
-                }
-                if o.distance {
-                    images.distance[px] = s[3];
-                }
-            }
-        }
-    })
-}
-
-/// Appends the hits of one dispatch to `hits` in one parallel pass over the kernel's outputs
-/// (a pass per result reads each hit's memory again). The kernel writes a miss's id only: the
-/// rest is the miss's values here.
-fn read_hit_values<R: GpuReal>(
-    hits: &mut Hits<R>,
-    ids: &[i32],
-    surface: &[[R; 4]],
-    primitives: &[u32],
-    uvs: &[[R; 2]],
-) {
-    use rayon::prelude::*;
-    const RUN: usize = 4096;
-    let n = ids.len();
-    hits.t.reserve(n);
-    hits.id.reserve(n);
-    hits.normal.reserve(n);
-    hits.primitive.reserve(n);
-    hits.uv.reserve(n);
-    let runs = (
-        hits.t.spare_capacity_mut()[..n].par_chunks_mut(RUN),
-        hits.id.spare_capacity_mut()[..n].par_chunks_mut(RUN),
-        hits.normal.spare_capacity_mut()[..n].par_chunks_mut(RUN),
-        hits.primitive.spare_capacity_mut()[..n].par_chunks_mut(RUN),
-        hits.uv.spare_capacity_mut()[..n].par_chunks_mut(RUN),
-    );
-    runs.into_par_iter()
-        .enumerate()
-        .for_each(|(r, (t, id, normal, primitive, uv))| {
-            for j in 0..t.len() {
-                let k = r * RUN + j;
-                let hit = ids[k] != MISS;
-                let [x, y, z, w] = surface[k];
-                id[j].write(ids[k]);
-                t[j].write(if hit { w } else { R::INFINITY });
-                normal[j].write(if hit { [x, y, z] } else { [R::ZERO; 3] });
-                primitive[j].write(if hit { primitives[k] } else { INVALID_ID });
-                uv[j].write(if hit { uvs[k] } else { [R::ZERO; 2] });
-            }
-        });
-    // SAFETY: the pass above wrote the first `n` spare elements of each vector (the runs of
-    // each cover `..n` alike), and `reserve` made room for them.
-    unsafe {
-        hits.t.set_len(hits.t.len() + n);
-        hits.id.set_len(hits.id.len() + n);
-        hits.normal.set_len(hits.normal.len() + n);
-        hits.primitive.set_len(hits.primitive.len() + n);
-        hits.uv.set_len(hits.uv.len() + n);
-    }
-}
-
-/// Appends one dispatch's results for a ray list (rays `start..start + rays`, after those read
-/// before) to `hits` (and copies them into `certainty`): t, id, normal, primitive and
-/// barycentrics ([`read_hit_values`]), or counts.
-fn read_hits<R: GpuReal>(
-    gpu: &Gpu,
-    outputs: &OutputBuffers,
-    stages: &mut Stages,
-    rays: usize,
-    start: usize,
-    hits: &mut Hits<R>,
-    certainty: Option<&mut [bool]>,
-) -> Result<()> {
-    use rayon::prelude::*;
-    outputs.read(gpu, stages, rays as u64, |view| {
-        let slot = |slot| view.bytes(slot);
-        view.copy_certainty(start, certainty);
-        if let Some(counts) = slot(Slot::Count) {
-            let counts: &[u32] = bytemuck::cast_slice(counts);
-            hits.count.par_extend(counts.par_iter().copied());
-        }
-        if let (Some(ids), Some(surface), Some(primitives), Some(uvs)) = (
-            slot(Slot::Id),
-            slot(Slot::Surface),
-            slot(Slot::Primitive),
-            slot(Slot::Uv),
-        ) {
-            let ids: &[i32] = bytemuck::cast_slice(ids);
-            let surface: &[[R; 4]] = bytemuck::cast_slice(surface);
-            let primitives: &[u32] = bytemuck::cast_slice(primitives);
-            let uvs: &[[R; 2]] = bytemuck::cast_slice(uvs);
-            read_hit_values(hits, ids, surface, primitives, uvs);
-        }
-    })
 }

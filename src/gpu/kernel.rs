@@ -226,7 +226,7 @@ mod tests {
         let f64 = Variant::new(Float::F64, Algorithm::Robust);
         // f64 changes the size of everything real, Params first.
         let message = kernel.for_variant(f64.with_kinds(spheres_only.kinds));
-        assert!(format!("{message:?}").contains("192 bytes"), "{message:?}");
+        assert!(format!("{message:?}").contains("224 bytes"), "{message:?}");
         let distance = base.with_outputs(crate::images::Outputs {
             distance: true,
             ..crate::images::Outputs::NONE

@@ -11,6 +11,7 @@ pub(crate) mod dispatch;
 pub(crate) mod hooks;
 pub(crate) mod kernel;
 pub(crate) mod probe;
+pub(crate) mod readback;
 pub(crate) mod shader;
 pub(crate) mod source;
 
@@ -31,6 +32,7 @@ pub(crate) const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
     .union(wgpu::Features::SUBGROUP)
     .union(wgpu::Features::TIMESTAMP_QUERY)
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
     .union(wgpu::Features::SHADER_INT64);
 
 /// Invocations that share one node fetch in the packet traversal.
@@ -92,6 +94,7 @@ impl Gpu {
             casts: shader::Casts::Camera,
             count: false,
             closest: false,
+            occluded: false,
             rays_from_origin: false,
             list_origin: false,
             kinds: shader::Kinds::ALL,

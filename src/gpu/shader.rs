@@ -86,6 +86,9 @@ pub(crate) struct Variant {
     /// lists only, their directions unused): `out_surface` holds the closest point and its
     /// distance, `out_primitive` and `out_uv` its primitive and barycentrics.
     pub closest: bool,
+    /// Answer whether each ray hits anything from `min_t` to `params.max_t` instead of its
+    /// nearest hit (`OCCLUDED`; ray lists only: `out_occluded`, one word a ray).
+    pub occluded: bool,
     /// Every ray starts at the kernel's origin: the camera's rays (or listed pixels') of a
     /// perspective camera whose eye is that origin, as in the robust set
     /// ([`super::Gpu::scene_variant`]; the dispatch clears it for a caller's rays, or where
@@ -191,6 +194,7 @@ impl Variant {
             casts: Casts::Camera,
             count: false,
             closest: false,
+            occluded: false,
             rays_from_origin: false,
             list_origin: false,
             kinds: Kinds::ALL,
@@ -263,7 +267,7 @@ impl Variant {
     /// The names `#if` tests: `F64` (real is f64), `ROBUST`, `RECHECK_F64` (robust f32
     /// kernel on a device with f64), `CERTAINTY` (robust, with the certainty test),
     /// `PIXEL_LIST` (cast listed pixels only), `RAY_LIST` (cast a caller's rays), `COUNT`
-    /// (count intersections), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin),
+    /// (count intersections), `OCCLUDED` (whether anything is hit up to `max_t`), `RAYS_FROM_ORIGIN` (every ray starts at the kernel's origin),
     /// `LIST_ORIGIN` (every listed ray starts at the first one's origin), `SPHERES`, `PLANES`,
     /// `TRIANGLES` (kinds compiled in), `BVH` (spheres and triangles through the BVH),
     /// `RAY_BY_RAY` (BVH traversed ray by ray: no packets, or a hook's rays where its subgroup
@@ -303,6 +307,9 @@ impl Variant {
         }
         if self.closest {
             d.push("CLOSEST");
+        }
+        if self.occluded {
+            d.push("OCCLUDED");
         }
         if self.rays_from_origin {
             d.push("RAYS_FROM_ORIGIN");
@@ -710,16 +717,25 @@ pub(crate) fn all_variants() -> Vec<Variant> {
         for algorithm in [Algorithm::Textbook, Algorithm::Robust] {
             for f64_available in [true, false] {
                 // A caller's rays from many points, and from one (a pinhole camera's).
-                for (certainty, casts, count, closest, list_origin) in [
-                    (false, Casts::Camera, false, false, false),
-                    (true, Casts::Camera, false, false, false),
-                    (false, Casts::Pixels, false, false, false),
-                    (false, Casts::Rays, false, false, false),
-                    (false, Casts::Rays, false, false, true),
-                    (true, Casts::Rays, false, false, true),
-                    (false, Casts::Rays, true, false, true),
-                    (false, Casts::Rays, false, true, false),
-                    (false, Casts::Rays, false, true, true),
+                // The list's query: nearest hit, count, closest primitive or occlusion.
+                let [nearest, count, closest, occluded] = [
+                    (false, false, false),
+                    (true, false, false),
+                    (false, true, false),
+                    (false, false, true),
+                ];
+                for (certainty, casts, (count, closest, occluded), list_origin) in [
+                    (false, Casts::Camera, nearest, false),
+                    (true, Casts::Camera, nearest, false),
+                    (false, Casts::Pixels, nearest, false),
+                    (false, Casts::Rays, nearest, false),
+                    (false, Casts::Rays, nearest, true),
+                    (true, Casts::Rays, nearest, true),
+                    (false, Casts::Rays, count, true),
+                    (false, Casts::Rays, closest, false),
+                    (false, Casts::Rays, closest, true),
+                    (false, Casts::Rays, occluded, false),
+                    (false, Casts::Rays, occluded, true),
                 ] {
                     let impossible = precision == Float::F64 && !f64_available;
                     if impossible || certainty && algorithm != Algorithm::Robust {
@@ -736,6 +752,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         casts,
                         count,
                         closest,
+                        occluded,
                         // As robust perspective renders set it (the textbook set covers the
                         // camera's general rays).
                         rays_from_origin: casts != Casts::Rays && algorithm == Algorithm::Robust,

@@ -19,17 +19,30 @@ pub(crate) trait GpuReal: Real + Pod {
     /// A `u32` in the space of one real (`id_word` in shaders/: `Plane::object`).
     type IdWord: Pod + std::fmt::Debug;
     fn id_word(id: u32) -> Self::IdWord;
+    /// The largest value not above `x`: a value `t` of this type is at most `x` exactly when it
+    /// is at most `at_most(x)`.
+    fn at_most(x: f64) -> Self;
 }
 impl GpuReal for f32 {
     type IdWord = u32;
     fn id_word(id: u32) -> u32 {
         id
     }
+    fn at_most(x: f64) -> f32 {
+        let nearest = x as f32;
+        match nearest as f64 > x {
+            true => nearest.next_down(),
+            false => nearest,
+        }
+    }
 }
 impl GpuReal for f64 {
     type IdWord = [u32; 2];
     fn id_word(id: u32) -> [u32; 2] {
         [id, 0]
+    }
+    fn at_most(x: f64) -> f64 {
+        x
     }
 }
 
@@ -62,7 +75,9 @@ pub(crate) struct GpuParams<R> {
     pub triangle_count: u32, // offset 92 / 156
     pub origin: [R; 3],      // offset 96 / 160
     pub unit: R,             // offset 108 / 184
-} // size 112 / 192
+    pub max_t: R,            // offset 112 / 192
+    pub _pad: [R; 3],        // offset 116 / 200
+} // size 128 / 224
 
 /// `struct Sphere` in shaders/types.wgsl.
 #[repr(C)]
@@ -334,7 +349,7 @@ mod tests {
             "Params",
             size_of::<GpuParams<R>>(),
             fields!(GpuParams<R>: frame, projection, nx, ny, row_offset, tile_rows,
-                sphere_count, plane_count, triangle_count, origin, unit),
+                sphere_count, plane_count, triangle_count, origin, unit, max_t),
         );
         check(
             &m,

@@ -279,7 +279,7 @@ impl<'d> Accel<'d> {
 }
 
 /// What a pass over a ray list finds for each ray.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Query {
     /// The nearest hit.
     Nearest,
@@ -287,6 +287,8 @@ enum Query {
     Count,
     /// The primitive nearest its origin (a query point).
     Closest,
+    /// Whether it hits anything up to this t.
+    Occluded(f64),
 }
 
 /// A geometry's objects with their preparations, built once per precision and algorithm and
@@ -386,10 +388,37 @@ impl RayScene {
                 format!("expected 0 <= tnear < inf and a tfar, got {t_near} and {t_far}"),
             ));
         }
+        // One word a ray from the GPU's occlusion kernel; adaptive precision decides by the
+        // nearest hit, which its certainty pass covers.
+        match (mode.device, mode.precision, gpu) {
+            (Device::Gpu, Precision::F32, Some(gpu)) => {
+                return self.occluded_on::<f32>(gpu, mode, rays, t_near, t_far);
+            }
+            (Device::Gpu, Precision::F64, Some(gpu)) => {
+                return self.occluded_on::<f64>(gpu, mode, rays, t_near, t_far);
+            }
+            _ => {}
+        }
         let hits = self.nearest(gpu, mode, rays, t_near)?;
         let t = hits.t_f64();
         let hit = |k: usize| hits.id()[k] != MISS && t[k] <= t_far;
         Ok((0..rays.len()).map(hit).collect())
+    }
+
+    /// Whether each ray hits anything from `t_near` to `t_far`, by the GPU's occlusion kernel
+    /// in precision `R`.
+    fn occluded_on<R: CastReal>(
+        &self,
+        gpu: &Gpu,
+        mode: Mode,
+        rays: RayList<'_>,
+        t_near: f64,
+        t_far: f64,
+    ) -> Result<Vec<bool>> {
+        let rendered = self.on_gpu::<R>(gpu, mode, rays, t_near, Query::Occluded(t_far))?;
+        Ok(rendered
+            .occluded
+            .expect("an occlusion pass returns its flags"))
     }
 
     fn count(&self, gpu: Option<&Gpu>, mode: Mode, rays: RayList<'_>) -> Result<Vec<u32>> {
@@ -506,25 +535,41 @@ impl RayScene {
             }
             Device::Gpu => {
                 let gpu = gpu.ok_or_else(|| Error::Device("a gpu: cast needs a GPU".into()))?;
-                let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
-                let variant = gpu::shader::Variant {
-                    certainty: query == Query::Nearest
-                        && mode.precision == Precision::Adaptive
-                        && R::PRECISION == Float::F32,
-                    count: query == Query::Count,
-                    closest: query == Query::Closest,
-                    packets: general.packets && coherent(rays, self.extent),
-                    list_origin: one_origin(rays),
-                    ..general
-                };
-                let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
-                let resident = self.resident(gpu, &prepared, &variant)?;
-                let job = Job::new(variant).rays(rays, t_near).resident(&resident);
-                let rendered = gpu::run(gpu, &prepared, job)?;
+                let rendered = self.on_gpu::<R>(gpu, mode, rays, t_near, query)?;
                 let hits = rendered.hits.expect("a ray list returns hits");
                 Ok((hits, rendered.certainty))
             }
         }
+    }
+
+    /// One pass of `query` in precision `R` on `gpu`, as the kernel delivers it.
+    fn on_gpu<R: CastReal>(
+        &self,
+        gpu: &Gpu,
+        mode: Mode,
+        rays: RayList<'_>,
+        t_near: f64,
+        query: Query,
+    ) -> Result<gpu::Rendered<R>> {
+        let general = gpu.scene_variant(&self.scene, R::PRECISION, mode.algorithm);
+        let variant = gpu::shader::Variant {
+            certainty: query == Query::Nearest
+                && mode.precision == Precision::Adaptive
+                && R::PRECISION == Float::F32,
+            count: query == Query::Count,
+            closest: query == Query::Closest,
+            occluded: matches!(query, Query::Occluded(_)),
+            packets: general.packets && coherent(rays, self.extent),
+            list_origin: one_origin(rays),
+            ..general
+        };
+        let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
+        let resident = self.resident(gpu, &prepared, &variant)?;
+        let mut job = Job::new(variant).rays(rays, t_near).resident(&resident);
+        if let Query::Occluded(t_far) = query {
+            job = job.t_far(t_far);
+        }
+        gpu::run(gpu, &prepared, job)
     }
 
     /// The preparation for `algorithm` in `R` (for `variant`'s acceleration, or the CPU's

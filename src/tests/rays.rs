@@ -305,6 +305,38 @@ fn sphere_answers_are_exact() {
     assert_eq!(h.primitive[..], [0, 0, INVALID_ID]);
 }
 
+/// The GPU's occlusion kernel (one word a ray) answers as its nearest hit does: a ray is
+/// occluded exactly when its nearest hit from `t_near` on has `t <= t_far`, also where `t_far`
+/// is a hit's t, or one f64 ulp either side of it (which f32's `t_far` must round down for).
+#[test]
+fn occlusion_kernel_answers_as_the_nearest_hit() {
+    let gpu = gpu();
+    let scene = Target::from_scene(random_scene(7, [4, 4]));
+    let rays = random_rays(&mut Rng(77), 2000);
+    for m in ["gpu:f32", "gpu:f64"] {
+        let hits = scene.cast(Some(gpu), mode(m), &rays).unwrap();
+        let (id, t) = (hits.id(), hits.t_f64());
+        let hit_ts: Vec<f64> = (0..rays.len())
+            .filter(|&k| id[k] != -1)
+            .map(|k| t[k])
+            .collect();
+        assert!(hit_ts.len() > 100, "{m}: {} hits", hit_ts.len());
+        let mut t_fars = vec![0.0, 1.0, f64::INFINITY];
+        for &th in hit_ts.iter().step_by(hit_ts.len() / 12) {
+            t_fars.extend([th, th.next_down(), th.next_up()]);
+        }
+        for t_far in t_fars {
+            let by_hits: Vec<bool> = (0..rays.len())
+                .map(|k| id[k] != -1 && t[k] <= t_far)
+                .collect();
+            let occluded = scene
+                .occluded(Some(gpu), mode(m), &rays, 0.0, t_far)
+                .unwrap();
+            assert!(occluded == by_hits, "{m}, t_far {t_far}");
+        }
+    }
+}
+
 /// Meshes from memory: the object id add_mesh returns, the triangle's index within its mesh,
 /// and barycentrics that are exact where the numbers are.
 #[test]
