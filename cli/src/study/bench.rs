@@ -819,8 +819,11 @@ pub fn stage_lines(rows: &[Row]) -> Vec<String> {
     (rows.iter())
         .filter_map(|r| {
             let bytes = r.readback_bytes?;
+            let copy = (r.copy_s).map_or("not measured".into(), |s| {
+                format!("{} s", format_seconds(s))
+            });
             Some(format!(
-                "{} {}: trace {} s, of it write {} s, wait {} s, convert {} s; GPU copy {} s; \
+                "{} {}: trace {} s, of it write {} s, wait {} s, convert {} s; GPU copy {copy}; \
                  {} MB read back",
                 r.mode,
                 r.accel,
@@ -828,7 +831,6 @@ pub fn stage_lines(rows: &[Row]) -> Vec<String> {
                 seconds(r.write_s),
                 seconds(r.wait_s),
                 seconds(r.convert_s),
-                seconds(r.copy_s),
                 // Three significant digits, as the seconds.
                 format_seconds(bytes as f64 * 1e-6)
             ))
