@@ -173,7 +173,8 @@ adaptive_times() {
 step adaptive "$raw/adaptive.txt" adaptive_times
 
 # A dataset (docs/datasets.md#how-fast): the views of an orbit as one batch, against single
-# renders (each a process: device, compile, render, files) and the kernel's rate at that size.
+# renders (each a process: device, compile, render, files) and the kernel's rate on the same
+# views (bench --orbit: each view's camera once a run).
 views_times() {
     local t0 k
     t0=$(date +%s.%N)
@@ -186,7 +187,7 @@ views_times() {
     done
 }
 step views "$raw/views.txt" views_times
-bench views "$work/lit/bunny.json" --size 640x360
+bench views "$work/lit/bunny.json" --orbit "$views" --size 640x360
 
 [[ -z $peer_bench && -f $here/peer_bench.py ]] && peer_bench=$here/peer_bench.py
 if [[ -n $peer_bench ]]; then
@@ -259,7 +260,7 @@ report = {
         "single_s": statistics.median(views["single"]) if views["single"] else None,
         "loop_over_batch": n_views * statistics.median(views["single"]) / views["batch"][0]
             if views["batch"] and views["single"] else None,
-        "batch_over_kernel": n_views * 640 * 360 / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
+        "batch_over_kernel": bench["views"][0]["rays"] / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
             if views["batch"] and bench["views"] else None,
     },
     "cost": {
@@ -285,10 +286,14 @@ md = ["# raycast gpu-check, %s" % report["date"], "",
 names = {"torus": "torus, %s triangles", "big": "big torus, %s triangles",
          "spheres": "100 spheres", "incoherent": "incoherent rays, torus (%s triangles)",
          "lit": "lit course bunny (--lit)", "peer-torus": "peers' torus.obj, %s triangles",
-         "views": "course bunny, 640x360 (the dataset's scene)"}
+         "views": "course bunny, %d orbit views at 640x360 (the dataset's)" % n_views}
+
+def workload(name, r):
+    return names[name] % format(r["triangles"], ",") if "%s" in names[name] else names[name]
+
 for name, rs in bench.items():
     for r in rs:
-        what = names[name] % format(r["triangles"], ",") if "%s" in names[name] else names[name]
+        what = workload(name, r)
         secondary = r.get("secondary_mrays_per_s")
         md.append("| %s | %s | %s | %s | %s | %s | %s | %.1f |" % (
             what, r["mode"], format(r["rays"], ","), fmt(r["mrays_per_s"] / 1e3, ".3g"),
@@ -304,9 +309,28 @@ md += ["", "Grays/s from GPU timestamps where the device has them (kernel time),
 v = report["views"]
 md += ["", "Dataset (lit bunny, 640x360): %d views (`--orbit %d`) in %s s; a single render "
        "%s s, so a loop of single renders takes %s x the batch's time; the batch at %s x the "
-       "kernel's rate (bench, the scene's camera)." % (
+       "kernel's rate on the same views (bench --orbit)." % (
            n_views, n_views, fmt(v["batch_s"], ".2f"), fmt(v["single_s"], ".3f"),
            fmt(v["loop_over_batch"], ".1f"), fmt(v["batch_over_kernel"], ".2f"))]
+
+def ms(s):
+    return fmt(s and s * 1e3, ".2f")
+
+md += ["", "## Stages of the whole cast", "",
+       "| workload | mode | trace ms | kernel ms | whole/kernel | write ms | wait ms | convert ms "
+       "| GPU copy ms | MB read back |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+for name, rs in bench.items():
+    for r in rs:
+        if r.get("readback_bytes") is None:
+            continue
+        md.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            workload(name, r), r["mode"], ms(r["trace_s"]), ms(r["trace_gpu_s"]),
+            fmt(r["whole_over_kernel"], ".2f"), ms(r["write_s"]), ms(r["wait_s"]),
+            ms(r["convert_s"]), ms(r["copy_s"]), fmt(r["readback_bytes"] / 1e6, ".1f")))
+md += ["", "The trace (`trace_s`, wall) against its kernel (GPU timestamps); of the trace, the inputs "
+       "written, the host's wait for the device and the conversion of what was read back; the GPU's "
+       "copy to host-mapped memory where measured. Medians of the runs; the dataset's row sums its "
+       "views. Ray lists (`--rays`) report no parts."]
 if peers:
     md += ["", "## Mitsuba 3 (peer_bench.py)", "", "| peer | workload | build s | trace s | Grays/s |",
            "|---|---|---:|---:|---:|"]

@@ -304,6 +304,20 @@ enum Command {
         /// 67,108,864).
         #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = clap::value_parser!(u64).range(1..=study::bench::MAX_RAYS as u64))]
         rays: Option<u64>,
+        /// Render each run from every camera of this views file instead of the scene's, as
+        /// `render --views` renders them; times are summed over the views (docs/cli.md#bench).
+        #[arg(long, value_name = "FILE", conflicts_with_all = ["orbit", "rays"])]
+        views: Option<PathBuf>,
+        /// Render each run from the N views `render --orbit N` renders, the scene's camera the
+        /// orbit's start; times are summed over the views (docs/cli.md#bench).
+        #[arg(long, value_name = "N", conflicts_with = "rays")]
+        orbit: Option<u32>,
+        /// With --orbit: the eye's distance from the centre, as for `render --orbit`.
+        #[arg(long, value_name = "R", allow_hyphen_values = true)]
+        orbit_radius: Option<f64>,
+        /// With --orbit: the views' elevation in degrees, as for `render --orbit`.
+        #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
+        orbit_elevation: Option<f64>,
     },
     #[command(about = study::workload::about())]
     Workload {
@@ -514,30 +528,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 up,
                 fov,
             };
-            let orbit_only = [
-                ("--orbit-radius", orbit_radius.is_some()),
-                ("--orbit-elevation", orbit_elevation.is_some()),
-            ];
-            if let (None, Some((flag, _))) = (orbit, orbit_only.iter().find(|(_, given)| *given)) {
-                return Err(raycast::Error::Argument {
-                    option: (*flag).into(),
-                    message: "sets an orbit's views: give --orbit".into(),
-                });
-            }
-            // An orbit starts from the camera settings; a views file's cameras are refused them.
-            let (views, view) = match (views, orbit) {
-                (Some(file), _) => (Some(raycast::Views::File(file)), view),
-                (None, Some(views)) => {
-                    let orbit = raycast::Orbit {
-                        views,
-                        radius: orbit_radius,
-                        elevation: orbit_elevation,
-                        camera: view,
-                    };
-                    (Some(raycast::Views::Orbit(orbit)), Default::default())
-                }
-                (None, None) => (None, view),
-            };
+            let (views, view) = views_asked(views, orbit, orbit_radius, orbit_elevation, view)?;
             let batch_only = [
                 ("--force", force),
                 ("--shard", shard.is_some()),
@@ -669,8 +660,14 @@ fn run(command: Command) -> Result<ExitCode> {
             shader,
             lit,
             rays,
+            views,
+            orbit,
+            orbit_radius,
+            orbit_elevation,
         } => {
             let shade = raycast::ShadeHook::requested(lit, shader.as_deref())?;
+            let camera = Default::default();
+            let (views, _) = views_asked(views, orbit, orbit_radius, orbit_elevation, camera)?;
             let options = study::bench::Options {
                 runs: runs as usize,
                 // A frame is timed as one kernel: never adaptive.
@@ -678,6 +675,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 accels: accel,
                 shade,
                 rays: rays.map(|n| n as usize),
+                views,
             };
             study::bench::command(&scene, size, options, json, say_on)?;
             Ok(ExitCode::SUCCESS)
@@ -803,6 +801,41 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
             std::thread::sleep(std::time::Duration::from_millis(200));
         }
     }
+}
+
+/// The views `--views FILE` or `--orbit N` (with `--orbit-radius`, `--orbit-elevation`) ask
+/// for, if any, and the camera settings left for the render: an orbit starts from them, a views
+/// file's cameras are refused them (by the render).
+fn views_asked(
+    file: Option<PathBuf>,
+    orbit: Option<u32>,
+    radius: Option<f64>,
+    elevation: Option<f64>,
+    camera: scene::CameraOverrides,
+) -> Result<(Option<raycast::Views>, scene::CameraOverrides)> {
+    let orbit_only = [
+        ("--orbit-radius", radius.is_some()),
+        ("--orbit-elevation", elevation.is_some()),
+    ];
+    if let (None, Some((flag, _))) = (orbit, orbit_only.iter().find(|(_, given)| *given)) {
+        return Err(raycast::Error::Argument {
+            option: (*flag).into(),
+            message: "sets an orbit's views: give --orbit".into(),
+        });
+    }
+    Ok(match (file, orbit) {
+        (Some(file), _) => (Some(raycast::Views::File(file)), camera),
+        (None, Some(views)) => {
+            let orbit = raycast::Orbit {
+                views,
+                radius,
+                elevation,
+                camera,
+            };
+            (Some(raycast::Views::Orbit(orbit)), Default::default())
+        }
+        (None, None) => (None, camera),
+    })
 }
 
 /// `raycast render --views | --orbit`: every view of the shard, with a progress bar of views

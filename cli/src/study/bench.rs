@@ -7,9 +7,15 @@
 //! - GPU modes report the render's [`raycast::Stages`]: primitives rounded and laid out and the
 //!   BVH built (`build_s`), the scene's buffers uploaded (`upload_s`), every tile dispatched
 //!   and read back (`trace_s`, wall clock) and the kernel's GPU time from timestamp queries
-//!   (`trace_gpu_s`).
+//!   (`trace_gpu_s`); of the trace, the inputs written (`write_s`), the wait for the device
+//!   (`wait_s`), the outputs converted (`convert_s`), the GPU's copies (`copy_s`) and the bytes
+//!   read back (`readback_bytes`).
 //! - CPU modes report the BVH build and the layout (`build_s`) apart from the render on them
 //!   (`trace_s`); nothing is uploaded.
+//!
+//! With views ([`Options::views`]: `--orbit`, `--views`) a run renders the scene from every
+//! view's camera, as a dataset does: through one [`Viewer`] per configuration, which builds the
+//! BVH's shape once (in the warm-up run); each stage is summed over the views.
 //!
 //! With a shade hook (`--shader`, `--lit`) every frame also colours `color.png`; a hook that
 //! casts rays reports them too, as secondary rays a second (`secondary_mrays_per_s`, over the
@@ -25,9 +31,10 @@ use serde::Serialize;
 
 use super::{Stream, Table, format_seconds, median, plural};
 use raycast::images::MISS;
-use raycast::scene::{Object, Scene};
+use raycast::scene::{Camera, Object, Scene};
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 use raycast::{Device, Mode, Precision};
+use raycast::{Viewer, Views};
 
 /// `--runs` unless given.
 pub const DEFAULT_RUNS: usize = 5;
@@ -53,6 +60,9 @@ pub struct Options {
     pub shade: Option<ShadeHook>,
     /// Cast this many incoherent rays ([`incoherent_rays`]) instead of the camera's.
     pub rays: Option<usize>,
+    /// Render each run from every one of these views instead of the scene's camera
+    /// (`--orbit`, `--views`: the cameras `raycast render` renders them from).
+    pub views: Option<Views>,
 }
 
 impl Default for Options {
@@ -64,6 +74,7 @@ impl Default for Options {
             accels: vec![Search::Auto],
             shade: None,
             rays: None,
+            views: None,
         }
     }
 }
@@ -120,6 +131,10 @@ impl Options {
                 option: "--rays".into(),
                 message: "a ray list chooses its own acceleration; leave out --accel".into(),
             }),
+            Some(_) if self.views.is_some() => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list has no camera; leave out --orbit and --views".into(),
+            }),
             _ => Ok(()),
         }
     }
@@ -145,25 +160,79 @@ impl Options {
     }
 }
 
-/// A scene as loaded for benchmarking: where it came from and how long loading took.
+/// A scene as loaded for benchmarking: where it came from, how long loading took, and the
+/// cameras a run renders it from.
 #[derive(Clone, Debug)]
 pub struct Loaded {
     pub path: PathBuf,
     pub scene: Scene,
     /// Wall seconds of [`Scene::load`] (parsing, mesh files, validation).
     pub load_s: f64,
+    /// The views' cameras, all of one size, where views were asked for ([`Options::views`]).
+    pub views: Option<Vec<Camera>>,
 }
 
-/// Loads `path` (timed), with `size` overriding its resolution.
-pub fn load(path: &Path, size: Option<[u32; 2]>) -> Result<Loaded> {
+impl Loaded {
+    /// The cameras a run renders from: the views', or the scene's own.
+    pub fn cameras(&self) -> &[Camera] {
+        self.views
+            .as_deref()
+            .unwrap_or(std::slice::from_ref(&self.scene.camera))
+    }
+
+    /// The size of every frame (the views share one).
+    pub fn size(&self) -> [u32; 2] {
+        self.cameras()[0].resolution
+    }
+
+    /// Primary rays of a run: one per pixel of every camera.
+    pub fn rays(&self) -> u64 {
+        self.cameras().iter().map(Camera::pixel_count).sum()
+    }
+}
+
+/// Loads `path` (timed), with `size` overriding its resolution, and finds the cameras of
+/// `views`, as `raycast render` does (the scene's camera at `size` the orbit's start, every
+/// view at `size`). Views of different sizes are refused: a row has one size.
+pub fn load(path: &Path, size: Option<[u32; 2]>, views: Option<&Views>) -> Result<Loaded> {
     let start = Instant::now();
     let scene = raycast::scene::load_sized(Some(path), size)?;
     let load_s = start.elapsed().as_secs_f64();
+    let views = views
+        .map(|views| view_cameras(views, &scene, size))
+        .transpose()?;
     Ok(Loaded {
         path: path.to_owned(),
         scene,
         load_s,
+        views,
     })
+}
+
+/// The cameras of `views` for `scene`, each at `size` where given; refused unless all of one
+/// size.
+fn view_cameras(views: &Views, scene: &Scene, size: Option<[u32; 2]>) -> Result<Vec<Camera>> {
+    let mut cameras: Vec<Camera> = (views.cameras(scene)?.into_iter())
+        .map(|(_, camera)| camera)
+        .collect();
+    for camera in &mut cameras {
+        camera.resolution = size.unwrap_or(camera.resolution);
+    }
+    let sizes = |c: &Camera| format!("{}x{}", c.resolution[0], c.resolution[1]);
+    if let Some(other) = cameras
+        .iter()
+        .find(|c| c.resolution != cameras[0].resolution)
+    {
+        return Err(Error::Argument {
+            option: "--views".into(),
+            message: format!(
+                "the views are of different sizes ({} and {}); a bench row has one: give --size",
+                sizes(&cameras[0]),
+                sizes(other)
+            ),
+        });
+    }
+    Ok(cameras)
 }
 
 /// A scene's spheres, planes and triangles (a soup's triangles counted one by one).
@@ -201,9 +270,12 @@ pub struct Row {
     pub accel: String,
     /// Whether the render went through a BVH (what `auto` chose).
     pub bvh: bool,
-    /// Image size `[width, height]`.
+    /// Image size `[width, height]` (of every view).
     pub size: [u32; 2],
-    /// Primary rays per frame: one per pixel.
+    /// Frames a run renders: 1 from the scene's camera, one a view with `--orbit` or
+    /// `--views`; `None` for a ray list.
+    pub views: Option<usize>,
+    /// Primary rays per run: one per pixel of every view.
     pub rays: u64,
     /// The shade hook, if any (its file).
     pub hook: Option<String>,
@@ -229,6 +301,24 @@ pub struct Row {
     /// The kernel's GPU time, summed over tiles (timestamp queries); `None` on the CPU or
     /// without `TIMESTAMP_QUERY`.
     pub trace_gpu_s: Option<f64>,
+    /// Of `trace_s`: the inputs written for the device ([`raycast::Stages::write_s`]); `None`
+    /// on the CPU and for ray lists (the API gives no stages of a ray list's cast).
+    pub write_s: Option<f64>,
+    /// Of `trace_s`: the host waiting for the device ([`raycast::Stages::wait_s`]); `None` as
+    /// `write_s`.
+    pub wait_s: Option<f64>,
+    /// Of `trace_s`: the outputs converted into the layout they are delivered in
+    /// ([`raycast::Stages::convert_s`]); `None` as `write_s`.
+    pub convert_s: Option<f64>,
+    /// The GPU's time copying the outputs to memory the host maps
+    /// ([`raycast::Stages::copy_s`]); `None` as `write_s`, and where the render has no such
+    /// time.
+    pub copy_s: Option<f64>,
+    /// Bytes of output read back from the device per run ([`raycast::Stages::readback_bytes`]);
+    /// `None` as `write_s`.
+    pub readback_bytes: Option<u64>,
+    /// `trace_s / trace_gpu_s`: the whole trace against its kernel; `None` without a GPU time.
+    pub whole_over_kernel: Option<f64>,
     /// Million rays per second: `rays / trace_gpu_s` where there is a GPU time, else
     /// `rays / trace_s` (`mrays_from` says which).
     pub mrays_per_s: f64,
@@ -266,10 +356,51 @@ struct Run {
     upload_s: Option<f64>,
     trace_s: f64,
     kernel_s: Option<f64>,
+    /// The parts of the trace, and the bytes read back (GPU).
+    readback: Option<Readback>,
     hits: usize,
     hook_rays: Option<u64>,
     bvh_nodes: Option<usize>,
     bytes_per_triangle: Option<f64>,
+}
+
+/// A GPU trace's parts ([`raycast::Stages`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Readback {
+    write_s: f64,
+    wait_s: f64,
+    convert_s: f64,
+    copy_s: Option<f64>,
+    bytes: u64,
+}
+
+impl Run {
+    /// The frames of one run together: times, hits and rays summed (a time where every frame
+    /// has one), the geometry the last frame's.
+    fn total(frames: &[Run]) -> Run {
+        let sum = |f: fn(&Run) -> f64| frames.iter().map(f).sum::<f64>();
+        let last = frames.last().copied().unwrap_or_default();
+        let readback = (frames.iter().map(|r| r.readback))
+            .collect::<Option<Vec<Readback>>>()
+            .map(|parts| Readback {
+                write_s: parts.iter().map(|p| p.write_s).sum(),
+                wait_s: parts.iter().map(|p| p.wait_s).sum(),
+                convert_s: parts.iter().map(|p| p.convert_s).sum(),
+                copy_s: parts.iter().map(|p| p.copy_s).sum(),
+                bytes: parts.iter().map(|p| p.bytes).sum(),
+            });
+        Run {
+            build_s: sum(|r| r.build_s),
+            compile_s: sum(|r| r.compile_s),
+            upload_s: frames.iter().map(|r| r.upload_s).sum(),
+            trace_s: sum(|r| r.trace_s),
+            kernel_s: frames.iter().map(|r| r.kernel_s).sum(),
+            readback,
+            hits: frames.iter().map(|r| r.hits).sum(),
+            hook_rays: frames.iter().map(|r| r.hook_rays).sum(),
+            ..last
+        }
+    }
 }
 
 /// One frame in `mode` (never adaptive) with `accel` and `options`' hook, its stages timed
@@ -285,12 +416,20 @@ fn run_once(
     let stages = images
         .stages()
         .expect("f32 and f64 renders report their stages");
+    let on_gpu = mode.device == Device::Gpu;
     Ok(Run {
         build_s: stages.build_s,
         compile_s: stages.compile_s,
-        upload_s: (mode.device == Device::Gpu).then_some(stages.upload_s),
+        upload_s: on_gpu.then_some(stages.upload_s),
         trace_s: stages.trace_s,
         kernel_s: stages.kernel_s,
+        readback: on_gpu.then_some(Readback {
+            write_s: stages.write_s,
+            wait_s: stages.wait_s,
+            convert_s: stages.convert_s,
+            copy_s: stages.copy_s,
+            bytes: stages.readback_bytes,
+        }),
         hits: images.id().iter().filter(|&&id| id != MISS).count(),
         hook_rays: stages.hook_rays,
         bvh_nodes: stages.bvh_nodes,
@@ -298,39 +437,73 @@ fn run_once(
     })
 }
 
-/// Measures `loaded` in `mode` with `accel`: one warm-up frame, then `runs` timed ones (module
+/// One run of `loaded` in `mode` with `accel`: a frame from the scene's camera, or with
+/// `viewer` one from each view's camera (the frames' stages summed). `tick` is called after
+/// every frame.
+fn run_frames(
+    loaded: &Loaded,
+    viewer: Option<&mut Viewer>,
+    (mode, accel): (Mode, Search),
+    gpu: Option<&Gpu>,
+    options: &Options,
+    tick: &mut dyn FnMut(),
+) -> Result<Run> {
+    let frame = |scene: &Scene| run_once(scene, mode, accel, gpu, options);
+    let Some(viewer) = viewer else {
+        let run = frame(&loaded.scene)?;
+        tick();
+        return Ok(run);
+    };
+    let mut frames = Vec::with_capacity(loaded.cameras().len());
+    for camera in loaded.cameras() {
+        frames.push(viewer.render(camera.clone(), frame)?);
+        tick();
+    }
+    Ok(Run::total(&frames))
+}
+
+/// Measures `loaded` in `mode` with `accel`: one warm-up run, then `runs` timed ones (module
 /// docs). `tick` is called after every frame.
 pub fn measure(
     loaded: &Loaded,
-    (mode, accel): (Mode, Search),
+    config: (Mode, Search),
     runs: usize,
     gpu: Option<&Gpu>,
     options: &Options,
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
+    let (mode, accel) = config;
     let scene = &loaded.scene;
     reset_peak_rss();
-    let warm_up = run_once(scene, mode, accel, gpu, options)?;
-    tick();
+    // Views share one viewer, as a dataset's views of a scene share its BVH's shape.
+    let mut viewer = loaded.views.as_ref().map(|_| Viewer::new(scene.clone()));
+    let warm_up = run_frames(loaded, viewer.as_mut(), config, gpu, options, tick)?;
     let mut timed = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
-        timed.push(run_once(scene, mode, accel, gpu, options)?);
-        tick();
+        timed.push(run_frames(
+            loaded,
+            viewer.as_mut(),
+            config,
+            gpu,
+            options,
+            tick,
+        )?);
     }
     let peak_rss_mb = crate::peak_rss_mib();
-    let column = |f: fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
-    let build_s = column(|r| r.build_s);
-    let trace_s = column(|r| r.trace_s);
-    let upload_s = timed[0]
-        .upload_s
-        .map(|_| column(|r| r.upload_s.unwrap_or(0.0)));
-    let trace_gpu_s = timed
-        .iter()
-        .map(|r| r.kernel_s)
-        .collect::<Option<Vec<f64>>>()
-        .map(|k| median(&k));
+    let column = |f: &dyn Fn(&Run) -> f64| median(&timed.iter().map(f).collect::<Vec<_>>());
+    // The median of a stage every run has, else `None`.
+    let optional = |f: &dyn Fn(&Run) -> Option<f64>| {
+        (timed.iter().map(f))
+            .collect::<Option<Vec<f64>>>()
+            .map(|times| median(&times))
+    };
+    let build_s = column(&|r| r.build_s);
+    let trace_s = column(&|r| r.trace_s);
+    let upload_s = optional(&|r| r.upload_s);
+    let trace_gpu_s = optional(&|r| r.kernel_s);
+    let part = |f: fn(&Readback) -> f64| optional(&|r| r.readback.as_ref().map(f));
 
-    let rays = scene.camera.pixel_count();
+    let rays = loaded.rays();
     let mrays = |s: f64| rays as f64 / s * 1e-6;
     let (frame_s, mrays_from) = match trace_gpu_s {
         Some(s) if s > 0.0 => (s, "gpu_timestamps"),
@@ -346,7 +519,8 @@ pub fn measure(
         mode: mode.to_string(),
         accel: accel_name(accel).to_owned(),
         bvh: last.bvh_nodes.is_some(),
-        size: scene.camera.resolution,
+        size: loaded.size(),
+        views: Some(loaded.cameras().len()),
         rays,
         hook: (options.shade.as_ref()).map(|h| h.file.display().to_string()),
         secondary_rays,
@@ -360,6 +534,12 @@ pub fn measure(
         upload_s,
         trace_s,
         trace_gpu_s,
+        write_s: part(|p| p.write_s),
+        wait_s: part(|p| p.wait_s),
+        convert_s: part(|p| p.convert_s),
+        copy_s: optional(&|r| r.readback.and_then(|p| p.copy_s)),
+        readback_bytes: last.readback.map(|p| p.bytes),
+        whole_over_kernel: trace_gpu_s.filter(|&k| k > 0.0).map(|k| trace_s / k),
         mrays_per_s,
         mrays_per_s_wall: mrays(trace_s),
         secondary_mrays_per_s: secondary_rays.map(|n| n as f64 / frame_s * 1e-6),
@@ -423,6 +603,7 @@ fn measure_rays(
         accel: accel_name(Search::Auto).to_owned(),
         bvh: Search::Auto.uses_bvh(&loaded.scene),
         size: [n.min(u32::MAX as usize) as u32, 1],
+        views: None,
         rays: n as u64,
         hook: None,
         secondary_rays: None,
@@ -436,6 +617,12 @@ fn measure_rays(
         upload_s: None,
         trace_s,
         trace_gpu_s: None,
+        write_s: None,
+        wait_s: None,
+        convert_s: None,
+        copy_s: None,
+        readback_bytes: None,
+        whole_over_kernel: None,
         mrays_per_s: n as f64 / trace_s * 1e-6,
         mrays_per_s_wall: n as f64 / trace_s * 1e-6,
         secondary_mrays_per_s: None,
@@ -466,7 +653,7 @@ pub fn run(
         return Err(Error::Device("a GPU mode needs a device".into()));
     }
     let configurations = options.configurations();
-    let frames = configurations.len() * (1 + options.runs);
+    let frames = configurations.len() * (1 + options.runs) * loaded.cameras().len();
     let bar = crate::progress::bar(
         progress,
         frames as u64,
@@ -490,9 +677,8 @@ pub fn run(
 /// A frame is rendered whole (bench times whole frames, not bands): at most
 /// [`raycast::STREAM_PIXELS`] pixels.
 fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
-    let pixels = loaded.scene.camera.pixel_count();
-    if options.rays.is_none() && pixels > raycast::STREAM_PIXELS {
-        let [w, h] = loaded.scene.camera.resolution;
+    let [w, h] = loaded.size();
+    if options.rays.is_none() && u64::from(w) * u64::from(h) > raycast::STREAM_PIXELS {
         return Err(Error::Argument {
             option: "--size".into(),
             message: format!(
@@ -545,7 +731,7 @@ pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<Stri
         cpu_model().unwrap_or_else(|| "unknown".into())
     ));
     let c = Counts::of(&loaded.scene);
-    let [nx, ny] = loaded.scene.camera.resolution;
+    let [nx, ny] = loaded.size();
     lines.push(format!(
         "scene: {} ({} triangles, {} spheres, {} planes), loaded in {} s",
         loaded.path.display(),
@@ -554,10 +740,14 @@ pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<Stri
         c.planes,
         format_seconds(loaded.load_s)
     ));
+    let views = match &loaded.views {
+        Some(cameras) => format!("{} of ", plural(cameras.len(), "view")),
+        None => String::new(),
+    };
     lines.push(format!(
-        "{nx}x{ny} = {} rays, median of {} after 1 warm-up; Mrays/s from GPU timestamps where \
-         there are some, else wall",
-        nx as u64 * ny as u64,
+        "{views}{nx}x{ny} = {} rays a run, median of {} after 1 warm-up; Mrays/s from GPU \
+         timestamps where there are some, else wall",
+        loaded.rays(),
         plural(options.runs, "run")
     ));
     if let Some(hook) = &options.shade {
@@ -574,13 +764,14 @@ pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<Stri
 }
 
 /// Column headings of [`to_table`].
-pub const COLUMNS: [&str; 13] = [
+pub const COLUMNS: [&str; 14] = [
     "mode",
     "accel",
     "build s",
     "upload s",
     "trace s",
     "trace GPU s",
+    "whole/kernel",
     "Mrays/s",
     "Mrays/s wall",
     "secondary rays",
@@ -607,6 +798,7 @@ pub fn to_table(rows: &[Row]) -> String {
             seconds(r.upload_s),
             format_seconds(r.trace_s),
             seconds(r.trace_gpu_s),
+            (r.whole_over_kernel).map_or("-".into(), |x| format!("{x:.2}")),
             format!("{:.2}", r.mrays_per_s),
             format!("{:.2}", r.mrays_per_s_wall),
             r.secondary_rays.map_or("-".into(), |n| n.to_string()),
@@ -620,6 +812,32 @@ pub fn to_table(rows: &[Row]) -> String {
     table.aligned()
 }
 
+/// A line per row with the parts of its trace (GPU camera rows): the inputs written, the wait
+/// for the device, the conversion, the GPU's copies and the bytes read back.
+pub fn stage_lines(rows: &[Row]) -> Vec<String> {
+    let seconds = |s: Option<f64>| s.map_or("-".to_owned(), format_seconds);
+    (rows.iter())
+        .filter_map(|r| {
+            let bytes = r.readback_bytes?;
+            let copy = (r.copy_s).map_or("not measured".into(), |s| {
+                format!("{} s", format_seconds(s))
+            });
+            Some(format!(
+                "{} {}: trace {} s, of it write {} s, wait {} s, convert {} s; GPU copy {copy}; \
+                 {} MB read back",
+                r.mode,
+                r.accel,
+                format_seconds(r.trace_s),
+                seconds(r.write_s),
+                seconds(r.wait_s),
+                seconds(r.convert_s),
+                // Three significant digits, as the seconds.
+                format_seconds(bytes as f64 * 1e-6)
+            ))
+        })
+        .collect()
+}
+
 /// `raycast bench`: loads the scene (timed, and validated before the GPU is opened), measures
 /// every configuration of `options` with a progress bar, and prints the [`header`] and the
 /// table, or with `json` one JSON object per configuration and nothing else, on stdout.
@@ -631,7 +849,7 @@ pub fn command(
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     options.check()?;
-    let loaded = load(scene, size)?;
+    let loaded = load(scene, size, options.views.as_ref())?;
     check_size(&loaded, &options)?;
     let gpu = crate::render::gpu_for(&options.modes)?;
     if !json {
@@ -649,6 +867,9 @@ pub fn command(
     })?;
     if !json {
         say(Stream::Stdout, to_table(&rows).trim_end());
+        for line in stage_lines(&rows) {
+            say(Stream::Stdout, &line);
+        }
     }
     Ok(())
 }
@@ -701,6 +922,20 @@ mod tests {
             };
             assert!(list.check().unwrap_err().to_string().starts_with("--rays"));
         }
+        let orbit = Views::Orbit(raycast::Orbit {
+            views: 2,
+            ..raycast::Orbit::default()
+        });
+        let list_of_views = Options {
+            rays: Some(10),
+            views: Some(orbit),
+            ..Options::default()
+        };
+        let refused = list_of_views.check().unwrap_err().to_string();
+        assert!(
+            refused.starts_with("--rays: a ray list has no camera"),
+            "{refused}"
+        );
         // The CPU runs the ray tracer's mirror and no other hook.
         let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
         let other = raycast::ShadeHook::check(source, Path::new("other.wgsl")).unwrap();
@@ -718,6 +953,48 @@ mod tests {
                 .starts_with("--shader")
         );
         assert!(cpu(raycast::ShadeHook::raytrace().unwrap()).check().is_ok());
+    }
+
+    /// A run's frames add up: times and counts summed, a time only where every frame has it.
+    #[test]
+    fn a_runs_frames_add_up() {
+        let frame = |k: u32, kernel_s: Option<f64>| Run {
+            build_s: f64::from(k),
+            upload_s: Some(0.5),
+            trace_s: 2.0 * f64::from(k),
+            kernel_s,
+            readback: Some(Readback {
+                write_s: 0.25,
+                wait_s: 1.0,
+                convert_s: 0.5,
+                copy_s: kernel_s,
+                bytes: 100 * u64::from(k),
+            }),
+            hits: k as usize,
+            bvh_nodes: Some(k as usize),
+            ..Run::default()
+        };
+        let run = Run::total(&[frame(1, Some(1.0)), frame(2, Some(3.0))]);
+        assert_eq!(
+            (run.build_s, run.trace_s, run.upload_s),
+            (3.0, 6.0, Some(1.0))
+        );
+        assert_eq!(
+            (run.kernel_s, run.hits, run.bvh_nodes),
+            (Some(4.0), 3, Some(2))
+        );
+        let readback = run.readback.unwrap();
+        let parts = (readback.write_s, readback.wait_s, readback.convert_s);
+        assert_eq!(parts, (0.5, 2.0, 1.0));
+        assert_eq!((readback.copy_s, readback.bytes), (Some(4.0), 300));
+        let untimed = Run::total(&[frame(1, Some(1.0)), frame(2, None)]);
+        assert_eq!(untimed.kernel_s, None);
+        assert_eq!(untimed.readback.unwrap().copy_s, None);
+        let cpu = Run {
+            readback: None,
+            ..frame(3, None)
+        };
+        assert!(Run::total(&[frame(1, None), cpu]).readback.is_none());
     }
 
     #[test]

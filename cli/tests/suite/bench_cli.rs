@@ -1,5 +1,6 @@
-//! `raycast bench`: one JSON line per configuration with every key, consistent numbers, and
-//! the failure contract (exit 2, one stderr line) for a bad scene and `--runs 0`.
+//! `raycast bench`: one JSON line per configuration with every key, consistent numbers, the
+//! views of a dataset (`--orbit`, `--views`), and the failure contract (exit 2, one stderr line)
+//! for a bad scene and `--runs 0`.
 
 use crate::common;
 
@@ -9,12 +10,13 @@ use common::repo_path;
 use raycast::Algorithm;
 
 /// Every key of a `--json` line, in order.
-const KEYS: [&str; 29] = [
+const KEYS: [&str; 36] = [
     "scene",
     "mode",
     "accel",
     "bvh",
     "size",
+    "views",
     "rays",
     "hook",
     "secondary_rays",
@@ -28,6 +30,12 @@ const KEYS: [&str; 29] = [
     "upload_s",
     "trace_s",
     "trace_gpu_s",
+    "write_s",
+    "wait_s",
+    "convert_s",
+    "copy_s",
+    "readback_bytes",
+    "whole_over_kernel",
     "mrays_per_s",
     "mrays_per_s_wall",
     "secondary_mrays_per_s",
@@ -63,6 +71,54 @@ fn number(row: &serde_json::Value, key: &str) -> f64 {
     row[key]
         .as_f64()
         .unwrap_or_else(|| panic!("{key} is a number in {row}"))
+}
+
+/// The JSON lines of a bench that succeeds.
+fn rows(args: &[&str]) -> Vec<serde_json::Value> {
+    let out = bench(args);
+    assert!(
+        out.status.success(),
+        "stderr:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+/// Bytes a pixel of every output bench asks for is delivered in, in f32: the id (4), the
+/// distance (4) and the normal (12); the palette's colours are made from the ids on the host.
+const F32_PIXEL_BYTES: u64 = 4 + 4 + 3 * 4;
+
+/// A GPU row's trace in parts: the bytes read back are those of `pixels` pixels of every
+/// output; the inputs written, the wait and the conversion are parts of the trace; the whole
+/// trace over the kernel is the ratio of the two.
+fn assert_trace_parts(row: &serde_json::Value, pixels: u64) {
+    assert_eq!(row["readback_bytes"], pixels * F32_PIXEL_BYTES, "{row}");
+    let parts: f64 = ["write_s", "wait_s", "convert_s"]
+        .iter()
+        .map(|key| {
+            let s = number(row, key);
+            assert!(s >= 0.0, "{key} in {row}");
+            s
+        })
+        .sum();
+    let trace_s = number(row, "trace_s");
+    assert!(
+        parts <= trace_s * (1.0 + 1e-9),
+        "{parts} > trace_s in {row}"
+    );
+    assert!(
+        row["copy_s"].is_null() || number(row, "copy_s") >= 0.0,
+        "{row}"
+    );
+    let ratio = trace_s / number(row, "trace_gpu_s");
+    assert!(
+        (number(row, "whole_over_kernel") - ratio).abs() <= 1e-9 * ratio,
+        "{row}"
+    );
 }
 
 #[test]
@@ -117,6 +173,7 @@ fn json_lines_per_configuration_with_consistent_numbers() {
         assert_eq!(row["accel"], accel);
         assert_eq!(row["bvh"], accel == "bvh");
         assert_eq!(row["size"], serde_json::json!([64, 36]));
+        assert_eq!(row["views"], 1);
         assert_eq!(row["rays"], 64 * 36);
         assert_eq!(row["runs"], 2);
         assert_eq!(row["triangles"], 1000);
@@ -128,6 +185,7 @@ fn json_lines_per_configuration_with_consistent_numbers() {
         let gpu_s = number(row, "trace_gpu_s");
         assert!(gpu_s > 0.0);
         assert_eq!(row["mrays_from"], "gpu_timestamps");
+        assert_trace_parts(row, 64 * 36);
         let rays = (64 * 36) as f64;
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b;
         assert!(close(number(row, "mrays_per_s"), rays / gpu_s * 1e-6));
@@ -222,7 +280,20 @@ fn a_cpu_mode_has_no_upload_nor_gpu_time() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let row: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     assert_eq!(row["mode"], "cpu:f64:robust");
-    for key in ["upload_s", "compile_s", "trace_gpu_s", "adapter", "driver"] {
+    let gpu_only = [
+        "upload_s",
+        "compile_s",
+        "trace_gpu_s",
+        "write_s",
+        "wait_s",
+        "convert_s",
+        "copy_s",
+        "readback_bytes",
+        "whole_over_kernel",
+        "adapter",
+        "driver",
+    ];
+    for key in gpu_only {
         assert!(row[key].is_null(), "{key} is null on the CPU: {row}");
     }
     assert_eq!(row["mrays_from"], "wall");
@@ -241,6 +312,18 @@ fn the_table_names_the_adapter_and_each_configuration() {
     let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| gpu:")).collect();
     assert_eq!(rows.len(), 1, "{stdout}");
     assert!(rows[0].contains("auto (bvh)"), "{stdout}");
+    // Under the table, the parts of the GPU row's trace and the bytes it read back.
+    let bytes = (32 * 18 * F32_PIXEL_BYTES) as f64 * 1e-6;
+    let stages = format!(
+        "; {} MB read back",
+        raycast_cli::study::format_seconds(bytes)
+    );
+    let line = stdout.lines().last().unwrap();
+    assert!(line.starts_with("gpu:f32:robust auto: trace "), "{stdout}");
+    assert!(
+        line.contains(", of it write ") && line.ends_with(&stages),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -302,7 +385,10 @@ fn incoherent_rays_are_cast_as_a_list() {
         assert_eq!(row["rays"], 5000);
         assert_eq!(row["size"], serde_json::json!([5000, 1]));
         assert_eq!(row["mrays_from"], "wall");
-        assert!(row["trace_gpu_s"].is_null());
+        // The API gives no stages of a ray list's cast.
+        for key in ["views", "trace_gpu_s", "write_s", "readback_bytes"] {
+            assert!(row[key].is_null(), "{key} in {row}");
+        }
         assert_eq!(number(row, "hit_fraction"), hit, "{}", row["mode"]);
     }
 }
@@ -402,4 +488,85 @@ fn workloads_are_scene_files() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
     assert_eq!(common::file_names(empty.path()), Vec::<String>::new());
+}
+
+/// `--orbit N`: a run renders the N views `raycast render --orbit N` renders, each of them
+/// once: the rays and the bytes read back are the views', the hits those of the views' renders.
+#[test]
+fn an_orbit_run_renders_the_views_render_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = repo_path("scenes/bunny.stl");
+    let mesh = mesh.to_str().unwrap();
+    let (views, pixels) = (3, 32 * 18);
+    let render = common::raycast()
+        .args([
+            "render", mesh, "--orbit", "3", "--size", "32x18", "--device", "cpu",
+        ])
+        .args(["--precision", "f32", "--format", "npy", "-o"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        render.status.success(),
+        "{}",
+        String::from_utf8_lossy(&render.stderr)
+    );
+    let hits: usize = (0..views)
+        .map(|k| dir.path().join(format!("bunny/orbit-{k:03}")))
+        .map(|view| crate::mesh_files::id_npy(&view))
+        .map(|ids| ids.iter().filter(|&&id| id >= 0).count())
+        .sum();
+    assert!(hits > 0);
+
+    let rows = rows(&[
+        mesh,
+        "--orbit",
+        "3",
+        "--size",
+        "32x18",
+        "--runs",
+        "1",
+        "--json",
+        "--mode",
+        "gpu:f32,cpu:f32",
+    ]);
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        assert_eq!(row["views"], views);
+        assert_eq!(row["size"], serde_json::json!([32, 18]));
+        assert_eq!(row["rays"], views * pixels);
+    }
+    assert_trace_parts(&rows[0], views * pixels);
+    // The count (JSON's decimal fraction is read back to within an ulp).
+    let rays = (views * pixels) as f64;
+    let counted = number(&rows[1], "hit_fraction") * rays;
+    assert_eq!(counted.round() as usize, hits, "{counted}");
+}
+
+/// `--views FILE`: a run renders the file's cameras, which a row needs of one size: `--size`
+/// gives them one. `--orbit-radius` goes with `--orbit`.
+#[test]
+fn a_views_file_is_benched_at_one_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let cameras = serde_json::json!([
+        {"name": "side", "eye": [2.5, 0.5, 0.3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 50},
+        {"name": "pinhole", "eye": [0, 0, 2.2], "look": [0, 0, -1], "up": [0, 1, 0],
+         "intrinsics": {"fx": 100, "fy": 100, "cx": 47.5, "cy": 26.5}, "resolution": [96, 54]}
+    ]);
+    let views = dir.path().join("views.json");
+    std::fs::write(&views, cameras.to_string()).unwrap();
+    let scene = repo_path("scenes/course/bunny.json");
+    let args = [scene.to_str().unwrap(), "--views", views.to_str().unwrap()];
+    let cpu = ["--runs", "1", "--json", "--mode", "cpu:f32"];
+    let line = fails(&[&args[..], &cpu].concat());
+    assert!(
+        line.starts_with("error: --views: the views are of different sizes ("),
+        "{line}"
+    );
+    let rows = rows(&[&args[..], &cpu, &["--size", "24x16"]].concat());
+    assert_eq!(rows[0]["views"], 2);
+    assert_eq!(rows[0]["rays"], 2 * 24 * 16);
+
+    let line = fails(&[scene.to_str().unwrap(), "--orbit-radius", "3"]);
+    assert!(line.starts_with("error: --orbit-radius: "), "{line}");
 }

@@ -57,6 +57,7 @@ fn gpu_check_runs_from_a_packed_folder() {
     for r in torus {
         assert_eq!(r["triangles"], 518_400);
         assert_eq!(r["rays"], 640 * 360);
+        assert!(r["whole_over_kernel"].as_f64().unwrap() >= 1.0, "{r}");
         // The peers' torus, seen by their camera, covers 34.5% of the picture.
         let hit = r["hit_fraction"].as_f64().unwrap();
         assert!((hit - 0.345).abs() < 0.002, "{hit}");
@@ -65,6 +66,12 @@ fn gpu_check_runs_from_a_packed_folder() {
     assert_eq!(bench["spheres"][0]["spheres"], 100);
     assert_eq!(bench["incoherent"][0]["rays"], 100_000);
     assert!(bench["lit"][0]["secondary_rays"].as_u64().unwrap() > 0);
+    // The f32 bytes of the id, distance and normal bench asks for, read back whole.
+    assert_eq!(torus[0]["readback_bytes"], 640 * 360 * (4 + 4 + 12));
+    // The kernel's rate on the dataset's own views: each of the 10 once a run.
+    let orbit = &bench["views"][0];
+    assert_eq!(orbit["views"], 10);
+    assert_eq!(orbit["rays"], 10 * 640 * 360);
     let views = &report["views"];
     assert_eq!(views["views"], 10);
     for ratio in ["loop_over_batch", "batch_over_kernel"] {
@@ -80,6 +87,7 @@ fn gpu_check_runs_from_a_packed_folder() {
         "## Benchmarks",
         "lit course bunny",
         "Dataset (lit bunny, 640x360): 10 views",
+        "## Stages of the whole cast",
     ] {
         assert!(md.contains(part), "report.md lacks {part}");
     }

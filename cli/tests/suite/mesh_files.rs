@@ -441,7 +441,7 @@ fn square_stl() -> String {
 }
 
 /// `id.npy`'s ids, row by row.
-fn id_npy(dir: &std::path::Path) -> Vec<i32> {
+pub(crate) fn id_npy(dir: &std::path::Path) -> Vec<i32> {
     let bytes = std::fs::read(dir.join("id.npy")).unwrap();
     let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
     let data = &bytes[10 + header..];
