@@ -146,10 +146,15 @@ fn triangle_at(k: u32) -> Triangle {
 // Object id of every primitive: spheres first, then planes, then triangles (bound whenever
 // the scene has any primitive).
 @group(0) @binding(4) var<storage, read> objects: array<u32>;
-// Outputs are bound only when the variant writes them (SURFACE, ID).
+// Outputs are bound only when the variant writes them (SURFACE, DISTANCE_ALONE, ID).
 #if SURFACE
 // Per pixel of the tile: normal in xyz, distance in w (0 on a miss, and where not asked for).
 @group(0) @binding(5) var<storage, read_write> out_surface: array<vec4<real>>;
+#endif
+#if DISTANCE_ALONE
+// Per pixel of the tile, where the distance is asked for without the normal: the distance (0 on
+// a miss), a quarter of the surface's bytes to read back.
+@group(0) @binding(27) var<storage, read_write> out_distance: array<real>;
 #endif
 #if ID
 // Per pixel of the tile: object id, -1 on a miss.

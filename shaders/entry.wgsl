@@ -17,7 +17,7 @@
 
 // Casts the ray of pixel (i, j) and, if `write`, writes its results to output slot `index`.
 // Only the outputs the variant asks for are computed (ID, NORMAL, DISTANCE) and written (ID,
-// SURFACE).
+// SURFACE, DISTANCE_ALONE).
 fn cast_pixel(i: u32, j: u32, index: u32, write: bool) {
     let ray = pixel_ray(i, j);
     write_pixel(ray, nearest_hit(ray, params.frame.min_t), i, j, index, write);
@@ -62,6 +62,15 @@ fn write_pixel(ray: Ray, hit: Hit, i: u32, j: u32, index: u32, write: bool) {
     }
 #else
     out_surface[index] = surface;
+#endif
+#endif
+#if DISTANCE_ALONE
+#if ID
+    if (hit.object >= 0) {
+        out_distance[index] = surface.w;
+    }
+#else
+    out_distance[index] = surface.w;
 #endif
 #endif
 #if USER_SHADE

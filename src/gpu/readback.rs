@@ -33,6 +33,8 @@ pub(super) fn surface_bytes(precision: Float) -> u64 {
 pub(super) enum Output {
     /// `out_surface`: normal and distance, `vec4<real>`.
     Surface,
+    /// `out_distance`: the distance alone, `real`.
+    Distance,
     /// `out_id`: `i32`.
     Id,
     /// `out_certain`: `u32` flags (certainty variants).
@@ -54,6 +56,7 @@ impl Output {
     fn name(self) -> &'static str {
         match self {
             Output::Surface => "out_surface",
+            Output::Distance => "out_distance",
             Output::Id => "out_id",
             Output::Certain => "out_certain",
             Output::Color => "out_color",
@@ -68,6 +71,7 @@ impl Output {
         match self {
             Output::Surface => surface_bytes(precision),
             Output::Uv => surface_bytes(precision) / 2,
+            Output::Distance => surface_bytes(precision) / 4,
             Output::Id
             | Output::Certain
             | Output::Color
@@ -113,8 +117,8 @@ pub(super) struct OutputBuffers {
 }
 
 impl OutputBuffers {
-    /// The buffers of the outputs `variant` writes: the surface when it asks for distance or
-    /// normal, the ids when it asks for them, the certainty flags in a certainty variant, the
+    /// The buffers of the outputs `variant` writes: the surface when it asks for the normal,
+    /// the distance alone when it asks for the distance without it, the ids when it asks for them, the certainty flags in a certainty variant, the
     /// colours with a shade hook, a ray list's primitives and barycentrics or counts.
     pub(super) fn new(gpu: &Gpu, variant: &Variant, capacity: u64) -> OutputBuffers {
         let o = variant.outputs;
@@ -122,8 +126,9 @@ impl OutputBuffers {
         // Reals first, so that each output starts aligned to its element in the readback
         // buffer whatever the capacity.
         let wanted = [
-            (o.distance || o.normal, Output::Surface),
+            (o.normal, Output::Surface),
             (hit_detail, Output::Uv),
+            (o.distance && !o.normal, Output::Distance),
             (o.id, Output::Id),
             (variant.certainty, Output::Certain),
             (o.color, Output::Color),
@@ -303,11 +308,13 @@ pub(super) fn append_pixels<R: GpuReal>(
 ) {
     use rayon::prelude::*;
     let surface: Option<&[[R; 4]]> = view.bytes(Output::Surface).map(bytemuck::cast_slice);
+    let alone: Option<&[R]> = view.bytes(Output::Distance).map(bytemuck::cast_slice);
     let ids: Option<&[i32]> = view.bytes(Output::Id).map(bytemuck::cast_slice);
-    let hit = |k: usize| match (ids, surface) {
-        (Some(ids), _) => ids[k] != MISS,
-        (None, Some(s)) => s[k] != [R::ZERO; 4],
-        (None, None) => false,
+    let hit = |k: usize| match (ids, surface, alone) {
+        (Some(ids), _, _) => ids[k] != MISS,
+        (None, Some(s), _) => s[k] != [R::ZERO; 4],
+        (None, None, Some(d)) => d[k] != R::ZERO,
+        (None, None, None) => false,
     };
     match ids {
         Some(ids) => images.id.par_extend(ids[..pixels].par_iter().copied()),
@@ -322,14 +329,17 @@ pub(super) fn append_pixels<R: GpuReal>(
             })),
         None => (images.normal).resize(images.normal.len() + pixels, [R::ZERO; 3]),
     }
-    match surface.filter(|_| o.distance) {
-        Some(s) => {
-            (images.distance).par_extend((0..pixels).into_par_iter().map(|k| match hit(k) {
-                true => s[k][3],
-                false => R::INFINITY,
-            }))
-        }
-        None => (images.distance).resize(images.distance.len() + pixels, R::INFINITY),
+    let distance = |k: usize| match (surface, alone) {
+        (Some(s), _) => s[k][3],
+        (None, Some(d)) => d[k],
+        (None, None) => R::INFINITY,
+    };
+    match o.distance && (surface.is_some() || alone.is_some()) {
+        true => (images.distance).par_extend((0..pixels).into_par_iter().map(|k| match hit(k) {
+            true => distance(k),
+            false => R::INFINITY,
+        })),
+        false => (images.distance).resize(images.distance.len() + pixels, R::INFINITY),
     }
     if let Some(colors) = &mut images.color {
         match view.bytes(Output::Color) {

@@ -130,7 +130,7 @@ pub(crate) struct Variant {
     /// scalar load each rather than a loop over the lanes (docs/performance.md#a-hooks-rays).
     pub planes: u8,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
-    /// (`out_surface`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
+    /// (`out_surface`; the distance alone `out_distance`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
     /// the rest is left out.
     pub outputs: Outputs,
     /// The user's shade hook compiled in (its source is registered in [`crate::gpu::hooks`] under this
@@ -277,7 +277,8 @@ impl Variant {
     /// [`Variant::wide_loads`]),
     /// `CHUNKS_2..4` (triangles and nodes in several bindings), `CONSTANT_PLANES` (loops over
     /// the planes to `PLANE_COUNT`), and for the outputs: `ID` (`out_id` written), `SURFACE`
-    /// (`out_surface` written: distance or normal asked for), `NORMAL` and `DISTANCE`
+    /// (`out_surface` written: the normal asked for, with the distance), `DISTANCE_ALONE`
+    /// (`out_distance` written: the distance without the normal), `NORMAL` and `DISTANCE`
     /// (computed: asked for, or for the hook), `USER_SHADE` (the shade hook is called and
     /// `out_color` written), `HOOK_RAYS` (and casts rays of its own).
     pub(crate) fn defines(&self) -> Vec<&'static str> {
@@ -357,7 +358,8 @@ impl Variant {
         }
         for (present, name) in [
             (o.id, "ID"),
-            (o.distance || o.normal, "SURFACE"),
+            (o.normal, "SURFACE"),
+            (o.distance && !o.normal, "DISTANCE_ALONE"),
             (o.normal || shade, "NORMAL"),
             (o.distance || shade, "DISTANCE"),
             (shade, "USER_SHADE"),
@@ -1215,7 +1217,12 @@ mod tests {
                 assert_eq!(globals.contains(&"out_id"), outputs.id, "{variant:?}");
                 assert_eq!(
                     globals.contains(&"out_surface"),
-                    outputs.distance || outputs.normal,
+                    outputs.normal,
+                    "{variant:?}"
+                );
+                assert_eq!(
+                    globals.contains(&"out_distance"),
+                    outputs.distance && !outputs.normal,
                     "{variant:?}"
                 );
             }

@@ -47,3 +47,60 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     let (_, k) = render::render_timed(&scene, mode("cpu:f64"), Some(gpu)).unwrap();
     assert_eq!(k, None);
 }
+
+/// A render reads back only the outputs it asks for, each in its own size (in f32: an id 4
+/// bytes, a distance alone 4, a normal 16 with its distance), in parts of the image each read
+/// while the next traces, and its images are those of the render of every output.
+#[test]
+fn a_render_reads_back_only_the_outputs_asked_for() {
+    use raycast::Algorithm::Robust;
+    use raycast::images::Outputs;
+    use raycast::render;
+    let gpu = super::common::gpu();
+    let mut scene = super::common::course_scene("bunny");
+    // Four parts of 104 rows (Plan::new), the last one shorter.
+    scene.camera.resolution = [640, 360];
+    let pixels = 640 * 360;
+    let variant = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
+    let every = Outputs {
+        color: false,
+        ..Outputs::ALL
+    };
+    let (all, stages) =
+        render::on_gpu::<f32>(gpu, &scene, variant.with_outputs(every), false, None).unwrap();
+    assert_eq!(stages.readback_bytes, pixels * 20);
+    let only = |id, distance, normal| Outputs {
+        id,
+        distance,
+        normal,
+        color: false,
+    };
+    for (outputs, bytes) in [
+        (only(true, false, false), 4),
+        (only(false, true, false), 4),
+        (only(true, true, false), 8),
+        (only(false, false, true), 16),
+        (only(false, true, true), 16),
+    ] {
+        let asked = variant.with_outputs(outputs);
+        let (images, stages) = render::on_gpu::<f32>(gpu, &scene, asked, false, None).unwrap();
+        assert_eq!(stages.readback_bytes, pixels * bytes, "{outputs:?}");
+        assert!(
+            stages.wait_s + stages.convert_s <= stages.trace_s,
+            "{stages:?}"
+        );
+        let miss = raycast::Images::<f32>::new_miss(640, 360, images.focal_length);
+        fn expect<'a, T>(asked: bool, all: &'a T, miss: &'a T) -> &'a T {
+            if asked { all } else { miss }
+        }
+        assert_eq!(
+            images.id,
+            *expect(outputs.id, &all.id, &miss.id),
+            "{outputs:?}"
+        );
+        let distance = expect(outputs.distance, &all.distance, &miss.distance);
+        assert!(images.distance == *distance, "{outputs:?}");
+        let normal = expect(outputs.normal, &all.normal, &miss.normal);
+        assert!(images.normal == *normal, "{outputs:?}");
+    }
+}
