@@ -45,7 +45,7 @@ import json
 import math
 import os
 import re
-from typing import Any, Dict, Iterator, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -259,18 +259,36 @@ def _float_array(
     return np.ascontiguousarray(array, dtype=np.float32 if keep else np.float64)
 
 
-def _rays(rays: ArrayLike) -> Tuple[_Rows, Optional[int]]:
+def _ray_rows(rays: ArrayLike) -> _Rows:
     """The rays as `_Rows` of an (n, 6) float32 or float64 array (float32 is read as it is:
-    widening a copy of 2M rays took 0.02 s of a 0.35 s cast), valid where finite with a
-    direction not zero, and the width of the image they are rows of, if they have two leading
-    dimensions or more and all are valid (the GPU then traces tiles of neighbouring rows
-    together, as it does a camera's)."""
+    widening a copy of 2M rays took 0.02 s of a 0.35 s cast), not yet scanned for invalid
+    ones (`valid` None)."""
     array = _float_array(rays, "rays", 6, keep_float32=True)
-    shape = array.shape[:-1]
-    flat = array.reshape(-1, 6)
-    rows = _Rows(flat, shape, "rays", _valid(_raycast.invalid_rays(flat)))
-    image = len(shape) >= 2 and shape[-1] > 0 and rows.valid is None
-    return rows, shape[-1] if image else None
+    return _Rows(array.reshape(-1, 6), array.shape[:-1], "rays", None)
+
+
+def _rays(rays: ArrayLike) -> _Rows:
+    """The rays as `_Rows`, valid where finite with a direction not zero."""
+    rows = _ray_rows(rays)
+    return rows._replace(valid=_valid(_raycast.invalid_rays(rows.flat)))
+
+
+def _each_ray(rays: ArrayLike, query: Callable[[_Rows, Optional[int]], Any]) -> Tuple[_Rows, Any]:
+    """`query(rows, width)` of the rays, asked first of every ray with no scan for invalid ones
+    (a valid array, the common case, then costs none) and the width of the image they are rows
+    of where they have two leading dimensions or more (the GPU then traces tiles of
+    neighbouring rows together, as it does a camera's); where the library refuses a ray that
+    Open3D answers as a miss, asked again of the valid rays alone, as a list."""
+    rows = _ray_rows(rays)
+    shape = rows.shape
+    try:
+        return rows, query(rows, shape[-1] if len(shape) >= 2 and shape[-1] > 0 else None)
+    except ValueError:
+        valid = _valid(_raycast.invalid_rays(rows.flat))
+        if valid is None:
+            raise
+        rows = rows._replace(valid=valid)
+        return rows, query(rows, None)
 
 
 def _query_points(query_points: ArrayLike) -> _Rows:
@@ -426,9 +444,8 @@ class RaycastingScene:
         accepted for Open3D compatibility and ignored. A ray with a NaN or infinite
         coordinate or a zero direction misses, as in Open3D (uvs and normals 0)."""
         _options(precision, device)
-        rows, width = _rays(rays)
-        out = rows.spread_each(rows.query(self._scene.cast, width, precision, device), _MISS)
-        return _results(out, rows.shape, _HIT_FIELDS)
+        rows, out = _each_ray(rays, lambda r, w: r.query(self._scene.cast, w, precision, device))
+        return _results(rows.spread_each(out, _MISS), rows.shape, _HIT_FIELDS)
 
     def test_occlusions(
         self,
@@ -443,9 +460,9 @@ class RaycastingScene:
         shape; False for the rays ``cast_rays`` misses as invalid). ``nthreads`` is accepted
         for Open3D compatibility and ignored."""
         _options(precision, device)
-        rows, width = _rays(rays)
         t_range = (float(tnear), float(tfar))
-        hit = rows.query(self._scene.occluded, width, t_range, precision, device)
+        occluded = self._scene.occluded
+        rows, hit = _each_ray(rays, lambda r, w: r.query(occluded, w, t_range, precision, device))
         return _result(rows.spread(hit, False), rows.shape)
 
     def count_intersections(
@@ -458,7 +475,7 @@ class RaycastingScene:
         Counted by the CPU reference, from ``list_intersections``'s hits; 0 for the rays
         ``cast_rays`` misses as invalid."""
         _options(precision, device)
-        rows, _ = _rays(rays)
+        rows = _rays(rays)
         splits = self._list_intersections(rows, precision, device)["ray_splits"]
         return _result(np.diff(splits.astype(np.int64)).astype(np.int32), rows.shape)
 
@@ -472,7 +489,7 @@ class RaycastingScene:
         first. ``ray_splits`` (uint32) has one entry more than there are rays. The rays
         ``cast_rays`` misses as invalid have no hits."""
         _options(precision, device)
-        rows, _ = _rays(rays)
+        rows = _rays(rays)
         out = self._list_intersections(rows, precision, device)
         results = {"ray_splits": _result(out["ray_splits"], (-1,))}
         results.update(_results(out, (-1,), _LIST_FIELDS))
