@@ -10,7 +10,6 @@
 //! hit that a watertight test reports right on an edge is never culled by a box test rounded
 //! the other way.
 
-use std::cell::RefCell;
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
@@ -696,43 +695,11 @@ impl Topology {
 }
 
 impl Topology {
-    /// [`Topology::build`] of `scene`, or the one [`sharing_topology`] holds for its objects.
+    /// [`Topology::build`] of `scene`, or the one shared for its objects
+    /// ([`super::shared::sharing`]).
     pub(crate) fn of(scene: &Scene) -> Arc<Topology> {
-        let key = (scene.objects.as_ptr() as usize, scene.objects.len());
-        SHARED.with_borrow_mut(|shared| match shared {
-            Some((k, slot)) if *k == key => slot
-                .get_or_insert_with(|| Arc::new(Topology::build(scene)))
-                .clone(),
-            _ => Arc::new(Topology::build(scene)),
-        })
+        super::shared::topology(scene)
     }
-}
-
-/// The objects a topology is shared for (by address and count), and the topology once built.
-type Shared = ((usize, usize), Option<Arc<Topology>>);
-
-thread_local! {
-    /// The objects (by address and count) whose topology renders on this thread share, and
-    /// that topology once built ([`sharing_topology`]).
-    static SHARED: RefCell<Option<Shared>> = const { RefCell::new(None) };
-}
-
-/// Runs `f`, in which every BVH this thread builds for `scene`'s objects (these very objects,
-/// as the views of one scene share them) takes the topology in `slot`, built at the first need
-/// and left in `slot` for the next call. The topology depends on the objects alone, so this
-/// changes no result, only the time a render of another view takes.
-pub(crate) fn sharing_topology<R>(
-    scene: &Scene,
-    slot: &mut Option<Arc<Topology>>,
-    f: impl FnOnce() -> R,
-) -> R {
-    let key = (scene.objects.as_ptr() as usize, scene.objects.len());
-    let before = SHARED.replace(Some((key, slot.take())));
-    let result = f();
-    if let Some((_, topology)) = SHARED.replace(before) {
-        *slot = topology;
-    }
-    result
 }
 
 /// The boxes of `scene`'s spheres and triangles measured from `origin`, each kind in the
@@ -929,6 +896,7 @@ fn triangle_box(c: &crate::scene::Triangle, origin: Vec3<f64>) -> (Vec3<f64>, Ve
 
 #[cfg(test)]
 mod tests {
+    use super::super::shared::{Shared, sharing};
     use super::*;
 
     fn items(n: usize) -> Vec<Item> {
@@ -1139,8 +1107,8 @@ mod tests {
     fn shared_topologies_are_built_once_per_scene() {
         let scene = scene_of(40, 30);
         let other = scene_of(40, 30);
-        let mut slot = None;
-        let (a, b, c) = sharing_topology(&scene, &mut slot, || {
+        let mut shared = Shared::default();
+        let (a, b, c) = sharing(&scene, &mut shared, || {
             (
                 Topology::of(&scene),
                 Topology::of(&scene),
@@ -1148,8 +1116,8 @@ mod tests {
             )
         });
         assert!(Arc::ptr_eq(&a, &b) && !Arc::ptr_eq(&a, &c));
-        assert!(Arc::ptr_eq(slot.as_ref().unwrap(), &a));
-        let again = sharing_topology(&scene, &mut slot, || Topology::of(&scene));
+        assert!(Arc::ptr_eq(shared.topology().unwrap(), &a));
+        let again = sharing(&scene, &mut shared, || Topology::of(&scene));
         assert!(Arc::ptr_eq(&again, &a));
         assert!(!Arc::ptr_eq(&Topology::of(&scene), &a));
     }

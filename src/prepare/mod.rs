@@ -10,6 +10,7 @@
 
 pub(crate) mod bvh;
 pub(crate) mod order;
+pub(crate) mod shared;
 pub(crate) mod winding;
 
 use std::borrow::Cow;
@@ -166,7 +167,10 @@ pub(crate) fn unit_exponent(scene: &Scene) -> i32 {
     let c = &scene.camera;
     let plane = c.image_plane();
     let camera = binary_exponent(c.focal_length.max(plane.width).max(plane.height));
-    camera.max(binary_exponent(scene.largest_magnitude()) - MAX_KERNEL_EXPONENT)
+    let largest = scene
+        .camera_magnitude()
+        .max(shared::objects_magnitude(scene));
+    camera.max(binary_exponent(largest) - MAX_KERNEL_EXPONENT)
 }
 
 /// The largest binary exponent a kernel coordinate may have: 2^60 > 1e18, the largest number

@@ -58,11 +58,13 @@ pub(crate) fn recasts_on_gpu(gpu: &Gpu, uncertain: usize, cpu_recast_pixels: usi
 }
 
 /// Renders `scene` with adaptive precision on `gpu` (robust algorithm set).
+#[cfg(test)]
 pub(crate) fn render_adaptive(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, false, CPU_RECAST_PIXELS)
 }
 
 /// [`render_adaptive`], also measuring the kernels' GPU time ([`Adaptive::kernel_s`]).
+#[cfg(test)]
 pub(crate) fn render_adaptive_timed(gpu: &Gpu, scene: &Scene) -> Result<Adaptive> {
     render_adaptive_with(gpu, scene, true, CPU_RECAST_PIXELS)
 }
@@ -79,20 +81,21 @@ pub(crate) fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
 
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its
 /// hit/miss and id are certain; and the preparation it used.
+#[cfg(test)]
 pub(crate) fn certainty_pass(
     gpu: &Gpu,
     scene: &Scene,
     timed: bool,
 ) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
     let variant = certainty_variant(gpu, scene);
-    let prepared = gpu::prepare::<f32>(scene, &variant)?;
-    let first = gpu::run(gpu, &prepared, Job::new(variant).timed(timed))?;
-    Ok((first, prepared))
+    let ran = super::Kernel::<f32>::prepare(scene, variant, timed, None)?.run(gpu)?;
+    Ok((ran.rendered, ran.prepared))
 }
 
 /// [`render_adaptive`], measuring the kernels' time if `timed`, with at most
 /// `cpu_recast_pixels` uncertain pixels cast again on the CPU (more go to the GPU where it has
 /// f64).
+#[cfg(test)]
 pub(crate) fn render_adaptive_with(
     gpu: &Gpu,
     scene: &Scene,
@@ -100,6 +103,19 @@ pub(crate) fn render_adaptive_with(
     cpu_recast_pixels: usize,
 ) -> Result<Adaptive> {
     let (first, prepared) = certainty_pass(gpu, scene, timed)?;
+    recast(gpu, scene, first, &prepared, timed, cpu_recast_pixels)
+}
+
+/// The second pass: the pixels the certainty pass `first` (of `scene`, through `prepared`)
+/// left uncertain cast again in f64 and merged in.
+pub(crate) fn recast(
+    gpu: &Gpu,
+    scene: &Scene,
+    first: gpu::Rendered<f32>,
+    prepared: &Prepared<f32>,
+    timed: bool,
+    cpu_recast_pixels: usize,
+) -> Result<Adaptive> {
     let certain = first
         .certainty
         .expect("a certainty variant reports certainty");

@@ -12,9 +12,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::{AnyImages, Device, Mode, Precision, Request, STREAM_PIXELS, band_rows, can_stream};
+use super::{AnyImages, Begun, Device, Mode, Outcome, Precision, Request, STREAM_PIXELS};
 use super::{Progress, adaptive, check_kernels, memory, render_streamed, supersample, timed};
-use crate::algorithm::Algorithm;
+use super::{band_rows, can_stream};
 use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
@@ -424,21 +424,39 @@ impl RenderFiles {
         gpu: Option<&'g Gpu>,
         scene: &Scene,
     ) -> Result<(Request, Option<&'g Gpu>)> {
-        let request = Request {
+        let request = self.load_request()?;
+        let gpu = self.device_for(&request, gpu, scene)?;
+        Ok((request, gpu))
+    }
+
+    /// The request of this render, its shade hook and kernel file read and checked: the same
+    /// for every scene and view it renders.
+    pub(crate) fn load_request(&self) -> Result<Request> {
+        Ok(Request {
             outputs: self.encoding.outputs,
             shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
             kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
             ..Request::default()
-        };
+        })
+    }
+
+    /// The device this (resolved) render of `scene` with `request` runs on; a kernel file
+    /// whose bindings do not fit `scene` is refused.
+    fn device_for<'g>(
+        &self,
+        request: &Request,
+        gpu: Option<&'g Gpu>,
+        scene: &Scene,
+    ) -> Result<Option<&'g Gpu>> {
         let gpu = match (self.mode.device, gpu) {
             (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
             (Device::Gpu, gpu) => gpu,
             (Device::Cpu, _) => None,
         };
         if let (Some(_), Some(g)) = (&request.kernel, gpu) {
-            self.first_kernel(g, scene, &request)?;
+            self.first_kernel(g, scene, request)?;
         }
-        Ok((request, gpu))
+        Ok(gpu)
     }
 
     /// Whether this (resolved) render goes in bands, written as they come.
@@ -446,19 +464,28 @@ impl RenderFiles {
         self.mode.device == Device::Gpu && self.streamable() && (huge || self.band_rows.is_some())
     }
 
-    /// The images [`RenderFiles::run_loaded`] writes, for a caller that writes them itself
-    /// (with [`AnyImages::write`], the same bytes); `None` for a render that goes in bands,
-    /// which only `run_loaded` writes.
-    pub(crate) fn images_of(&self, gpu: Option<&Gpu>, scene: &Scene) -> Result<Option<AnyImages>> {
+    /// The render of the images [`RenderFiles::run_loaded`] writes, begun ([`super::begin`]),
+    /// for a caller that writes them itself (with [`AnyImages::write`], the same bytes);
+    /// `None` for a render that goes in bands, which only `run_loaded` writes. `request` holds
+    /// this render's [`RenderFiles::load_request`] once made, for the renders that follow.
+    pub(crate) fn begin_images(
+        &self,
+        gpu: Option<&Gpu>,
+        scene: &Scene,
+        request: &mut Option<Request>,
+    ) -> Result<Option<Begun>> {
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
         let resolved = self.resolved(huge);
         if resolved.in_bands(huge) {
             return Ok(None);
         }
         resolved.check_resolved_memory(scene.camera.resolution, huge)?;
-        let (request, gpu) = resolved.request(gpu, scene)?;
-        let (images, _) = resolved.render_whole(scene, gpu, None, &request)?;
-        Ok(Some(images))
+        let request = match request {
+            Some(request) => request,
+            None => request.insert(resolved.load_request()?),
+        };
+        let gpu = resolved.device_for(request, gpu, scene)?;
+        resolved.begin_whole(scene, gpu, None, request).map(Some)
     }
 
     /// Renders and writes the image in bands of at most `rows` rows; returns the files, and
@@ -495,22 +522,26 @@ impl RenderFiles {
         progress: Option<&Progress>,
         request: &Request,
     ) -> Result<(AnyImages, Option<(f64, bool)>)> {
-        let mode = self.mode;
-        match (mode.precision, self.spp, gpu) {
-            (Precision::Adaptive, None, Some(g)) if mode.algorithm == Algorithm::Robust => {
-                let a = adaptive::render_adaptive(g, scene)?;
-                let recast = (a.recast_fraction(), a.recast_on_gpu);
-                Ok((AnyImages::F32(a.images), Some(recast)))
-            }
-            (_, None, _) => Ok((
-                super::render_request(scene, mode, gpu, progress, request)?,
-                None,
-            )),
-            (_, Some(spp), _) => {
+        let begun = self.begin_whole(scene, gpu, progress, request)?;
+        begun.complete(gpu, scene).map(|o| (o.images, o.recast))
+    }
+
+    /// [`RenderFiles::render_whole`] begun: supersampled renders whole, others as
+    /// [`super::begin`] begins them.
+    fn begin_whole(
+        &self,
+        scene: &Scene,
+        gpu: Option<&Gpu>,
+        progress: Option<&Progress>,
+        request: &Request,
+    ) -> Result<Begun> {
+        match self.spp {
+            None => super::begin(scene, self.mode, gpu, progress, request, false),
+            Some(spp) => {
                 let images = supersample::supersample_request(
-                    scene, mode, gpu, spp, progress, request, false,
+                    scene, self.mode, gpu, spp, progress, request, false,
                 )?;
-                Ok((images, None))
+                Ok(Begun::Done(Outcome::of(images)))
             }
         }
     }

@@ -227,6 +227,7 @@ pub(crate) fn render(
 }
 
 /// [`render`] producing what `request` asks for.
+#[cfg(test)]
 pub(crate) fn render_request(
     scene: &Scene,
     mode: Mode,
@@ -259,6 +260,62 @@ fn dispatch(
     request: &Request,
     timed: bool,
 ) -> Result<(AnyImages, Option<f64>)> {
+    let begun = begin(scene, mode, gpu, progress, request, timed)?;
+    begun.complete(gpu, scene).map(|o| (o.images, o.kernel_s))
+}
+
+/// A render of one scene and camera, whole: its images, the GPU kernel's time where it was
+/// timed and the device can tell, and for adaptive precision the fraction of pixels re-cast
+/// in f64 and whether on the GPU.
+pub(crate) struct Outcome {
+    pub images: AnyImages,
+    pub kernel_s: Option<f64>,
+    pub recast: Option<(f64, bool)>,
+}
+
+impl Outcome {
+    fn of(images: AnyImages) -> Outcome {
+        Outcome {
+            images,
+            kernel_s: None,
+            recast: None,
+        }
+    }
+}
+
+/// A render [`begin`] started: done on the host, or prepared for the device, whose kernel is
+/// still to run.
+pub(crate) enum Begun {
+    Done(Outcome),
+    Device(OnDevice),
+}
+
+impl Begun {
+    /// The render whole: the device's part run, and finished with `scene`, the scene `begin`
+    /// prepared (the same camera).
+    pub(crate) fn complete(self, gpu: Option<&Gpu>, scene: &Scene) -> Result<Outcome> {
+        match self {
+            Begun::Done(outcome) => Ok(outcome),
+            Begun::Device(work) => {
+                let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+                work.run(gpu)?.finish(gpu, scene)
+            }
+        }
+    }
+}
+
+/// Starts the render of `scene` in `mode` that [`render_request`] makes: a CPU render whole,
+/// a GPU render as far as the device (every check, the kernel chosen, the scene prepared for
+/// it), so that a caller can run the device's part on another thread while it prepares the
+/// next render ([`OnDevice`]).
+pub(crate) fn begin(
+    scene: &Scene,
+    mode: Mode,
+    gpu: Option<&Gpu>,
+    progress: Option<&Progress>,
+    request: &Request,
+    timed: bool,
+) -> Result<Begun> {
     check_request(mode, request)?;
     let shaded = request.shade.is_some() && request.outputs.color;
     let bands = request.kernel.is_none();
@@ -273,43 +330,150 @@ fn dispatch(
                 });
             }
         };
-        let a = if timed {
-            adaptive::render_adaptive_timed(gpu, scene)?
-        } else {
-            adaptive::render_adaptive(gpu, scene)?
-        };
-        return Ok((AnyImages::F32(a.images), a.kernel_s));
+        let variant = adaptive::certainty_variant(gpu, scene);
+        let pass = Kernel::prepare(scene, variant, timed, None)?;
+        return Ok(Begun::Device(OnDevice::Adaptive(pass)));
     }
     match mode.device {
         Device::Gpu => {
             let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             let rows = request.tuning.tile_rows;
-            Ok(match mode.precision {
-                Precision::F32 => {
-                    let (mut images, stages) = on_gpu::<f32>(gpu, scene, variant, timed, rows)?;
-                    images.stages = timed.then_some(stages);
-                    (AnyImages::F32(images), stages.kernel_s)
-                }
-                _ => {
-                    let (mut images, stages) = on_gpu::<f64>(gpu, scene, variant, timed, rows)?;
-                    images.stages = timed.then_some(stages);
-                    (AnyImages::F64(images), stages.kernel_s)
-                }
-            })
+            Ok(Begun::Device(match mode.precision {
+                Precision::F32 => OnDevice::F32(Kernel::prepare(scene, variant, timed, rows)?),
+                _ => OnDevice::F64(Kernel::prepare(scene, variant, timed, rows)?),
+            }))
         }
         Device::Cpu => {
             let lit = request.shade.is_some() && request.outputs.color;
             let search = request.tuning.search;
             let algorithm = mode.algorithm;
-            Ok(match mode.precision {
+            let images = match mode.precision {
                 Precision::F32 => {
                     AnyImages::F32(cpu_render(scene, algorithm, search, progress, lit, timed))
                 }
                 _ => AnyImages::F64(cpu_render(scene, algorithm, search, progress, lit, timed)),
-            })
-            .map(|images| (images, None))
+            };
+            Ok(Begun::Done(Outcome::of(images)))
         }
+    }
+}
+
+/// A GPU render prepared on the host ([`begin`]): the scene laid out for its kernel, measured
+/// from the camera. It holds nothing of the scene, so its kernel can run on another thread
+/// ([`OnDevice::run`]) while the host prepares the next render.
+pub(crate) enum OnDevice {
+    F32(Kernel<f32>),
+    F64(Kernel<f64>),
+    /// Adaptive precision's certainty pass, whose uncertain pixels [`OnHost::finish`] casts
+    /// again.
+    Adaptive(Kernel<f32>),
+}
+
+impl OnDevice {
+    /// Runs the kernel and reads its outputs back.
+    pub(crate) fn run(self, gpu: &Gpu) -> Result<OnHost> {
+        Ok(match self {
+            OnDevice::F32(k) => OnHost::F32(k.run(gpu)?),
+            OnDevice::F64(k) => OnHost::F64(k.run(gpu)?),
+            OnDevice::Adaptive(k) => OnHost::Adaptive(k.run(gpu)?),
+        })
+    }
+}
+
+/// A GPU render whose kernel has run ([`OnDevice::run`]), to be finished on the host.
+pub(crate) enum OnHost {
+    F32(Ran<f32>),
+    F64(Ran<f64>),
+    Adaptive(Ran<f32>),
+}
+
+impl OnHost {
+    /// The render's outcome; adaptive precision casts its uncertain pixels again here, which
+    /// needs `scene`, the scene the render was prepared from (the same camera).
+    pub(crate) fn finish(self, gpu: &Gpu, scene: &Scene) -> Result<Outcome> {
+        fn timed<R: GpuReal>(ran: Ran<R>, wrap: fn(Images<R>) -> AnyImages) -> Outcome {
+            let timed = ran.timed;
+            let (mut images, stages) = ran.laid_out();
+            images.stages = timed.then_some(stages);
+            Outcome {
+                kernel_s: stages.kernel_s,
+                ..Outcome::of(wrap(images))
+            }
+        }
+        Ok(match self {
+            OnHost::F32(ran) => timed(ran, AnyImages::F32),
+            OnHost::F64(ran) => timed(ran, AnyImages::F64),
+            OnHost::Adaptive(ran) => {
+                let (first, prepared, timed) = (ran.rendered, ran.prepared, ran.timed);
+                let cpu_recast = adaptive::CPU_RECAST_PIXELS;
+                let a = adaptive::recast(gpu, scene, first, &prepared, timed, cpu_recast)?;
+                let recast = Some((a.recast_fraction(), a.recast_on_gpu));
+                Outcome {
+                    kernel_s: a.kernel_s,
+                    recast,
+                    ..Outcome::of(AnyImages::F32(a.images))
+                }
+            }
+        })
+    }
+}
+
+/// One kernel's job on a prepared scene: the scene prepared for `variant` on the host, run on
+/// the device in tiles of at most `rows` rows, timing the kernel if `timed`.
+pub(crate) struct Kernel<R> {
+    prepared: Prepared<R>,
+    variant: Variant,
+    timed: bool,
+    rows: Option<u32>,
+}
+
+/// What a [`Kernel`] rendered, with the preparation it ran on.
+pub(crate) struct Ran<R> {
+    pub rendered: gpu::Rendered<R>,
+    pub prepared: Prepared<R>,
+    timed: bool,
+}
+
+impl<R: GpuReal> Kernel<R> {
+    /// `scene` prepared for `variant` ([`gpu::prepare`]).
+    pub(crate) fn prepare(
+        scene: &Scene,
+        variant: Variant,
+        timed: bool,
+        rows: Option<u32>,
+    ) -> Result<Kernel<R>> {
+        Ok(Kernel {
+            prepared: gpu::prepare::<R>(scene, &variant)?,
+            variant,
+            timed,
+            rows,
+        })
+    }
+
+    pub(crate) fn run(self, gpu: &Gpu) -> Result<Ran<R>> {
+        let mut job = Job::new(self.variant).timed(self.timed);
+        if let Some(rows) = self.rows {
+            job = job.rows(rows);
+        }
+        Ok(Ran {
+            rendered: gpu::run(gpu, &self.prepared, job)?,
+            prepared: self.prepared,
+            timed: self.timed,
+        })
+    }
+}
+
+impl<R: GpuReal> Ran<R> {
+    /// The images, and the stages with the layout of the geometry ([`with_layout`]).
+    fn laid_out(self) -> (Images<R>, Stages) {
+        let triangle_bytes = size_of::<GpuTriangle<R>>();
+        let stages = with_layout(
+            self.rendered.stages,
+            &self.prepared.primitives,
+            triangle_bytes,
+        );
+        (self.rendered.images, stages)
     }
 }
 
@@ -363,6 +527,7 @@ fn check_kernels(mode: Mode, kernel: bool, shade: bool) -> Result<()> {
 
 /// Renders `scene` with the kernel `variant` (prepared for it) in tiles of at most `rows` rows,
 /// timing the stages and, with `timed`, the kernel.
+#[cfg(test)]
 pub(crate) fn on_gpu<R: GpuReal>(
     gpu: &Gpu,
     scene: &Scene,
@@ -370,17 +535,9 @@ pub(crate) fn on_gpu<R: GpuReal>(
     timed: bool,
     rows: Option<u32>,
 ) -> Result<(Images<R>, Stages)> {
-    let prepared = gpu::prepare::<R>(scene, &variant)?;
-    let mut job = Job::new(variant).timed(timed);
-    if let Some(rows) = rows {
-        job = job.rows(rows);
-    }
-    let r = gpu::run(gpu, &prepared, job)?;
-    let triangle_bytes = size_of::<GpuTriangle<R>>();
-    Ok((
-        r.images,
-        with_layout(r.stages, &prepared.primitives, triangle_bytes),
-    ))
+    Ok(Kernel::prepare(scene, variant, timed, rows)?
+        .run(gpu)?
+        .laid_out())
 }
 
 /// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).

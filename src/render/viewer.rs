@@ -1,13 +1,12 @@
 //! A scene seen from one camera after another, as an interactive viewer sees it: what the
-//! camera does not change, the BVH's shape, is built at the first render and kept.
+//! camera does not change (the BVH's shape, the objects' extent) is made at the first render and
+//! kept.
 
-use std::sync::Arc;
-
-use crate::prepare::bvh::{Topology, sharing_topology};
+use crate::prepare::shared::{Shared, sharing};
 use crate::scene::{Camera, Scene};
 
 /// A scene rendered from camera after camera. Each render equals a render of the scene with
-/// that camera; the BVH's shape (which depends on the objects alone) is built once.
+/// that camera; what depends on the objects alone (the BVH's shape) is made once.
 ///
 /// ```no_run
 /// use raycast::{Gpu, RenderOptions, Scene, Viewer};
@@ -22,7 +21,7 @@ use crate::scene::{Camera, Scene};
 /// ```
 pub struct Viewer {
     scene: Scene,
-    topology: Option<Arc<Topology>>,
+    shared: Shared,
 }
 
 impl Viewer {
@@ -30,7 +29,7 @@ impl Viewer {
     pub fn new(scene: Scene) -> Viewer {
         Viewer {
             scene,
-            topology: None,
+            shared: Shared::default(),
         }
     }
 
@@ -40,11 +39,12 @@ impl Viewer {
     }
 
     /// Runs `render` (a [`crate::Gpu::render`] or [`crate::Cpu::render`] call, say) on the
-    /// scene seen by `camera`, on this thread, with the BVH's shape built once for all renders.
+    /// scene seen by `camera`, on this thread, with what depends on the objects alone made once
+    /// for all renders.
     pub fn render<R>(&mut self, camera: Camera, render: impl FnOnce(&Scene) -> R) -> R {
         let own = std::mem::replace(&mut self.scene.camera, camera);
         let scene = &self.scene;
-        let result = sharing_topology(scene, &mut self.topology, || render(scene));
+        let result = sharing(scene, &mut self.shared, || render(scene));
         self.scene.camera = own;
         result
     }
@@ -79,7 +79,7 @@ mod tests {
             assert_eq!(seen.unwrap(), alone.unwrap(), "eye moved by {step}");
         }
         assert!(
-            viewer.topology.is_some(),
+            viewer.shared.topology().is_some(),
             "the shape is kept for the next view"
         );
     }

@@ -6,11 +6,15 @@
 //! written into a hidden folder beside it and renamed into place, so a view's folder is there
 //! whole or not at all. Its record (`job.json`, [`record`]) says what it was rendered with: a
 //! run started again skips the views whose folder holds their files and the same record, and
-//! renders the others again ([`RenderViews::force`] renders every one again). A scene is loaded once, the shape of its BVH
-//! built once ([`Topology`]) and its kernels compiled once (the device's pipeline cache); a view
-//! redoes only what its camera changes: the primitives measured from its eye, the BVH's boxes,
-//! the render and the files. Each view is the same render as the single render of that scene
-//! with that camera ([`RenderFiles::run`]), so it writes the same bytes.
+//! renders the others again ([`RenderViews::force`] renders every one again). A scene is loaded
+//! once, what depends on its objects alone made once ([`Shared`]: the shape of its BVH, their
+//! extent), the render's shade hook and kernel file read once and its kernels compiled once (the
+//! device's pipeline cache); a view redoes only what its camera changes: the primitives measured
+//! from its eye, the BVH's boxes, the render and the files. The views go through a pipeline
+//! ([`ViewRenderer::render_all`]): while the device runs one view's kernel, the host finishes the
+//! view before and prepares the next, and a thread writes files. Each view is the same render as
+//! the single render of that scene with that camera ([`RenderFiles::run`]), so it writes the same
+//! bytes.
 //!
 //! A shard ([`Shard`]) renders a contiguous share of the pairs, of about equal estimated cost,
 //! so that a scene's views mostly stay in one shard and its preparation is done once.
@@ -21,7 +25,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
@@ -33,8 +37,8 @@ use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::images::{Coverage, Images};
 use crate::output::{self, pending};
-use crate::prepare::bvh::{Topology, sharing_topology};
-use crate::render::AnyImages;
+use crate::prepare::shared::{Shared, sharing};
+use crate::render::{self, AnyImages, OnDevice, OnHost, Request};
 use crate::scene::{self, Object, Orbit, Scene, ViewCamera};
 
 /// The job's manifest, in the output folder.
@@ -379,6 +383,7 @@ impl RenderViews {
             record: record::job_part(&self.render)?,
             spec: self.clone(),
             loaded: None,
+            request: None,
         })
     }
 
@@ -472,7 +477,7 @@ impl RenderViews {
 }
 
 /// Renders the views of a job one at a time (from [`RenderViews::renderer`]), keeping the
-/// last one's scene loaded and its BVH's shape built.
+/// last one's scene loaded, with what its views share ([`Shared`]).
 #[derive(Debug)]
 pub struct ViewRenderer {
     spec: RenderViews,
@@ -482,6 +487,9 @@ pub struct ViewRenderer {
     /// The part of the views' records the job shares ([`record::job_part`]).
     record: Value,
     loaded: Option<Loaded>,
+    /// The render's request, its shade hook and kernel file read and checked, the same for
+    /// every view: made at the first view rendered.
+    request: Option<Request>,
 }
 
 /// A box, by its lowest and highest corners.
@@ -496,55 +504,195 @@ struct Loaded {
     cameras: Vec<scene::Camera>,
     /// The digest of its files, in its views' records ([`record::scene_digest`]).
     digest: String,
-    topology: Option<Arc<Topology>>,
+    /// What its views' preparations share: the BVH's shape, the objects' extent.
+    shared: Shared,
     /// The temporary folders killed runs left in its folder, by view name: removed before
     /// that view renders (only the run rendering a view writes its temporary folders).
     stale: HashMap<String, Vec<PathBuf>>,
 }
 
+/// The thread that runs the views' kernels, one at a time, while this one prepares the next
+/// view and finishes the last ([`ViewRenderer::render_all`]).
+struct Device {
+    jobs: SyncSender<Box<OnDevice>>,
+    results: Receiver<Result<OnHost>>,
+}
+
+/// A view whose kernel the device runs, and its place among the views rendered.
+struct InFlight {
+    view: ViewFiles,
+    position: usize,
+}
+
+/// Why the views stopped before the last.
+enum Stop {
+    Failed(Error),
+    /// The writer stopped at an error, which it returns.
+    Writer,
+    /// The device's thread panicked.
+    DeviceLost,
+}
+
+impl From<Error> for Stop {
+    fn from(e: Error) -> Stop {
+        Stop::Failed(e)
+    }
+}
+
 impl ViewRenderer {
-    /// Renders the views `pairs` in order, each view's files written on a thread of their own
-    /// while the next view renders; returns how many it rendered (the rest were complete),
-    /// and how many of those were stale.
+    /// Renders the views `pairs` in order; returns how many it rendered (the rest were
+    /// complete), and how many of those were stale.
+    ///
+    /// Three threads share the work. This one prepares each view on the host (its camera's
+    /// primitives and BVH) and hands it to the device's thread, which runs its kernel and
+    /// reads it back while this one finishes the view before (adaptive precision's re-cast)
+    /// and prepares the next; a writer thread writes each view's files. So one prepared view at
+    /// most waits for the device, and one rendered view for the writer. Each view is finished,
+    /// written and reported (`on_view`) in order; at an error, the views before it are
+    /// finished and written, and none after it.
     fn render_all(
         &mut self,
         gpu: Option<&Gpu>,
         pairs: &[usize],
         on_view: &mut dyn FnMut(usize, usize),
     ) -> Result<[usize; 2]> {
-        let (send, receive) = std::sync::mpsc::sync_channel::<Box<ViewWrite>>(1);
+        let (writes, to_write) = std::sync::mpsc::sync_channel::<Box<ViewWrite>>(1);
+        let (jobs, device_jobs) = std::sync::mpsc::sync_channel::<Box<OnDevice>>(1);
+        let (device_results, results) = std::sync::mpsc::channel();
         std::thread::scope(|scope| {
             let writer = scope.spawn(move || -> Result<()> {
-                for write in receive {
+                for write in to_write {
                     write.finish()?;
                 }
                 Ok(())
             });
-            let [mut rendered, mut stale] = [0, 0];
-            let mut outcome = Ok(());
-            for (k, &p) in pairs.iter().enumerate() {
-                let (started, was) = match self.start(gpu, p) {
-                    Ok(started) => started,
-                    Err(e) => {
-                        outcome = Err(e);
-                        break;
+            let device_thread = gpu.map(|gpu| {
+                scope.spawn(move || {
+                    for work in device_jobs {
+                        if device_results.send(work.run(gpu)).is_err() {
+                            break;
+                        }
                     }
-                };
-                rendered += usize::from(!matches!(started, Started::Complete));
-                stale += usize::from(was == Found::Stale);
-                if let Started::Rendered(write) = started
-                    && let Err(std::sync::mpsc::SendError(write)) = send.send(write)
-                {
-                    // The writer stopped at an error, which it returns below.
-                    pending::discard_dir(&write.temporary);
-                    break;
-                }
-                on_view(k + 1, pairs.len());
-            }
-            drop(send);
+                })
+            });
+            let device = Device { jobs, results };
+            let outcome = self.pipeline(gpu, pairs, on_view, &writes, device);
+            drop(writes);
             let written = writer.join().expect("the writer does not panic");
-            outcome.and(written).map(|()| [rendered, stale])
+            match outcome {
+                Ok(counts) => written.map(|()| counts),
+                Err(Stop::Failed(e)) => Err(e),
+                Err(Stop::Writer) => Err(written.expect_err("the writer stopped at an error")),
+                Err(Stop::DeviceLost) => {
+                    let thread = device_thread.expect("a device thread where one ran");
+                    let panic = thread.join().expect_err("the device thread stopped early");
+                    std::panic::resume_unwind(panic)
+                }
+            }
         })
+    }
+
+    /// The loop of [`ViewRenderer::render_all`] on this thread: each view started, its kernel
+    /// handed to `device` once the view before has left it, and that view finished and handed
+    /// to the writer (`writes`) while the device runs the kernel.
+    fn pipeline(
+        &mut self,
+        gpu: Option<&Gpu>,
+        pairs: &[usize],
+        on_view: &mut dyn FnMut(usize, usize),
+        writes: &SyncSender<Box<ViewWrite>>,
+        device: Device,
+    ) -> std::result::Result<[usize; 2], Stop> {
+        let [mut rendered, mut stale] = [0, 0];
+        let mut in_flight: Option<InFlight> = None;
+        let mut done = |position: usize| on_view(position + 1, pairs.len());
+        for (position, &p) in pairs.iter().enumerate() {
+            // A view of another scene: the one in flight is finished with its own first.
+            if in_flight
+                .as_ref()
+                .is_some_and(|f| f.view.scene != self.job.pair(p).0)
+            {
+                self.land(gpu, in_flight.take(), &device, writes, &mut done)?;
+            }
+            let (started, found) = match self.start(gpu, p) {
+                Ok(started) => started,
+                Err(e) => {
+                    self.land(gpu, in_flight.take(), &device, writes, &mut done)?;
+                    return Err(e.into());
+                }
+            };
+            rendered += usize::from(!matches!(started, Started::Complete));
+            stale += usize::from(found == Found::Stale);
+            match started {
+                Started::Device(work, view) => {
+                    // The device is free once the view before is back.
+                    let before = in_flight.take().map(|f| (device.results.recv(), f));
+                    let before_ran = before.as_ref().is_none_or(|(r, _)| matches!(r, Ok(Ok(_))));
+                    if before_ran && device.jobs.send(work).is_ok() {
+                        in_flight = Some(InFlight { view, position });
+                    }
+                    if let Some((ran, f)) = before {
+                        self.finish(gpu, ran, f, writes, &mut done)?;
+                    }
+                    if in_flight.is_none() {
+                        return Err(Stop::DeviceLost);
+                    }
+                }
+                other => {
+                    self.land(gpu, in_flight.take(), &device, writes, &mut done)?;
+                    match other {
+                        Started::Complete | Started::Device(..) => {}
+                        Started::Rendered(write) => send(writes, write)?,
+                        Started::Bands(view) => self.write_bands(gpu, view)?,
+                    }
+                    done(position);
+                }
+            }
+        }
+        self.land(gpu, in_flight, &device, writes, &mut done)?;
+        Ok([rendered, stale])
+    }
+
+    /// Finishes the view `in_flight`, if any, once the device has run its kernel.
+    fn land(
+        &mut self,
+        gpu: Option<&Gpu>,
+        in_flight: Option<InFlight>,
+        device: &Device,
+        writes: &SyncSender<Box<ViewWrite>>,
+        done: &mut dyn FnMut(usize),
+    ) -> std::result::Result<(), Stop> {
+        match in_flight {
+            Some(f) => self.finish(gpu, device.results.recv(), f, writes, done),
+            None => Ok(()),
+        }
+    }
+
+    /// Finishes the view `f` from what the device returned for it (`ran`, an error where its
+    /// thread is gone) and hands it to the writer.
+    fn finish(
+        &mut self,
+        gpu: Option<&Gpu>,
+        ran: std::result::Result<Result<OnHost>, std::sync::mpsc::RecvError>,
+        f: InFlight,
+        writes: &SyncSender<Box<ViewWrite>>,
+        done: &mut dyn FnMut(usize),
+    ) -> std::result::Result<(), Stop> {
+        let ran = ran.map_err(|_| Stop::DeviceLost)??;
+        let gpu = gpu.expect("a view ran on the device");
+        let loaded =
+            (self.loaded.as_mut()).expect("a view's scene stays loaded until it is finished");
+        loaded.scene.camera = f.view.camera.clone();
+        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
+        let outcome = sharing(scene, shared, || ran.finish(gpu, scene))?;
+        let write = ViewWrite {
+            images: outcome.images,
+            encoding: self.spec.render.encoding.clone(),
+            view: f.view,
+        };
+        send(writes, Box::new(write))?;
+        done(f.position);
+        Ok(())
     }
 
     /// Renders the views `pairs` of the job (indices of its pairs, below the count
@@ -556,10 +704,9 @@ impl ViewRenderer {
             .map(|[rendered, _]| rendered)
     }
 
-    /// Renders view `pair` unless it is complete; the files of a whole image are left to
-    /// write ([`ViewWrite::finish`], which may run on another thread while the next view
-    /// renders), a render in bands writes them as it goes. Also returns what its folder held
-    /// (not looked at when forced: [`Found::Missing`]).
+    /// Starts view `pair` unless it is complete: renders it on the host, or prepares it for
+    /// the device, or leaves a render in bands to [`ViewRenderer::write_bands`]. Also returns
+    /// what its folder held (not looked at when forced: [`Found::Missing`]).
     fn start(&mut self, gpu: Option<&Gpu>, pair: usize) -> Result<(Started, Found)> {
         if pair >= self.job.len() {
             return Err(Error::Argument {
@@ -576,6 +723,7 @@ impl ViewRenderer {
             loaded,
             names,
             record,
+            request,
         } = self;
         let loaded = load(loaded, job, spec, s)?;
         let mut camera = loaded.cameras[v].clone();
@@ -590,57 +738,91 @@ impl ViewRenderer {
         if found == Found::Complete {
             return Ok((Started::Complete, found));
         }
-        let record = record::encode(&record);
-        loaded.scene.camera = camera;
         for stale in loaded.stale.remove(&job.names[v]).unwrap_or_default() {
             let _ = std::fs::remove_dir_all(stale);
         }
-        let temporary = pending::temp_path(&folder)?;
-        let files = RenderFiles {
-            out_dir: temporary.clone(),
-            scene: job.scenes[s].clone(),
-            ..spec.render.clone()
+        let view = ViewFiles {
+            scene: s,
+            record: record::encode(&record),
+            temporary: pending::temp_path(&folder)?,
+            folder,
+            camera,
         };
-        let (scene, topology) = (&loaded.scene, &mut loaded.topology);
-        let images = sharing_topology(scene, topology, || files.images_of(gpu, scene));
-        let written = match images {
-            Ok(Some(images)) => {
-                let write = ViewWrite {
-                    images,
-                    encoding: files.encoding,
-                    camera: scene.camera.clone(),
-                    record,
-                    temporary,
-                    folder,
-                };
-                return Ok((Started::Rendered(Box::new(write)), found));
-            }
-            Ok(None) => {
-                make_temporary(&temporary)?;
-                sharing_topology(scene, topology, || files.run_loaded(gpu, None, scene))
-                    .and_then(|_| write_record(&temporary, &record))
-            }
-            Err(e) => Err(e),
+        let files = view.render_files(spec, job);
+        loaded.scene.camera = view.camera.clone();
+        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
+        let begun = sharing(scene, shared, || files.begin_images(gpu, scene, request))?;
+        let started = match begun {
+            None => Started::Bands(view),
+            Some(render::Begun::Device(work)) => Started::Device(Box::new(work), view),
+            Some(render::Begun::Done(outcome)) => Started::Rendered(Box::new(ViewWrite {
+                images: outcome.images,
+                encoding: files.encoding,
+                view,
+            })),
         };
+        Ok((started, found))
+    }
+
+    /// Renders and writes view `view` in bands (its files written as they come), into its
+    /// temporary folder and then in place.
+    fn write_bands(&mut self, gpu: Option<&Gpu>, view: ViewFiles) -> Result<()> {
+        let files = view.render_files(&self.spec, &self.job);
+        let loaded = (self.loaded.as_mut()).expect("a view's scene is loaded");
+        loaded.scene.camera = view.camera.clone();
+        make_temporary(&view.temporary)?;
+        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
+        let written = sharing(scene, shared, || files.run_loaded(gpu, None, scene))
+            .and_then(|_| write_record(&view.temporary, &view.record));
         match written {
-            Ok(_) => pending::place_dir(&temporary, &folder)?,
+            Ok(_) => pending::place_dir(&view.temporary, &view.folder),
             Err(e) => {
-                pending::discard_dir(&temporary);
-                return Err(e);
+                pending::discard_dir(&view.temporary);
+                Err(e)
             }
         }
-        Ok((Started::Written, found))
     }
 }
 
-/// A view's render begun by [`ViewRenderer::start`].
+/// Hands `write` to the writer; [`Stop::Writer`] where it stopped at an error.
+fn send(
+    writes: &SyncSender<Box<ViewWrite>>,
+    write: Box<ViewWrite>,
+) -> std::result::Result<(), Stop> {
+    writes.send(write).map_err(|_| Stop::Writer)
+}
+
+/// A view started by [`ViewRenderer::start`].
 enum Started {
     /// Its folder was complete: nothing rendered.
     Complete,
-    /// Rendered and written (in bands).
-    Written,
-    /// Rendered, its files still to write.
+    /// Rendered on the host, its files still to write.
     Rendered(Box<ViewWrite>),
+    /// Prepared for the device, whose kernel is still to run; then finished on the host.
+    Device(Box<OnDevice>, ViewFiles),
+    /// To render in bands, its files written as they come ([`ViewRenderer::write_bands`]).
+    Bands(ViewFiles),
+}
+
+/// A view being rendered: its scene (by index in the job) and camera, its record, and the
+/// folders its files go in (a temporary one, renamed to the view's once every file is there).
+struct ViewFiles {
+    scene: usize,
+    camera: scene::Camera,
+    record: Vec<u8>,
+    temporary: PathBuf,
+    folder: PathBuf,
+}
+
+impl ViewFiles {
+    /// The render of this view as `spec` renders every view, into its temporary folder.
+    fn render_files(&self, spec: &RenderViews, job: &Job) -> RenderFiles {
+        RenderFiles {
+            out_dir: self.temporary.clone(),
+            scene: job.scenes[self.scene].clone(),
+            ..spec.render.clone()
+        }
+    }
 }
 
 /// Creates the temporary folder a view is written into, and the scene's folder it sits in.
@@ -659,15 +841,11 @@ fn write_record(temporary: &Path, record: &[u8]) -> Result<()> {
     std::fs::write(&path, record).map_err(|e| Error::io(&path, format!("cannot write: {e}")))
 }
 
-/// A view's images, its record and where they go: a temporary folder, renamed to the view's
-/// once every file is written.
+/// A view's images, and where they go with its record.
 struct ViewWrite {
     images: AnyImages,
     encoding: output::Encoding,
-    camera: scene::Camera,
-    record: Vec<u8>,
-    temporary: PathBuf,
-    folder: PathBuf,
+    view: ViewFiles,
 }
 
 impl ViewWrite {
@@ -675,20 +853,21 @@ impl ViewWrite {
     /// folder behind. The files are those [`AnyImages::write`] writes, written straight into
     /// the temporary folder, which is what appears whole or not at all.
     fn finish(self) -> Result<()> {
-        let files = self.images.encode(&self.encoding, &self.camera);
-        make_temporary(&self.temporary)?;
+        let view = &self.view;
+        let files = self.images.encode(&self.encoding, &view.camera);
+        make_temporary(&view.temporary)?;
         let written = files
             .iter()
             .try_for_each(|f| {
-                let path = self.temporary.join(f.name);
+                let path = view.temporary.join(f.name);
                 std::fs::write(&path, &f.bytes)
                     .map_err(|e| Error::io(&path, format!("cannot write: {e}")))
             })
-            .and_then(|()| write_record(&self.temporary, &self.record));
+            .and_then(|()| write_record(&view.temporary, &view.record));
         match written {
-            Ok(_) => pending::place_dir(&self.temporary, &self.folder),
+            Ok(_) => pending::place_dir(&view.temporary, &view.folder),
             Err(e) => {
-                pending::discard_dir(&self.temporary);
+                pending::discard_dir(&view.temporary);
                 Err(e)
             }
         }
@@ -713,7 +892,7 @@ fn load<'a>(
             index: s,
             cameras: spec.views.cameras_of(&job.cameras, &scene)?,
             scene,
-            topology: None,
+            shared: Shared::default(),
         });
     }
     Ok(loaded.as_mut().expect("loaded above"))

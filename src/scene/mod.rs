@@ -328,33 +328,42 @@ impl Scene {
     }
 
     /// The largest magnitude of any coordinate, radius or camera length of the scene.
+    #[cfg(test)]
     pub(crate) fn largest_magnitude(&self) -> f64 {
-        let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
+        self.camera_magnitude().max(self.objects_magnitude())
+    }
+
+    /// The largest magnitude of the camera's eye, lengths and shifts.
+    pub(crate) fn camera_magnitude(&self) -> f64 {
         let c = &self.camera;
         let plane = c.image_plane();
-        let camera = c
-            .eye
+        c.eye
             .abs()
             .max_element()
             .max(c.focal_length)
             .max(plane.width)
             .max(plane.height)
             .max(plane.shift[0].abs())
-            .max(plane.shift[1].abs());
+            .max(plane.shift[1].abs())
+    }
+
+    /// The largest magnitude of any coordinate or radius of the objects (0 without any).
+    pub(crate) fn objects_magnitude(&self) -> f64 {
+        let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
         self.objects
             .iter()
             .map(|object| match object {
                 Object::Sphere { center, radius } => largest(center).max(*radius),
                 Object::Plane { point, .. } => largest(point),
                 Object::Triangle { corners } => corners.iter().map(largest).fold(0.0, f64::max),
-                // In parallel: a pass over a large mesh's coordinates that every preparation
-                // makes (prepare::unit_exponent).
+                // In parallel: a pass over a large mesh's coordinates, made once per scene
+                // (prepare::shared).
                 Object::Soup { triangles, .. } => triangles
                     .par_iter()
                     .map(|t| t.iter().map(largest).fold(0.0, f64::max))
                     .reduce(|| 0.0, f64::max),
             })
-            .fold(camera, f64::max)
+            .fold(0.0, f64::max)
     }
 }
 

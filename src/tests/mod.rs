@@ -22,4 +22,5 @@ mod specialized_kernels;
 mod supersample;
 mod tiling;
 mod timing;
+mod views;
 mod wide_subgroups;

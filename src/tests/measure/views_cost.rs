@@ -16,7 +16,7 @@ use raycast::output::{Encoding, Format};
 use raycast::render::on_gpu;
 use raycast::{Gpu, Mode, RenderFiles, Views};
 
-use crate::prepare::bvh::sharing_topology;
+use crate::prepare::shared::{Shared, sharing};
 
 #[test]
 #[ignore = "a measurement: RAYCAST_MEASURE=\"ARGS\" cargo test --release -p raycast --lib views_cost -- --ignored --nocapture"]
@@ -59,16 +59,18 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
         "| round | views, no files: s | kernel (GPU time): s | kernel / views | files of a view: ms |"
     );
     println!("|---|---|---|---|---|");
-    let mut topology = None;
+    let (mut shared, mut request) = (Shared::default(), None);
     for round in 0..=rounds {
         let (mut render_s, mut kernel_s, mut files_s) = (0.0, 0.0, 0.0);
         for (_, camera) in &cameras {
             scene.camera = camera.clone();
             let start = Instant::now();
-            let images = sharing_topology(&scene, &mut topology, || {
-                files.images_of(Some(&gpu), &scene)
+            let images = sharing(&scene, &mut shared, || {
+                let begun = files.begin_images(Some(&gpu), &scene, &mut request)?;
+                begun.map(|b| b.complete(Some(&gpu), &scene)).transpose()
             })?
-            .ok_or("a whole image")?;
+            .ok_or("a whole image")?
+            .images;
             render_s += start.elapsed().as_secs_f64();
             let variant = gpu.scene_variant(&scene, Float::F32, Robust);
             let (_, stages) = on_gpu::<f32>(&gpu, &scene, variant, true, None)?;

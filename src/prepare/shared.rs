@@ -1,0 +1,79 @@
+//! What the renders of one scene share whatever their camera: the views of a dataset
+//! ([`crate::render::views`]) and of a [`crate::Viewer`] render one set of objects from camera
+//! after camera, and what depends on the objects alone is made once for all of them.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+
+use super::bvh::Topology;
+use crate::scene::Scene;
+
+/// What the renders of one scene's objects share, each part made at the first render that
+/// needs it and kept for the next ([`sharing`]): the shape of its BVH, and the largest
+/// magnitude of its objects' coordinates (a pass over every triangle, which each preparation
+/// needs for its unit, `super::unit_exponent`).
+#[derive(Debug, Default)]
+pub(crate) struct Shared {
+    topology: Option<Arc<Topology>>,
+    magnitude: Option<f64>,
+}
+
+impl Shared {
+    /// The BVH's shape, once a render has built it.
+    #[cfg(test)]
+    pub(crate) fn topology(&self) -> Option<&Arc<Topology>> {
+        self.topology.as_ref()
+    }
+}
+
+/// The objects (by address and count) whose renders on this thread share [`Shared`].
+type Sharing = ((usize, usize), Shared);
+
+thread_local! {
+    /// What the renders on this thread share, and for which objects ([`sharing`]).
+    static SHARED: RefCell<Option<Sharing>> = const { RefCell::new(None) };
+}
+
+/// The key of `scene`'s objects: these very objects, as the views of one scene share them.
+fn key(scene: &Scene) -> (usize, usize) {
+    (scene.objects.as_ptr() as usize, scene.objects.len())
+}
+
+/// Runs `f`, in which every preparation this thread makes for `scene`'s objects takes what
+/// `shared` holds, and leaves there what it made for the next call. What it holds depends on
+/// the objects alone, so this changes no result, only the time a render of another view takes.
+pub(crate) fn sharing<R>(scene: &Scene, shared: &mut Shared, f: impl FnOnce() -> R) -> R {
+    let before = SHARED.replace(Some((key(scene), std::mem::take(shared))));
+    let result = f();
+    if let Some((_, made)) = SHARED.replace(before) {
+        *shared = made;
+    }
+    result
+}
+
+/// `part` of what is shared for `scene`'s objects, made by `make` unless it is there, and kept
+/// there where they are shared; `make`'s value where they are not.
+fn shared<T: Clone>(
+    scene: &Scene,
+    part: impl FnOnce(&mut Shared) -> &mut Option<T>,
+    make: impl FnOnce() -> T,
+) -> T {
+    SHARED.with_borrow_mut(|sharing| match sharing {
+        Some((k, shared)) if *k == key(scene) => part(shared).get_or_insert_with(make).clone(),
+        _ => make(),
+    })
+}
+
+/// [`Topology::build`] of `scene`, or the one shared for its objects.
+pub(crate) fn topology(scene: &Scene) -> Arc<Topology> {
+    shared(
+        scene,
+        |s| &mut s.topology,
+        || Arc::new(Topology::build(scene)),
+    )
+}
+
+/// [`Scene::objects_magnitude`], or the one shared for `scene`'s objects.
+pub(crate) fn objects_magnitude(scene: &Scene) -> f64 {
+    shared(scene, |s| &mut s.magnitude, || scene.objects_magnitude())
+}
