@@ -686,8 +686,12 @@ class RaycastingScene:
         lit: bool,
         shader: Optional[Union[str, os.PathLike]],
     ) -> Iterator[Dict[str, Any]]:
-        for name, camera in views:
-            images = self._render(precision, device, lit, shader, camera)
+        # a thread renders the next view while this one is taken
+        cameras = [camera for _, camera in views]
+        shader = None if shader is None else os.fspath(shader)
+        stream = self._scene.render_each(precision, device, cameras, lit, shader)
+        for (name, _), out in zip(views, stream):
+            images = self._images(out)
             images["name"] = name
             yield images
 
@@ -747,6 +751,11 @@ class RaycastingScene:
         out = self._scene.render(
             precision, device, lit, None if shader is None else os.fspath(shader), camera, size
         )
+        return self._images(out)
+
+    @staticmethod
+    def _images(out: Dict[str, Any]) -> Dict[str, Any]:
+        """A native render's flat arrays shaped as images."""
         shape = (out["height"], out["width"])
         fields = {"id": (), "distance": (), "normal": (3,), "color": (4,)}
         images: Dict[str, Any] = _results(out, shape, {k: fields[k] for k in fields if k in out})

@@ -247,7 +247,7 @@ struct Scene {
     geometry: Geometry,
     /// The scene file it was loaded from, whose camera `render` renders; its BVH's shape is
     /// built once for every view `render` is given.
-    scene: Option<Mutex<Viewer>>,
+    scene: Option<Arc<Mutex<Viewer>>>,
     accels: Mutex<HashMap<On, Arc<Accel<'static>>>>,
 }
 
@@ -255,14 +255,14 @@ impl Scene {
     fn with(geometry: Geometry, scene: Option<raycast::Scene>) -> Self {
         Scene {
             geometry,
-            scene: scene.map(|s| Mutex::new(Viewer::new(s))),
+            scene: scene.map(|s| Arc::new(Mutex::new(Viewer::new(s)))),
             accels: Mutex::default(),
         }
     }
 
     /// The scene file's viewer; `call` names the method refused without one. Lock it only
     /// with the GIL released: a thread rendering it needs the GIL back to return.
-    fn file(&self, call: &str) -> PyResult<&Mutex<Viewer>> {
+    fn file(&self, call: &str) -> PyResult<&Arc<Mutex<Viewer>>> {
         self.scene.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(
                 "{call}: the scene has no camera (load a scene file with raycast.load)"
@@ -505,44 +505,148 @@ impl Scene {
         camera: Option<PyRef<'_, ViewCamera>>,
         size: Option<[u32; 2]>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let on_gpu = on_gpu(device)?;
-        let precision = (precision.map(str::parse).transpose()).map_err(PyValueError::new_err)?;
         let viewer = self.file("render")?;
+        let (gpu, options) = render_options(precision, device, lit, shader)?;
         let camera = camera.map(|c| c.camera.clone());
-        let options = RenderOptions {
-            precision,
-            shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
-            ..RenderOptions::default()
-        };
-        let gpu = match on_gpu {
-            true => Some(gpu()?),
-            false => None,
-        };
-        let (images, [w, h]) = py
-            .detach(|| {
-                let mut viewer = viewer.lock().expect("the scene's lock");
-                let mut camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
-                camera.resolution = size.unwrap_or(camera.resolution);
-                let size = camera.resolution;
-                let images = viewer.render(camera, |scene| match gpu {
-                    Some(gpu) => gpu.render(scene, &options),
-                    None => Cpu.render(scene, &options),
-                });
-                images.map(|images| (images, size))
-            })
+        let rendered = py
+            .detach(|| render_view(viewer, camera, size, gpu, &options))
             .map_err(to_py)?;
-        let d = PyDict::new(py);
-        if let Some(color) = images.color() {
-            d.set_item("color", PyArray1::from_vec(py, flat(color.to_vec())))?;
-            d.set_item("hook_rays", images.hook_rays())?;
+        images_dict(py, rendered)
+    }
+
+    /// [`Scene::render`] of each of `cameras` in turn, as an iterator of its dicts: a thread
+    /// renders the next view while Python takes the last, so that one view waits at most.
+    /// The hook is read once for every view.
+    #[pyo3(signature = (precision, device, cameras, lit=false, shader=None))]
+    fn render_each(
+        &self,
+        precision: Option<&str>,
+        device: &str,
+        cameras: Vec<PyRef<'_, ViewCamera>>,
+        lit: bool,
+        shader: Option<PathBuf>,
+    ) -> PyResult<ViewStream> {
+        let viewer = self.file("render_views")?.clone();
+        let (gpu, options) = render_options(precision, device, lit, shader)?;
+        let cameras: Vec<Camera> = cameras.iter().map(|c| c.camera.clone()).collect();
+        let remaining = cameras.len();
+        // Rendezvous: the thread renders one view ahead, and waits with it.
+        let (send, views) = std::sync::mpsc::sync_channel(0);
+        std::thread::spawn(move || {
+            for camera in cameras {
+                let rendered = render_view(&viewer, Some(camera), None, gpu, &options);
+                let failed = rendered.is_err();
+                if send.send(rendered).is_err() || failed {
+                    break;
+                }
+            }
+        });
+        Ok(ViewStream {
+            state: Mutex::new(Stream { views, remaining }),
+        })
+    }
+}
+
+/// The device and options of a render as Python gives them.
+fn render_options(
+    precision: Option<&str>,
+    device: &str,
+    lit: bool,
+    shader: Option<PathBuf>,
+) -> PyResult<(Option<&'static Gpu>, RenderOptions)> {
+    let on_gpu = on_gpu(device)?;
+    let precision = (precision.map(str::parse).transpose()).map_err(PyValueError::new_err)?;
+    let options = RenderOptions {
+        precision,
+        shade: shade_hook(lit, shader.as_deref()).map_err(to_py)?,
+        ..RenderOptions::default()
+    };
+    let gpu = match on_gpu {
+        true => Some(gpu()?),
+        false => None,
+    };
+    Ok((gpu, options))
+}
+
+/// A view's images and their size.
+type Rendered = (AnyImages, [u32; 2]);
+
+/// A view's images and size: the scene file's scene seen by `camera` (its own where `None`) at
+/// `size` (the camera's where `None`).
+fn render_view(
+    viewer: &Mutex<Viewer>,
+    camera: Option<Camera>,
+    size: Option<[u32; 2]>,
+    gpu: Option<&Gpu>,
+    options: &RenderOptions,
+) -> raycast::Result<Rendered> {
+    let mut viewer = viewer.lock().expect("the scene's lock");
+    let mut camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
+    camera.resolution = size.unwrap_or(camera.resolution);
+    let size = camera.resolution;
+    let images = viewer.render(camera, |scene| match gpu {
+        Some(gpu) => gpu.render(scene, options),
+        None => Cpu.render(scene, options),
+    });
+    images.map(|images| (images, size))
+}
+
+/// A view's images as a dict of flat arrays with the image size.
+fn images_dict(py: Python<'_>, (images, [w, h]): Rendered) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    if let Some(color) = images.color() {
+        d.set_item("color", PyArray1::from_vec(py, flat(color.to_vec())))?;
+        d.set_item("hook_rays", images.hook_rays())?;
+    }
+    d.set_item("width", w)?;
+    d.set_item("height", h)?;
+    match images {
+        AnyImages::F32(i) => images_into(py, &d, i)?,
+        AnyImages::F64(i) => images_into(py, &d, i)?,
+    }
+    Ok(d)
+}
+
+/// The views of [`Scene::render_each`], as its thread renders them.
+#[pyclass(module = "raycast._raycast")]
+struct ViewStream {
+    /// Taken without the GIL, so that a thread waiting for a view holds no lock Python needs.
+    state: Mutex<Stream>,
+}
+
+struct Stream {
+    views: std::sync::mpsc::Receiver<raycast::Result<Rendered>>,
+    /// The views not yet taken; none after an error.
+    remaining: usize,
+}
+
+#[pymethods]
+impl ViewStream {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    /// The next view's dict, or the error its render raised (which ends the views).
+    fn __next__<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let next = py.detach(|| {
+            let mut stream = self.state.lock().expect("the views");
+            if stream.remaining == 0 {
+                return None;
+            }
+            let next = stream.views.recv();
+            stream.remaining = match next {
+                Ok(Ok(_)) => stream.remaining - 1,
+                _ => 0,
+            };
+            Some(next)
+        });
+        match next {
+            None => Ok(None),
+            Some(Ok(rendered)) => images_dict(py, rendered.map_err(to_py)?).map(Some),
+            Some(Err(_)) => Err(PyRuntimeError::new_err(
+                "render_views: the thread rendering the views stopped",
+            )),
         }
-        d.set_item("width", w)?;
-        d.set_item("height", h)?;
-        match images {
-            AnyImages::F32(i) => images_into(py, &d, i)?,
-            AnyImages::F64(i) => images_into(py, &d, i)?,
-        }
-        Ok(d)
     }
 }
 
@@ -742,6 +846,7 @@ fn _raycast(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scene>()?;
     m.add_class::<ViewCamera>()?;
     m.add_class::<ViewJob>()?;
+    m.add_class::<ViewStream>()?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(invalid_rays, m)?)?;
     m.add_function(wrap_pyfunction!(invalid_points, m)?)?;

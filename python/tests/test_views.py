@@ -90,6 +90,23 @@ def test_a_view_beyond_memory_raises_memory_error_before_it_renders():
         next(raycast.load(BUNNY).render_views([huge], precision="f64", device="cpu"))
 
 
+def test_a_view_that_fails_raises_in_its_turn_and_ends_the_views():
+    """The views render one ahead of the caller, on a thread: a view that fails (beyond memory
+    here) raises when the iteration reaches it, after the views before it, and ends the views;
+    a caller that stops early stops the thread."""
+    huge = dict(CAMERAS[1], name="huge", resolution=[100000, 100000])
+    scene = raycast.load(BUNNY)
+    views = scene.render_views([CAMERAS[0], CAMERAS[1], huge, CAMERAS[2]], device="cpu")
+    assert [next(views)["name"], next(views)["name"]] == ["course", "fov"]
+    with pytest.raises(MemoryError, match="100000x100000"):
+        next(views)
+    assert list(views) == []
+    views = scene.render_views(CAMERAS, device="cpu")
+    assert next(views)["name"] == "course"
+    views.close()
+    assert [v["name"] for v in scene.render_views(CAMERAS[:2], device="cpu")] == ["course", "fov"]
+
+
 def test_render_views_on_the_gpu_lit_takes_numpy_values_and_default_names():
     camera = {k: v for k, v in CAMERAS[1].items() if k != "name"}
     camera["eye"] = np.array(camera["eye"])
