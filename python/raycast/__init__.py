@@ -672,7 +672,9 @@ class RaycastingScene:
         where given (``--orbit-radius``, ``--orbit-elevation``; docs/datasets.md#orbits). A view
         renders what ``render`` renders for a scene file with that camera. Every camera is
         checked before the first view renders: a bad one raises ValueError (or TypeError)
-        naming it (``cameras[2]: camera.fov: ...``)."""
+        naming it (``cameras[2]: camera.fov: ...``). A thread renders the next view while the
+        caller takes the last (one view ahead, no more); a view whose render fails raises
+        when the iteration reaches it, and ends the views."""
         _options(precision, device, render=True)
         # here, not at the first view: bad cameras raise now
         views = self._views(cameras, orbit_radius, orbit_elevation)

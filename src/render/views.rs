@@ -477,7 +477,8 @@ impl RenderViews {
 }
 
 /// Renders the views of a job one at a time (from [`RenderViews::renderer`]), keeping the
-/// last one's scene loaded, with what its views share ([`Shared`]).
+/// last one's scene loaded, with what its views share whatever their camera (the shape of its
+/// BVH, the extent of its objects).
 #[derive(Debug)]
 pub struct ViewRenderer {
     spec: RenderViews,
