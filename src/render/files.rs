@@ -448,10 +448,9 @@ impl RenderFiles {
         gpu: Option<&'g Gpu>,
         scene: &Scene,
     ) -> Result<Option<&'g Gpu>> {
-        let gpu = match (self.mode.device, gpu) {
-            (Device::Gpu, None) => return Err(Error::Device("a GPU render needs a device".into())),
-            (Device::Gpu, gpu) => gpu,
-            (Device::Cpu, _) => None,
+        let gpu = match self.mode.device {
+            Device::Gpu => Some(super::device(gpu)?),
+            Device::Cpu => None,
         };
         if let (Some(_), Some(g)) = (&request.kernel, gpu) {
             self.first_kernel(g, scene, request)?;

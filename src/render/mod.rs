@@ -297,7 +297,7 @@ impl Begun {
         match self {
             Begun::Done(outcome) => Ok(outcome),
             Begun::Device(work) => {
-                let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+                let gpu = device(gpu)?;
                 work.run(gpu)?.finish(gpu, scene)
             }
         }
@@ -336,7 +336,7 @@ pub(crate) fn begin(
     }
     match mode.device {
         Device::Gpu => {
-            let gpu = gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?;
+            let gpu = device(gpu)?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             let rows = request.tuning.tile_rows;
             Ok(Begun::Device(match mode.precision {
@@ -357,6 +357,11 @@ pub(crate) fn begin(
             Ok(Begun::Done(Outcome::of(images)))
         }
     }
+}
+
+/// `gpu`, which a GPU render needs.
+pub(crate) fn device(gpu: Option<&Gpu>) -> Result<&Gpu> {
+    gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))
 }
 
 /// A GPU render prepared on the host ([`begin`]): the scene laid out for its kernel, measured
