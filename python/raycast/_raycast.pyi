@@ -79,6 +79,16 @@ class Scene:
         """The scene file's camera (or ``camera``) rendered, at ``size`` [width, height] where
         given: flat ``id``, ``distance``, ``normal`` (and ``color``, ``hook_rays``), ``width``
         and ``height``."""
+    def render_each(
+        self,
+        precision: Optional[str],
+        device: str,
+        cameras: List[Camera],
+        lit: bool = ...,
+        shader: Optional[str] = ...,
+    ) -> ViewStream:
+        """``render`` of each of ``cameras`` in turn, a thread rendering the next view while
+        the last is taken."""
     def views(
         self,
         cameras: Optional[str] = ...,
@@ -95,6 +105,12 @@ class Camera:
     """A camera for ``Scene.render``, from ``Scene.views``."""
     @property
     def resolution(self) -> List[int]: ...
+
+class ViewStream:
+    """The views of ``Scene.render_each``, each a dict as ``Scene.render`` returns it; a view
+    whose render failed raises its error, and ends them."""
+    def __iter__(self) -> "ViewStream": ...
+    def __next__(self) -> Dict[str, Any]: ...
 
 class ViewJob:
     """``raycast render SCENES... --views FILE|--orbit N -o OUT`` as a job that workers share."""
@@ -114,8 +130,8 @@ class ViewJob:
         by scene."""
     def render(self, pairs: List[int]) -> int:
         """Renders these pairs into their folders (those not complete already with the
-        same record, unless forced), one view's files written while the next renders; how
-        many it rendered."""
+        same record, unless forced), the next view prepared and the last finished and written
+        while one view's kernel runs; how many it rendered."""
     def write_manifest(self) -> Path:
         """Rewrites OUT/manifest.jsonl from the output folder; its path."""
 
