@@ -375,9 +375,20 @@ struct Part {
 /// Parts of a job below this many rays are not split further: each dispatch and readback has
 /// a fixed cost.
 const MIN_PART_RAYS: u64 = 1 << 16;
-/// A job is split into about this many parts, so that all but the last part's readback
-/// overlaps the device's work on the next.
+/// A job on a GPU is split into about this many parts, so that all but the last part's
+/// readback overlaps the device's work on the next.
 const PARTS: u64 = 8;
+
+/// How many parts a job on `gpu` is split into: [`PARTS`], or one where the host maps the
+/// kernel's buffers itself (a CPU adapter, lavapipe): nothing is copied there, and the kernel
+/// runs on the host's own cores, so a part's conversion would slow the next part's kernel as
+/// much as it overlaps it, while each dispatch costs its own start.
+fn parts_on(gpu: &Gpu) -> u64 {
+    match gpu.host_memory() {
+        true => 1,
+        false => PARTS,
+    }
+}
 
 /// How a job's rays are split into dispatches ([`Plan::new`]).
 struct Plan<'a> {
@@ -393,7 +404,7 @@ struct Plan<'a> {
 
 impl<'a> Plan<'a> {
     /// The parts of `rays`: at most `max_rows` image rows (and what the device's limits allow)
-    /// a part, about [`PARTS`] parts of at least [`MIN_PART_RAYS`] rays, each a whole number of
+    /// a part, about [`parts_on`] the device parts of at least [`MIN_PART_RAYS`] rays, each a whole number of
     /// bands of 8 rows where packets trace 8x8 blocks (`grid_slot` in shaders/entry.wgsl).
     /// Two parts' buffers are in use at once: where more than one part is needed, each holds at
     /// most half of what one dispatch may, so the job holds no more than one such dispatch.
@@ -435,7 +446,7 @@ impl<'a> Plan<'a> {
             Rays::Camera => nx as u64,
             _ => 1,
         };
-        let step = part_step(total, unit, most, per_count);
+        let step = part_step(total, unit, most, per_count, parts_on(gpu));
         let parts: Vec<Part> = (0..total)
             .step_by(step as usize)
             .map(|first| Part {
@@ -479,10 +490,10 @@ impl<'a> Plan<'a> {
     }
 }
 
-/// Rows or entries a part covers: about `total / PARTS`, at least [`MIN_PART_RAYS`] rays
+/// Rows or entries a part covers: about `total / parts`, at least [`MIN_PART_RAYS`] rays
 /// (`per_count` rays each), a multiple of `unit` where `most` allows, and at most `most`,
 /// halved where one part cannot hold everything (module docs of [`Plan::new`]).
-fn part_step(total: u32, unit: u32, most: u32, per_count: u64) -> u32 {
+fn part_step(total: u32, unit: u32, most: u32, per_count: u64, parts: u64) -> u32 {
     let most = most.max(1);
     if total <= most && (total as u64 * per_count) < 2 * MIN_PART_RAYS {
         return total.max(1);
@@ -492,7 +503,7 @@ fn part_step(total: u32, unit: u32, most: u32, per_count: u64) -> u32 {
         false => (most / 2).max(1),
     };
     let min = MIN_PART_RAYS.div_ceil(per_count).min(u32::MAX as u64) as u32;
-    let wanted = (total as u64).div_ceil(PARTS) as u32;
+    let wanted = (total as u64).div_ceil(parts) as u32;
     let step = wanted.max(min).next_multiple_of(unit);
     match step <= most {
         true => step,
@@ -1246,4 +1257,57 @@ fn padded_storage_buffer<T: Pod>(gpu: &Gpu, label: &str, items: &[T], align: u64
         .copy_from_slice(bytes);
     buffer.unmap();
     buffer
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parts of `total` rows or entries by [`part_step`], as [`Plan::new`] makes them.
+    fn parts(total: u32, unit: u32, most: u32, per_count: u64, parts: u64) -> Vec<u32> {
+        let step = part_step(total, unit, most, per_count, parts);
+        (0..total)
+            .step_by(step as usize)
+            .map(|first| step.min(total - first))
+            .collect()
+    }
+
+    #[test]
+    fn parts_cover_the_job_in_whole_units_within_the_device_limit() {
+        // A 1920x1080 image on a GPU: eight parts of 136 rows, bands of 8 rows each.
+        let image = parts(1080, 8, 1080, 1920, PARTS);
+        assert_eq!(image, [136, 136, 136, 136, 136, 136, 136, 128]);
+        // One part on a CPU adapter; a small image in one part either way.
+        assert_eq!(parts(1080, 8, 1080, 1920, 1), [1080]);
+        assert_eq!(parts(36, 8, 36, 64, PARTS), [36]);
+        // 2,073,600 listed rays of a 1920-wide image: bands of 8 rows of it.
+        let list = parts(2_073_600, 8 * 1920, u32::MAX, 1, PARTS);
+        assert_eq!(list.len(), 8);
+        assert!(list[..7].iter().all(|&n| n % (8 * 1920) == 0), "{list:?}");
+        // More than one dispatch holds: two parts in flight hold at most one dispatch's worth.
+        for (total, most, unit) in [
+            (16384, 256, 8),
+            (1000, 3, 8),
+            (1000, 1, 8),
+            (5_000_000, 1 << 20, 64),
+        ] {
+            let p = parts(total, unit, most, 16384, PARTS);
+            assert_eq!(p.iter().map(|&n| n as u64).sum::<u64>(), total as u64);
+            assert!(
+                p.iter().all(|&n| n <= (most / 2).max(1)),
+                "{total} {most}: {p:?}"
+            );
+        }
+        // Every part but the last a whole number of units, where the limit allows one.
+        for total in [1, 7, 8, 100, 1079, 1080, 4321] {
+            for per_count in [1, 640, 1920, 16384] {
+                let p = parts(total, 8, u32::MAX, per_count, PARTS);
+                assert_eq!(p.iter().sum::<u32>(), total);
+                assert!(
+                    p[..p.len() - 1].iter().all(|&n| n % 8 == 0),
+                    "{total}: {p:?}"
+                );
+            }
+        }
+    }
 }

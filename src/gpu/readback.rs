@@ -307,9 +307,56 @@ pub(super) fn append_pixels<R: GpuReal>(
     pixels: usize,
 ) {
     use rayon::prelude::*;
-    let surface: Option<&[[R; 4]]> = view.bytes(Output::Surface).map(bytemuck::cast_slice);
-    let alone: Option<&[R]> = view.bytes(Output::Distance).map(bytemuck::cast_slice);
-    let ids: Option<&[i32]> = view.bytes(Output::Id).map(bytemuck::cast_slice);
+    let geometry = Geometry {
+        ids: view.bytes(Output::Id).map(bytemuck::cast_slice),
+        surface: view.bytes(Output::Surface).map(bytemuck::cast_slice),
+        alone: view.bytes(Output::Distance).map(bytemuck::cast_slice),
+    };
+    match (geometry.ids, geometry.surface) {
+        (Some(ids), Some(s)) if o.normal && o.distance => {
+            append_surfaces(images, &ids[..pixels], &s[..pixels])
+        }
+        _ => append_each(images, o, pixels, geometry),
+    }
+    if let Some(colors) = &mut images.color {
+        match view.bytes(Output::Color) {
+            // pack4x8unorm puts red in the lowest byte.
+            Some(bytes) => colors.par_extend(
+                bytemuck::cast_slice::<u8, u32>(bytes)
+                    .par_iter()
+                    .map(|c| c.to_le_bytes()),
+            ),
+            None => colors.resize(colors.len() + pixels, [0; 4]),
+        }
+    }
+}
+
+/// Appends one dispatch's occlusion flags for a ray list to `occluded`.
+pub(super) fn append_occluded(occluded: &mut Vec<bool>, view: &Mapped) {
+    use rayon::prelude::*;
+    if let Some(flags) = view.bytes(Output::Occluded) {
+        let flags: &[u32] = bytemuck::cast_slice(flags);
+        occluded.par_extend(flags.par_iter().map(|&f| f != 0));
+    }
+}
+
+/// The geometric outputs of a part, those the variant writes: ids, surfaces (normal and
+/// distance), distances alone.
+#[derive(Clone, Copy)]
+struct Geometry<'a, R> {
+    ids: Option<&'a [i32]>,
+    surface: Option<&'a [[R; 4]]>,
+    alone: Option<&'a [R]>,
+}
+
+/// [`append_pixels`] of the ids, normals and distances, a parallel pass each.
+fn append_each<R: GpuReal>(images: &mut Images<R>, o: Outputs, pixels: usize, g: Geometry<'_, R>) {
+    use rayon::prelude::*;
+    let Geometry {
+        ids,
+        surface,
+        alone,
+    } = g;
     let hit = |k: usize| match (ids, surface, alone) {
         (Some(ids), _, _) => ids[k] != MISS,
         (None, Some(s), _) => s[k] != [R::ZERO; 4],
@@ -341,25 +388,40 @@ pub(super) fn append_pixels<R: GpuReal>(
         })),
         false => (images.distance).resize(images.distance.len() + pixels, R::INFINITY),
     }
-    if let Some(colors) = &mut images.color {
-        match view.bytes(Output::Color) {
-            // pack4x8unorm puts red in the lowest byte.
-            Some(bytes) => colors.par_extend(
-                bytemuck::cast_slice::<u8, u32>(bytes)
-                    .par_iter()
-                    .map(|c| c.to_le_bytes()),
-            ),
-            None => colors.resize(colors.len() + pixels, [0; 4]),
-        }
-    }
 }
 
-/// Appends one dispatch's occlusion flags for a ray list to `occluded`.
-pub(super) fn append_occluded(occluded: &mut Vec<bool>, view: &Mapped) {
+/// [`append_pixels`] of the ids, normals and distances together, in one parallel pass over
+/// the kernel's outputs (a pass per output reads the ids again), into the vectors' spare room.
+fn append_surfaces<R: GpuReal>(images: &mut Images<R>, ids: &[i32], surface: &[[R; 4]]) {
     use rayon::prelude::*;
-    if let Some(flags) = view.bytes(Output::Occluded) {
-        let flags: &[u32] = bytemuck::cast_slice(flags);
-        occluded.par_extend(flags.par_iter().map(|&f| f != 0));
+    const RUN: usize = 1 << 14;
+    let n = ids.len();
+    images.id.reserve(n);
+    images.normal.reserve(n);
+    images.distance.reserve(n);
+    let runs = (
+        images.id.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        images.normal.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+        images.distance.spare_capacity_mut()[..n].par_chunks_mut(RUN),
+    );
+    runs.into_par_iter()
+        .enumerate()
+        .for_each(|(r, (id, normal, distance))| {
+            for j in 0..id.len() {
+                let k = r * RUN + j;
+                let hit = ids[k] != MISS;
+                let [x, y, z, w] = surface[k];
+                id[j].write(ids[k]);
+                normal[j].write(if hit { [x, y, z] } else { [R::ZERO; 3] });
+                distance[j].write(if hit { w } else { R::INFINITY });
+            }
+        });
+    // SAFETY: the pass above wrote the first `n` spare elements of each vector (the runs of
+    // each cover `..n` alike), and `reserve` made room for them.
+    unsafe {
+        images.id.set_len(images.id.len() + n);
+        images.normal.set_len(images.normal.len() + n);
+        images.distance.set_len(images.distance.len() + n);
     }
 }
 

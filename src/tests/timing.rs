@@ -49,8 +49,8 @@ fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
 }
 
 /// A render reads back only the outputs it asks for, each in its own size (in f32: an id 4
-/// bytes, a distance alone 4, a normal 16 with its distance), in parts of the image each read
-/// while the next traces, and its images are those of the render of every output.
+/// bytes, a distance alone 4, a normal 16 with its distance), and its images are those of the
+/// render of every output.
 #[test]
 fn a_render_reads_back_only_the_outputs_asked_for() {
     use raycast::Algorithm::Robust;
@@ -58,7 +58,7 @@ fn a_render_reads_back_only_the_outputs_asked_for() {
     use raycast::render;
     let gpu = super::common::gpu();
     let mut scene = super::common::course_scene("bunny");
-    // Four parts of 104 rows (Plan::new), the last one shorter.
+    // On a GPU four parts of 104 rows (Plan::new), the last one shorter; one on lavapipe.
     scene.camera.resolution = [640, 360];
     let pixels = 640 * 360;
     let variant = gpu.scene_variant(&scene, raycast::math::Float::F32, Robust);
