@@ -75,12 +75,12 @@ fn a_render_reads_back_only_the_outputs_asked_for() {
         normal,
         color: false,
     };
+    // A kernel each (compiled once in CI): depth16's id and distance, the distance alone, and
+    // the normal (with the distance beside it in the surface).
     for (outputs, bytes) in [
-        (only(true, false, false), 4),
-        (only(false, true, false), 4),
         (only(true, true, false), 8),
+        (only(false, true, false), 4),
         (only(false, false, true), 16),
-        (only(false, true, true), 16),
     ] {
         let asked = variant.with_outputs(outputs);
         let (images, stages) = render::on_gpu::<f32>(gpu, &scene, asked, false, None).unwrap();
