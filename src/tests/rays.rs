@@ -313,7 +313,8 @@ fn occlusion_kernel_answers_as_the_nearest_hit() {
     let gpu = gpu();
     let scene = Target::from_scene(random_scene(7, [4, 4]));
     let rays = random_rays(&mut Rng(77), 2000);
-    for m in ["gpu:f32", "gpu:f64"] {
+    // f32, whose t_far is rounded down (f64's is exact; sphere_answers_are_exact covers it).
+    for m in ["gpu:f32"] {
         let hits = scene.cast(Some(gpu), mode(m), &rays).unwrap();
         let (id, t) = (hits.id(), hits.t_f64());
         let hit_ts: Vec<f64> = (0..rays.len())
