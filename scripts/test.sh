@@ -23,28 +23,7 @@ pip_install=$!
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
 # dependencies they share are compiled once (maturin's own build would compile them again).
 cargo build --quiet --lib --bins --tests --examples
-if [ $# -eq 0 ]; then
-    # A fresh run spends most of its time in the library's GPU tests compiling kernels, which
-    # llvmpipe does one at a time: the library's test binary runs beside the other targets.
-    lib_tests=$(cargo test -p raycast --lib --no-run 2>&1 | sed -n 's/.*Executable .* (\(.*\))$/\1/p')
-    lib_log=target/lib-tests.log
-    "$lib_tests" >"$lib_log" 2>&1 &
-    lib_run=$!
-    trap 'kill "$lib_run" 2>/dev/null || true' EXIT
-    cargo test -p raycast --examples
-    cargo test -p raycast --doc
-    cargo test -p raycast-cli -p raycast-python
-    lib_ok=0
-    wait "$lib_run" || lib_ok=$?
-    trap - EXIT
-    cat "$lib_log"
-    if [ "$lib_ok" -ne 0 ]; then
-        echo "test.sh: the library's tests failed" >&2
-        exit 1
-    fi
-else
-    cargo test "$@"
-fi
+cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
 # The docs build without warnings: the API as docs.rs shows it (the library has no features),
 # and the command line's library.
