@@ -291,33 +291,28 @@ pub(crate) fn run<R: GpuReal>(
         .map(|_| PartBuffers::new::<R>(gpu, &kernel, &variant, &plan, resident, timed))
         .collect::<Result<Vec<_>>>()?;
     let mut delivery = Delivery::new(prepared, &variant, &plan, sink.is_some());
-    let mut kernel_s = (timed && slots[0].timer.is_some()).then_some(0.0);
-    let mut hook_rays = variant.hook_rays.then_some(0);
+    // The counters' totals, summed part by part.
+    stages.kernel_s = (timed && slots[0].timer.is_some()).then_some(0.0);
+    stages.hook_rays = variant.hook_rays.then_some(0);
     // Part k is written and submitted before part k - 1 is read back, so that the host's
     // readback of one part overlaps the device's work on the next.
-    let mut in_flight: Option<(&PartBuffers, Part, wgpu::SubmissionIndex)> = None;
+    let mut in_flight: Option<InFlight<'_>> = None;
     for (k, &part) in plan.parts.iter().enumerate() {
         let buffers = &slots[k % slots.len()];
         let writing = std::time::Instant::now();
         buffers.write_inputs(gpu, prepared, &plan, part)?;
         stages.write_s += writing.elapsed().as_secs_f64();
         let submitted = buffers.submit(gpu, &kernel, &plan, part);
-        if let Some((done, part, index)) = in_flight.replace((buffers, part, submitted)) {
-            let read = done.read_back(gpu, &index, &plan, part, &mut stages, &mut delivery)?;
-            add_counts(read, &mut kernel_s, &mut stages.copy_s, &mut hook_rays);
-            delivery.deliver(part, sink.as_mut())?;
+        if let Some(done) = in_flight.replace((buffers, part, submitted)) {
+            take_part(gpu, done, &plan, &mut stages, &mut delivery, sink.as_mut())?;
         }
     }
-    if let Some((done, part, index)) = in_flight {
-        let read = done.read_back(gpu, &index, &plan, part, &mut stages, &mut delivery)?;
-        add_counts(read, &mut kernel_s, &mut stages.copy_s, &mut hook_rays);
-        delivery.deliver(part, sink.as_mut())?;
+    if let Some(done) = in_flight {
+        take_part(gpu, done, &plan, &mut stages, &mut delivery, sink.as_mut())?;
     }
     stages.trace_s = clock.elapsed().as_secs_f64();
-    stages.kernel_s = kernel_s;
-    stages.hook_rays = hook_rays;
     let mut rendered = delivery.finish();
-    rendered.images.hook_rays = hook_rays;
+    rendered.images.hook_rays = stages.hook_rays;
     rendered.stages = stages;
     gpu.keep_transient(
         slots
@@ -347,22 +342,30 @@ fn check_job<R: GpuReal>(variant: &Variant, streamed: bool, prepared: &Prepared<
     Ok(())
 }
 
-/// Adds what one part's counters read ([`PartBuffers::read_back`]) to the job's totals.
-fn add_counts(
-    (kernel, copy, hook): PartCounts,
-    kernel_s: &mut Option<f64>,
-    copy_s: &mut Option<f64>,
-    hook_rays: &mut Option<u64>,
-) {
-    if let (Some(total), Some(s)) = (kernel_s.as_mut(), kernel) {
+/// A part submitted: its buffers, which part, and its submission.
+type InFlight<'b> = (&'b PartBuffers, Part, wgpu::SubmissionIndex);
+
+/// Reads a submitted part back into `delivery` (handing it to `sink`, where the job streams),
+/// and adds what its counters read to the totals in `stages`.
+fn take_part<R: GpuReal>(
+    gpu: &Gpu,
+    (buffers, part, done): InFlight<'_>,
+    plan: &Plan<'_>,
+    stages: &mut Stages,
+    delivery: &mut Delivery<R>,
+    sink: Option<&mut TileSink<'_, R>>,
+) -> Result<()> {
+    let (kernel, copy, hook) = buffers.read_back(gpu, &done, plan, part, stages, delivery)?;
+    if let (Some(total), Some(s)) = (stages.kernel_s.as_mut(), kernel) {
         *total += s;
     }
     if let Some(s) = copy {
-        *copy_s = Some(copy_s.unwrap_or(0.0) + s);
+        stages.copy_s = Some(stages.copy_s.unwrap_or(0.0) + s);
     }
-    if let (Some(total), Some(n)) = (hook_rays.as_mut(), hook) {
+    if let (Some(total), Some(n)) = (stages.hook_rays.as_mut(), hook) {
         *total += n;
     }
+    delivery.deliver(part, sink)
 }
 
 /// One dispatch of a job: its first image row or list entry, and how many it covers.
