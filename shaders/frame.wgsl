@@ -1,4 +1,4 @@
-// Per-pixel ray generation (the lecture's viewing ray). CPU mirror: src/cpu/frame.rs.
+// Per-pixel ray generation (the lecture's viewing ray). Its CPU twin: `camera_ray` in src/kernel/frame.rs.
 #import types
 
 // The ray through the centre of pixel (i, j) of an nx x ny image: row i counts from the top,

@@ -35,6 +35,7 @@ mod gpu;
 pub mod images;
 mod kernel;
 mod math;
+mod mode;
 pub mod output;
 mod prepare;
 mod query;
@@ -61,6 +62,7 @@ pub use crate::{
     error::{Error, Result},
     gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel, probe::FusionReport},
     images::{Images, Output, Outputs, Stages},
+    mode::{Device, Mode, Precision},
     output::{Encoding, Format},
     prepare::bvh::Search,
     query::{
@@ -70,7 +72,6 @@ pub use crate::{
     },
     rays::{AnyHits, Hits, Ray, RayList},
     render::files::{RenderFiles, Summary},
-    render::mode::{Device, Mode, Precision},
     render::options::{Cpu, RenderOptions, Tuning},
     render::viewer::Viewer,
     render::views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary},

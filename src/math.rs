@@ -103,7 +103,7 @@ macro_rules! impl_real {
 impl_real!(f32, Float::F32);
 impl_real!(f64, Float::F64);
 
-/// The kernel's floating-point type, `real` in the WGSL (a render's [`crate::render::Precision`]
+/// The kernel's floating-point type, `real` in the WGSL (a render's [`crate::mode::Precision`]
 /// runs one or, adaptive, both).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Float {

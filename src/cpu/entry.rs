@@ -1,7 +1,7 @@
 //! Mirror of shaders/entry.wgsl: the work of one pixel, or of one ray of a list.
 
-use super::frame::camera_ray;
 use super::nearest::{hit_details, hit_normal, nearest_hit, primitive_key};
+use crate::kernel::frame::camera_ray;
 use crate::kernel::types::{Frame, Ray};
 use crate::math::{Real, length};
 use crate::prepare::Primitives;

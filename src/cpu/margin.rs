@@ -37,7 +37,7 @@
 //! length underflows. Margins are judged in kernel units (`Prepared`): the host's rescale
 //! decides which magnitudes the kernel meets.
 
-use super::frame::camera_ray;
+use crate::kernel::frame::camera_ray;
 use crate::kernel::types::{Frame, Ray};
 use crate::math::{Vec3, dot, length};
 use crate::prepare::Primitives;

@@ -9,7 +9,6 @@ pub(crate) mod closest;
 pub(crate) mod count;
 pub(crate) mod entry;
 pub(crate) mod every_hit;
-pub(crate) mod frame;
 pub(crate) mod hit;
 pub(crate) mod margin;
 pub(crate) mod nearest;

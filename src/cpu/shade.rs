@@ -5,8 +5,8 @@
 //! shaders/examples/raytrace.wgsl). In f32 it is the GPU's arithmetic; in f64 every step is
 //! f64, the hook's too (on the GPU a hook computes in f32 whatever the kernel's precision).
 
-use super::frame::camera_ray;
 use super::nearest::{Hit, hit_normal, nearest_hit, nearest_hit_before};
+use crate::kernel::frame::camera_ray;
 use crate::kernel::types::{Ray, t_far};
 use crate::math::{Real, Vec3, dot, length, normalize};
 use crate::prepare::Prepared;

@@ -1,9 +1,10 @@
 //! The camera frame, built on the host in f64 from the scene's camera (the lecture's formulas).
 //!
-//! Ray generation from the frame runs per pixel in `shaders/frame.wgsl` and its CPU mirror
-//! `src/cpu/frame.rs`; this module only builds the orthonormal basis once.
+//! The frame is built once; each pixel's ray is generated from it by [`camera_ray`] here and by
+//! its WGSL twin in `shaders/frame.wgsl`, line for line, on the CPU and the GPU alike.
 
-use crate::math::{Real, Vec3};
+use crate::kernel::types::Ray;
+use crate::math::{Real, Vec3, vec3};
 use crate::scene::{Camera, Projection};
 
 /// Hits closer than this ray parameter are ignored: `t = 1` is the image plane, so only objects
@@ -28,6 +29,27 @@ pub(crate) struct Frame<T> {
     pub nx: u32,
     pub ny: u32,
     pub min_t: T,
+}
+
+/// The ray through the centre of pixel (`i`, `j`) of an `nx` x `ny` image: row `i` counts from
+/// the top, column `j` from the left. It reaches the image plane at t = 1.
+pub(crate) fn camera_ray<T: Real>(frame: &Frame<T>, i: u32, j: u32) -> Ray<T> {
+    let (nx, ny) = (frame.nx, frame.ny);
+    let two = T::TWO;
+    let us = frame.width * (T::from_u32(j) + T::HALF) / T::from_u32(nx) - frame.width / two;
+    let vs = -(frame.height * (T::from_u32(i) + T::HALF) / T::from_u32(ny) - frame.height / two);
+    let mut ray = Ray {
+        origin: vec3(T::ZERO, T::ZERO, T::ZERO),
+        direction: vec3(T::ZERO, T::ZERO, T::ZERO),
+    };
+    if frame.projection == Projection::Orthographic {
+        ray.origin = frame.eye + frame.u * us + frame.v * vs;
+        ray.direction = frame.w * -frame.focal_length;
+    } else {
+        ray.origin = frame.eye;
+        ray.direction = frame.u * us + frame.v * vs - frame.w * frame.focal_length;
+    }
+    ray
 }
 
 impl Frame<f64> {
@@ -147,7 +169,7 @@ mod tests {
             let frame = Frame::new(&c, [16, 9]);
             let (k, to_camera) = (c.intrinsics(), c.world_to_camera());
             for (i, j) in [(0, 0), (8, 15), (3, 7)] {
-                let ray = crate::cpu::frame::camera_ray(&frame, i, j);
+                let ray = camera_ray(&frame, i, j);
                 let [o, d] = [ray.origin, ray.direction].map(|p| DVec3::new(p.x, p.y, p.z));
                 let pixel = match projection {
                     // Any point along the ray projects to the pixel's centre.

@@ -77,7 +77,7 @@ impl Depth {
         (images.distance.par_iter().enumerate())
             .map(|(k, &distance)| {
                 let (i, j) = ((k / width) as u32 + first_row, (k % width) as u32);
-                let ray = crate::cpu::frame::camera_ray(&frame, i, j);
+                let ray = crate::kernel::frame::camera_ray(&frame, i, j);
                 let scale = frame.focal_length / length(ray.direction);
                 T::from_f64(distance.to_f64() * scale)
             })

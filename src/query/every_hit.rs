@@ -7,8 +7,8 @@ use super::{Accel, CastReal, RayScene, first_primitives};
 use crate::algorithm::Algorithm;
 use crate::cpu::every_hit::{EveryHit, every_hit};
 use crate::error::Result;
+use crate::mode::Precision;
 use crate::rays::{RayList, check_rays};
-use crate::render::Precision;
 
 /// Every hit of each ray, ordered by t along it: the hits of ray `k` are entries
 /// `ray_splits[k]..ray_splits[k + 1]` of the other lists (Open3D's `list_intersections`).

@@ -32,12 +32,13 @@ use crate::gpu::{self, Gpu, Job};
 use crate::images::MISS;
 use crate::kernel::layout::GpuReal;
 use crate::math::{Float, Vec3};
+use crate::mode::{Device, Mode, Precision};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Search;
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
-use crate::render::{Cpu, Device, Mode, Precision};
+use crate::render::Cpu;
 use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
 use glam::DVec3;
 

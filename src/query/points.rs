@@ -16,11 +16,11 @@ use crate::gpu::Gpu;
 use crate::images::MISS;
 use crate::kernel::types::Triangle;
 use crate::math::{Vec3, normalize};
+use crate::mode::{Mode, Precision};
 use crate::prepare::order::{PerPoint, in_spatial_order};
 use crate::prepare::winding::{Dipole, dipoles};
 use crate::prepare::{kernel_origin, kernel_unit};
 use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_points};
-use crate::render::{Mode, Precision};
 use crate::scene::Object;
 
 /// The closest point on the geometry to each query point, in world coordinates and f64 (from

@@ -10,7 +10,7 @@
 //! render refused could not have run. Renders in bands hold one band and are not refused.
 
 use crate::error::{Error, Result};
-use crate::render::Precision;
+use crate::mode::Precision;
 
 /// The environment variable that sets the memory raycast may use, instead of the machine's.
 const MEMORY_VAR: &str = "RAYCAST_MEMORY";

@@ -4,14 +4,13 @@
 pub(crate) mod adaptive;
 pub(crate) mod files;
 pub(crate) mod memory;
-pub(crate) mod mode;
 pub(crate) mod options;
 pub(crate) mod record;
 pub(crate) mod supersample;
 pub(crate) mod viewer;
 pub(crate) mod views;
 
-pub(crate) use mode::{Device, Mode, Precision};
+pub(crate) use crate::mode::{Device, Mode, Precision};
 pub(crate) use options::{Cpu, Tuning};
 
 use std::path::{Path, PathBuf};

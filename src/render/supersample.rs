@@ -37,8 +37,9 @@ use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::images::{Coverage, Images, MISS};
 use crate::math::Real;
+use crate::mode::Mode;
 use crate::output;
-use crate::render::{self, AnyImages, Mode, Request};
+use crate::render::{self, AnyImages, Request};
 use crate::scene::Scene;
 
 /// The largest `s`: `N = s * s` up to 2^24, so that sample counts are exact in f32 and

@@ -4,8 +4,9 @@
 use super::common;
 
 use common::{COURSE_SCENES, course_scene};
+use raycast::Mode;
 use raycast::gpu::Gpu;
-use raycast::render::{self, AnyImages, Mode};
+use raycast::render::{self, AnyImages};
 
 /// The eight renders: the six course scenes and two more modes of the bunny, at a small size.
 fn renders() -> Vec<(raycast::Scene, Mode)> {

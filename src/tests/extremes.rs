@@ -499,7 +499,7 @@ fn a_centimetre_sphere_a_million_away_is_placed_exactly_in_f64() {
             let mut sphere_pixels = 0;
             for k in 0..images.len() {
                 let (i, j) = (k as u32 / frame.nx, k as u32 % frame.nx);
-                let ray = raycast::cpu::frame::camera_ray(&frame, i, j);
+                let ray = raycast::kernel::frame::camera_ray(&frame, i, j);
                 let d = raycast::math::normalize(ray.direction);
                 let v = center - ray.origin;
                 let l = raycast::math::length(raycast::math::cross(v, d));

@@ -127,6 +127,73 @@ fn no_two_top_level_modules_import_each_other() {
     assert!(cycles.is_empty(), "import cycles:\n{}", cycles.join("\n"));
 }
 
+/// Each top-level module's layer, lowest first (docs/architecture.md): a module imports only
+/// from its own layer or those below.
+const RANKS: &[(&str, u32)] = &[
+    // Numbers, errors, and the names of what a render asks for (algorithm, device, precision).
+    ("math", 0),
+    ("error", 0),
+    ("algorithm", 0),
+    ("mode", 0),
+    // Data: scenes, images, a caller's rays and their hits.
+    ("scene", 1),
+    ("images", 1),
+    ("rays", 2),
+    // The kernel's contract: what the WGSL and its CPU mirror share (types, the frame and its
+    // rays, the byte layouts).
+    ("kernel", 3),
+    // The image formats, and the BVH and camera-relative data a device is given.
+    ("output", 4),
+    ("prepare", 4),
+    // The devices.
+    ("cpu", 5),
+    ("gpu", 5),
+    // Render policy (adaptive precision, samples, bands, views), then queries on committed
+    // geometry.
+    ("render", 6),
+    ("query", 7),
+];
+
+/// The imports from a module to a higher layer than its own, and the modules with no layer.
+fn upward_imports(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let rank = |m: &str| RANKS.iter().find(|(name, _)| *name == m).map(|&(_, r)| r);
+    let mut wrong = Vec::new();
+    for (module, used) in graph {
+        let Some(own) = rank(module) else {
+            wrong.push(format!("{module} has no layer in RANKS"));
+            continue;
+        };
+        for other in used {
+            match rank(other) {
+                Some(r) if r > own => wrong.push(format!("{module} ({own}) imports {other} ({r})")),
+                _ => {}
+            }
+        }
+    }
+    wrong
+}
+
+#[test]
+fn every_module_imports_only_from_its_layer_or_below() {
+    let graph = graph();
+    let wrong = upward_imports(&graph);
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+#[test]
+fn an_upward_import_is_found() {
+    let mut graph = graph();
+    graph.get_mut("kernel").unwrap().insert("gpu".into());
+    graph.insert("newcomer".into(), BTreeSet::new());
+    assert_eq!(
+        upward_imports(&graph),
+        [
+            "kernel (3) imports gpu (5)",
+            "newcomer has no layer in RANKS"
+        ]
+    );
+}
+
 #[test]
 fn the_reader_finds_imports_in_code_only() {
     let modules: BTreeSet<String> = ["gpu", "cpu", "scene"].map(String::from).into();

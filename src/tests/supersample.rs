@@ -12,11 +12,12 @@ use super::common;
 use std::path::Path;
 
 use common::{SPHERE, gpu, ortho_json};
+use raycast::Mode;
 use raycast::images::Coverage;
 use raycast::images::MISS;
 use raycast::output::{self, PALETTE, PixelCoverage};
 use raycast::render::supersample;
-use raycast::render::{self, AnyImages, Mode};
+use raycast::render::{self, AnyImages};
 use raycast::{Images, Scene};
 
 fn scene(json: &str) -> Scene {

@@ -3,9 +3,9 @@
 use std::sync::Arc;
 
 use raycast::Algorithm::Robust;
-use raycast::cpu::frame::camera_ray;
 use raycast::cpu::traverse::{box_entry, ray_inverse};
 use raycast::cpu::triangle::intersect_triangle;
+use raycast::kernel::frame::camera_ray;
 use raycast::kernel::types::{no_hit, shear_of};
 use raycast::prepare::bvh::{Bvh, LEAF_BIT, leaf_len};
 use raycast::prepare::{Primitives, kernel_frame};

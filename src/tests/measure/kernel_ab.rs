@@ -71,7 +71,7 @@ fn camera_rows(scene: &raycast::Scene) -> Vec<[f32; 6]> {
     let pixels = (0..ny).flat_map(|i| (0..nx).map(move |j| (i, j)));
     pixels
         .map(|(i, j)| {
-            let ray = raycast::cpu::frame::camera_ray(&frame, i, j);
+            let ray = raycast::kernel::frame::camera_ray(&frame, i, j);
             let (o, d) = (ray.origin, ray.direction);
             [o.x, o.y, o.z, d.x, d.y, d.z].map(|x| x as f32)
         })
