@@ -10,7 +10,7 @@ basic blocks; the whole annotated assembly goes to --out. Not part of CI (needs 
 
 Read a block's instructions in the annotated file to see which WGSL it is (box tests are dense
 vsubps/vmulps/vminps, per-lane storage loads are a test, a bounds check and a scalar load per
-lane). docs/performance.md says what such profiles found.
+lane). docs/experiments.md says what such profiles found.
 """
 import argparse
 import collections

@@ -332,8 +332,8 @@ fn main(invocation: Invocation) {
 #end_each
     let hits = nearest_hit_lanes(rays, params.frame.min_t);
     // The outputs of the lane's rays in a loop, so that the kernel holds one copy of their
-    // code (normals, shading hooks) rather than one per ray: eight copies took LLVM far longer
-    // to compile and ran no faster (docs/performance.md#eight-rays-a-lane).
+    // code (normals, shading hooks) rather than one per ray: eight copies take LLVM far longer
+    // to compile and run no faster (docs/experiments.md#eight-rays-a-lane).
     for (var r = 0u; r < LANE_RAYS; r++) {
         let pixel = packet_pixel(invocation, local_index(invocation) + 8u * r);
         write_pixel(pixel_ray(pixel.i, pixel.j), lane_hit(hits, r), pixel.i, pixel.j, pixel.index, pixel.inside);

@@ -382,9 +382,9 @@ fn shared_triangle(k: u32) -> Triangle {
 // The primitives of the leaf children a packet tests after a visit (those of `take0`,
 // `take1` that some ray of it enters), leaf 0's then leaf 1's, as one run that a single loop
 // walks (run_primitive): the kernel then holds one site of each primitive test rather than
-// one per child, which made the two-ray kernels twice the code and slow to compile, for no
-// faster trace. A loop over the two children around each leaf's loop, whose trip count is at
-// most 2, may be unrolled, and traced slower (docs/performance.md#eight-rays-a-lane).
+// one per child, which would double the two-ray kernels' code, slow to compile, for no faster
+// trace. A loop over the two children around each leaf's loop, whose trip count is at most 2,
+// may be unrolled, and traces slower (docs/experiments.md#eight-rays-a-lane).
 struct LeafRun {
     length0: u32, // leaf 0's primitives in the run
     length: u32,
@@ -410,8 +410,8 @@ fn run_primitive(run: LeafRun, i: u32) -> u32 {
 // Whether a lane loads primitive k of a leaf the whole subgroup enters, for its rays that want
 // it (`wanted`): in f32 every lane does, spreading the subgroup's shared load (lane_sphere,
 // lane_triangle: shared_sphere, shared_triangle); in f64 each lane loads what it tests: f64
-// broadcasts (which Vulkan allows only with shaderSubgroupExtendedTypes) made llvmpipe's f64
-// kernel slower (docs/performance.md#tried-and-not-kept).
+// broadcasts (which Vulkan allows only with shaderSubgroupExtendedTypes) make llvmpipe's f64
+// kernel slower (docs/experiments.md#tried-and-not-kept).
 fn loads_primitive(wanted: bool) -> bool {
 #if F64
     return wanted;
@@ -527,9 +527,9 @@ fn traced(ray: Ray) -> Traced {
 }
 
 // A lane's LANE_RAYS rays and their nearest hits, a field each. The code for them is written
-// once per ray by the host (`#each_ray` blocks, `$r` the ray's number): llvmpipe kept arrays
-// indexed in loops over the rays in memory, which made more rays a lane slower, not faster
-// (docs/performance.md#eight-rays-a-lane).
+// once per ray by the host (`#each_ray` blocks, `$r` the ray's number): llvmpipe keeps arrays
+// indexed in loops over the rays in memory, which makes more rays a lane slower, not faster
+// (docs/experiments.md#eight-rays-a-lane).
 struct LaneRays {
 #each_ray
     r$r: Ray,
@@ -751,7 +751,7 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
 #if LIST_ORIGIN
     // The rays' one origin as one value rather than the butterflies' bounds of equal values:
     // the compiler then finds each plane's four products in interval_entry to be two
-    // (docs/performance.md#ray-lists-from-one-origin).
+    // (docs/performance.md#ray-lists).
     let origin = listed_origin();
     packet.origin_lo = f32_below(origin);
     packet.origin_hi = f32_above(origin);

@@ -32,10 +32,10 @@ fn has_repeated_corner(tri: Triangle) -> bool {
 // How far each edge function (u, v, w) may be off, in units of EPS (is_certain's scale). A
 // sheared corner's x and y are off by about EPS (|x| + |z| + s) and EPS (|y| + |z| + s), s the
 // origin's size (origin_size, doubled): vertex rounding, the ray's origin, the shear. (Without
-// s, rays from 1e-3 off a small triangle 37 from the kernel's origin were called certain on
-// their wrong side of its edges.) So e = x1 y2 - y1 x2 is off by about EPS
+// s, rays started near a small triangle far from the kernel's origin are called certain on
+// their wrong side of its edges: src/tests/rays.rs.) So e = x1 y2 - y1 x2 is off by about EPS
 // ((|x1|+|z1|)|y2| + |x1|(|y2|+|z2|) + the same of y1 x2), doubled here, plus the
-// second-order term. (The product (|x1|+|z1|)(|y2|+|z2|) used before counted |z1||z2| too,
+// second-order term. (The product (|x1|+|z1|)(|y2|+|z2|) would count |z1||z2| too,
 // no error term at all, and much the largest for a small triangle far along the ray: it left
 // many of the torus's pixels uncertain; docs/robustness.md.) Computed only where a decision
 // needs it: most rays miss most triangles by a wide margin.

@@ -45,7 +45,7 @@ pub(crate) fn huge_pages<T>(v: &Vec<T>) {
 
 /// A caller's rays as held: [`Ray`]s, or rows of six f32s (origin, direction), numpy's float32
 /// arrays as Open3D takes them, read without converting the list first (numpy's widening
-/// copy was a share of a cast worth saving). Each is read as a [`Ray`] (`RayList::get`);
+/// copy would be a share of a cast). Each is read as a [`Ray`] (`RayList::get`);
 /// f32 widens exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayRows<'a> {
@@ -263,16 +263,16 @@ impl AnyHits {
 const PACKET: usize = 8;
 
 /// How far apart the rays of sampled packets may be (see [`packet_spread`]) for the list to be
-/// traced in packets: between a jitter of 0.01, where packets still won on the torus, and
-/// 0.03, where one by one did (docs/performance.md#ray-lists). The 1080p peer camera's rays
-/// spread 0.002 in a 4x2 tile and 0.005 over 8 of a row.
+/// traced in packets: between the jitter at which packets still won on the torus and that at
+/// which one by one did, well above a camera's spread (docs/experiments.md#what-paid).
 const COHERENT_SPREAD: f64 = 0.02;
 
 /// How far the sampled packets' rays may stray from a smooth progression (see
 /// [`packet_roughness`]) for the list to be traced in packets. The GPU's packets (64 rays on
 /// lavapipe) test each box against the interval of their rays, which jitter widens far beyond
-/// the rays' own paths, while a camera's smooth spread leaves it tight. On the torus, packets
-/// still won at a roughness of 0.0095 and lost at 0.024 (docs/performance.md#ray-lists).
+/// the rays' own paths, while a camera's smooth spread leaves it tight: set between the
+/// roughness at which packets still won on the torus and that at which they lost
+/// (docs/experiments.md#what-paid).
 const COHERENT_ROUGHNESS: f64 = 0.015;
 
 /// Whether `list`'s rays are coherent: in most of up to 64 packets sampled through the list
@@ -340,8 +340,8 @@ pub(crate) fn one_origin(list: RayList<'_>) -> bool {
 
 /// How far a packet's rays stray from a smooth progression along its rows of `row` rays: the
 /// largest second difference of neighbouring unit directions, plus that of origins in units of
-/// `extent`. A camera's rays change smoothly (below 1e-4 at 1080p); jitter of s per component
-/// gives about 5 s.
+/// `extent`. A camera's rays change smoothly and stray little; jitter raises it in
+/// proportion.
 fn packet_roughness(rays: &[Ray], row: usize, extent: f64) -> f64 {
     let direction = |r: &Ray| normalize(Vec3::from_array(r.direction));
     let origin = |r: &Ray| Vec3::from_array(r.origin);

@@ -846,8 +846,8 @@ impl<R: GpuReal> Delivery<R> {
 }
 
 /// A prepared scene's buffers on one device ([`upload`]), for jobs that cast many times at
-/// one scene ([`Job::resident`]): uploading the torus's 18 MB took longer than casting a
-/// few rays at it.
+/// one scene ([`Job::resident`]), so that a cast of a few rays does not pay for uploading the
+/// whole scene again.
 pub(crate) struct Resident {
     /// By the kernel's names (shaders/bindings.wgsl).
     buffers: Vec<(String, wgpu::Buffer)>,
@@ -936,7 +936,7 @@ fn list_groups(gpu: &Gpu, groups: u32) -> [u32; 2] {
 }
 
 /// Writes consecutive entries of a list: the index of the first and their bytes (a whole
-/// number of entries: a call per entry was slower).
+/// number of entries, so that one call's cost is shared by a run of them).
 type EntryFill<'f> = dyn Fn(usize, &mut [u8]) + Sync + 'f;
 
 /// Writes `count` entries of `entry` bytes at the start of `buffer`, in parallel (on one core

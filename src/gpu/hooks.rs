@@ -421,8 +421,8 @@ fn global_names(module: &naga::Module) -> Vec<(&'static str, String, naga::Span)
 
 /// The kernel's global names (any variant; the hook's own two left out) and what each names,
 /// read from the declarations at the top level of every shader file whatever its `#if`s (and
-/// of the host's generated module), so that no kernel is assembled or parsed: parsing a few
-/// dozen variants with naga was most of every hook's check. A test checks that they
+/// of the host's generated module), so that a hook's check assembles and parses no kernel:
+/// parsing every variant with naga would dominate it. A test checks that they
 /// hold every name, of the same kind, that naga finds in every variant a device may build.
 fn kernel_names() -> &'static HashMap<String, &'static str> {
     static NAMES: OnceLock<HashMap<String, &'static str>> = OnceLock::new();

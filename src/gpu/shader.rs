@@ -122,12 +122,12 @@ pub(crate) struct Variant {
     /// Entries of the BVH traversal's stack (`BVH_STACK`): `prepare::bvh::MAX_DEPTH`
     /// until the dispatch sizes it to the prepared tree ([`crate::prepare::bvh::Bvh::stack_entries`]).
     /// WGSL zero-fills the stack of every invocation, so entries the tree cannot use cost time
-    /// (docs/performance.md#why-packets-share-fetches-by-hand).
+    /// (docs/experiments.md#why-packets-share-fetches-by-hand).
     pub bvh_stack: u8,
     /// The scene's planes, where there are 1 to [`MAX_CONSTANT_PLANES`] (`CONSTANT_PLANES`,
     /// `PLANE_COUNT`), else 0 (a loop to `params.plane_count`). Loops over the planes then
     /// have a constant trip count, which lavapipe unrolls into loads at constant offsets, one
-    /// scalar load each rather than a loop over the lanes (docs/performance.md#a-hooks-rays).
+    /// scalar load each rather than a loop over the lanes (docs/performance.md#specialization).
     pub planes: u8,
     /// What the kernel computes and writes: `id` (`out_id`), `distance` and `normal`
     /// (`out_surface`; the distance alone `out_distance`), `color` (`out_color`, the shade hook's; set exactly when `shade` is);
@@ -427,8 +427,8 @@ impl Variant {
     pub(crate) fn lane_rays(&self) -> u32 {
         let most = match (self.uses_packets() && self.eight_lanes, self.certainty) {
             (false, _) => 1,
-            // A hook's rays go one a lane; its camera rays gained nothing from more, in a
-            // longer kernel (docs/performance.md#a-hooks-rays).
+            // A hook's rays go one a lane: more would lengthen its kernel for no gain on its
+            // camera rays (docs/experiments.md#a-hooks-rays).
             _ if self.hook_rays => 1,
             // With its records swapped per ray, the certainty pass's kernel grows faster per
             // ray: one ray a lane where a render is too small for four.

@@ -147,18 +147,20 @@ const BINS: usize = 16;
 const MAX_LEAF: usize = 8;
 /// SAH cost of visiting a node, relative to one primitive test. At 3 rather than 1 the
 /// torus's tree has far fewer nodes and builds faster, and traces as fast; at 5 leaves reach
-/// `MAX_LEAF` and tracing slows, and no other cost tried traced faster (docs/performance.md#bvh).
+/// `MAX_LEAF` and tracing slows, and no other cost tried traced faster
+/// (docs/experiments.md#build-and-layout-choices).
 const TRAVERSAL_COST: f64 = 3.0;
 /// [`TRAVERSAL_COST`] for the spheres' subtree, where a primitive test is cheaper: the 100
 /// spheres of `benches/peers.sh` traced faster at 1.5 than at 3 or 6, and about as fast at 0.5
-/// and 1 (docs/performance.md#bvh).
+/// and 1 (docs/experiments.md#build-and-layout-choices).
 const SPHERE_TRAVERSAL_COST: f64 = 1.5;
 /// Nodes with more primitives are built with their two halves in parallel.
 const PARALLEL_ITEMS: usize = 4096;
 /// Trees over at most this many primitives of a kind search every axis for each node's split;
 /// larger ones only the axis the centroids spread widest on ([`Binning::candidates`]). A small
 /// tree builds in milliseconds either way and traces a little faster with three axes; a large
-/// one builds much faster with one, for a slightly slower trace (docs/performance.md#bvh).
+/// one builds much faster with one, for a slightly slower trace
+/// (docs/experiments.md#build-and-layout-choices).
 const ALL_AXES_ITEMS: usize = 1 << 16;
 
 /// One interior node: the boxes of its two children and where they are. 64 bytes, read in the
@@ -380,7 +382,8 @@ impl Bins {
 
 /// Where the bins lie: along one axis ([`Binning::over`]), over the centroid bounds, `used`
 /// equal parts: `BINS`, or one per item below that. Fewer bins offer fewer split planes, but
-/// on the torus the tree barely changed and built faster (docs/performance.md#bvh).
+/// on the torus the tree barely changed and built faster
+/// (docs/experiments.md#build-and-layout-choices).
 #[derive(Clone, Copy)]
 struct Binning {
     used: usize,
@@ -415,7 +418,7 @@ impl Binning {
     /// Which bin an item's centroid falls in.
     fn bin(&self, item: &Item) -> usize {
         // Through i32, whose saturating conversion is a few instructions fewer than usize's;
-        // NaN (0 times a scale that overflowed) goes to bin 0, as before.
+        // NaN (0 times a scale that overflowed) goes to bin 0, as it would through usize.
         let bin = ((item.centroid(self.axis) - self.lo) * self.scale) as i32;
         (bin.max(0) as usize).min(self.used - 1)
     }
@@ -440,8 +443,8 @@ fn fill_bins(items: &[Item], binning: &Binning) -> Bins {
 
 /// The cheapest split of `axis`: (its sides' areas weighted by their primitives, first bin of
 /// the right side). That weight is the SAH cost up to the node's own terms, which
-/// [`sah_cost`] adds once for the best split: a division per candidate plane was a tenth of
-/// the build's time.
+/// [`sah_cost`] adds once for the best split, sparing a division per candidate plane in the
+/// build's innermost loop.
 fn best_split_of_axis(bins: &Bins, used: usize) -> Option<(f64, usize)> {
     let mut right_area = [0.0; BINS];
     let mut right_count = [0usize; BINS];
@@ -546,8 +549,8 @@ fn build_root(items: &mut [Item], traversal_cost: f64) -> Option<(Aabb, Tree)> {
 }
 
 /// Moves the items for which `left` holds to the front; returns how many there are and the
-/// extents of both sides. From both ends inwards, so that only misplaced items move (the
-/// stores of swapping every left item in place were a seventh of the build's time).
+/// extents of both sides. From both ends inwards, so that only misplaced items move (swapping
+/// every left item in place would store each one).
 fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> (usize, [Extent; 2]) {
     let mut sides = [Extent::EMPTY; 2];
     let (mut front, mut back) = (0, items.len());

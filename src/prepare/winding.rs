@@ -20,9 +20,9 @@ pub(crate) struct Dipole {
 
 /// How many radii from a subtree's centre its dipole stands for it. The first-order
 /// expansion's error falls with the square of radius over distance; at 3 the winding numbers
-/// are within 0.02 of the exact sum on `src/tests/points.rs`'s meshes and 0.03 on the
-/// 518,400-triangle torus (at 2, 0.03 on the former). A second-order term (Barill et al.'s)
-/// made them worse: on a curved patch it is no larger than the third-order term it leaves out.
+/// stay within docs/distance.md's tolerance (docs/experiments.md#winding-numbers-far-field). A
+/// second-order term (Barill et al.'s) made them worse: on a curved patch it is no larger than
+/// the third-order term it leaves out.
 pub(crate) const FAR_FIELD: f64 = 3.0;
 
 /// The dipoles of both children of every node of `nodes`, over `prims` (f64, kernel

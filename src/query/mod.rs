@@ -714,9 +714,8 @@ fn framing_camera(bounds: Option<(DVec3, DVec3)>) -> Camera {
 /// so that coordinates given in f32 (as numpy arrays usually are) reach the kernel unrounded:
 /// 0 where the objects are within their extent of the origin, else the centre rounded to f32
 /// (Sterbenz: an f32 within a factor 2 of it differs from it exactly) unless that moves it by
-/// more than 2^-12 of the extent (coordinates given in f64 far from the origin). An eye at the
-/// torus's centre, 0.005 off the origin, rounded its corners and cost f32 `t` most of its
-/// accuracy (docs/performance.md#ray-lists-and-python).
+/// more than 2^-12 of the extent (coordinates given in f64 far from the origin). Any other eye
+/// would round f32 corners again and cost f32 `t` its accuracy (docs/performance.md#ray-lists).
 fn kernel_eye(centre: f64, extent: f64) -> f64 {
     if centre.abs() < extent {
         return 0.0;

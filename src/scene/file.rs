@@ -831,8 +831,8 @@ impl Checker<'_> {
     /// Every coordinate finite and within [`MAX_MAGNITUDE`]; errors name `place` and the
     /// triangle.
     fn mesh_values(&self, place: &str, triangles: &[Triangle]) -> Result<()> {
-        // The field is named only for a bad value: naming it for every coordinate took most of
-        // the 518,400-triangle torus's load time.
+        // The field is named only for a bad value: formatting a name for every coordinate
+        // would dominate a large mesh's load.
         for (k, t) in triangles.iter().enumerate() {
             for x in t.iter().flat_map(|c| c.to_array()) {
                 if let Some(message) = number_problem(x) {

@@ -142,9 +142,9 @@ fn assert_clean<R: raycast::math::Real>(label: &str, images: &Images<R>) {
 
 /// f32 is exempt on the `range` scenes only, whose arithmetic leaves f32's range even in kernel
 /// units: textbook f32 computes hits at t beyond it (a distance of infinity), robust f32 sphere
-/// normals whose half-chord overflows (NaN). Guarding the normal would cost every f32 render
-/// about 1% (measured on 100 spheres); adaptive precision re-casts such pixels in f64
-/// (src/tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
+/// normals whose half-chord overflows (NaN). Guarding the normal would slow every f32 render
+/// (docs/experiments.md#adaptive-precisions-bounds); adaptive precision re-casts such pixels
+/// in f64 (src/tests/adaptive.rs), so its images, like f64's, must be clean on every scene.
 #[test]
 fn no_nan_or_infinity_in_any_gpu_mode() {
     for e in extremes() {

@@ -7,7 +7,7 @@ use raycast::Algorithm::Robust;
 use raycast::ShadeHook;
 use raycast::images::{Images, Outputs};
 
-/// A hook that casts no ray compiles none of the machinery: its kernel is the one it was
+/// A hook that casts no ray compiles none of the machinery: its kernel is a plain hook's
 /// (packets where the device has them, no `trace`, no ray counter).
 #[test]
 fn only_a_hook_that_casts_rays_compiles_them_in() {

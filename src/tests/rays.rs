@@ -500,7 +500,7 @@ fn empty_scene_misses() {
 /// arrays usually are), near the origin and far from it, every f32 t of a hit at cos < 0.02
 /// between ray and triangle is within three f32 roundings (3 * 2^-24 relative) of the f64
 /// cast's on the same numbers (whose own error, about 2^-53 / cos, is negligible). The
-/// watertight test's t alone was 1e-5 off at such angles; this needs the plane's t
+/// watertight test's t alone is far off at such angles; this needs the plane's t
 /// (`plane_t`) and coordinates reaching the kernel unrounded (the kernel's eye).
 #[test]
 fn grazing_hits_keep_f32_accuracy() {
@@ -619,7 +619,7 @@ fn occluded_as_f64(gpu: &raycast::gpu::Gpu, scene: &Target, rays: &[Ray], t_near
 /// Adaptive precision decides as f64 whether a grazing hit lies beyond the rays' start: rays
 /// nearly in a triangle's plane (cos 2e-4 to 1e-2), started within some hundred EPS of the
 /// hit, where the f32 test's t is off by up to about 1 / cos EPS. With the condition factor of
-/// t taken as 1, about 2% of these were called certain and decided against f64.
+/// t taken as 1, some of these are called certain and decided against f64.
 #[test]
 fn adaptive_grazing_starts_decide_as_f64() {
     let gpu = gpu();
@@ -661,8 +661,8 @@ const FAR_POINT: [f64; 3] = [37.123456789, -12.3456789123, 5.7891234567];
 
 /// Adaptive precision decides as f64 for rays that start next to a small triangle far from the
 /// scene's centre (so far from the kernel's origin), aimed within 2e-6 of one of its edges:
-/// there the corners' f32 rounding, not seen from the ray's origin, decides the side. Before
-/// the edge bound counted the origin's size, about 22% of these were certain and wrong.
+/// there the corners' f32 rounding, not seen from the ray's origin, decides the side. An edge
+/// bound that ignores the origin's size calls many of these certain, and wrongly.
 #[test]
 fn adaptive_rays_near_far_triangles_decide_as_f64() {
     let gpu = gpu();
@@ -705,7 +705,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
 
 /// As for triangles: adaptive precision decides as f64 for rays that pass within 3e-6 of the
 /// silhouette of a small sphere far from the kernel's origin, starting 2e-3 before it. The
-/// sphere's bound was relative to the ray's origin too: 45% of these were certain and wrong.
+/// sphere's bound must count the origin's size too, or many of these are certain and wrong.
 #[test]
 fn adaptive_rays_near_far_spheres_decide_as_f64() {
     let gpu = gpu();
@@ -737,8 +737,8 @@ fn adaptive_rays_near_far_spheres_decide_as_f64() {
 
 /// As for triangles and spheres: adaptive precision decides as f64 for rays started 1e-3
 /// above a plane far from the kernel's origin, straight at it, from a start near their hit
-/// (t_near within 1e-3 relative of it). Before t's condition counted the origin's size, 31%
-/// of these were certain and wrong.
+/// (t_near within 1e-3 relative of it). A condition on t that ignores the origin's size calls
+/// many of these certain, and wrongly.
 #[test]
 fn adaptive_rays_near_far_planes_decide_as_f64() {
     let gpu = gpu();

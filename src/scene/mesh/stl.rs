@@ -57,7 +57,7 @@ fn binary(bytes: &[u8]) -> Parsed<Vec<Triangle>> {
         return Err(at_byte(HEADER, message));
     }
     // One serial pass: the time goes to reading the file and faulting in the output's pages,
-    // and splitting the decoding across threads with rayon gained nothing on 2 cores.
+    // not to decoding, so threads do not help (docs/experiments.md#tried-and-not-kept).
     let count = (size as usize - HEADER) / RECORD;
     let mut triangles = Vec::with_capacity(count);
     for (k, record) in bytes[HEADER..size as usize]

@@ -1,4 +1,4 @@
-//! Times kernels against each other on one prepared scene, the way docs/performance.md's
+//! Times kernels against each other on one prepared scene, the way docs/experiments.md's
 //! kernel steps were measured: `RAYCAST_MEASURE="SCENE [--f64]" cargo test --release -p raycast --lib kernel_ab -- --ignored --nocapture
 //! [--rounds N] [--no-check] KERNEL...`, each KERNEL `builtin` (the kernel `render` assembles)
 //! or a WGSL file as `render --kernel` takes one (`render --emit-shader` writes the assembled
