@@ -1,4 +1,4 @@
-//! Shared test helpers: one GPU device per test binary (the library's, src/tests/, and the command line's, cli/tests/suite/), course data paths, picture diffs.
+//! Shared test helpers: two GPU devices per test binary, each test on one (the library's, src/tests/, and the command line's, cli/tests/suite/), course data paths, picture diffs.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -11,16 +11,27 @@ use raycast::{Algorithm, Gpu, Mode};
 /// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
 pub(crate) fn gpu() -> &'static Gpu {
-    static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(|| {
+    // Two devices, each test's thread given the next: lavapipe compiles a kernel on its
+    // device's queue thread, so tests running side by side compile theirs in parallel.
+    static GPUS: OnceLock<[Gpu; 2]> = OnceLock::new();
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    thread_local! {
+        static MINE: usize = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 2;
+    }
+    let gpus = GPUS.get_or_init(|| {
         if std::env::var_os("NODEVICE_SELECT").is_none() {
             // SAFETY: tests that touch the environment only do it here, under the OnceLock,
             // before the Vulkan loader starts; Mesa reads it once at instance creation.
             unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
         }
-        Gpu::new()
-            .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter (lavapipe is enough): {e}"))
-    })
+        let new = || {
+            Gpu::new().unwrap_or_else(|e| {
+                panic!("GPU tests need a Vulkan adapter (lavapipe is enough): {e}")
+            })
+        };
+        [new(), new()]
+    });
+    &gpus[MINE.with(|m| *m)]
 }
 
 /// The names of the entries of `dir`, sorted.
