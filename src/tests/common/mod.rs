@@ -8,7 +8,7 @@ use raycast::images::Images;
 use raycast::scene::Scene;
 use raycast::{Algorithm, Gpu, Mode};
 
-/// The device every GPU test runs on (lavapipe in CI). Without an adapter the tests fail
+/// The device this test runs its GPU work on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
 pub(crate) fn gpu() -> &'static Gpu {
     // Two devices, each test's thread given the next: lavapipe compiles a kernel on its
