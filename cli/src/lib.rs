@@ -2,6 +2,7 @@
 //! studies (accuracy, tradeoff, specializations, bench, self-test, workloads), their pictures
 //! and progress bars. A client of the `raycast` library; `main.rs` is the `clap` front end.
 
+pub mod adapter;
 pub mod compare;
 pub mod progress;
 pub mod render;

@@ -709,7 +709,7 @@ fn run(command: Command) -> Result<ExitCode> {
         }
         Command::Info => {
             let gpu = Gpu::new()?;
-            say(gpu.describe().trim_end());
+            say(raycast_cli::adapter::describe(&gpu).trim_end());
             Ok(ExitCode::SUCCESS)
         }
         Command::Workload {
