@@ -399,10 +399,8 @@ fn main() -> ExitCode {
             return;
         }
         match watch::watching() {
-            true => raycast::output::abandon(0, ""),
-            false => {
-                raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
-            }
+            true => raycast_cli::abandon(0, ""),
+            false => raycast_cli::abandon(INTERRUPTED, "error: interrupted; no partial file left"),
         }
     };
     if let Err(e) = ctrlc::set_handler(stop) {
