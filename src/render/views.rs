@@ -143,67 +143,6 @@ impl std::str::FromStr for Shard {
     }
 }
 
-impl Shard {
-    /// The shard a cluster's job array gives this process: a Slurm array task's
-    /// (`SLURM_ARRAY_TASK_ID` counted from `SLURM_ARRAY_TASK_MIN`, of
-    /// `SLURM_ARRAY_TASK_COUNT`), or a Kubernetes Indexed Job's (`JOB_COMPLETION_INDEX`, of
-    /// `count`, its `completions`). `count` also sets a Slurm array's where given.
-    pub fn from_env(count: Option<u32>) -> Result<Shard> {
-        Shard::from_vars(count, |name| std::env::var(name).ok())
-    }
-
-    fn from_vars(count: Option<u32>, var: impl Fn(&str) -> Option<String>) -> Result<Shard> {
-        let refuse = |message: String| Error::Argument {
-            option: "shard auto".into(),
-            message,
-        };
-        let number = |name: &str| -> Result<Option<u32>> {
-            var(name)
-                .map(|v| {
-                    v.trim()
-                        .parse::<u32>()
-                        .map_err(|_| refuse(format!("{name} is `{v}`, not a whole number")))
-                })
-                .transpose()
-        };
-        let shard = |index: u32, count: u32, from: &str| {
-            (index < count)
-                .then_some(Shard { index, count })
-                .ok_or_else(|| {
-                    refuse(format!(
-                        "{from} gives shard {index} of {count}, beyond the last"
-                    ))
-                })
-        };
-        if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
-            let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-            let tasks = match (count, number("SLURM_ARRAY_TASK_COUNT")?) {
-                (Some(n), _) | (None, Some(n)) => n,
-                (None, None) => {
-                    return Err(refuse(
-                        "SLURM_ARRAY_TASK_COUNT is not set; give the count as --shard-count".into(),
-                    ));
-                }
-            };
-            let index = id.checked_sub(min).ok_or_else(|| {
-                refuse(format!(
-                    "SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"
-                ))
-            })?;
-            return shard(index, tasks, "SLURM_ARRAY_TASK_ID");
-        }
-        if let Some(index) = number("JOB_COMPLETION_INDEX")? {
-            let count = count.ok_or_else(|| {
-                refuse("a Kubernetes Indexed Job needs its completions as --shard-count".into())
-            })?;
-            return shard(index, count, "JOB_COMPLETION_INDEX");
-        }
-        Err(refuse(
-            "found neither a Slurm array task (SLURM_ARRAY_TASK_ID) nor a Kubernetes Indexed Job (JOB_COMPLETION_INDEX)".into(),
-        ))
-    }
-}
-
 /// Many views of many scenes rendered to files, as `raycast render SCENE... --views FILE -o OUT`
 /// does it (module docs).
 #[derive(Clone, Debug)]
@@ -236,28 +175,6 @@ pub struct ViewsSummary {
     pub elapsed: Duration,
     /// The manifest written.
     pub manifest: PathBuf,
-}
-
-impl ViewsSummary {
-    /// The lines `raycast render --views` prints.
-    pub fn lines(&self) -> Vec<String> {
-        let [rendered, skipped, total] = self.counts;
-        let seconds = self.elapsed.as_secs_f64();
-        let share = self.shard.map_or(String::new(), |s| {
-            format!(
-                " (shard {}/{}: {total} of {} views)",
-                s.index, s.count, self.job
-            )
-        });
-        vec![
-            format!(
-                "rendered {rendered} views in {seconds:.3} s ({:.1} views/s), skipped {skipped} complete, rendered again {} stale{share}",
-                rendered as f64 / seconds.max(1e-9),
-                self.stale
-            ),
-            format!("wrote {}", self.manifest.display()),
-        ]
-    }
 }
 
 /// The pairs of a job, checked: its scenes, their folder names and the views' names.
@@ -1113,44 +1030,6 @@ mod tests {
         for bad in ["3/3", "0/0", "1", "a/2", "-1/2", "1/2/3", ""] {
             assert!(bad.parse::<Shard>().unwrap_err().contains("I/N"), "{bad}");
         }
-    }
-
-    #[test]
-    fn auto_shards_come_from_slurm_arrays_and_indexed_jobs() {
-        let vars = |pairs: &[(&str, &str)]| {
-            let pairs: Vec<(String, String)> = pairs
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect();
-            move |name: &str| {
-                pairs
-                    .iter()
-                    .find(|(k, _)| k == name)
-                    .map(|(_, v)| v.clone())
-            }
-        };
-        let slurm = vars(&[
-            ("SLURM_ARRAY_TASK_ID", "5"),
-            ("SLURM_ARRAY_TASK_MIN", "4"),
-            ("SLURM_ARRAY_TASK_COUNT", "3"),
-        ]);
-        assert_eq!(
-            Shard::from_vars(None, &slurm).unwrap(),
-            Shard { index: 1, count: 3 }
-        );
-        let k8s = vars(&[("JOB_COMPLETION_INDEX", "3")]);
-        assert_eq!(
-            Shard::from_vars(Some(4), &k8s).unwrap(),
-            Shard { index: 3, count: 4 }
-        );
-        let message = |r: Result<Shard>| r.unwrap_err().to_string();
-        assert!(message(Shard::from_vars(None, &k8s)).contains("--shard-count"));
-        assert!(message(Shard::from_vars(Some(3), &k8s)).contains("beyond the last"));
-        assert!(message(Shard::from_vars(None, vars(&[]))).contains("JOB_COMPLETION_INDEX"));
-        let below = vars(&[("SLURM_ARRAY_TASK_ID", "1"), ("SLURM_ARRAY_TASK_MIN", "2")]);
-        assert!(message(Shard::from_vars(Some(2), below)).contains("below"));
-        let bad = vars(&[("SLURM_ARRAY_TASK_ID", "x")]);
-        assert!(message(Shard::from_vars(Some(2), bad)).contains("`x`"));
     }
 
     /// Shards split the job into contiguous runs of about equal cost that together hold every
