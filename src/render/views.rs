@@ -179,7 +179,7 @@ pub struct ViewsSummary {
 
 /// The pairs of a job, checked: its scenes, their folder names and the views' names.
 #[derive(Clone, Debug)]
-struct Job {
+struct Pairs {
     scenes: Vec<Option<PathBuf>>,
     stems: Vec<String>,
     names: Vec<String>,
@@ -189,7 +189,7 @@ struct Job {
     costs: Vec<f64>,
 }
 
-impl Job {
+impl Pairs {
     fn len(&self) -> usize {
         self.scenes.len() * self.names.len()
     }
@@ -229,7 +229,7 @@ impl RenderViews {
     /// Checks everything that can be checked before rendering (the options, the scenes' folder
     /// names, every view's name and camera fields, the memory of the views whose size is
     /// known) and lists the job's pairs.
-    fn job(&self) -> Result<Job> {
+    fn job(&self) -> Result<Pairs> {
         let refuse = |option: &str, message: &str| {
             Err(Error::Argument {
                 option: option.into(),
@@ -277,7 +277,7 @@ impl RenderViews {
             .iter()
             .flat_map(|w| pixels.iter().map(move |p| w * p))
             .collect();
-        Ok(Job {
+        Ok(Pairs {
             scenes,
             stems,
             names,
@@ -344,7 +344,7 @@ impl RenderViews {
     /// the files `names` and records whose shared part is `job_part`. The scenes and the views'
     /// cameras are not compared: that needs the scenes loaded, which the run whose share a view
     /// is in does.
-    fn manifest_of(&self, job: &Job, names: &[String], job_part: &Value) -> Result<PathBuf> {
+    fn manifest_of(&self, job: &Pairs, names: &[String], job_part: &Value) -> Result<PathBuf> {
         let out = &self.render.out_dir;
         let _lock = Lock::new(&out.join(".manifest.lock"))?;
         let mut text = String::new();
@@ -399,7 +399,7 @@ impl RenderViews {
 #[derive(Debug)]
 pub struct ViewRenderer {
     spec: RenderViews,
-    job: Job,
+    job: Pairs,
     /// The files a complete view's folder holds.
     names: Vec<String>,
     /// The part of the views' records the job shares ([`record::job_part`]).
@@ -734,7 +734,7 @@ struct ViewFiles {
 
 impl ViewFiles {
     /// The render of this view as `spec` renders every view, into its temporary folder.
-    fn render_files(&self, spec: &RenderViews, job: &Job) -> RenderFiles {
+    fn render_files(&self, spec: &RenderViews, job: &Pairs) -> RenderFiles {
         RenderFiles {
             out_dir: self.temporary.clone(),
             scene: job.scenes[self.scene].clone(),
@@ -795,7 +795,7 @@ impl ViewWrite {
 /// The scene of `job`'s scene `s`, loaded into `loaded` unless it is the one there.
 fn load<'a>(
     loaded: &'a mut Option<Loaded>,
-    job: &Job,
+    job: &Pairs,
     spec: &RenderViews,
     s: usize,
 ) -> Result<&'a mut Loaded> {
@@ -1036,7 +1036,7 @@ mod tests {
     /// pair once.
     #[test]
     fn shards_cover_the_job_once_in_runs_of_about_equal_cost() {
-        let job = |costs: Vec<f64>| Job {
+        let job = |costs: Vec<f64>| Pairs {
             scenes: vec![None; costs.len()],
             stems: Vec::new(),
             names: vec!["v".into()],
