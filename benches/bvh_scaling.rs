@@ -37,7 +37,7 @@ fn main() {
         .nth(2)
         .map_or(0, |s| s.parse().expect("MIN_TRIANGLES"));
     let gpu = Gpu::new().unwrap();
-    println!("{}", gpu.describe().lines().next().unwrap_or(""));
+    println!("adapter:      {}", gpu.info().name);
     // Through the BVH, each lane casting its most rays, as the scaling was first measured.
     let options = RenderOptions {
         precision: Some(Precision::F32),

@@ -58,9 +58,8 @@ pub(crate) struct ReadmeDoctests;
 // The API: the devices and what they take and give, re-exported from the layers that define them.
 pub use crate::{
     algorithm::Algorithm,
-    cpu::margin::Margins,
     error::{Error, Result},
-    gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel, probe::FusionReport},
+    gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel},
     images::{Images, Output, Outputs, Stages},
     mode::{Device, Mode, Precision},
     output::{Encoding, Format},

@@ -61,7 +61,7 @@ unsafe impl GlobalAlloc for ExitOnFailure {
 }
 
 /// Ends the command after the system refused `size` bytes: removes the files being written
-/// and prints one line (the library's `abandon`, which allocates little), without allocating
+/// and prints one line ([`raycast_cli::abandon`], which allocates little), without allocating
 /// here.
 #[cold]
 fn refused(size: usize) -> ! {
@@ -80,7 +80,7 @@ fn refused(size: usize) -> ! {
     line.push_number(size);
     line.push(" bytes; no partial file left");
     // An allocator must not unwind: should printing the line panic (stderr closed), leave.
-    let _ = std::panic::catch_unwind(|| raycast::output::abandon(EXIT, line.as_str()));
+    let _ = std::panic::catch_unwind(|| raycast_cli::abandon(EXIT, line.as_str()));
     leave(b"error: out of memory\n")
 }
 

@@ -2,6 +2,7 @@
 //! studies (accuracy, tradeoff, specializations, bench, self-test, workloads), their pictures
 //! and progress bars. A client of the `raycast` library; `main.rs` is the `clap` front end.
 
+pub mod adapter;
 pub mod compare;
 pub mod progress;
 pub mod render;
@@ -104,4 +105,24 @@ pub fn peak_rss_mib() -> Option<f64> {
         .parse()
         .ok()?;
     Some(kib / 1024.0)
+}
+
+/// Removes the files being written ([`raycast::output::remove_partial_files`]), prints
+/// `message` (unless empty) as the one line on stderr and exits with `code`: for a signal
+/// handler on the way out, and for the allocator when the system refuses memory. On unix it
+/// leaves by `_exit`, without the exit handlers (a GPU driver's among them) that could hang
+/// while another thread is inside the driver.
+pub fn abandon(code: i32, message: &str) -> ! {
+    match raycast::output::remove_partial_files(|| -> std::convert::Infallible {
+        if !message.is_empty() {
+            eprintln!("{message}");
+        }
+        #[cfg(unix)]
+        // SAFETY: `_exit` ends the process at once; stderr is unbuffered, so the message is out.
+        unsafe {
+            libc::_exit(code)
+        }
+        #[cfg(not(unix))]
+        std::process::exit(code)
+    }) {}
 }

@@ -399,10 +399,8 @@ fn main() -> ExitCode {
             return;
         }
         match watch::watching() {
-            true => raycast::output::abandon(0, ""),
-            false => {
-                raycast::output::abandon(INTERRUPTED, "error: interrupted; no partial file left")
-            }
+            true => raycast_cli::abandon(0, ""),
+            false => raycast_cli::abandon(INTERRUPTED, "error: interrupted; no partial file left"),
         }
     };
     if let Err(e) = ctrlc::set_handler(stop) {
@@ -709,7 +707,7 @@ fn run(command: Command) -> Result<ExitCode> {
         }
         Command::Info => {
             let gpu = Gpu::new()?;
-            say(gpu.describe().trim_end());
+            say(raycast_cli::adapter::describe(&gpu).trim_end());
             Ok(ExitCode::SUCCESS)
         }
         Command::Workload {
@@ -763,7 +761,7 @@ fn selftest(options: &study::selftest::Options, json: bool) -> Result<ExitCode> 
 
 /// Renders once, or with `watch` again whenever a file it reads changes, for ever.
 fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
-    // From the options alone: watched_files() would load the scene and its meshes.
+    // From the options alone: watch::watched_files would load the scene and its meshes.
     if watch && spec.scene.is_none() && spec.shader.is_none() && spec.kernel.is_none() {
         return Err(raycast::Error::Argument {
             option: "--watch".into(),
@@ -782,14 +780,20 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
         if summary.bands.is_some() {
             summary.peak_mib = raycast_cli::peak_rss_mib();
         }
-        summary.lines().into_iter().for_each(say);
+        raycast_cli::render::summary_lines(&summary)
+            .into_iter()
+            .for_each(say);
         Ok(())
     };
     if !watch {
         return render_once();
     }
     loop {
-        let files = spec.watched_files();
+        let files = watch::watched_files(
+            spec.scene.as_deref(),
+            spec.shader.as_deref(),
+            spec.kernel.as_deref(),
+        );
         // Taken before rendering: a change during the render triggers the next one.
         let before = watch::stamps(&files);
         if let Err(e) = render_once() {
@@ -847,7 +851,7 @@ fn render_views(
 ) -> Result<()> {
     let shard = match shard {
         None => None,
-        Some("auto") => Some(raycast::Shard::from_env(count)?),
+        Some("auto") => Some(raycast_cli::render::shard_from_env(count)?),
         Some(text) => {
             if count.is_some() {
                 return Err(raycast::Error::Argument {
@@ -869,7 +873,9 @@ fn render_views(
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
-    summary.lines().into_iter().for_each(say);
+    raycast_cli::render::views_lines(&summary)
+        .into_iter()
+        .for_each(say);
     Ok(())
 }
 

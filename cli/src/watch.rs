@@ -1,7 +1,7 @@
 //! Noticing that files changed, by polling their modification times and lengths: what
 //! `render --watch` and `serve` render again on.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::SystemTime;
 
@@ -30,4 +30,31 @@ pub fn stamps(files: &[PathBuf]) -> Vec<Stamp> {
             Some((m.modified().ok()?, m.len()))
         })
         .collect()
+}
+
+/// The files a watching render polls: the scene file and the meshes it names (as far as it
+/// loads), the shader file and the kernel file.
+pub fn watched_files(
+    scene: Option<&Path>,
+    shader: Option<&Path>,
+    kernel: Option<&Path>,
+) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = Vec::new();
+    if let Some(scene) = scene {
+        files.push(scene.to_owned());
+        if let Ok(loaded) = raycast::Scene::load(scene) {
+            let base = scene.parent().unwrap_or(Path::new(""));
+            for object in &loaded.objects {
+                // The parts of a split mesh file name it each.
+                if let raycast::scene::Object::Soup { path, .. } = object
+                    && !files.contains(&base.join(path))
+                {
+                    files.push(base.join(path));
+                }
+            }
+        }
+    }
+    files.extend(shader.map(Path::to_owned));
+    files.extend(kernel.map(Path::to_owned));
+    files
 }

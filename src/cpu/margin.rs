@@ -45,10 +45,10 @@ use crate::prepare::Primitives;
 /// Safety factor `K` over the first-order error bounds.
 pub(crate) const K: f64 = 2.0;
 
-/// Margins of one pixel ([`crate::Cpu::f32_margins`]): each at least 1 means that decision is
-/// certain in the kernel's precision.
+/// Margins of one pixel ([`crate::Cpu::certain_in_f32`]): each at least 1 means that decision
+/// is certain in the kernel's precision.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Margins {
+pub(crate) struct Margins {
     /// Whether the pixel hits anything.
     pub hit: f64,
     /// Which object is nearest (infinite for a pixel that certainly misses).
@@ -58,7 +58,7 @@ pub struct Margins {
 impl Margins {
     /// Whether both decisions are certain: an f32 render must make them as exact arithmetic
     /// does.
-    pub fn certain(&self) -> bool {
+    pub(crate) fn certain(&self) -> bool {
         self.hit >= 1.0 && self.id >= 1.0
     }
 }

@@ -10,7 +10,6 @@
 pub(crate) mod dispatch;
 pub(crate) mod hooks;
 pub(crate) mod kernel;
-pub(crate) mod probe;
 pub(crate) mod readback;
 pub(crate) mod shader;
 pub(crate) mod source;
@@ -308,48 +307,4 @@ fn choose_adapter(adapters: Vec<wgpu::Adapter>, wanted: Option<String>) -> Resul
         wgpu::DeviceType::Other => 4,
     };
     Ok(adapters.into_iter().min_by_key(rank).expect("non-empty"))
-}
-
-impl Gpu {
-    /// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
-    pub fn describe(&self) -> String {
-        describe(self)
-    }
-}
-
-fn describe(gpu: &Gpu) -> String {
-    let info = gpu.info();
-    let features = gpu.device.features();
-    let limits = gpu.device.limits();
-    let has = |f: wgpu::Features| if features.contains(f) { "yes" } else { "no" };
-    let mut s = String::new();
-    s += &format!("adapter:      {}\n", info.name);
-    s += &format!("backend:      {:?}\n", info.backend);
-    s += &format!("device type:  {:?}\n", info.device_type);
-    s += &format!("driver:       {}\n", info.driver);
-    s += &format!("driver info:  {}\n", info.driver_info);
-    s += &format!("shader f64:   {}\n", has(wgpu::Features::SHADER_F64));
-    s += &format!("timestamps:   {}\n", has(wgpu::Features::TIMESTAMP_QUERY));
-    s += &format!(
-        "host-mapped buffers: {}\n",
-        has(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
-    );
-    s += &format!(
-        "max storage buffer binding: {} bytes\n",
-        limits.max_storage_buffer_binding_size
-    );
-    s += &format!("max buffer size: {} bytes\n", limits.max_buffer_size);
-    s += &format!(
-        "max workgroups per dimension: {}\n",
-        limits.max_compute_workgroups_per_dimension
-    );
-    s += &format!(
-        "max invocations per workgroup: {}\n",
-        limits.max_compute_invocations_per_workgroup
-    );
-    let fusion = gpu
-        .fusion_probe()
-        .map_or_else(|e| e.to_string(), |r| r.describe());
-    s += &format!("f32 a*b - c*d: {fusion}\n");
-    s
 }

@@ -19,7 +19,7 @@ use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
 use crate::scene::Camera;
 
-pub use self::{depth::Depth, pending::abandon, pictures::Pictures};
+pub use self::{depth::Depth, pending::remove_partial_files, pictures::Pictures};
 pub(crate) use color::color_rgba8;
 #[cfg(test)]
 pub(crate) use color::pixel_coverage;
@@ -351,7 +351,7 @@ pub fn check_parent_writable(file: &Path) -> Result<()> {
 }
 
 /// Writes every file or none: all go to temporary names first, then are renamed into place.
-/// The temporary files are registered for removal on an interruption ([`pending::abandon`]).
+/// The temporary files are registered for removal on an interruption ([`remove_partial_files`]).
 pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
     let named: Vec<(PathBuf, &[u8])> = files
         .iter()

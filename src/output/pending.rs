@@ -1,5 +1,6 @@
 //! The temporary files being written, so that an interrupted process can remove them: output
-//! is all or nothing even when the command line is stopped by a signal ([`abandon`]).
+//! is all or nothing even when the command line is stopped by a signal
+//! ([`remove_partial_files`]).
 //!
 //! A temporary file is registered and created under the registry's lock (`create`), so an
 //! interruption either removes it or comes before it exists, and forgotten once renamed or
@@ -138,8 +139,8 @@ pub(crate) fn holds_any_in(dir: &Path) -> bool {
     registry().iter().any(|p| p.parent() == Some(dir))
 }
 
-/// How long [`abandon`] waits for the registry: far longer than any registry operation (a
-/// set of renames) takes; held longer, it is held by the thread that calls `abandon`.
+/// How long [`remove_partial_files`] waits for the registry: far longer than any registry operation (a
+/// set of renames) takes; held longer, it is held by the thread that calls `remove_partial_files`.
 const ABANDON_WAIT: Duration = Duration::from_secs(10);
 
 /// The registry, waited for at most `wait`; `None` where it stays held: by the calling thread
@@ -158,13 +159,13 @@ fn registry_within(wait: Duration) -> Option<MutexGuard<'static, Vec<PathBuf>>> 
     }
 }
 
-/// Removes every registered temporary file, prints `message` (unless empty) as the one line on
-/// stderr and exits with `code`, still holding the registry so that no file is created or
-/// renamed after the removal. For a signal handler on the way out, and for the command line's
-/// allocator when the system refuses memory: on unix it leaves by `_exit`, without the exit
-/// handlers (a GPU driver's among them) that could hang while another thread is inside the
-/// driver. Where the registry stays held (10 s) it leaves without removing the files.
-pub fn abandon(code: i32, message: &str) -> ! {
+/// Removes every registered temporary file, then runs `exit` still holding the registry, so
+/// that no file is created or renamed after the removal: output stays all or nothing for a
+/// process leaving at once (`exit` ends it), on a signal or when the system refuses memory
+/// (the command line's `abandon`). Where the registry stays held (10 s: by the calling thread
+/// itself, where an allocation failed inside a registry operation) it runs `exit` without
+/// removing the files.
+pub fn remove_partial_files<T>(exit: impl FnOnce() -> T) -> T {
     let held = registry_within(ABANDON_WAIT);
     for path in held.iter().flat_map(|h| h.iter()) {
         if path.is_dir() {
@@ -173,14 +174,5 @@ pub fn abandon(code: i32, message: &str) -> ! {
             let _ = std::fs::remove_file(path);
         }
     }
-    if !message.is_empty() {
-        eprintln!("{message}");
-    }
-    #[cfg(unix)]
-    // SAFETY: `_exit` ends the process at once; stderr is unbuffered, so the message is out.
-    unsafe {
-        libc::_exit(code)
-    }
-    #[cfg(not(unix))]
-    std::process::exit(code)
+    exit()
 }

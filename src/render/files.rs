@@ -19,7 +19,7 @@ use crate::error::{Error, Result};
 use crate::gpu::shader::{self, Variant};
 use crate::gpu::{self, Gpu};
 use crate::output::{self, Encoding};
-use crate::scene::{self, CameraOverrides, Object, Scene, Split};
+use crate::scene::{self, CameraOverrides, Scene, Split};
 
 /// Refuses a `split` other than the default where none of `scenes` is a mesh file (`None`: the
 /// built-in default scene): it splits mesh files given as scenes, and a scene file's soups say
@@ -98,8 +98,7 @@ pub struct Summary {
     /// Rows per band, when rendered in bands.
     pub bands: Option<u32>,
     /// The process's peak memory in MiB, where known: [`RenderFiles::run`] leaves it `None`,
-    /// for the caller to set (`raycast render` does for renders in bands), and [`Summary::lines`]
-    /// reports it for renders in bands.
+    /// for the caller to set (`raycast render` does for renders in bands, and reports it).
     pub peak_mib: Option<f64>,
     /// Adaptive precision: the fraction of pixels cast again in f64, and whether on the GPU.
     pub recast: Option<(f64, bool)>,
@@ -107,53 +106,6 @@ pub struct Summary {
     pub emitted: Option<PathBuf>,
     /// The image files written.
     pub written: Vec<PathBuf>,
-}
-
-impl Summary {
-    /// The lines `raycast render` prints.
-    pub fn lines(&self) -> Vec<String> {
-        let [nx, ny] = self.size;
-        let (mode, device, seconds) = (self.mode, &self.device, self.elapsed.as_secs_f64());
-        let first = match self.bands {
-            Some(rows) => {
-                let peak = self
-                    .peak_mib
-                    .map_or(String::new(), |m| format!(", peak memory {m:.0} MiB"));
-                format!(
-                    "rendered {} ({nx}x{ny} in bands of {rows} rows, {mode}) on {device} in {seconds:.3} s{peak}",
-                    self.scene
-                )
-            }
-            None => {
-                let samples = self.spp.map_or(String::new(), |n| format!(", {n} spp"));
-                let shaded = (self.shader.as_ref())
-                    .map_or(String::new(), |p| format!(", shaded by {}", p.display()));
-                format!(
-                    "rendered {} ({nx}x{ny}{samples}, {mode}{shaded}) on {device} in {seconds:.3} s",
-                    self.scene
-                )
-            }
-        };
-        let traced = self.hook_rays.map(|rays| {
-            let camera = nx as u64 * ny as u64 * self.spp.unwrap_or(1) as u64;
-            format!(
-                "cast {camera} camera rays and {rays} from the shade hook ({:.2} a camera ray)",
-                rays as f64 / camera.max(1) as f64
-            )
-        });
-        let recast = self.recast.map(|(fraction, on_gpu)| {
-            let on = if on_gpu { "the GPU" } else { "the CPU" };
-            format!("re-cast {:.3}% of pixels in f64 on {on}", 100.0 * fraction)
-        });
-        let wrote = |p: &PathBuf| format!("wrote {}", p.display());
-        let emitted = self.emitted.iter().map(wrote);
-        let written = self.written.iter().map(wrote);
-        let lines = std::iter::once(first)
-            .chain(traced)
-            .chain(emitted)
-            .chain(recast);
-        lines.chain(written).collect()
-    }
 }
 
 impl RenderFiles {
@@ -281,29 +233,6 @@ impl RenderFiles {
         self.spp.is_none() && can_stream(self.mode) && self.kernel.is_none()
     }
 
-    /// The files a watching render polls: the scene file and the meshes it names (as far as
-    /// it loads), the shader file and the kernel file.
-    pub fn watched_files(&self) -> Vec<PathBuf> {
-        let mut files: Vec<PathBuf> = Vec::new();
-        if let Some(scene) = &self.scene {
-            files.push(scene.clone());
-            if let Ok(loaded) = Scene::load(scene) {
-                let base = scene.parent().unwrap_or(Path::new(""));
-                for object in &loaded.objects {
-                    // The parts of a split mesh file name it each.
-                    if let Object::Soup { path, .. } = object
-                        && !files.contains(&base.join(path))
-                    {
-                        files.push(base.join(path));
-                    }
-                }
-            }
-        }
-        files.extend(self.shader.clone());
-        files.extend(self.kernel.clone());
-        files
-    }
-
     /// Reads the scene and the shader, renders and writes every file (all or none), and the
     /// kernel with `emit_shader`. `gpu` is needed for a GPU mode; a CPU render counts its rows
     /// in `progress`.
@@ -328,7 +257,7 @@ impl RenderFiles {
     ///     split: Default::default(),
     /// };
     /// let summary = render.run(Some(&Gpu::new()?), None)?;
-    /// println!("{}", summary.lines().join("\n"));
+    /// println!("wrote {} files", summary.written.len());
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<&Progress>) -> Result<Summary> {

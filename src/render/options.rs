@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use super::{AnyImages, Device, Mode, Precision, Progress, Request, render_streamed, supersample};
 use crate::algorithm::Algorithm;
-use crate::cpu::margin::{Margins, margins};
+use crate::cpu::margin::margins;
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::gpu::hooks::ShadeHook;
@@ -242,23 +242,27 @@ impl Gpu {
 }
 
 impl Cpu {
-    /// Each pixel's decision margins for a render of `scene` in f32 with the robust
-    /// algorithms, row-major: how far its hit or miss, and which object is nearest, lie from
-    /// where f32 rounding could decide otherwise (src/cpu/margin.rs). Where both are at least 1
-    /// ([`Margins::certain`]) an f32 render must agree with exact arithmetic.
+    /// Which of each pixel's decisions in a render of `scene` in f32 with the robust
+    /// algorithms are certain, row-major: `[hit, id]`, whether it hits anything and which
+    /// object is nearest lie far enough from where f32 rounding could decide otherwise
+    /// (src/cpu/margin.rs) that an f32 render must decide them as exact arithmetic does.
     ///
     /// ```
     /// use raycast::{Cpu, Scene};
     /// let mut scene = Scene::load("scenes/course/sphere-and-plane.json".as_ref())?;
     /// scene.camera.resolution = [32, 18];
-    /// let margins = Cpu.f32_margins(&scene);
-    /// let certain = margins.iter().filter(|m| m.certain()).count();
-    /// assert!(certain > margins.len() / 2, "{certain} of {} pixels certain", margins.len());
+    /// let certain = Cpu.certain_in_f32(&scene);
+    /// let both = certain.iter().filter(|[hit, id]| *hit && *id).count();
+    /// assert!(both > certain.len() / 2, "{both} of {} pixels certain", certain.len());
     /// # Ok::<(), raycast::Error>(())
     /// ```
-    pub fn f32_margins(&self, scene: &Scene) -> Vec<Margins> {
+    pub fn certain_in_f32(&self, scene: &Scene) -> Vec<[bool; 2]> {
         let prepared = Prepared::<f64>::new(scene, Algorithm::Robust, Search::BruteForce);
-        margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64)
+        let margins = margins(&prepared.frame, &prepared.primitives, f32::EPSILON as f64);
+        margins
+            .iter()
+            .map(|m| [m.hit >= 1.0, m.certain()])
+            .collect()
     }
 
     /// Renders `scene`'s camera by the CPU reference.

@@ -143,67 +143,6 @@ impl std::str::FromStr for Shard {
     }
 }
 
-impl Shard {
-    /// The shard a cluster's job array gives this process: a Slurm array task's
-    /// (`SLURM_ARRAY_TASK_ID` counted from `SLURM_ARRAY_TASK_MIN`, of
-    /// `SLURM_ARRAY_TASK_COUNT`), or a Kubernetes Indexed Job's (`JOB_COMPLETION_INDEX`, of
-    /// `count`, its `completions`). `count` also sets a Slurm array's where given.
-    pub fn from_env(count: Option<u32>) -> Result<Shard> {
-        Shard::from_vars(count, |name| std::env::var(name).ok())
-    }
-
-    fn from_vars(count: Option<u32>, var: impl Fn(&str) -> Option<String>) -> Result<Shard> {
-        let refuse = |message: String| Error::Argument {
-            option: "shard auto".into(),
-            message,
-        };
-        let number = |name: &str| -> Result<Option<u32>> {
-            var(name)
-                .map(|v| {
-                    v.trim()
-                        .parse::<u32>()
-                        .map_err(|_| refuse(format!("{name} is `{v}`, not a whole number")))
-                })
-                .transpose()
-        };
-        let shard = |index: u32, count: u32, from: &str| {
-            (index < count)
-                .then_some(Shard { index, count })
-                .ok_or_else(|| {
-                    refuse(format!(
-                        "{from} gives shard {index} of {count}, beyond the last"
-                    ))
-                })
-        };
-        if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
-            let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-            let tasks = match (count, number("SLURM_ARRAY_TASK_COUNT")?) {
-                (Some(n), _) | (None, Some(n)) => n,
-                (None, None) => {
-                    return Err(refuse(
-                        "SLURM_ARRAY_TASK_COUNT is not set; give the count as --shard-count".into(),
-                    ));
-                }
-            };
-            let index = id.checked_sub(min).ok_or_else(|| {
-                refuse(format!(
-                    "SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"
-                ))
-            })?;
-            return shard(index, tasks, "SLURM_ARRAY_TASK_ID");
-        }
-        if let Some(index) = number("JOB_COMPLETION_INDEX")? {
-            let count = count.ok_or_else(|| {
-                refuse("a Kubernetes Indexed Job needs its completions as --shard-count".into())
-            })?;
-            return shard(index, count, "JOB_COMPLETION_INDEX");
-        }
-        Err(refuse(
-            "found neither a Slurm array task (SLURM_ARRAY_TASK_ID) nor a Kubernetes Indexed Job (JOB_COMPLETION_INDEX)".into(),
-        ))
-    }
-}
-
 /// Many views of many scenes rendered to files, as `raycast render SCENE... --views FILE -o OUT`
 /// does it (module docs).
 #[derive(Clone, Debug)]
@@ -238,31 +177,9 @@ pub struct ViewsSummary {
     pub manifest: PathBuf,
 }
 
-impl ViewsSummary {
-    /// The lines `raycast render --views` prints.
-    pub fn lines(&self) -> Vec<String> {
-        let [rendered, skipped, total] = self.counts;
-        let seconds = self.elapsed.as_secs_f64();
-        let share = self.shard.map_or(String::new(), |s| {
-            format!(
-                " (shard {}/{}: {total} of {} views)",
-                s.index, s.count, self.job
-            )
-        });
-        vec![
-            format!(
-                "rendered {rendered} views in {seconds:.3} s ({:.1} views/s), skipped {skipped} complete, rendered again {} stale{share}",
-                rendered as f64 / seconds.max(1e-9),
-                self.stale
-            ),
-            format!("wrote {}", self.manifest.display()),
-        ]
-    }
-}
-
 /// The pairs of a job, checked: its scenes, their folder names and the views' names.
 #[derive(Clone, Debug)]
-struct Job {
+struct Pairs {
     scenes: Vec<Option<PathBuf>>,
     stems: Vec<String>,
     names: Vec<String>,
@@ -272,7 +189,7 @@ struct Job {
     costs: Vec<f64>,
 }
 
-impl Job {
+impl Pairs {
     fn len(&self) -> usize {
         self.scenes.len() * self.names.len()
     }
@@ -312,7 +229,7 @@ impl RenderViews {
     /// Checks everything that can be checked before rendering (the options, the scenes' folder
     /// names, every view's name and camera fields, the memory of the views whose size is
     /// known) and lists the job's pairs.
-    fn job(&self) -> Result<Job> {
+    fn job(&self) -> Result<Pairs> {
         let refuse = |option: &str, message: &str| {
             Err(Error::Argument {
                 option: option.into(),
@@ -360,7 +277,7 @@ impl RenderViews {
             .iter()
             .flat_map(|w| pixels.iter().map(move |p| w * p))
             .collect();
-        Ok(Job {
+        Ok(Pairs {
             scenes,
             stems,
             names,
@@ -427,7 +344,7 @@ impl RenderViews {
     /// the files `names` and records whose shared part is `job_part`. The scenes and the views'
     /// cameras are not compared: that needs the scenes loaded, which the run whose share a view
     /// is in does.
-    fn manifest_of(&self, job: &Job, names: &[String], job_part: &Value) -> Result<PathBuf> {
+    fn manifest_of(&self, job: &Pairs, names: &[String], job_part: &Value) -> Result<PathBuf> {
         let out = &self.render.out_dir;
         let _lock = Lock::new(&out.join(".manifest.lock"))?;
         let mut text = String::new();
@@ -482,7 +399,7 @@ impl RenderViews {
 #[derive(Debug)]
 pub struct ViewRenderer {
     spec: RenderViews,
-    job: Job,
+    job: Pairs,
     /// The files a complete view's folder holds.
     names: Vec<String>,
     /// The part of the views' records the job shares ([`record::job_part`]).
@@ -817,7 +734,7 @@ struct ViewFiles {
 
 impl ViewFiles {
     /// The render of this view as `spec` renders every view, into its temporary folder.
-    fn render_files(&self, spec: &RenderViews, job: &Job) -> RenderFiles {
+    fn render_files(&self, spec: &RenderViews, job: &Pairs) -> RenderFiles {
         RenderFiles {
             out_dir: self.temporary.clone(),
             scene: job.scenes[self.scene].clone(),
@@ -878,7 +795,7 @@ impl ViewWrite {
 /// The scene of `job`'s scene `s`, loaded into `loaded` unless it is the one there.
 fn load<'a>(
     loaded: &'a mut Option<Loaded>,
-    job: &Job,
+    job: &Pairs,
     spec: &RenderViews,
     s: usize,
 ) -> Result<&'a mut Loaded> {
@@ -1115,49 +1032,11 @@ mod tests {
         }
     }
 
-    #[test]
-    fn auto_shards_come_from_slurm_arrays_and_indexed_jobs() {
-        let vars = |pairs: &[(&str, &str)]| {
-            let pairs: Vec<(String, String)> = pairs
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect();
-            move |name: &str| {
-                pairs
-                    .iter()
-                    .find(|(k, _)| k == name)
-                    .map(|(_, v)| v.clone())
-            }
-        };
-        let slurm = vars(&[
-            ("SLURM_ARRAY_TASK_ID", "5"),
-            ("SLURM_ARRAY_TASK_MIN", "4"),
-            ("SLURM_ARRAY_TASK_COUNT", "3"),
-        ]);
-        assert_eq!(
-            Shard::from_vars(None, &slurm).unwrap(),
-            Shard { index: 1, count: 3 }
-        );
-        let k8s = vars(&[("JOB_COMPLETION_INDEX", "3")]);
-        assert_eq!(
-            Shard::from_vars(Some(4), &k8s).unwrap(),
-            Shard { index: 3, count: 4 }
-        );
-        let message = |r: Result<Shard>| r.unwrap_err().to_string();
-        assert!(message(Shard::from_vars(None, &k8s)).contains("--shard-count"));
-        assert!(message(Shard::from_vars(Some(3), &k8s)).contains("beyond the last"));
-        assert!(message(Shard::from_vars(None, vars(&[]))).contains("JOB_COMPLETION_INDEX"));
-        let below = vars(&[("SLURM_ARRAY_TASK_ID", "1"), ("SLURM_ARRAY_TASK_MIN", "2")]);
-        assert!(message(Shard::from_vars(Some(2), below)).contains("below"));
-        let bad = vars(&[("SLURM_ARRAY_TASK_ID", "x")]);
-        assert!(message(Shard::from_vars(Some(2), bad)).contains("`x`"));
-    }
-
     /// Shards split the job into contiguous runs of about equal cost that together hold every
     /// pair once.
     #[test]
     fn shards_cover_the_job_once_in_runs_of_about_equal_cost() {
-        let job = |costs: Vec<f64>| Job {
+        let job = |costs: Vec<f64>| Pairs {
             scenes: vec![None; costs.len()],
             stems: Vec::new(),
             names: vec!["v".into()],

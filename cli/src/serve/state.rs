@@ -8,7 +8,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 use raycast::scene::{self, Camera, Lens};
-use raycast::{Gpu, RenderFiles, Result, Scene, ShadeHook, Viewer};
+use raycast::{Gpu, Result, Scene, ShadeHook, Viewer};
 use serde::Serialize;
 
 use super::Options;
@@ -151,28 +151,7 @@ fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>, Vec<PathBuf>)> {
 
 /// The files whose change reloads: the scene file and its meshes, or the mesh file, and the hook.
 fn watched(options: &Options) -> Vec<PathBuf> {
-    let files = RenderFiles {
-        scene: options.scene.clone(),
-        size: None,
-        mode: raycast::Mode {
-            device: raycast::Device::Gpu,
-            precision: options.precision,
-            algorithm: raycast::Algorithm::Robust,
-        },
-        default_precision: false,
-        spp: None,
-        band_rows: None,
-        shader: options.shader.clone(),
-        lit: options.lit,
-        kernel: None,
-        out_dir: PathBuf::new(),
-        encoding: raycast::Encoding::new(&[raycast::Format::Png], None)
-            .expect("png's own outputs are an encoding"),
-        emit_shader: None,
-        view: Default::default(),
-        split: Default::default(),
-    };
-    files.watched_files()
+    crate::watch::watched_files(options.scene.as_deref(), options.shader.as_deref(), None)
 }
 
 /// Paths as given, for the page.

@@ -9,7 +9,7 @@
 //! rendered in tiles.
 //!
 //! f32 results are held to CPU f64 on every pixel whose margin is certain, distances within a
-//! stated bound ([`F32Rule::Bounded`]); where the fusion probe ([`raycast::Gpu::fusion_probe`]) finds
+//! stated bound ([`F32Rule::Bounded`]); where the fusion probe ([`crate::adapter::fusion_probe`]) finds
 //! `a*b - c*d` unfused and the adapter has f64 shaders (for the f64 rechecks the CPU mirror
 //! makes), also to CPU f32 bit for bit ([`F32Rule::Exact`]).
 
@@ -224,9 +224,9 @@ pub struct Adapter {
 }
 
 impl Adapter {
-    /// Probes `gpu` for fusion ([`Gpu::fusion_probe`]) and describes it.
+    /// Probes `gpu` for fusion ([`crate::adapter::fusion_probe`]) and describes it.
     pub fn probe(gpu: &Gpu) -> Result<Adapter> {
-        let fusion = gpu.fusion_probe()?;
+        let fusion = crate::adapter::fusion_probe(gpu)?;
         let f64_support = gpu.has_f64();
         // Without f64 shaders the robust f32 kernel leaves out the f64 rechecks (edge signs,
         // a triangle's t) that the CPU mirror always makes.
@@ -650,12 +650,12 @@ impl MarginCheck {
 
     fn of(scene: &Scene, images: &Images<f32>) -> Result<MarginCheck> {
         let truth = cpu_f64(scene)?;
-        let m = Cpu.f32_margins(scene);
+        let certain = Cpu.certain_in_f32(scene);
         let (mut wrong, mut uncertain, mut worst) = (0, 0, 0.0f64);
-        for (k, margin) in m.iter().enumerate() {
+        for (k, &[hit, id]) in certain.iter().enumerate() {
             let (a, b) = (images.id[k], truth.id[k]);
-            uncertain += usize::from(!margin.certain());
-            if (margin.hit >= 1.0 && (a == MISS) != (b == MISS)) || (margin.certain() && a != b) {
+            uncertain += usize::from(!id);
+            if (hit && (a == MISS) != (b == MISS)) || (id && a != b) {
                 wrong += 1;
             } else if a == b && a != MISS {
                 let d = truth.distance[k];

@@ -1,11 +1,12 @@
-//! What the shader compiler does to `a*b - c*d` on this device: evaluated unfused (two
-//! roundings of products, one of the difference) or contracted into a fused multiply-add. The
-//! robust triangle test is built to be right either way; this tells which way a driver goes.
+//! What `raycast info` says about the adapter ([`describe`]), and the probe it and the
+//! self-test run: what the shader compiler does to `a*b - c*d` on this device
+//! ([`fusion_probe`]), evaluated unfused (two roundings of products, one of the difference) or
+//! contracted into a fused multiply-add. The robust triangle test is built to be right either
+//! way; this tells which way a driver goes.
 
 use wgpu::util::DeviceExt;
 
-use super::Gpu;
-use crate::error::{Error, Result};
+use raycast::{Error, Gpu, Result};
 
 const PROBE_WGSL: &str = "
 @group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;
@@ -74,23 +75,10 @@ fn probe_inputs(samples: usize) -> Vec<[f32; 4]> {
         .collect()
 }
 
-impl Gpu {
-    /// Whether this device fuses `a*b - c*d` into a multiply-add (hardware drivers may;
-    /// lavapipe never does), which decides how closely its f32 renders can match the CPU
-    /// reference's: it runs a small probe kernel.
-    ///
-    /// ```no_run
-    /// let report = raycast::Gpu::new()?.fusion_probe()?;
-    /// println!("a*b - c*d: {}", report.describe());
-    /// # Ok::<(), raycast::Error>(())
-    /// ```
-    pub fn fusion_probe(&self) -> Result<FusionReport> {
-        fusion_probe(self)
-    }
-}
-
-/// Runs the probe kernel on `gpu`.
-fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
+/// Whether `gpu` fuses `a*b - c*d` into a multiply-add (hardware drivers may; lavapipe never
+/// does), which decides how closely its f32 renders can match the CPU reference's: it runs a
+/// small probe kernel.
+pub fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
     let inputs = probe_inputs(4096);
     let device = &gpu.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -170,6 +158,42 @@ fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
         }
     }
     Ok(report)
+}
+
+/// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
+pub fn describe(gpu: &Gpu) -> String {
+    let info = gpu.info();
+    let features = gpu.device.features();
+    let limits = gpu.device.limits();
+    let has = |f: wgpu::Features| if features.contains(f) { "yes" } else { "no" };
+    let mut s = String::new();
+    s += &format!("adapter:      {}\n", info.name);
+    s += &format!("backend:      {:?}\n", info.backend);
+    s += &format!("device type:  {:?}\n", info.device_type);
+    s += &format!("driver:       {}\n", info.driver);
+    s += &format!("driver info:  {}\n", info.driver_info);
+    s += &format!("shader f64:   {}\n", has(wgpu::Features::SHADER_F64));
+    s += &format!("timestamps:   {}\n", has(wgpu::Features::TIMESTAMP_QUERY));
+    s += &format!(
+        "host-mapped buffers: {}\n",
+        has(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
+    );
+    s += &format!(
+        "max storage buffer binding: {} bytes\n",
+        limits.max_storage_buffer_binding_size
+    );
+    s += &format!("max buffer size: {} bytes\n", limits.max_buffer_size);
+    s += &format!(
+        "max workgroups per dimension: {}\n",
+        limits.max_compute_workgroups_per_dimension
+    );
+    s += &format!(
+        "max invocations per workgroup: {}\n",
+        limits.max_compute_invocations_per_workgroup
+    );
+    let fusion = fusion_probe(gpu).map_or_else(|e| e.to_string(), |r| r.describe());
+    s += &format!("f32 a*b - c*d: {fusion}\n");
+    s
 }
 
 #[cfg(test)]
