@@ -49,6 +49,8 @@ pub struct Images<T> {
     /// The fraction of pixels adaptive precision cast again in f64 (`None` for other
     /// precisions).
     pub recast_fraction: Option<f64>,
+    /// Whether adaptive precision cast those pixels again on the GPU (else on the CPU).
+    pub recast_on_gpu: bool,
     /// Wall-clock seconds of each stage of a render asked to be timed
     /// ([`crate::RenderOptions::timed`]) in f32 or f64 at one sample per pixel (`None` for
     /// others).
@@ -126,6 +128,7 @@ impl<T: Real> Images<T> {
             coverage: None,
             kernel_s: None,
             recast_fraction: None,
+            recast_on_gpu: false,
             stages: None,
         }
     }

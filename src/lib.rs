@@ -70,10 +70,8 @@ pub use crate::{
         points::{Closest, Sign},
     },
     rays::{AnyHits, Hits, Ray, RayList},
-    render::files::{RenderFiles, Summary},
     render::options::{Cpu, RenderOptions, Tuning},
     render::viewer::Viewer,
-    render::views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary},
-    render::{AnyImages, Progress, STREAM_PIXELS},
+    render::{AnyImages, Begun, Progress},
     scene::{Orbit, Scene},
 };

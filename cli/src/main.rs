@@ -30,7 +30,7 @@ struct Cli {
     command: Command,
 }
 
-/// What every command's scene argument takes ([`scene::load_sized`]), for its help.
+/// What every command's scene argument takes ([`scene::load_viewed`]), for its help.
 macro_rules! scene_file {
     () => {
         "scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view \
@@ -455,7 +455,7 @@ fn parse_spp(s: &str) -> std::result::Result<u32, String> {
         .parse()
         .map_err(|_| format!("expected a whole number of samples per pixel, got `{s}`"))?;
     let options = RenderOptions {
-        samples_per_pixel,
+        samples_per_pixel: Some(samples_per_pixel),
         ..RenderOptions::default()
     };
     match options.check(Device::Cpu) {
@@ -547,7 +547,7 @@ fn run(command: Command) -> Result<ExitCode> {
                     ),
                 });
             }
-            let spec = raycast::RenderFiles {
+            let spec = raycast_datasets::RenderFiles {
                 scene: if views.is_some() {
                     None
                 } else {
@@ -571,7 +571,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 Some(views) => {
                     if watch {
                         let many = match views {
-                            raycast::Views::Orbit(_) => "--orbit",
+                            raycast_datasets::Views::Orbit(_) => "--orbit",
                             _ => "--views",
                         };
                         return Err(raycast::Error::Argument {
@@ -579,7 +579,7 @@ fn run(command: Command) -> Result<ExitCode> {
                             message: format!("watches one render; not with {many}"),
                         });
                     }
-                    let batch = raycast::RenderViews {
+                    let batch = raycast_datasets::RenderViews {
                         scenes,
                         views,
                         force,
@@ -760,7 +760,7 @@ fn selftest(options: &study::selftest::Options, json: bool) -> Result<ExitCode> 
 }
 
 /// Renders once, or with `watch` again whenever a file it reads changes, for ever.
-fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
+fn render(spec: &raycast_datasets::RenderFiles, watch: bool) -> Result<()> {
     // From the options alone: watch::watched_files would load the scene and its meshes.
     if watch && spec.scene.is_none() && spec.shader.is_none() && spec.kernel.is_none() {
         return Err(raycast::Error::Argument {
@@ -775,7 +775,7 @@ fn render(spec: &raycast::RenderFiles, watch: bool) -> Result<()> {
     // One device for every render, so kernels compiled once stay cached.
     let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
     let render_once = || {
-        let mut summary = progress::cpu_rows(|p| spec.run(gpu.as_ref(), p.as_deref()))?;
+        let mut summary = progress::cpu_rows(|p| spec.run(gpu.as_ref(), p))?;
         // A render in bands reports the process's peak memory, which the bands keep bounded.
         if summary.bands.is_some() {
             summary.peak_mib = raycast_cli::peak_rss_mib();
@@ -816,7 +816,7 @@ fn views_asked(
     radius: Option<f64>,
     elevation: Option<f64>,
     camera: scene::CameraOverrides,
-) -> Result<(Option<raycast::Views>, scene::CameraOverrides)> {
+) -> Result<(Option<raycast_datasets::Views>, scene::CameraOverrides)> {
     let orbit_only = [
         ("--orbit-radius", radius.is_some()),
         ("--orbit-elevation", elevation.is_some()),
@@ -828,7 +828,7 @@ fn views_asked(
         });
     }
     Ok(match (file, orbit) {
-        (Some(file), _) => (Some(raycast::Views::File(file)), camera),
+        (Some(file), _) => (Some(raycast_datasets::Views::File(file)), camera),
         (None, Some(views)) => {
             let orbit = raycast::Orbit {
                 views,
@@ -836,7 +836,10 @@ fn views_asked(
                 elevation,
                 camera,
             };
-            (Some(raycast::Views::Orbit(orbit)), Default::default())
+            (
+                Some(raycast_datasets::Views::Orbit(orbit)),
+                Default::default(),
+            )
         }
         (None, None) => (None, camera),
     })
@@ -845,7 +848,7 @@ fn views_asked(
 /// `raycast render --views | --orbit`: every view of the shard, with a progress bar of views
 /// on a terminal.
 fn render_views(
-    batch: &raycast::RenderViews,
+    batch: &raycast_datasets::RenderViews,
     shard: Option<&str>,
     count: Option<u32>,
 ) -> Result<()> {

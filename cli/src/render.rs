@@ -6,7 +6,8 @@ use std::str::FromStr;
 use std::time::{Duration, Instant};
 
 use raycast::{AnyImages, Cpu, Error, Gpu, RenderOptions, Result, Scene};
-use raycast::{Device, Mode, Precision, Shard, Summary, ViewsSummary};
+use raycast::{Device, Mode, Precision};
+use raycast_datasets::{Shard, Summary, ViewsSummary};
 
 /// A mode as an option writes it, `DEVICE[:PRECISION][:ALGORITHM]`: written without a
 /// precision (`gpu`), the default precision of the render it is used for

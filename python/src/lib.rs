@@ -16,9 +16,9 @@ use raycast::rays::{RayList, RayRows};
 use raycast::scene::Camera;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
-    Hits, Intersections, Mode, Precision, Ray, RenderFiles, RenderOptions, RenderViews, ShadeHook,
-    Sign, ViewRenderer, Viewer, Views,
+    Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
+use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
 fn gpu() -> PyResult<&'static Gpu> {

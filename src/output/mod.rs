@@ -52,7 +52,7 @@ pub enum Format {
 
 impl Format {
     /// Whether the format's files are written whole (they cannot be written in bands of rows).
-    pub(crate) fn whole_only(self) -> bool {
+    pub fn whole_only(self) -> bool {
         matches!(self, Format::Npz | Format::Exr)
     }
 
@@ -65,6 +65,13 @@ impl Format {
             Format::Exr => "exr",
             Format::Depth16 => "depth16",
         }
+    }
+}
+
+impl std::fmt::Display for Format {
+    /// Its name, as [`Format::from_str`] reads it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -301,6 +308,26 @@ pub(crate) fn png_pictures<T: Real>(
         ));
     }
     set
+}
+
+/// Writes the folder `folder` whole or not at all: `write` fills a temporary folder beside it
+/// (its parent folders created), which then replaces `folder` (a folder there is moved aside,
+/// then removed); at an error, or at an interruption ([`remove_partial_files`]), the temporary
+/// folder is removed. Returns what `write` returned.
+pub fn write_folder<T>(folder: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    let temporary = pending::temp_path(folder)?;
+    if let Some(parent) = temporary.parent() {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| Error::io(parent, format!("cannot create folder: {e}")))?;
+    }
+    pending::create_dir(&temporary)?;
+    match write(&temporary) {
+        Ok(value) => pending::place_dir(&temporary, folder).map(|()| value),
+        Err(e) => {
+            pending::discard_dir(&temporary);
+            Err(e)
+        }
+    }
 }
 
 /// Encodes (see [`encode`]) and writes into `dir`, all files or none; returns the files

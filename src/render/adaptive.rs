@@ -40,6 +40,7 @@ pub(crate) struct Adaptive {
 
 impl Adaptive {
     /// Fraction of pixels re-cast in f64 ([`Images::recast_fraction`]).
+    #[cfg(test)]
     pub(crate) fn recast_fraction(&self) -> f64 {
         self.images.recast_fraction.unwrap_or(0.0)
     }

@@ -1,21 +1,20 @@
-//! One entry point for every way of rendering, in every [`Mode`] ([`render`]), and the policy
-//! of a render to files ([`RenderFiles`]: whole or in bands, supersampled, adaptive).
+//! One entry point for every way of rendering, in every [`Mode`] ([`render`]): whole, in steps
+//! ([`Begun`]) or in bands ([`render_streamed`]).
 
 pub(crate) mod adaptive;
-pub(crate) mod files;
 pub(crate) mod memory;
 pub(crate) mod options;
-pub(crate) mod record;
 pub(crate) mod supersample;
 pub(crate) mod viewer;
-pub(crate) mod views;
 
 pub(crate) use crate::mode::{Device, Mode, Precision};
 pub(crate) use options::{Cpu, Tuning};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::time::{Duration, Instant};
+#[cfg(test)]
+use std::time::Duration;
+use std::time::Instant;
 
 use crate::algorithm::Algorithm;
 use crate::cpu;
@@ -129,6 +128,26 @@ impl AnyImages {
             AnyImages::F32(i) => i.kernel_s = kernel_s,
             AnyImages::F64(i) => i.kernel_s = kernel_s,
         }
+    }
+}
+
+impl Encoding {
+    /// Writes the files of a render of `camera` into `dir` in bands of rows, as `render` hands
+    /// them to the sink it is given, from the top (a [`Gpu::render_bands`] call, say), holding
+    /// one band at a time; returns the files, placed all or none, and what `render` returned.
+    /// Formats written whole ([`crate::Format::whole_only`]) are not.
+    pub fn write_bands<T>(
+        &self,
+        dir: &Path,
+        camera: &Camera,
+        render: impl FnOnce(&mut dyn FnMut(AnyImages) -> Result<()>) -> Result<T>,
+    ) -> Result<(Vec<PathBuf>, T)> {
+        let mut writer = output::stream::BandWriter::new(dir, self, camera)?;
+        let value = render(&mut |band| match band {
+            AnyImages::F32(i) => writer.write_band(&i),
+            AnyImages::F64(i) => writer.write_band(&i),
+        })?;
+        Ok((writer.finish()?, value))
     }
 }
 
@@ -259,17 +278,15 @@ fn dispatch(
     request: &Request,
     timed: bool,
 ) -> Result<(AnyImages, Option<f64>)> {
-    let begun = begin(scene, mode, gpu, progress, request, timed)?;
-    begun.complete(gpu, scene).map(|o| (o.images, o.kernel_s))
+    let start = begin(scene, mode, gpu, progress, request, timed)?;
+    start.complete(gpu, scene).map(|o| (o.images, o.kernel_s))
 }
 
-/// A render of one scene and camera, whole: its images, the GPU kernel's time where it was
-/// timed and the device can tell, and for adaptive precision the fraction of pixels re-cast
-/// in f64 and whether on the GPU.
+/// A render of one scene and camera, whole: its images, and the GPU kernel's time where it was
+/// timed and the device can tell.
 pub(crate) struct Outcome {
     pub images: AnyImages,
     pub kernel_s: Option<f64>,
-    pub recast: Option<(f64, bool)>,
 }
 
 impl Outcome {
@@ -277,29 +294,100 @@ impl Outcome {
         Outcome {
             images,
             kernel_s: None,
-            recast: None,
         }
+    }
+
+    /// The images, with the kernel's time.
+    pub(crate) fn timed_images(self) -> AnyImages {
+        let mut images = self.images;
+        images.set_kernel_s(self.kernel_s);
+        images
     }
 }
 
 /// A render [`begin`] started: done on the host, or prepared for the device, whose kernel is
 /// still to run.
-pub(crate) enum Begun {
+pub(crate) enum Start {
     Done(Outcome),
     Device(OnDevice),
 }
 
-impl Begun {
+impl Start {
     /// The render whole: the device's part run, and finished with `scene`, the scene `begin`
     /// prepared (the same camera).
     pub(crate) fn complete(self, gpu: Option<&Gpu>, scene: &Scene) -> Result<Outcome> {
         match self {
-            Begun::Done(outcome) => Ok(outcome),
-            Begun::Device(work) => {
+            Start::Done(outcome) => Ok(outcome),
+            Start::Device(work) => {
                 let gpu = device(gpu)?;
                 work.run(gpu)?.finish(gpu, scene)
             }
         }
+    }
+}
+
+/// A render on the GPU in steps ([`Gpu::begin`]): prepared on the host, its kernel run on the
+/// device ([`Begun::run`], on any thread), then finished on the host ([`Begun::finish`]), so
+/// that a caller prepares the next render while the device runs this one's kernel.
+pub struct Begun(Step);
+
+/// Where a [`Begun`] render stands.
+enum Step {
+    /// Rendered whole already (a supersampled render).
+    Done(AnyImages),
+    OnDevice(OnDevice),
+    OnHost(Box<OnHost>),
+}
+
+impl Begun {
+    /// A render started by [`begin`] on the GPU.
+    pub(crate) fn of(start: Start) -> Begun {
+        Begun(match start {
+            Start::Done(outcome) => Step::Done(outcome.timed_images()),
+            Start::Device(work) => Step::OnDevice(work),
+        })
+    }
+
+    /// A render done whole already.
+    pub(crate) fn done(images: AnyImages) -> Begun {
+        Begun(Step::Done(images))
+    }
+
+    /// Runs the kernel and reads its outputs back (nothing where that is done).
+    pub fn run(self, gpu: &Gpu) -> Result<Begun> {
+        Ok(Begun(match self.0 {
+            Step::OnDevice(work) => Step::OnHost(Box::new(work.run(gpu)?)),
+            step => step,
+        }))
+    }
+
+    /// The images: the kernel run where it has not been, then the render finished with
+    /// `scene`, the scene [`Gpu::begin`] was given (adaptive precision casts its uncertain
+    /// pixels again from it).
+    pub fn finish(self, gpu: &Gpu, scene: &Scene) -> Result<AnyImages> {
+        let ran = match self.0 {
+            Step::Done(images) => return Ok(images),
+            Step::OnDevice(work) => work.run(gpu)?,
+            Step::OnHost(ran) => *ran,
+        };
+        ran.finish(gpu, scene).map(Outcome::timed_images)
+    }
+}
+
+impl Mode {
+    /// Refuses a kernel file (`kernel`) or a shade hook colouring `color.png` (`shade`) in this
+    /// mode other than on the GPU in f32 or f64, as [`crate::RenderOptions::check`] does: for a
+    /// caller that checks its options before it reads their files.
+    pub fn check_kernels(self, kernel: bool, shade: bool) -> Result<()> {
+        check_kernels(self, kernel, shade)
+    }
+
+    /// Refuses a render of `size` pixels of `spp` samples each held whole in this mode's
+    /// precision (with a shade hook's colours where `shaded`) whose images need more memory
+    /// than this process may use (docs/cli.md#limits); `bands` says whether it could go in
+    /// bands instead, which the error then advises.
+    pub fn check_memory(self, size: [u32; 2], spp: u32, shaded: bool, bands: bool) -> Result<()> {
+        memory::check_whole_render(size, spp, self.precision, shaded, bands)
     }
 }
 
@@ -314,7 +402,7 @@ pub(crate) fn begin(
     progress: Option<&Progress>,
     request: &Request,
     timed: bool,
-) -> Result<Begun> {
+) -> Result<Start> {
     check_request(mode, request)?;
     let shaded = request.shade.is_some() && request.outputs.color;
     let bands = request.kernel.is_none();
@@ -331,14 +419,14 @@ pub(crate) fn begin(
         };
         let variant = adaptive::certainty_variant(gpu, scene);
         let pass = Kernel::prepare(scene, variant, timed, None)?;
-        return Ok(Begun::Device(OnDevice::Adaptive(pass)));
+        return Ok(Start::Device(OnDevice::Adaptive(pass)));
     }
     match mode.device {
         Device::Gpu => {
             let gpu = device(gpu)?;
             let variant = request.kernel_variant(gpu, scene, mode)?;
             let rows = request.tuning.tile_rows;
-            Ok(Begun::Device(match mode.precision {
+            Ok(Start::Device(match mode.precision {
                 Precision::F32 => OnDevice::F32(Kernel::prepare(scene, variant, timed, rows)?),
                 _ => OnDevice::F64(Kernel::prepare(scene, variant, timed, rows)?),
             }))
@@ -353,7 +441,7 @@ pub(crate) fn begin(
                 }
                 _ => AnyImages::F64(cpu_render(scene, algorithm, search, progress, lit, timed)),
             };
-            Ok(Begun::Done(Outcome::of(images)))
+            Ok(Start::Done(Outcome::of(images)))
         }
     }
 }
@@ -412,11 +500,13 @@ impl OnHost {
                 let (first, prepared, timed) = (ran.rendered, ran.prepared, ran.timed);
                 let cpu_recast = adaptive::CPU_RECAST_PIXELS;
                 let a = adaptive::recast(gpu, scene, first, &prepared, timed, cpu_recast)?;
-                let recast = Some((a.recast_fraction(), a.recast_on_gpu));
+                let images = Images {
+                    recast_on_gpu: a.recast_on_gpu,
+                    ..a.images
+                };
                 Outcome {
                     kernel_s: a.kernel_s,
-                    recast,
-                    ..Outcome::of(AnyImages::F32(a.images))
+                    ..Outcome::of(AnyImages::F32(images))
                 }
             }
         })
@@ -565,15 +655,6 @@ fn with_layout<T>(stages: Stages, primitives: &Primitives<T>, triangle_bytes: us
     }
 }
 
-/// Images above this many pixels are rendered and written in bands of rows
-/// (`render_streamed`), holding one band at a time.
-pub const STREAM_PIXELS: u64 = 1 << 24;
-
-/// Rows per band for a streamed render `width` pixels wide: about four million pixels.
-pub(crate) fn band_rows(width: u32) -> u32 {
-    ((1u32 << 22) / width.max(1)).max(1)
-}
-
 /// Whether [`render_streamed`] can render `mode`: a GPU kernel in f32 or f64.
 pub(crate) fn can_stream(mode: Mode) -> bool {
     mode.device == Device::Gpu && mode.precision != Precision::Adaptive
@@ -656,6 +737,7 @@ fn cpu_render<T: crate::math::Real>(
 }
 
 /// Wall time of `f`.
+#[cfg(test)]
 pub(crate) fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
     let start = Instant::now();
     let value = f();

@@ -3,14 +3,15 @@
 
 use std::sync::Arc;
 
-use super::{AnyImages, Device, Mode, Precision, Progress, Request, render_streamed, supersample};
+use super::{AnyImages, Begun, Device, Mode, Precision, Progress, Request};
+use super::{adaptive, render_streamed, supersample};
 use crate::algorithm::Algorithm;
 use crate::cpu::margin::margins;
 use crate::error::{Error, Result};
-use crate::gpu::Gpu;
 use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
-use crate::gpu::shader::{Kinds, MAX_LANE_RAYS, Variant, chunks_for};
+use crate::gpu::shader::{self, Kinds, MAX_LANE_RAYS, Variant, chunks_for};
+use crate::gpu::{self, Gpu};
 use crate::images::Outputs;
 use crate::prepare::Prepared;
 use crate::prepare::bvh::Search;
@@ -41,9 +42,9 @@ pub struct RenderOptions {
     /// The images wanted. The GPU's f32 and f64 kernels compute only these; adaptive
     /// precision and the CPU compute every one.
     pub outputs: Outputs,
-    /// Samples per pixel, a perfect square (1: one ray through each pixel's centre). Above 1
-    /// the images are reduced to one pixel each with their [`crate::images::Coverage`].
-    pub samples_per_pixel: u32,
+    /// Samples per pixel, a perfect square, the images reduced to one pixel each with their
+    /// [`crate::images::Coverage`]; `None`: one ray through each pixel's centre, no coverage.
+    pub samples_per_pixel: Option<u32>,
     /// A shade hook colouring [`crate::Images::color`] (with `outputs.color`): any hook on the
     /// GPU in f32 or f64; on the CPU only the course's ray tracer
     /// ([`ShadeHook::raytrace`]), by its mirror.
@@ -132,7 +133,7 @@ impl Default for RenderOptions {
             precision: None,
             algorithm: Algorithm::Robust,
             outputs: Outputs::ALL,
-            samples_per_pixel: 1,
+            samples_per_pixel: None,
             shade: None,
             kernel: None,
             timed: false,
@@ -160,10 +161,12 @@ impl RenderOptions {
     /// in f32 or f64 (the CPU runs the course's ray tracer's mirror), tuning with adaptive
     /// precision.
     pub fn check(&self, device: Device) -> Result<()> {
-        supersample::side(self.samples_per_pixel).map_err(|message| Error::Argument {
-            option: "samples_per_pixel".into(),
-            message,
-        })?;
+        if let Some(spp) = self.samples_per_pixel {
+            supersample::side(spp).map_err(|message| Error::Argument {
+                option: "samples_per_pixel".into(),
+                message,
+            })?;
+        }
         super::check_request(self.mode(device), &self.request())
     }
 
@@ -178,23 +181,16 @@ impl RenderOptions {
 
     fn render(&self, scene: &Scene, mode: Mode, gpu: Option<&Gpu>) -> Result<AnyImages> {
         let request = self.request();
-        if self.samples_per_pixel == 1 {
-            let progress = self.progress.as_deref();
-            let (mut images, kernel_s) =
-                super::dispatch(scene, mode, gpu, progress, &request, self.timed)?;
-            images.set_kernel_s(kernel_s);
-            return Ok(images);
-        }
         let progress = self.progress.as_deref();
-        supersample::supersample_request(
-            scene,
-            mode,
-            gpu,
-            self.samples_per_pixel,
-            progress,
-            &request,
-            self.timed,
-        )
+        match self.samples_per_pixel {
+            None => {
+                let start = super::begin(scene, mode, gpu, progress, &request, self.timed)?;
+                start.complete(gpu, scene).map(super::Outcome::timed_images)
+            }
+            Some(spp) => supersample::supersample_request(
+                scene, mode, gpu, spp, progress, &request, self.timed,
+            ),
+        }
     }
 }
 
@@ -209,12 +205,63 @@ impl Gpu {
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn render(&self, scene: &Scene, options: &RenderOptions) -> Result<AnyImages> {
-        options.render(scene, options.mode(Device::Gpu), Some(self))
+        self.begin(scene, options)?.finish(self, scene)
+    }
+
+    /// Begins the render of `scene`'s camera on this GPU ([`Gpu::render`] in steps): every
+    /// check made, the kernel chosen and the scene prepared for it, the kernel still to run
+    /// (a supersampled render is done whole here).
+    ///
+    /// ```no_run
+    /// use raycast::{Gpu, RenderOptions, Scene};
+    /// let (gpu, options) = (Gpu::new()?, RenderOptions::default());
+    /// let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
+    /// let begun = gpu.begin(&scene, &options)?;
+    /// let ran = std::thread::scope(|s| s.spawn(|| begun.run(&gpu)).join().unwrap())?;
+    /// let images = ran.finish(&gpu, &scene)?;
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
+    pub fn begin(&self, scene: &Scene, options: &RenderOptions) -> Result<Begun> {
+        let mode = options.mode(Device::Gpu);
+        let (request, progress) = (options.request(), options.progress.as_deref());
+        let timed = options.timed;
+        match options.samples_per_pixel {
+            None => super::begin(scene, mode, Some(self), progress, &request, timed).map(Begun::of),
+            Some(spp) => {
+                let gpu = Some(self);
+                supersample::supersample_request(scene, mode, gpu, spp, progress, &request, timed)
+                    .map(Begun::done)
+            }
+        }
+    }
+
+    /// The kernel a render of `scene` with `options` runs first (adaptive precision's f32
+    /// certainty pass, which writes every output), as the WGSL source `kernel` takes back; a
+    /// `kernel` whose bindings do not fit is refused.
+    pub fn kernel_source(&self, scene: &Scene, options: &RenderOptions) -> Result<String> {
+        let mode = options.mode(Device::Gpu);
+        let variant = match mode.precision {
+            Precision::Adaptive => adaptive::certainty_variant(self, scene),
+            _ => {
+                let spp = options.samples_per_pixel.unwrap_or(1);
+                let request = supersample::sample_request(&options.request(), spp);
+                let variant = request.kernel_variant(self, scene, mode)?;
+                // Sized for the samples the render casts, as the render of the samples' scene is.
+                variant.for_rays(scene.camera.pixel_count() * u64::from(spp))
+            }
+        };
+        // A user's kernel is its own text, whatever the scene.
+        let ran = match variant.kernel {
+            Some(_) => variant,
+            None => gpu::dispatch::as_run(scene, variant),
+        };
+        shader::kernel_source(&ran)
     }
 
     /// Renders `scene`'s camera in bands of at most `rows` rows, handing each band to `band`
     /// from the top as soon as it is read back, so that one band is held at a time: for
-    /// images larger than memory. GPU, f32 or f64, one sample per pixel.
+    /// images larger than memory. GPU, f32 or f64, one sample per pixel. Returns the rays the
+    /// shade hook cast, where it casts any.
     ///
     /// ```no_run
     /// use raycast::{Gpu, RenderOptions, Scene};
@@ -232,12 +279,12 @@ impl Gpu {
         options: &RenderOptions,
         rows: u32,
         band: &mut dyn FnMut(AnyImages) -> Result<()>,
-    ) -> Result<()> {
+    ) -> Result<Option<u64>> {
         let mut mode = options.mode(Device::Gpu);
         if options.precision.is_none() {
             mode.precision = Precision::F32;
         }
-        render_streamed(scene, mode, self, &options.request(), rows.max(1), band).map(|_| ())
+        render_streamed(scene, mode, self, &options.request(), rows.max(1), band)
     }
 }
 

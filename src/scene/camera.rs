@@ -221,17 +221,6 @@ impl CameraOverrides {
         *self == CameraOverrides::default()
     }
 
-    /// The names of the settings given.
-    pub(crate) fn given(&self) -> Vec<&'static str> {
-        let given = [
-            ("eye", self.eye.is_some()),
-            ("look_at", self.look_at.is_some()),
-            ("up", self.up.is_some()),
-            ("fov", self.fov.is_some()),
-        ];
-        given.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect()
-    }
-
     fn refuse(option: &str, message: impl Into<String>) -> Error {
         Error::Argument {
             option: option.into(),

@@ -205,17 +205,20 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
 /// A view of a views file (`--views`): its name and its camera, checked as a scene's camera
 /// is except for what the scene's objects decide ([`ViewCamera::camera`]).
 #[derive(Debug, Clone)]
-pub(crate) struct ViewCamera {
+pub struct ViewCamera {
+    /// Its name, the folder its files go in.
     pub name: String,
+    /// The resolution it gives, if any.
+    pub resolution: Option<[u32; 2]>,
     /// Its place in the file, which errors name (`[3].fov`).
     index: usize,
     camera: CameraFile,
 }
 
-/// The views of a views file: a JSON list of cameras in any form a scene's camera takes, each
-/// with a `name`. Every camera is checked here against no objects, so a bad field is refused
-/// before anything renders.
-pub(crate) fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
+/// The views of a views file (`file`, which errors name): a JSON list of cameras in any form a
+/// scene's camera takes, each with a `name` (docs/datasets.md). Every camera is checked here
+/// against no objects, so a bad field is refused before anything renders.
+pub fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
     let cameras: Vec<CameraFile> =
         deserialize(text, file).map_err(|e| wrong_shape(text, file, Shape::Views).unwrap_or(e))?;
     if cameras.is_empty() {
@@ -231,6 +234,7 @@ pub(crate) fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
         .map(|(index, camera)| match camera.name.clone() {
             Some(name) => Ok(ViewCamera {
                 name,
+                resolution: camera.resolution,
                 index,
                 camera,
             }),
@@ -248,14 +252,9 @@ pub(crate) fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
 }
 
 impl ViewCamera {
-    /// The resolution the view asks for, if it gives one.
-    pub(crate) fn resolution(&self) -> Option<[u32; 2]> {
-        self.camera.resolution
-    }
-
     /// The camera of this view for a scene of `objects` (which set a field-of-view or
     /// intrinsics camera's default `near`); `file` is the views file, for errors.
-    pub(crate) fn camera(&self, file: &Path, objects: &[Object]) -> Result<Camera> {
+    pub fn camera(&self, file: &Path, objects: &[Object]) -> Result<Camera> {
         let under = format!("[{}]", self.index);
         Checker {
             file,

@@ -7,7 +7,7 @@
 mod camera;
 mod file;
 pub(crate) use file::MAX_MAGNITUDE;
-pub(crate) use file::{ViewCamera, parse_views};
+pub use file::{ViewCamera, parse_views};
 mod mesh;
 mod orbit;
 
@@ -25,12 +25,15 @@ pub use mesh::{MeshPart, Split, load_mesh, parse_mesh};
 pub use orbit::Orbit;
 
 /// The image size used when neither the scene nor the command line gives one (the course's).
-pub(crate) const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
+pub const DEFAULT_RESOLUTION: [u32; 2] = [640, 360];
 
 /// The built-in scene `raycast render` uses when given no scene file.
 pub(crate) const DEFAULT_SCENE_JSON: &str = include_str!("../../scenes/default.json");
 /// The mesh the default scene refers to as `bunny.stl` (the course's bunny).
 pub(crate) const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny.stl");
+/// The built-in scene's files, as [`load_viewed`] reads them without a path: its scene file
+/// and its mesh.
+pub const DEFAULT_SCENE_FILES: [&[u8]; 2] = [DEFAULT_SCENE_JSON.as_bytes(), DEFAULT_SCENE_BUNNY];
 
 /// One triangle by its corners, in the order that fixes its normal.
 pub type Triangle = [Vec3<f64>; 3];
@@ -154,15 +157,18 @@ impl Lighting {
             self.object_values.get(k).copied().unwrap_or_default(),
         )
     }
+}
 
+impl std::fmt::Display for Lighting {
     /// What the scene gives, e.g. `2 lights, 5 materials, a material on 8 objects`.
-    pub(crate) fn summary(&self) -> String {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let plural = |n: usize, what: &str| match n {
             1 => format!("1 {what}"),
             n => format!("{n} {what}s"),
         };
         let with = self.object_materials.iter().flatten().count();
-        format!(
+        write!(
+            f,
             "{}, {}, a material on {}",
             plural(self.lights.len(), "light"),
             plural(self.materials.len(), "material"),
@@ -193,16 +199,11 @@ pub fn bounds<'a>(objects: impl IntoIterator<Item = &'a Object>) -> Option<(DVec
 }
 
 /// The scene of `path` ([`Scene::load`]; a mesh file, `.obj`, `.stl` or `.ply`, is a scene of
-/// that mesh alone, `Scene::of_mesh`, an object for each OBJ object), or without one the
-/// built-in default scene, with its resolution replaced by `size` where given (`--size`): the
-/// command line's loader.
-pub fn load_sized(path: Option<&Path>, size: Option<[u32; 2]>) -> Result<Scene> {
-    load_viewed(path, size, &CameraOverrides::default(), Split::default())
-}
-
-/// [`load_sized`] with the camera's settings replaced by `view`'s ([`CameraOverrides`]; for a
-/// mesh file they replace those of its default view), a mesh file split as `split` asks.
-pub(crate) fn load_viewed(
+/// that mesh alone, `Scene::of_mesh`, its parts objects as `split` asks), or without one the
+/// built-in default scene, with its resolution replaced by `size` where given (`--size`) and
+/// its camera's settings by `view`'s ([`CameraOverrides`]; for a mesh file they replace those
+/// of its default view): the command line's loader.
+pub fn load_viewed(
     path: Option<&Path>,
     size: Option<[u32; 2]>,
     view: &CameraOverrides,
@@ -225,7 +226,7 @@ pub(crate) fn load_viewed(
 }
 
 /// Whether `path` names a mesh file (`.obj`, `.stl`, `.ply`, any case) rather than a scene.
-pub(crate) fn is_mesh_file(path: &Path) -> bool {
+pub fn is_mesh_file(path: &Path) -> bool {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     ["obj", "stl", "ply"]
         .iter()

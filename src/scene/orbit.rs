@@ -8,7 +8,7 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 use glam::DVec3;
 
 use super::camera::{default_depth_white, default_near};
-use super::{Camera, CameraOverrides, Lens, MAX_MAGNITUDE, Object, Projection, Triangle};
+use super::{Camera, CameraOverrides, Lens, MAX_MAGNITUDE, Object, Projection, Scene, Triangle};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
@@ -150,7 +150,7 @@ impl Default for Orbit {
 
 impl Orbit {
     /// Refuses settings out of range, naming them.
-    pub(crate) fn check(&self) -> Result<()> {
+    fn check(&self) -> Result<()> {
         let refuse = |option: &str, message: String| {
             Err(Error::Argument {
                 option: option.into(),
@@ -179,24 +179,29 @@ impl Orbit {
         self.camera.check()
     }
 
-    /// The views' names: `orbit-000`, ... (more digits past 1000).
-    pub(crate) fn names(&self) -> Vec<String> {
+    /// The views' names, `orbit-000`, ... (more digits past 1000), once the settings are
+    /// checked: an error names one out of range.
+    pub fn names(&self) -> Result<Vec<String>> {
+        self.check()?;
         let width = (self.views - 1).to_string().len().max(3);
-        (0..self.views)
+        Ok((0..self.views)
             .map(|k| format!("orbit-{k:0width$}"))
-            .collect()
+            .collect())
     }
 
-    /// Every view's camera for a scene of `objects` whose own camera is `base`; `bounded` is
-    /// the box of its spheres and triangles, `all` that of every object
+    /// Every view's camera for `scene`, whose own camera is the orbit's start
     /// (docs/datasets.md#orbits). The ring is found once for all the views.
-    pub(crate) fn cameras(
-        &self,
-        base: &Camera,
-        objects: &[Object],
-        [bounded, all]: [Option<Bounds>; 2],
-    ) -> Result<Vec<Camera>> {
-        let start = self.start(base)?;
+    pub fn cameras(&self, scene: &Scene) -> Result<Vec<Camera>> {
+        let objects = &scene.objects;
+        // The box of the spheres and triangles (the orbit's sphere), and of every object (a
+        // camera's default `near`).
+        let bounded = super::bounds(
+            objects
+                .iter()
+                .filter(|o| !matches!(o, Object::Plane { .. })),
+        );
+        let all = super::bounds(objects);
+        let start = self.start(&scene.camera)?;
         let ring = self.ring(&start, objects, bounded, all);
         (0..self.views)
             .map(|k| self.view(&start, &ring, all, k))

@@ -22,5 +22,4 @@ mod specialized_kernels;
 mod supersample;
 mod tiling;
 mod timing;
-mod views;
 mod wide_subgroups;

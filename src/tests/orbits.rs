@@ -6,7 +6,7 @@
 use super::common;
 
 use raycast::scene::{Lens, Object, Orbit};
-use raycast::{Cpu, Precision, RenderOptions, Scene, Views};
+use raycast::{Cpu, Precision, RenderOptions, Scene};
 
 /// The share of `scene`'s pixels whose id is a sphere or triangles, not a plane.
 fn bounded_share(scene: &Scene) -> f64 {
@@ -23,11 +23,14 @@ fn bounded_share(scene: &Scene) -> f64 {
     bounded as f64 / id.len() as f64
 }
 
-/// Each view of `views` of `scene` at 64x36 pixels, with its share of bounded pixels.
-fn shares(scene: &Scene, views: &Views) -> Vec<(String, f64)> {
-    let cameras = views.cameras(scene).unwrap();
-    cameras
+/// Each view of `orbit` of `scene` at 64x36 pixels, with its share of bounded pixels.
+fn shares(scene: &Scene, orbit: &Orbit) -> Vec<(String, f64)> {
+    let cameras = orbit
+        .names()
+        .unwrap()
         .into_iter()
+        .zip(orbit.cameras(scene).unwrap());
+    cameras
         .map(|(name, mut camera)| {
             camera.resolution = [64, 36];
             let view = Scene {
@@ -41,10 +44,10 @@ fn shares(scene: &Scene, views: &Views) -> Vec<(String, f64)> {
 
 #[test]
 fn every_view_of_an_orbit_sees_the_bounded_objects_of_every_course_scene() {
-    let orbit = Views::Orbit(Orbit {
+    let orbit = Orbit {
         views: 24,
         ..Orbit::default()
-    });
+    };
     for path in common::scene_files("scenes/course") {
         let scene = Scene::load(&path).unwrap();
         for (name, share) in shares(&scene, &orbit) {
@@ -70,12 +73,13 @@ fn a_closed_room_brings_the_eye_nearer_with_the_image_plane_before_the_objects()
     };
     scene.objects.push(plane([0.0, 0.0, 1.6], [0.0, 0.0, -1.0]));
     scene.camera.eye = [0.0, 0.0, 1.5].into();
-    let views = Views::Orbit(Orbit {
+    let views = Orbit {
         views: 8,
         ..Orbit::default()
-    });
+    };
     let bunny = raycast::scene::bounds(&scene.objects[..1]).unwrap();
-    for (name, camera) in views.cameras(&scene).unwrap() {
+    let names = views.names().unwrap();
+    for (name, camera) in names.into_iter().zip(views.cameras(&scene).unwrap()) {
         let e = camera.eye;
         let inside = e.x.abs() < 1.0 && e.y.abs() < 1.0 && e.z > -1.0 && e.z < 1.6;
         assert!(inside, "{name}: eye {} outside the room", camera.eye);

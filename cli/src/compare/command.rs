@@ -48,9 +48,19 @@ impl Spec {
     /// Renders both sides, compares them and writes the pictures. `gpu` is needed where a
     /// side is a GPU mode.
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Outcome> {
-        let scene_a = scene::load_sized(Some(&self.scene), self.size)?;
+        let scene_a = scene::load_viewed(
+            Some(&self.scene),
+            self.size,
+            &Default::default(),
+            Default::default(),
+        )?;
         let mut scene_b = match &self.b_scene {
-            Some(path) => scene::load_sized(Some(path), self.size)?,
+            Some(path) => scene::load_viewed(
+                Some(path),
+                self.size,
+                &Default::default(),
+                Default::default(),
+            )?,
             None => scene_a.clone(),
         };
         // Side b must be comparable pixel for pixel.

@@ -144,7 +144,12 @@ impl Shared {
 
 /// The scene (or mesh) and the hook of `options`, and the files they were read from.
 fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>, Vec<PathBuf>)> {
-    let scene = scene::load_sized(options.scene.as_deref(), options.size)?;
+    let scene = scene::load_viewed(
+        options.scene.as_deref(),
+        options.size,
+        &Default::default(),
+        Default::default(),
+    )?;
     let hook = ShadeHook::requested(options.lit, options.shader.as_deref())?;
     Ok((scene, hook, watched(options)))
 }

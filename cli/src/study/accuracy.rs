@@ -187,7 +187,12 @@ pub fn run(
     let mut scenes = Vec::with_capacity(paths.len());
     let mut infos = Vec::with_capacity(paths.len());
     for path in paths {
-        let scene = raycast::scene::load_sized(Some(path), options.size)?;
+        let scene = raycast::scene::load_viewed(
+            Some(path),
+            options.size,
+            &Default::default(),
+            Default::default(),
+        )?;
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         infos.push(SceneInfo::from_json(path, &text));
         scenes.push(scene);

@@ -30,11 +30,12 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{Stream, Table, format_seconds, median, plural};
+use raycast::Viewer;
 use raycast::images::MISS;
 use raycast::scene::{Camera, Object, Scene};
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 use raycast::{Device, Mode, Precision};
-use raycast::{Viewer, Views};
+use raycast_datasets::Views;
 
 /// `--runs` unless given.
 pub const DEFAULT_RUNS: usize = 5;
@@ -196,7 +197,8 @@ impl Loaded {
 /// view at `size`). Views of different sizes are refused: a row has one size.
 pub fn load(path: &Path, size: Option<[u32; 2]>, views: Option<&Views>) -> Result<Loaded> {
     let start = Instant::now();
-    let scene = raycast::scene::load_sized(Some(path), size)?;
+    let scene =
+        raycast::scene::load_viewed(Some(path), size, &Default::default(), Default::default())?;
     let load_s = start.elapsed().as_secs_f64();
     let views = views
         .map(|views| view_cameras(views, &scene, size))
@@ -675,15 +677,15 @@ pub fn run(
 }
 
 /// A frame is rendered whole (bench times whole frames, not bands): at most
-/// [`raycast::STREAM_PIXELS`] pixels.
+/// [`raycast_datasets::STREAM_PIXELS`] pixels.
 fn check_size(loaded: &Loaded, options: &Options) -> Result<()> {
     let [w, h] = loaded.size();
-    if options.rays.is_none() && u64::from(w) * u64::from(h) > raycast::STREAM_PIXELS {
+    if options.rays.is_none() && u64::from(w) * u64::from(h) > raycast_datasets::STREAM_PIXELS {
         return Err(Error::Argument {
             option: "--size".into(),
             message: format!(
                 "{w}x{h}: bench renders each frame whole, of at most {} pixels; give a smaller --size",
-                raycast::STREAM_PIXELS
+                raycast_datasets::STREAM_PIXELS
             ),
         });
     }

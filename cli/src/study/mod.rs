@@ -287,7 +287,12 @@ pub fn load_scenes(paths: &[PathBuf], size: Option<[u32; 2]>) -> Result<Vec<Name
         .map(|path| {
             Ok(NamedScene {
                 name: scene_name(path),
-                scene: raycast::scene::load_sized(Some(path), size)?,
+                scene: raycast::scene::load_viewed(
+                    Some(path),
+                    size,
+                    &Default::default(),
+                    Default::default(),
+                )?,
             })
         })
         .collect()

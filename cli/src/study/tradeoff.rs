@@ -159,7 +159,7 @@ impl Row {
 fn check(options: &Options, gpu: Option<&Gpu>) -> Result<()> {
     for &samples_per_pixel in &options.spp {
         let spp = RenderOptions {
-            samples_per_pixel,
+            samples_per_pixel: Some(samples_per_pixel),
             ..RenderOptions::default()
         };
         crate::render::check(SUPERSAMPLED_MODE, spp)?;
@@ -215,7 +215,7 @@ fn measure_scene(
             s.name
         ));
         let fine = RenderOptions {
-            samples_per_pixel: REFERENCE_SPP,
+            samples_per_pixel: Some(REFERENCE_SPP),
             ..RenderOptions::default()
         };
         let r = render(scene, REFERENCE, gpu, fine)?;
@@ -285,7 +285,8 @@ struct Frame {
 /// Renders `scene` in `mode` at `spp` samples per pixel (reduced as `--spp` does), timed.
 fn render_frame(scene: &Scene, mode: Mode, spp: u32, gpu: Option<&Gpu>) -> Result<Frame> {
     let options = RenderOptions {
-        samples_per_pixel: spp,
+        // One sample: the plain render, without coverage.
+        samples_per_pixel: (spp > 1).then_some(spp),
         timed: true,
         ..RenderOptions::default()
     };

@@ -44,11 +44,14 @@ pub(crate) fn file_names(dir: &Path) -> Vec<String> {
     names
 }
 
-/// The repository's root: the library's folder, above the command line's (cli/).
+/// The repository's root: the library's folder, above the command line's (cli/) and the
+/// datasets' (datasets/).
 pub(crate) fn repo_root() -> &'static Path {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     match env!("CARGO_PKG_NAME") {
-        "raycast-cli" => manifest.parent().expect("cli/ is in the repository"),
+        "raycast-cli" | "raycast-datasets" => manifest
+            .parent()
+            .expect("cli/ and datasets/ are in the repository"),
         _ => manifest,
     }
 }

@@ -14,7 +14,7 @@ use raycast::Algorithm::Robust;
 use raycast::math::Float;
 use raycast::output::{Encoding, Format};
 use raycast::render::on_gpu;
-use raycast::{Gpu, Mode, RenderFiles, Views};
+use raycast::{Gpu, Mode, RenderOptions};
 
 use crate::prepare::shared::{Shared, sharing};
 
@@ -32,51 +32,38 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
     let mode: Mode = format!("gpu:{}", value("--precision", "f32")).parse()?;
     let gpu = Gpu::new()?;
     let mut scene = raycast::Scene::load(path.as_ref())?;
-    let cameras = Views::Orbit(raycast::Orbit {
+    let cameras = raycast::Orbit {
         views: n,
         ..raycast::Orbit::default()
-    })
+    }
     .cameras(&scene)?;
     let dir = tempfile::tempdir()?;
-    let files = RenderFiles {
-        scene: None,
-        size: None,
-        mode,
-        default_precision: false,
-        spp: None,
-        band_rows: None,
-        shader: None,
-        lit: false,
-        kernel: None,
-        out_dir: dir.path().to_owned(),
-        encoding: Encoding::new(&[Format::Png], None)?,
-        emit_shader: None,
-        view: Default::default(),
-        split: Default::default(),
+    let encoding = Encoding::new(&[Format::Png], None)?;
+    // A view's render as `raycast render --orbit` makes it.
+    let options = RenderOptions {
+        precision: Some(mode.precision),
+        algorithm: mode.algorithm,
+        outputs: encoding.outputs,
+        ..RenderOptions::default()
     };
     println!("adapter: {}; {path}, {n} views, {mode}", gpu.info().name);
     println!(
         "| round | views, no files: s | kernel (GPU time): s | kernel / views | files of a view: ms |"
     );
     println!("|---|---|---|---|---|");
-    let (mut shared, mut request) = (Shared::default(), None);
+    let mut shared = Shared::default();
     for round in 0..=rounds {
         let (mut render_s, mut kernel_s, mut files_s) = (0.0, 0.0, 0.0);
-        for (_, camera) in &cameras {
+        for camera in &cameras {
             scene.camera = camera.clone();
             let start = Instant::now();
-            let images = sharing(&scene, &mut shared, || {
-                let begun = files.begin_images(Some(&gpu), &scene, &mut request)?;
-                begun.map(|b| b.complete(Some(&gpu), &scene)).transpose()
-            })?
-            .ok_or("a whole image")?
-            .images;
+            let images = sharing(&scene, &mut shared, || gpu.render(&scene, &options))?;
             render_s += start.elapsed().as_secs_f64();
             let variant = gpu.scene_variant(&scene, Float::F32, Robust);
             let (_, stages) = on_gpu::<f32>(&gpu, &scene, variant, true, None)?;
             kernel_s += stages.kernel_s.ok_or("the adapter has timestamp queries")?;
             let start = Instant::now();
-            images.write(dir.path(), &files.encoding, &scene.camera)?;
+            images.write(dir.path(), &encoding, &scene.camera)?;
             files_s += start.elapsed().as_secs_f64();
         }
         // Round 0 compiles the kernels.

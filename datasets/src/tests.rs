@@ -1,4 +1,4 @@
-//! A dataset's views are rendered in a pipeline (`render::views`: the next view prepared, and
+//! A dataset's views are rendered in a pipeline (src/views.rs: the next view prepared, and
 //! the last finished and written, while the device runs a view's kernel): each view writes the
 //! bytes its single render writes, whichever device and precision, across a change of scene;
 //! and an error stops the job with the views before it written whole and none after it.
@@ -6,18 +6,17 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::common;
-use crate::output::{Encoding, Format};
-use crate::render::views::{RenderViews, Views};
-use crate::scene::{self, CameraOverrides, Orbit, Split};
-use crate::{Gpu, RenderFiles};
+use raycast::Gpu;
+use raycast::output::{Encoding, Format};
+use raycast::scene::{self, CameraOverrides, Orbit, Split};
+
+use crate::common;
+use crate::{RenderFiles, RenderViews, Views};
 
 const SIZE: [u32; 2] = [64, 36];
 
 fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
+    common::repo_path("scenes").join(name)
 }
 
 /// A render of `scenes` to `out` in `mode` (the robust algorithms; the default precision where

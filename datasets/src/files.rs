@@ -3,23 +3,40 @@
 //!
 //! - on the GPU in f32 or f64 without `--spp` or a kernel file, images above
 //!   [`STREAM_PIXELS`] pixels, or any with `band_rows`, are rendered and written in bands of
-//!   rows ([`render_streamed`] into an [`output::stream::BandWriter`]), one band held at a
-//!   time;
+//!   rows ([`Gpu::render_bands`] into [`Encoding::write_bands`]), one band held at a time;
 //! - adaptive precision alone (GPU, robust) reports how much it re-cast in f64;
-//! - anything else renders the whole image, supersampled with `spp`
-//!   ([`supersample::supersample_request`]), and writes it all or nothing.
+//! - anything else renders the whole image, supersampled with `spp`, and writes it all or
+//!   nothing.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
-use super::{AnyImages, Begun, Device, Mode, Outcome, Precision, Request, STREAM_PIXELS};
-use super::{Progress, adaptive, check_kernels, memory, render_streamed, supersample, timed};
-use super::{band_rows, can_stream};
-use crate::error::{Error, Result};
-use crate::gpu::shader::{self, Variant};
-use crate::gpu::{self, Gpu};
-use crate::output::{self, Encoding};
-use crate::scene::{self, CameraOverrides, Scene, Split};
+use raycast::output::{self, Encoding};
+use raycast::scene::{self, CameraOverrides, Scene, Split};
+use raycast::{AnyImages, Begun, Cpu, Device, Error, Gpu, Mode, Precision, Progress};
+use raycast::{RenderOptions, Result, ShadeHook, UserKernel};
+
+/// Images above this many pixels are rendered and written in bands of rows, holding one band
+/// at a time.
+pub const STREAM_PIXELS: u64 = 1 << 24;
+
+/// Rows per band for a render in bands `width` pixels wide: about four million pixels.
+fn band_rows(width: u32) -> u32 {
+    ((1u32 << 22) / width.max(1)).max(1)
+}
+
+/// Whether a render in `mode` can go in bands: a GPU kernel in f32 or f64.
+fn can_stream(mode: Mode) -> bool {
+    mode.device == Device::Gpu && mode.precision != Precision::Adaptive
+}
+
+/// Wall time of `f`.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
+    let start = Instant::now();
+    let value = f();
+    (value, start.elapsed())
+}
 
 /// Refuses a `split` other than the default where none of `scenes` is a mesh file (`None`: the
 /// built-in default scene): it splits mesh files given as scenes, and a scene file's soups say
@@ -147,7 +164,7 @@ impl RenderFiles {
     }
 
     /// [`RenderFiles::check`] but for `scene` and `split`, which a job of many scenes checks
-    /// against its own ([`super::views::RenderViews`]).
+    /// against its own ([`crate::RenderViews`]).
     pub(crate) fn check_options(&self) -> Result<()> {
         self.resolved(false).check_resolved()
     }
@@ -167,14 +184,15 @@ impl RenderFiles {
             );
         }
         if self.lit && self.shader.is_some() {
-            return Err(gpu::hooks::lit_and_shader());
+            // The error of both asked for, before either is read.
+            return ShadeHook::requested(self.lit, self.shader.as_deref()).map(drop);
         }
         if self.lit && self.mode.precision == Precision::Adaptive {
             return refuse("lit", "runs with `precision` f32 or f64, not adaptive");
         }
         // The CPU runs the course's ray tracer by its mirror, and no other hook.
         let mirrored = self.lit && !gpu;
-        check_kernels(self.mode, self.kernel.is_some(), self.shaded() && !mirrored)?;
+        (self.mode).check_kernels(self.kernel.is_some(), self.shaded() && !mirrored)?;
         if self.shaded() {
             if self.encoding.background.is_some() {
                 return refuse(
@@ -193,7 +211,7 @@ impl RenderFiles {
             && self.band_rows.is_some()
         {
             return refuse(
-                &format!("formats {}", f.name()),
+                &format!("formats {f}"),
                 "is written whole, not in bands of rows (`band_rows`)",
             );
         }
@@ -207,7 +225,7 @@ impl RenderFiles {
     }
 
     /// Refuses a render of `size` pixels whose images, held whole, need more memory than
-    /// this machine has ([`memory`]); one in bands holds a band and passes.
+    /// this machine has ([`Mode::check_memory`]); one in bands holds a band and passes.
     pub(crate) fn check_memory(&self, size: [u32; 2]) -> Result<()> {
         let huge = u64::from(size[0]) * u64::from(size[1]) > STREAM_PIXELS;
         self.resolved(huge).check_resolved_memory(size, huge)
@@ -219,7 +237,7 @@ impl RenderFiles {
         }
         let spp = self.spp.unwrap_or(1);
         let could_band = self.spp.is_none() && self.kernel.is_none();
-        memory::check_whole_render(size, spp, self.mode.precision, self.shaded(), could_band)
+        (self.mode).check_memory(size, spp, self.shaded(), could_band)
     }
 
     /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
@@ -238,8 +256,9 @@ impl RenderFiles {
     /// in `progress`.
     ///
     /// ```no_run
+    /// use raycast::Gpu;
     /// use raycast::output::{Encoding, Format};
-    /// use raycast::{Gpu, RenderFiles};
+    /// use raycast_datasets::RenderFiles;
     /// let render = RenderFiles {
     ///     scene: Some("scenes/course/bunny.json".into()),
     ///     size: Some([1920, 1080]),
@@ -260,7 +279,7 @@ impl RenderFiles {
     /// println!("wrote {} files", summary.written.len());
     /// # Ok::<(), raycast::Error>(())
     /// ```
-    pub fn run(&self, gpu: Option<&Gpu>, progress: Option<&Progress>) -> Result<Summary> {
+    pub fn run(&self, gpu: Option<&Gpu>, progress: Option<Arc<Progress>>) -> Result<Summary> {
         self.check()?;
         let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
         if let Some(path) = &self.scene
@@ -270,7 +289,7 @@ impl RenderFiles {
             eprintln!(
                 "note: {}: materials and lights ({}) light color.png with --lit",
                 path.display(),
-                scene.lighting.summary()
+                scene.lighting
             );
         }
         self.run_loaded(gpu, progress, &scene)
@@ -280,7 +299,7 @@ impl RenderFiles {
     pub(crate) fn run_loaded(
         &self,
         gpu: Option<&Gpu>,
-        progress: Option<&Progress>,
+        progress: Option<Arc<Progress>>,
         scene: &Scene,
     ) -> Result<Summary> {
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
@@ -290,12 +309,16 @@ impl RenderFiles {
     fn run_resolved(
         &self,
         gpu: Option<&Gpu>,
-        progress: Option<&Progress>,
+        progress: Option<Arc<Progress>>,
         scene: &Scene,
         huge: bool,
     ) -> Result<Summary> {
         self.check_resolved_memory(scene.camera.resolution, huge)?;
-        let (request, gpu) = self.request(gpu, scene)?;
+        let options = RenderOptions {
+            progress,
+            ..self.options(&self.load_files()?)
+        };
+        let gpu = self.device_for(&options, gpu, scene)?;
         output::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
             output::check_parent_writable(path)?;
@@ -307,8 +330,8 @@ impl RenderFiles {
             size: [nx, ny],
             mode: self.mode,
             spp: self.spp,
-            shader: (self.shader.clone())
-                .or_else(|| self.lit.then(|| gpu::hooks::RAYTRACE_FILE.into())),
+            // The hook's file as given, or the shipped ray tracer's for `lit`.
+            shader: options.shade.as_ref().map(|hook| hook.file.clone()),
             hook_rays: None,
             device: gpu.map_or("the CPU".to_owned(), |g| g.info().name),
             elapsed: Duration::ZERO,
@@ -321,7 +344,11 @@ impl RenderFiles {
         match gpu {
             Some(g) if self.in_bands(huge) => {
                 let rows = self.band_rows.unwrap_or(band_rows(nx));
-                let (written, elapsed) = timed(|| self.render_bands(g, scene, &request, rows));
+                let (written, elapsed) = timed(|| {
+                    (self.encoding).write_bands(&self.out_dir, &scene.camera, |band| {
+                        g.render_bands(scene, &options, rows, band)
+                    })
+                });
                 let (written, hook_rays) = written?;
                 summary.written = written;
                 summary.hook_rays = hook_rays;
@@ -329,60 +356,70 @@ impl RenderFiles {
                 summary.bands = Some(rows);
             }
             _ => {
-                let (images, elapsed) = timed(|| self.render_whole(scene, gpu, progress, &request));
-                let (images, recast) = images?;
+                let (images, elapsed) = timed(|| render_whole(scene, gpu, &options));
+                let images = images?;
                 summary.hook_rays = images.hook_rays();
                 summary.elapsed = elapsed;
-                summary.recast = recast;
+                summary.recast = self.recast(&images);
                 summary.written = images.write(&self.out_dir, &self.encoding, &scene.camera)?;
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
-            let ran = gpu::dispatch::as_run(scene, self.first_kernel(g, scene, &request)?);
-            let source = shader::kernel_source(&ran)?;
+            let source = g.kernel_source(scene, &options)?;
             output::write_file(path, source.as_bytes())?;
             summary.emitted = Some(path.clone());
         }
         Ok(summary)
     }
 
-    /// The request of this (resolved) render, and the device it runs on; a kernel file whose
-    /// bindings do not fit `scene` is refused here, before the output folder is made.
-    fn request<'g>(
-        &self,
-        gpu: Option<&'g Gpu>,
-        scene: &Scene,
-    ) -> Result<(Request, Option<&'g Gpu>)> {
-        let request = self.load_request()?;
-        let gpu = self.device_for(&request, gpu, scene)?;
-        Ok((request, gpu))
+    /// For plain adaptive precision, the fraction of `images`' pixels re-cast in f64 and
+    /// whether on the GPU.
+    fn recast(&self, images: &AnyImages) -> Option<(f64, bool)> {
+        let plain = self.spp.is_none() && self.mode.precision == Precision::Adaptive;
+        match images {
+            AnyImages::F32(i) if plain => i.recast_fraction.map(|f| (f, i.recast_on_gpu)),
+            _ => None,
+        }
     }
 
-    /// The request of this render, its shade hook and kernel file read and checked: the same
+    /// The files of this render, its shade hook and kernel file read and checked: the same
     /// for every scene and view it renders.
-    pub(crate) fn load_request(&self) -> Result<Request> {
-        Ok(Request {
-            outputs: self.encoding.outputs,
-            shade: gpu::hooks::requested(self.lit, self.shader.as_deref())?,
-            kernel: (self.kernel.as_deref().map(gpu::kernel::UserKernel::load)).transpose()?,
-            ..Request::default()
+    pub(crate) fn load_files(&self) -> Result<Files> {
+        Ok(Files {
+            shade: ShadeHook::requested(self.lit, self.shader.as_deref())?,
+            kernel: (self.kernel.as_deref().map(UserKernel::load)).transpose()?,
         })
     }
 
-    /// The device this (resolved) render of `scene` with `request` runs on; a kernel file
-    /// whose bindings do not fit `scene` is refused.
+    /// The options of this (resolved) render, with its `files`.
+    fn options(&self, files: &Files) -> RenderOptions {
+        RenderOptions {
+            precision: Some(self.mode.precision),
+            algorithm: self.mode.algorithm,
+            outputs: self.encoding.outputs,
+            samples_per_pixel: self.spp,
+            shade: files.shade.clone(),
+            kernel: files.kernel.clone(),
+            ..RenderOptions::default()
+        }
+    }
+
+    /// The device this (resolved) render of `scene` with `options` runs on; a kernel file
+    /// whose bindings do not fit `scene` is refused here, before the output folder is made.
     fn device_for<'g>(
         &self,
-        request: &Request,
+        options: &RenderOptions,
         gpu: Option<&'g Gpu>,
         scene: &Scene,
     ) -> Result<Option<&'g Gpu>> {
         let gpu = match self.mode.device {
-            Device::Gpu => Some(super::device(gpu)?),
+            Device::Gpu => {
+                Some(gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?)
+            }
             Device::Cpu => None,
         };
-        if let (Some(_), Some(g)) = (&request.kernel, gpu) {
-            self.first_kernel(g, scene, request)?;
+        if let (Some(_), Some(g)) = (&options.kernel, gpu) {
+            g.kernel_source(scene, options)?;
         }
         Ok(gpu)
     }
@@ -392,106 +429,59 @@ impl RenderFiles {
         self.mode.device == Device::Gpu && self.streamable() && (huge || self.band_rows.is_some())
     }
 
-    /// The render of the images [`RenderFiles::run_loaded`] writes, begun ([`super::begin`]),
-    /// for a caller that writes them itself (with [`AnyImages::write`], the same bytes);
-    /// `None` for a render that goes in bands, which only `run_loaded` writes. `request` holds
-    /// this render's [`RenderFiles::load_request`] once made, for the renders that follow.
+    /// The render of the images [`RenderFiles::run_loaded`] writes, begun, for a caller that
+    /// writes them itself (with [`AnyImages::write`], the same bytes); `None` for a render
+    /// that goes in bands, which only `run_loaded` writes. `files` holds this render's
+    /// [`RenderFiles::load_files`] once made, for the renders that follow.
     pub(crate) fn begin_images(
         &self,
         gpu: Option<&Gpu>,
         scene: &Scene,
-        request: &mut Option<Request>,
-    ) -> Result<Option<Begun>> {
+        files: &mut Option<Files>,
+    ) -> Result<Option<Whole>> {
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
         let resolved = self.resolved(huge);
         if resolved.in_bands(huge) {
             return Ok(None);
         }
         resolved.check_resolved_memory(scene.camera.resolution, huge)?;
-        let request = match request {
-            Some(request) => request,
-            None => request.insert(resolved.load_request()?),
+        let files = match files {
+            Some(files) => files,
+            None => files.insert(resolved.load_files()?),
         };
-        let gpu = resolved.device_for(request, gpu, scene)?;
-        resolved.begin_whole(scene, gpu, None, request).map(Some)
+        let options = resolved.options(files);
+        Ok(Some(match resolved.device_for(&options, gpu, scene)? {
+            Some(g) => Whole::Device(g.begin(scene, &options)?),
+            None => Whole::Done(Cpu.render(scene, &options)?),
+        }))
     }
+}
 
-    /// Renders and writes the image in bands of at most `rows` rows; returns the files, and
-    /// the rays the shade hook cast where it casts any.
-    fn render_bands(
-        &self,
-        gpu: &Gpu,
-        scene: &Scene,
-        request: &Request,
-        rows: u32,
-    ) -> Result<(Vec<PathBuf>, Option<u64>)> {
-        let mut writer =
-            output::stream::BandWriter::new(&self.out_dir, &self.encoding, &scene.camera)?;
-        let hook_rays = render_streamed(
-            scene,
-            self.mode,
-            gpu,
-            request,
-            rows,
-            &mut |band| match band {
-                AnyImages::F32(i) => writer.write_band(&i),
-                AnyImages::F64(i) => writer.write_band(&i),
-            },
-        )?;
-        Ok((writer.finish()?, hook_rays))
-    }
+/// A render's shade hook and kernel file, read and checked.
+#[derive(Clone, Debug)]
+pub(crate) struct Files {
+    shade: Option<ShadeHook>,
+    kernel: Option<UserKernel>,
+}
 
-    /// The whole image, supersampled with `spp`, and for plain adaptive precision the
-    /// fraction re-cast in f64 and whether on the GPU.
-    fn render_whole(
-        &self,
-        scene: &Scene,
-        gpu: Option<&Gpu>,
-        progress: Option<&Progress>,
-        request: &Request,
-    ) -> Result<(AnyImages, Option<(f64, bool)>)> {
-        let begun = self.begin_whole(scene, gpu, progress, request)?;
-        begun.complete(gpu, scene).map(|o| (o.images, o.recast))
-    }
+/// A whole render begun ([`RenderFiles::begin_images`]): on the device, or done on the host.
+pub(crate) enum Whole {
+    Device(Begun),
+    Done(AnyImages),
+}
 
-    /// [`RenderFiles::render_whole`] begun: supersampled renders whole, others as
-    /// [`super::begin`] begins them.
-    fn begin_whole(
-        &self,
-        scene: &Scene,
-        gpu: Option<&Gpu>,
-        progress: Option<&Progress>,
-        request: &Request,
-    ) -> Result<Begun> {
-        match self.spp {
-            None => super::begin(scene, self.mode, gpu, progress, request, false),
-            Some(spp) => {
-                let images = supersample::supersample_request(
-                    scene, self.mode, gpu, spp, progress, request, false,
-                )?;
-                Ok(Begun::Done(Outcome::of(images)))
-            }
-        }
-    }
-
-    /// The kernel the render runs first (for adaptive precision: its f32 certainty pass,
-    /// which writes every output), specialized for `scene` and `request`.
-    fn first_kernel(&self, gpu: &Gpu, scene: &Scene, request: &Request) -> Result<Variant> {
-        let mode = self.mode;
-        if mode.precision == Precision::Adaptive {
-            return Ok(adaptive::certainty_variant(gpu, scene));
-        }
-        let spp = self.spp.unwrap_or(1);
-        let variant = supersample::sample_request(request, spp).kernel_variant(gpu, scene, mode)?;
-        // Sized for the samples the render casts, as the render of the samples' scene is.
-        Ok(variant.for_rays(scene.camera.pixel_count() * spp as u64))
+/// The whole image of `scene`, on `gpu` or else the CPU.
+fn render_whole(scene: &Scene, gpu: Option<&Gpu>, options: &RenderOptions) -> Result<AnyImages> {
+    match gpu {
+        Some(g) => g.render(scene, options),
+        None => Cpu.render(scene, options),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::Format;
+    use raycast::output::Format;
 
     fn spec(mode: &str, default_precision: bool) -> RenderFiles {
         RenderFiles {

@@ -7,7 +7,7 @@
 //! whole or not at all. Its record (`job.json`, [`record`]) says what it was rendered with: a
 //! run started again skips the views whose folder holds their files and the same record, and
 //! renders the others again ([`RenderViews::force`] renders every one again). A scene is loaded
-//! once, what depends on its objects alone made once ([`Shared`]: the shape of its BVH, their
+//! once, what depends on its objects alone made once (a [`Viewer`]: the shape of its BVH, their
 //! extent), the render's shade hook and kernel file read once and its kernels compiled once (the
 //! device's pipeline cache); a view redoes only what its camera changes: the primitives measured
 //! from its eye, the BVH's boxes, the render and the files. The views go through a pipeline
@@ -31,15 +31,13 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use serde_json::Value;
 
-use super::files::RenderFiles;
-use super::record::{self, Found};
-use crate::error::{Error, Result};
-use crate::gpu::Gpu;
-use crate::images::{Coverage, Images};
-use crate::output::{self, pending};
-use crate::prepare::shared::{Shared, sharing};
-use crate::render::{self, AnyImages, OnDevice, OnHost, Request};
-use crate::scene::{self, Object, Orbit, Scene, ViewCamera};
+use raycast::images::{Coverage, Images};
+use raycast::output;
+use raycast::scene::{self, Lens, Orbit, Projection, Scene, ViewCamera};
+use raycast::{AnyImages, Begun, Error, Gpu, Result, Viewer};
+
+use crate::files::{Files, RenderFiles, Whole};
+use crate::record::{self, Found};
 
 /// The job's manifest, in the output folder.
 const MANIFEST: &str = "manifest.jsonl";
@@ -81,10 +79,7 @@ impl Views {
         let text = match self {
             Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?,
             Views::Json(text) => text.clone(),
-            Views::Orbit(orbit) => {
-                orbit.check()?;
-                return Ok((orbit.names(), Vec::new()));
-            }
+            Views::Orbit(orbit) => return Ok((orbit.names()?, Vec::new())),
         };
         let cameras = scene::parse_views(&text, self.file())?;
         let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
@@ -104,9 +99,7 @@ impl Views {
     /// start; `cameras` are a views file's.
     fn cameras_of(&self, cameras: &[ViewCamera], scene: &Scene) -> Result<Vec<scene::Camera>> {
         match self {
-            Views::Orbit(orbit) => {
-                orbit.cameras(&scene.camera, &scene.objects, scene_bounds(scene))
-            }
+            Views::Orbit(orbit) => orbit.cameras(scene),
             _ => (cameras.iter())
                 .map(|c| c.camera(self.file(), &scene.objects))
                 .collect(),
@@ -114,11 +107,15 @@ impl Views {
     }
 }
 
-/// The bounds of `scene`'s spheres and triangles (an orbit's sphere), and of all its objects
-/// (a camera's default `near`).
-fn scene_bounds(scene: &Scene) -> [Option<Bounds>; 2] {
-    let bounded = (scene.objects.iter()).filter(|o| !matches!(o, Object::Plane { .. }));
-    [scene::bounds(bounded), scene::bounds(&scene.objects)]
+/// The names of the camera settings `view` gives.
+fn given(view: &scene::CameraOverrides) -> Vec<&'static str> {
+    let given = [
+        ("eye", view.eye.is_some()),
+        ("look_at", view.look_at.is_some()),
+        ("up", view.up.is_some()),
+        ("fov", view.fov.is_some()),
+    ];
+    given.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect()
 }
 
 /// A share of a job: shard `index` of `count` (0-based), `I/N` on the command line.
@@ -243,7 +240,7 @@ impl RenderViews {
                 "every view renders the job's scenes: leave it unset",
             );
         }
-        if let Some(option) = r.view.given().first() {
+        if let Some(option) = given(&r.view).first() {
             return refuse(option, &self.views.camera_refusal());
         }
         if r.emit_shader.is_some() {
@@ -254,15 +251,12 @@ impl RenderViews {
             true => vec![None],
             false => self.scenes.iter().cloned().map(Some).collect(),
         };
-        super::files::check_split(r.split, scenes.iter().map(Option::as_deref))?;
+        crate::files::check_split(r.split, scenes.iter().map(Option::as_deref))?;
         let stems = scene_stems(&scenes)?;
         let (names, cameras) = self.views.parse()?;
         let weights: Vec<f64> = scenes.iter().map(|s| scene_weight(s.as_deref())).collect();
         // A view's size where it is known before its scene is loaded.
-        let size = |v: usize| {
-            r.size
-                .or_else(|| cameras.get(v).and_then(|c| c.resolution()))
-        };
+        let size = |v: usize| r.size.or_else(|| cameras.get(v).and_then(|c| c.resolution));
         let mut sizes: Vec<[u32; 2]> = (0..names.len()).filter_map(size).collect();
         sizes.sort_unstable();
         sizes.dedup();
@@ -300,7 +294,7 @@ impl RenderViews {
             record: record::job_part(&self.render)?,
             spec: self.clone(),
             loaded: None,
-            request: None,
+            files: None,
         })
     }
 
@@ -387,8 +381,21 @@ impl RenderViews {
         if r.shader.is_some() || r.lit {
             images.color = Some(vec![[0; 4]]);
         }
-        let camera = Scene::default_scene().camera;
-        let files = output::encode(&images, &r.encoding, &camera);
+        // Any camera: the names do not depend on it.
+        let camera = scene::Camera {
+            projection: Projection::Perspective,
+            eye: DVec3::ZERO,
+            look: DVec3::NEG_Z,
+            up: DVec3::Y,
+            focal_length: 1.0,
+            lens: Lens::Size {
+                width: 1.0,
+                height: 1.0,
+            },
+            resolution: [1, 1],
+            depth_white: 1.0,
+        };
+        let files = AnyImages::F32(images).encode(&r.encoding, &camera);
         files.iter().map(|f| f.name.to_owned()).collect()
     }
 }
@@ -396,7 +403,6 @@ impl RenderViews {
 /// Renders the views of a job one at a time (from [`RenderViews::renderer`]), keeping the
 /// last one's scene loaded, with what its views share whatever their camera (the shape of its
 /// BVH, the extent of its objects).
-#[derive(Debug)]
 pub struct ViewRenderer {
     spec: RenderViews,
     job: Pairs,
@@ -405,25 +411,21 @@ pub struct ViewRenderer {
     /// The part of the views' records the job shares ([`record::job_part`]).
     record: Value,
     loaded: Option<Loaded>,
-    /// The render's request, its shade hook and kernel file read and checked, the same for
-    /// every view: made at the first view rendered.
-    request: Option<Request>,
+    /// The render's shade hook and kernel file, read and checked, the same for every view:
+    /// read at the first view rendered.
+    files: Option<Files>,
 }
 
-/// A box, by its lowest and highest corners.
-type Bounds = (DVec3, DVec3);
-
 /// A scene as its views share it.
-#[derive(Debug)]
 struct Loaded {
     index: usize,
-    scene: Scene,
+    /// The scene, with what its views' preparations share: the BVH's shape, the objects'
+    /// extent.
+    viewer: Viewer,
     /// Its views' cameras, in the job's order ([`Views::cameras`]).
     cameras: Vec<scene::Camera>,
     /// The digest of its files, in its views' records ([`record::scene_digest`]).
     digest: String,
-    /// What its views' preparations share: the BVH's shape, the objects' extent.
-    shared: Shared,
     /// The temporary folders killed runs left in its folder, by view name: removed before
     /// that view renders (only the run rendering a view writes its temporary folders).
     stale: HashMap<String, Vec<PathBuf>>,
@@ -432,8 +434,8 @@ struct Loaded {
 /// The thread that runs the views' kernels, one at a time, while this one prepares the next
 /// view and finishes the last ([`ViewRenderer::render_all`]).
 struct Device {
-    jobs: SyncSender<Box<OnDevice>>,
-    results: Receiver<Result<OnHost>>,
+    jobs: SyncSender<Box<Begun>>,
+    results: Receiver<Result<Begun>>,
 }
 
 /// A view whose kernel the device runs, and its place among the views rendered.
@@ -475,7 +477,7 @@ impl ViewRenderer {
         on_view: &mut dyn FnMut(usize, usize),
     ) -> Result<[usize; 2]> {
         let (writes, to_write) = std::sync::mpsc::sync_channel::<Box<ViewWrite>>(1);
-        let (jobs, device_jobs) = std::sync::mpsc::sync_channel::<Box<OnDevice>>(1);
+        let (jobs, device_jobs) = std::sync::mpsc::sync_channel::<Box<Begun>>(1);
         let (device_results, results) = std::sync::mpsc::channel();
         std::thread::scope(|scope| {
             let writer = scope.spawn(move || -> Result<()> {
@@ -591,7 +593,7 @@ impl ViewRenderer {
     fn finish(
         &mut self,
         gpu: Option<&Gpu>,
-        ran: std::result::Result<Result<OnHost>, std::sync::mpsc::RecvError>,
+        ran: std::result::Result<Result<Begun>, std::sync::mpsc::RecvError>,
         f: InFlight,
         writes: &SyncSender<Box<ViewWrite>>,
         done: &mut dyn FnMut(usize),
@@ -600,11 +602,10 @@ impl ViewRenderer {
         let gpu = gpu.expect("a view ran on the device");
         let loaded =
             (self.loaded.as_mut()).expect("a view's scene stays loaded until it is finished");
-        loaded.scene.camera = f.view.camera.clone();
-        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
-        let outcome = sharing(scene, shared, || ran.finish(gpu, scene))?;
+        let camera = f.view.camera.clone();
+        let images = (loaded.viewer).render(camera, |scene| ran.finish(gpu, scene))?;
         let write = ViewWrite {
-            images: outcome.images,
+            images,
             encoding: self.spec.render.encoding.clone(),
             view: f.view,
         };
@@ -641,7 +642,7 @@ impl ViewRenderer {
             loaded,
             names,
             record,
-            request,
+            files,
         } = self;
         let loaded = load(loaded, job, spec, s)?;
         let mut camera = loaded.cameras[v].clone();
@@ -662,20 +663,19 @@ impl ViewRenderer {
         let view = ViewFiles {
             scene: s,
             record: record::encode(&record),
-            temporary: pending::temp_path(&folder)?,
             folder,
             camera,
         };
-        let files = view.render_files(spec, job);
-        loaded.scene.camera = view.camera.clone();
-        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
-        let begun = sharing(scene, shared, || files.begin_images(gpu, scene, request))?;
+        let render = view.render_files(spec, job, &view.folder);
+        let camera = view.camera.clone();
+        let begun =
+            (loaded.viewer).render(camera, |scene| render.begin_images(gpu, scene, files))?;
         let started = match begun {
             None => Started::Bands(view),
-            Some(render::Begun::Device(work)) => Started::Device(Box::new(work), view),
-            Some(render::Begun::Done(outcome)) => Started::Rendered(Box::new(ViewWrite {
-                images: outcome.images,
-                encoding: files.encoding,
+            Some(Whole::Device(work)) => Started::Device(Box::new(work), view),
+            Some(Whole::Done(images)) => Started::Rendered(Box::new(ViewWrite {
+                images,
+                encoding: render.encoding,
                 view,
             })),
         };
@@ -685,20 +685,13 @@ impl ViewRenderer {
     /// Renders and writes view `view` in bands (its files written as they come), into its
     /// temporary folder and then in place.
     fn write_bands(&mut self, gpu: Option<&Gpu>, view: ViewFiles) -> Result<()> {
-        let files = view.render_files(&self.spec, &self.job);
         let loaded = (self.loaded.as_mut()).expect("a view's scene is loaded");
-        loaded.scene.camera = view.camera.clone();
-        make_temporary(&view.temporary)?;
-        let (scene, shared) = (&loaded.scene, &mut loaded.shared);
-        let written = sharing(scene, shared, || files.run_loaded(gpu, None, scene))
-            .and_then(|_| write_record(&view.temporary, &view.record));
-        match written {
-            Ok(_) => pending::place_dir(&view.temporary, &view.folder),
-            Err(e) => {
-                pending::discard_dir(&view.temporary);
-                Err(e)
-            }
-        }
+        output::write_folder(&view.folder, |temporary| {
+            let files = view.render_files(&self.spec, &self.job, temporary);
+            let camera = view.camera.clone();
+            (loaded.viewer).render(camera, |scene| files.run_loaded(gpu, None, scene))?;
+            write_record(temporary, &view.record)
+        })
     }
 }
 
@@ -717,40 +710,29 @@ enum Started {
     /// Rendered on the host, its files still to write.
     Rendered(Box<ViewWrite>),
     /// Prepared for the device, whose kernel is still to run; then finished on the host.
-    Device(Box<OnDevice>, ViewFiles),
+    Device(Box<Begun>, ViewFiles),
     /// To render in bands, its files written as they come ([`ViewRenderer::write_bands`]).
     Bands(ViewFiles),
 }
 
 /// A view being rendered: its scene (by index in the job) and camera, its record, and the
-/// folders its files go in (a temporary one, renamed to the view's once every file is there).
+/// folder its files go in (written whole: [`output::write_folder`]).
 struct ViewFiles {
     scene: usize,
     camera: scene::Camera,
     record: Vec<u8>,
-    temporary: PathBuf,
     folder: PathBuf,
 }
 
 impl ViewFiles {
-    /// The render of this view as `spec` renders every view, into its temporary folder.
-    fn render_files(&self, spec: &RenderViews, job: &Pairs) -> RenderFiles {
+    /// The render of this view as `spec` renders every view, into `out`.
+    fn render_files(&self, spec: &RenderViews, job: &Pairs, out: &Path) -> RenderFiles {
         RenderFiles {
-            out_dir: self.temporary.clone(),
+            out_dir: out.to_owned(),
             scene: job.scenes[self.scene].clone(),
             ..spec.render.clone()
         }
     }
-}
-
-/// Creates the temporary folder a view is written into, and the scene's folder it sits in.
-fn make_temporary(temporary: &Path) -> Result<()> {
-    let parent = temporary
-        .parent()
-        .expect("a view's folder is in its scene's");
-    std::fs::create_dir_all(parent)
-        .map_err(|e| Error::io(parent, format!("cannot create folder: {e}")))?;
-    pending::create_dir(temporary)
 }
 
 /// Writes a view's record (`record`, encoded) into its temporary folder.
@@ -773,22 +755,14 @@ impl ViewWrite {
     fn finish(self) -> Result<()> {
         let view = &self.view;
         let files = self.images.encode(&self.encoding, &view.camera);
-        make_temporary(&view.temporary)?;
-        let written = files
-            .iter()
-            .try_for_each(|f| {
-                let path = view.temporary.join(f.name);
+        output::write_folder(&view.folder, |temporary| {
+            for f in &files {
+                let path = temporary.join(f.name);
                 std::fs::write(&path, &f.bytes)
-                    .map_err(|e| Error::io(&path, format!("cannot write: {e}")))
-            })
-            .and_then(|()| write_record(&view.temporary, &view.record));
-        match written {
-            Ok(_) => pending::place_dir(&view.temporary, &view.folder),
-            Err(e) => {
-                pending::discard_dir(&view.temporary);
-                Err(e)
+                    .map_err(|e| Error::io(&path, format!("cannot write: {e}")))?;
             }
-        }
+            write_record(temporary, &view.record)
+        })
     }
 }
 
@@ -809,8 +783,7 @@ fn load<'a>(
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
             index: s,
             cameras: spec.views.cameras_of(&job.cameras, &scene)?,
-            scene,
-            shared: Shared::default(),
+            viewer: Viewer::new(scene),
         });
     }
     Ok(loaded.as_mut().expect("loaded above"))
@@ -915,7 +888,8 @@ fn check_names(names: &[String], file: &Path) -> Result<()> {
 fn scene_weight(path: Option<&Path>) -> f64 {
     let size = |p: &Path| std::fs::metadata(p).map_or(0, |m| m.len());
     let bytes = match path {
-        None => scene::DEFAULT_SCENE_BUNNY.len() as u64,
+        // The built-in scene's mesh.
+        None => scene::DEFAULT_SCENE_FILES[1].len() as u64,
         Some(path) if scene::is_mesh_file(path) => size(path),
         Some(path) => {
             let base = path.parent().unwrap_or(Path::new(""));

@@ -14,11 +14,10 @@ use std::path::Path;
 
 use serde_json::{Value, json};
 
-use super::Device;
-use super::files::RenderFiles;
-use crate::error::{Error, Result};
-use crate::gpu::hooks::RAYTRACE;
-use crate::scene::{self, Camera, Object, Scene};
+use raycast::scene::{self, Camera, Object, Scene};
+use raycast::{Device, Error, Result, ShadeHook};
+
+use crate::files::RenderFiles;
 
 /// The record's file name in a view's folder.
 pub(crate) const RECORD: &str = "job.json";
@@ -56,10 +55,11 @@ pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
         })
     };
     let shader = match render.lit {
-        true => digest([RAYTRACE.as_bytes()]).into(),
+        true => digest([ShadeHook::raytrace()?.source.as_bytes()]).into(),
         false => text(render.shader.as_deref())?,
     };
     Ok(json!({
+        // The library's version, which this crate shares.
         "raycast": env!("CARGO_PKG_VERSION"),
         "options": {
             // Also in the camera, but the manifest compares the options alone.
@@ -120,11 +120,7 @@ pub(crate) fn found(folder: &Path, names: &[String], expected: &Value, job_only:
 /// file's bytes and of each mesh file it loads.
 pub(crate) fn scene_digest(path: Option<&Path>, scene: &Scene) -> Result<String> {
     let Some(path) = path else {
-        let built_in = [
-            scene::DEFAULT_SCENE_JSON.as_bytes(),
-            scene::DEFAULT_SCENE_BUNNY,
-        ];
-        return Ok(digest(built_in));
+        return Ok(digest(scene::DEFAULT_SCENE_FILES));
     };
     let read = |p: &Path| std::fs::read(p).map_err(|e| Error::io(p, format!("cannot read: {e}")));
     let mut files = vec![read(path)?];
