@@ -652,7 +652,7 @@ fn grown(boxes: Vec<(Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
 /// The shape of a scene's BVH: which primitives each leaf holds and how the nodes nest,
 /// without the boxes. It depends on the objects alone, not on the camera: it is built from
 /// their boxes measured from the centre of their bounds, so every view of a scene
-/// ([`crate::render::views`]) fits one topology to its camera ([`Bvh::fit`]) and a single
+/// (a [`crate::Viewer`]'s) fits one topology to its camera ([`Bvh::fit`]) and a single
 /// render builds the very same tree.
 #[derive(Clone, Debug)]
 pub(crate) struct Topology(Bvh);

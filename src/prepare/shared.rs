@@ -1,5 +1,5 @@
-//! What the renders of one scene share whatever their camera: the views of a dataset
-//! ([`crate::render::views`]) and of a [`crate::Viewer`] render one set of objects from camera
+//! What the renders of one scene share whatever their camera: the views of a [`crate::Viewer`]
+//! (a dataset's, datasets/src/views.rs, or the live page's) render one set of objects from camera
 //! after camera, and what depends on the objects alone is made once for all of them.
 
 use std::cell::RefCell;
