@@ -134,13 +134,8 @@ impl<T: Real> Images<T> {
     }
 
     /// Number of pixels.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.id.len()
-    }
-
-    /// Whether there are no pixels.
-    pub fn is_empty(&self) -> bool {
-        self.id.is_empty()
     }
 
     /// The outputs of pixel `k` (row-major index).

@@ -83,11 +83,6 @@ impl<'a> RayList<'a> {
         }
     }
 
-    /// Whether there are no rays.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Ray `k` (`k < len()`).
     pub(crate) fn get(&self, k: usize) -> Ray {
         match self.rays {
@@ -218,16 +213,6 @@ impl<T: Real> Hits<T> {
         self.normal[k] = normal;
         self.primitive[k] = primitive;
         self.uv[k] = uv;
-    }
-
-    /// Number of rays.
-    pub fn len(&self) -> usize {
-        self.id.len().max(self.count.len())
-    }
-
-    /// Whether there are no rays.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 }
 

@@ -663,7 +663,7 @@ fn run(command: Command) -> Result<ExitCode> {
             orbit_radius,
             orbit_elevation,
         } => {
-            let shade = raycast::ShadeHook::requested(lit, shader.as_deref())?;
+            let shade = raycast_datasets::requested_hook(lit, shader.as_deref())?;
             let camera = Default::default();
             let (views, _) = views_asked(views, orbit, orbit_radius, orbit_elevation, camera)?;
             let options = study::bench::Options {

@@ -31,6 +31,30 @@ fn can_stream(mode: Mode) -> bool {
     mode.device == Device::Gpu && mode.precision != Precision::Adaptive
 }
 
+/// The shade hook a tool asks for: `lit` ([`ShadeHook::raytrace`], the course's ray tracer) or
+/// a `shader` file ([`ShadeHook::load`]), or none; both at once is an error naming both.
+pub fn requested_hook(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
+    match (lit, shader) {
+        (true, Some(_)) => Err(lit_and_shader()),
+        (true, None) => ShadeHook::raytrace().map(Some),
+        (false, Some(path)) => ShadeHook::load(path).map(Some),
+        (false, None) => Ok(None),
+    }
+}
+
+/// The error of `lit` asked for with a `shader` file.
+fn lit_and_shader() -> Error {
+    // The shipped hook's file, as `ShadeHook::raytrace` names it.
+    let file = ShadeHook::raytrace().map_or_else(|_| PathBuf::new(), |hook| hook.file);
+    Error::Argument {
+        option: "lit".into(),
+        message: format!(
+            "is the shade hook {}; give it or `shader`, not both",
+            file.display()
+        ),
+    }
+}
+
 /// Wall time of `f`.
 fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
     let start = Instant::now();
@@ -184,8 +208,7 @@ impl RenderFiles {
             );
         }
         if self.lit && self.shader.is_some() {
-            // The error of both asked for, before either is read.
-            return ShadeHook::requested(self.lit, self.shader.as_deref()).map(drop);
+            return Err(lit_and_shader());
         }
         if self.lit && self.mode.precision == Precision::Adaptive {
             return refuse("lit", "runs with `precision` f32 or f64, not adaptive");
@@ -386,7 +409,7 @@ impl RenderFiles {
     /// for every scene and view it renders.
     pub(crate) fn load_files(&self) -> Result<Files> {
         Ok(Files {
-            shade: ShadeHook::requested(self.lit, self.shader.as_deref())?,
+            shade: requested_hook(self.lit, self.shader.as_deref())?,
             kernel: (self.kernel.as_deref().map(UserKernel::load)).transpose()?,
         })
     }

@@ -23,5 +23,5 @@ mod common;
 #[cfg(test)]
 mod tests;
 
-pub use files::{RenderFiles, STREAM_PIXELS, Summary};
+pub use files::{RenderFiles, STREAM_PIXELS, Summary, requested_hook};
 pub use views::{RenderViews, Shard, ViewRenderer, Views, ViewsSummary};

@@ -69,32 +69,6 @@ pub(crate) const RAYTRACE: &str = include_str!("../../shaders/examples/raytrace.
 pub(crate) const RAYTRACE_FILE: &str = "shaders/examples/raytrace.wgsl";
 
 impl ShadeHook {
-    /// The hook a tool asks for: `lit` ([`ShadeHook::raytrace`]) or a `shader` file
-    /// ([`ShadeHook::load`]), or none; both at once is an error naming both.
-    pub fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
-        requested(lit, shader)
-    }
-}
-
-/// [`ShadeHook::requested`].
-pub(crate) fn requested(lit: bool, shader: Option<&Path>) -> Result<Option<ShadeHook>> {
-    match (lit, shader) {
-        (true, Some(_)) => Err(lit_and_shader()),
-        (true, None) => ShadeHook::raytrace().map(Some),
-        (false, Some(path)) => ShadeHook::load(path).map(Some),
-        (false, None) => Ok(None),
-    }
-}
-
-/// The error of `lit` (the course's ray tracer) asked for with a `shader` file.
-pub(crate) fn lit_and_shader() -> Error {
-    Error::Argument {
-        option: "lit".into(),
-        message: format!("is the shade hook {RAYTRACE_FILE}; give it or `shader`, not both"),
-    }
-}
-
-impl ShadeHook {
     /// The course's ray tracer as shipped (shaders/examples/raytrace.wgsl), the one hook the
     /// CPU reference mirrors (src/cpu/raytrace.rs): what `--lit` runs.
     pub fn raytrace() -> Result<ShadeHook> {

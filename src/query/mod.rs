@@ -75,22 +75,18 @@ impl Geometry {
         Geometry::default()
     }
 
+    /// Whether there are no objects.
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
     /// A loaded scene's objects, measured from its camera's eye.
     pub fn from_scene(scene: &Scene) -> Geometry {
         Geometry {
             objects: scene.objects.clone(),
             camera: Some(scene.camera.clone()),
         }
-    }
-
-    /// The number of objects.
-    pub fn len(&self) -> usize {
-        self.objects.len()
-    }
-
-    /// Whether there are no objects.
-    pub fn is_empty(&self) -> bool {
-        self.objects.is_empty()
     }
 
     /// Adds a triangle mesh, `triangles` indexing `vertices`, as one object; returns its id.

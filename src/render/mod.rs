@@ -23,7 +23,9 @@ use crate::gpu::hooks::ShadeHook;
 use crate::gpu::kernel::UserKernel;
 use crate::gpu::shader::Variant;
 use crate::gpu::{self, Gpu, Job};
-use crate::images::{Coverage, Images, Outputs, Stages};
+#[cfg(test)]
+use crate::images::Coverage;
+use crate::images::{Images, Outputs, Stages};
 use crate::kernel::layout::{GpuReal, GpuTriangle};
 use crate::math::Float;
 use crate::output::{self, Encoding};
@@ -99,7 +101,8 @@ impl AnyImages {
     }
 
     /// The coverage of supersampled images.
-    pub fn coverage(&self) -> Option<&Coverage> {
+    #[cfg(test)]
+    pub(crate) fn coverage(&self) -> Option<&Coverage> {
         match self {
             AnyImages::F32(i) => i.coverage.as_ref(),
             AnyImages::F64(i) => i.coverage.as_ref(),

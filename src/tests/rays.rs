@@ -74,7 +74,8 @@ fn gpu_rays_equal_cpu_rays_bit_for_bit() {
 }
 
 fn assert_same<T: raycast::math::Real>(g: &Hits<T>, c: &Hits<T>, label: &str) {
-    for k in 0..g.len() {
+    assert_eq!(g.id.len(), c.id.len(), "{label}");
+    for k in 0..g.id.len() {
         let get = |h: &Hits<T>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
         assert_eq!(get(g), get(c), "ray {k}, {label}");
     }
@@ -82,7 +83,7 @@ fn assert_same<T: raycast::math::Real>(g: &Hits<T>, c: &Hits<T>, label: &str) {
 
 fn assert_close(g: &Hits<f64>, c: &Hits<f64>, label: &str) {
     assert_eq!((&g.id, &g.primitive), (&c.id, &c.primitive), "{label}");
-    for k in 0..g.len() {
+    for k in 0..g.id.len() {
         let numbers = |h: &Hits<f64>| {
             let [u, v] = h.uv[k];
             let [x, y, z] = h.normal[k];

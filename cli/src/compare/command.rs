@@ -66,7 +66,7 @@ impl Spec {
         // Side b must be comparable pixel for pixel.
         scene_b.camera.resolution = scene_a.camera.resolution;
         let options = RenderOptions {
-            shade: raycast::ShadeHook::requested(self.lit, self.shader.as_deref())?,
+            shade: raycast_datasets::requested_hook(self.lit, self.shader.as_deref())?,
             ..RenderOptions::default()
         };
         for mode in self.modes {

@@ -150,7 +150,7 @@ fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>, Vec<PathBuf>)> {
         &Default::default(),
         Default::default(),
     )?;
-    let hook = ShadeHook::requested(options.lit, options.shader.as_deref())?;
+    let hook = raycast_datasets::requested_hook(options.lit, options.shader.as_deref())?;
     Ok((scene, hook, watched(options)))
 }
 

@@ -54,7 +54,7 @@ fn check_cpu_f32_matches_gpu(label: &str, scene: &raycast::Scene) {
 fn check_cpu_f32_matches_gpu_with(label: &str, scene: &raycast::Scene, algorithm: Algorithm) {
     let cpu = common::cpu_render::<f32>(scene, algorithm);
     let gpu = common::gpu_scene::<f32>(gpu(), scene, algorithm).unwrap();
-    let pixels = cpu.len();
+    let pixels = cpu.id.len();
     let id_differs = (0..pixels).filter(|&k| cpu.id[k] != gpu.id[k]).count();
     let (mut max_ulps, mut hits) = (0, 0);
     for k in (0..pixels).filter(|&k| cpu.id[k] != MISS && gpu.id[k] != MISS) {
@@ -126,8 +126,12 @@ fn compare_counts_planted_differences_exactly() {
     let scene = random_scene(7, [96, 72]);
     let truth: Images<f64> = common::cpu_render(&scene, Robust);
     let mut planted = truth.clone();
-    let hits: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] != MISS).collect();
-    let misses: Vec<usize> = (0..truth.len()).filter(|&k| truth.id[k] == MISS).collect();
+    let hits: Vec<usize> = (0..truth.id.len())
+        .filter(|&k| truth.id[k] != MISS)
+        .collect();
+    let misses: Vec<usize> = (0..truth.id.len())
+        .filter(|&k| truth.id[k] == MISS)
+        .collect();
     // 17 hits turned into misses, 5 misses into hits, 11 hits given another id.
     for &k in hits.iter().step_by(7).take(17) {
         planted.id[k] = MISS;

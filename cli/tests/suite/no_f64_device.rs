@@ -31,11 +31,11 @@ fn robust_f32_without_f64_still_renders_the_course_bunny() {
     let without = common::gpu_scene::<f32>(&gpu, &scene, Robust).unwrap();
     let with = common::gpu_scene::<f32>(common::gpu(), &scene, Robust).unwrap();
     // Without the recheck only pixels on near-zero edge functions can differ.
-    let differing = (0..with.len())
+    let differing = (0..with.id.len())
         .filter(|&k| with.id[k] != without.id[k])
         .count();
     assert!(
-        differing * 10_000 <= with.len(),
+        differing * 10_000 <= with.id.len(),
         "{differing} pixels differ"
     );
 }

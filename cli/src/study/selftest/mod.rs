@@ -603,7 +603,7 @@ fn judge_f32_with(
             Verdict::new(
                 format!(
                     "{differ} of {} px differ from CPU f32; {}",
-                    images.len(),
+                    images.id.len(),
                     f64_side.measured()
                 ),
                 format!(
@@ -701,7 +701,10 @@ fn ids_as_cpu_f64(
         .filter(|(a, b)| a != b)
         .count();
     Ok(Verdict::new(
-        format!("ids differ from CPU f64 on {differ} of {} px", truth.len()),
+        format!(
+            "ids differ from CPU f64 on {differ} of {} px",
+            truth.id.len()
+        ),
         "0 px",
         differ == 0,
     ))
