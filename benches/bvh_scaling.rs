@@ -3,8 +3,8 @@
 //! three runs. `cargo run --release -p raycast-benches --bin bvh_scaling [MAX_TRIANGLES [MIN_TRIANGLES]]`.
 use std::path::Path;
 
-use raycast::scene::{MeshPart, Scene, Triangle};
 use raycast::{Gpu, Precision, RenderOptions, Search, Tuning};
+use raycast::{MeshPart, Scene, Triangle};
 
 /// A torus around the z axis (radii 1 and 0.4) of 2 * nu * nv triangles.
 fn torus(nu: usize, nv: usize) -> Vec<Triangle> {

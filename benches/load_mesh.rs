@@ -1,4 +1,4 @@
-//! Mesh loading speed: loads each file N times with `raycast::scene::load_mesh` and prints the
+//! Mesh loading speed: loads each file N times with `raycast::load_mesh` and prints the
 //! triangle count, file size and the best and median wall times (the best is the least disturbed
 //! by other load on the machine; the file is in the page cache after the first run).
 //!
@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut triangles = 0;
         for _ in 0..runs.max(1) {
             let start = Instant::now();
-            triangles = raycast::scene::load_mesh(path.as_ref())?.len();
+            triangles = raycast::load_mesh(path.as_ref())?.len();
             seconds.push(start.elapsed().as_secs_f64());
         }
         seconds.sort_by(f64::total_cmp);

@@ -10,7 +10,7 @@
 //! up to S (less coherent), `--random` from random points near the torus in random directions
 //! (incoherent: traced one by one).
 
-use raycast::rays::{Ray, RayList};
+use raycast::{Ray, RayList};
 use std::time::Instant;
 
 const WIDTH: usize = 1920;
@@ -88,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         1 => vec!["gpu:f32".into()],
         _ => args[1..].to_vec(),
     };
-    let triangles = raycast::scene::load_mesh(mesh.as_ref())?;
+    let triangles = raycast::load_mesh(mesh.as_ref())?;
     let vertices: Vec<[f64; 3]> = triangles
         .iter()
         .flat_map(|t| t.map(|v| [v.x, v.y, v.z]))

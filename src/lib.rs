@@ -32,16 +32,16 @@ mod algorithm;
 mod cpu;
 mod error;
 mod gpu;
-pub mod images;
+mod images;
 mod kernel;
 mod math;
 mod mode;
-pub mod output;
+mod output;
 mod prepare;
 mod query;
-pub mod rays;
+mod rays;
 mod render;
-pub mod scene;
+mod scene;
 
 // The tests that reach below the API (the kernel variants, the mirror, preparation), a module
 // per topic in the library's own test binary; they name the crate `raycast` as a client would.
@@ -60,18 +60,29 @@ pub use crate::{
     algorithm::Algorithm,
     error::{Error, Result},
     gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel},
-    images::{Images, Output, Outputs, Stages},
+    images::{Coverage, Images, MISS, Output, Outputs, Stages},
     mode::{Device, Mode, Precision},
-    output::{Encoding, Format},
     prepare::bvh::Search,
     query::{
         Accel, Geometry, commit_mode,
         every_hit::Intersections,
         points::{Closest, Sign},
     },
-    rays::{AnyHits, Hits, Ray, RayList},
+    rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayRows},
     render::options::{Cpu, RenderOptions, Tuning},
     render::viewer::Viewer,
     render::{AnyImages, Begun, Progress},
-    scene::{Orbit, Scene},
+};
+
+// The scenes: scene and mesh files, cameras, views files and orbits.
+pub use crate::scene::{
+    Camera, CameraOverrides, DEFAULT_RESOLUTION, DEFAULT_SCENE_FILES, Lens, Light, Lighting,
+    Material, MeshPart, Object, Orbit, Projection, Scene, Split, Triangle, ViewCamera, bounds,
+    is_mesh_file, load_mesh, load_viewed, parse_mesh, parse_views,
+};
+
+// The file formats, and the writes that leave whole files or none.
+pub use crate::output::{
+    DEFAULT_DEPTH_SCALE, Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable,
+    check_writable, encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
 };

@@ -5,9 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use glam::DVec3;
-use raycast::images::Output;
-use raycast::output::{self, Format};
-use raycast::scene;
+use raycast::Format;
+use raycast::Output;
 use raycast::{Algorithm, Device, Gpu, Mode, Precision, RenderOptions, Result, Search};
 use raycast_cli::render::ModeArg;
 use raycast_cli::study::{self, Stream};
@@ -30,7 +29,7 @@ struct Cli {
     command: Command,
 }
 
-/// What every command's scene argument takes ([`scene::load_viewed`]), for its help.
+/// What every command's scene argument takes ([`raycast::load_viewed`]), for its help.
 macro_rules! scene_file {
     () => {
         "scene file (JSON), or a mesh file (.obj, .stl, .ply) seen from its default view \
@@ -92,10 +91,10 @@ enum Command {
         /// distance.npy) or z (planar, along the viewing axis, z.npy). Default: distance in
         /// npy, npz and exr, z in depth16 (what RGB-D datasets store).
         #[arg(long, value_name = "distance|z")]
-        depth: Option<output::Depth>,
+        depth: Option<raycast::Depth>,
         /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
         /// 65535 (1000: millimetres for scenes in metres).
-        #[arg(long, value_name = "SCALE", default_value_t = output::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
+        #[arg(long, value_name = "SCALE", default_value_t = raycast::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
         depth_scale: f64,
         /// The camera's position, X,Y,Z (replaces the scene's, or a mesh's default view's).
         #[arg(long, value_name = "X,Y,Z", value_parser = raycast_cli::parse_vector, allow_hyphen_values = true)]
@@ -114,7 +113,7 @@ enum Command {
         /// STL and PLY files are one object. Default: objects. A scene file's soups say it
         /// with "split".
         #[arg(long, value_name = "objects|groups|none")]
-        split: Option<scene::Split>,
+        split: Option<raycast::Split>,
         /// Where to render: the WGSL kernel on the GPU, or the CPU reference.
         #[arg(long, default_value = "gpu")]
         device: Device,
@@ -512,15 +511,15 @@ fn run(command: Command) -> Result<ExitCode> {
                 precision: precision.unwrap_or(Precision::default_for(device, algorithm, false)),
                 algorithm,
             };
-            let mut encoding = output::Encoding {
+            let mut encoding = raycast::Encoding {
                 background,
                 depth_scale,
-                ..output::Encoding::new(&format, outputs.as_deref())?
+                ..raycast::Encoding::new(&format, outputs.as_deref())?
             };
             if let Some(depth) = depth {
                 (encoding.depth, encoding.depth16) = (depth, depth);
             }
-            let view = scene::CameraOverrides {
+            let view = raycast::CameraOverrides {
                 eye,
                 look_at,
                 up,
@@ -815,8 +814,8 @@ fn views_asked(
     orbit: Option<u32>,
     radius: Option<f64>,
     elevation: Option<f64>,
-    camera: scene::CameraOverrides,
-) -> Result<(Option<raycast_datasets::Views>, scene::CameraOverrides)> {
+    camera: raycast::CameraOverrides,
+) -> Result<(Option<raycast_datasets::Views>, raycast::CameraOverrides)> {
     let orbit_only = [
         ("--orbit-radius", radius.is_some()),
         ("--orbit-elevation", elevation.is_some()),

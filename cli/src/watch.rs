@@ -46,7 +46,7 @@ pub fn watched_files(
             let base = scene.parent().unwrap_or(Path::new(""));
             for object in &loaded.objects {
                 // The parts of a split mesh file name it each.
-                if let raycast::scene::Object::Soup { path, .. } = object
+                if let raycast::Object::Soup { path, .. } = object
                     && !files.contains(&base.join(path))
                 {
                     files.push(base.join(path));

@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use raycast::output::{self, Encoding};
-use raycast::scene::{self, CameraOverrides, Scene, Split};
+use raycast::Encoding;
 use raycast::{AnyImages, Begun, Cpu, Device, Error, Gpu, Mode, Precision, Progress};
+use raycast::{CameraOverrides, Scene, Split};
 use raycast::{RenderOptions, Result, ShadeHook, UserKernel};
 
 /// Images above this many pixels are rendered and written in bands of rows, holding one band
@@ -69,7 +69,7 @@ pub(crate) fn check_split<'a>(
     split: Split,
     mut scenes: impl Iterator<Item = Option<&'a Path>>,
 ) -> Result<()> {
-    if split != Split::default() && !scenes.any(|s| s.is_some_and(scene::is_mesh_file)) {
+    if split != Split::default() && !scenes.any(|s| s.is_some_and(raycast::is_mesh_file)) {
         return Err(Error::Argument {
             option: "split".into(),
             message: "splits mesh files given as scenes; in a scene file, give a soup \"split\""
@@ -280,7 +280,7 @@ impl RenderFiles {
     ///
     /// ```no_run
     /// use raycast::Gpu;
-    /// use raycast::output::{Encoding, Format};
+    /// use raycast::{Encoding, Format};
     /// use raycast_datasets::RenderFiles;
     /// let render = RenderFiles {
     ///     scene: Some("scenes/course/bunny.json".into()),
@@ -304,7 +304,7 @@ impl RenderFiles {
     /// ```
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<Arc<Progress>>) -> Result<Summary> {
         self.check()?;
-        let scene = scene::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
+        let scene = raycast::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
         if let Some(path) = &self.scene
             && !self.shaded()
             && !scene.lighting.is_empty()
@@ -342,9 +342,9 @@ impl RenderFiles {
             ..self.options(&self.load_files()?)
         };
         let gpu = self.device_for(&options, gpu, scene)?;
-        output::check_writable(&self.out_dir)?;
+        raycast::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
-            output::check_parent_writable(path)?;
+            raycast::check_parent_writable(path)?;
         }
         let [nx, ny] = scene.camera.resolution;
         let mut summary = Summary {
@@ -389,7 +389,7 @@ impl RenderFiles {
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
             let source = g.kernel_source(scene, &options)?;
-            output::write_file(path, source.as_bytes())?;
+            raycast::write_file(path, source.as_bytes())?;
             summary.emitted = Some(path.clone());
         }
         Ok(summary)
@@ -504,7 +504,7 @@ fn render_whole(scene: &Scene, gpu: Option<&Gpu>, options: &RenderOptions) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raycast::output::Format;
+    use raycast::Format;
 
     fn spec(mode: &str, default_precision: bool) -> RenderFiles {
         RenderFiles {

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use serde_json::{Value, json};
 
-use raycast::scene::{self, Camera, Object, Scene};
+use raycast::{Camera, Object, Scene};
 use raycast::{Device, Error, Result, ShadeHook};
 
 use crate::files::RenderFiles;
@@ -120,11 +120,11 @@ pub(crate) fn found(folder: &Path, names: &[String], expected: &Value, job_only:
 /// file's bytes and of each mesh file it loads.
 pub(crate) fn scene_digest(path: Option<&Path>, scene: &Scene) -> Result<String> {
     let Some(path) = path else {
-        return Ok(digest(scene::DEFAULT_SCENE_FILES));
+        return Ok(digest(raycast::DEFAULT_SCENE_FILES));
     };
     let read = |p: &Path| std::fs::read(p).map_err(|e| Error::io(p, format!("cannot read: {e}")));
     let mut files = vec![read(path)?];
-    if !scene::is_mesh_file(path) {
+    if !raycast::is_mesh_file(path) {
         let base = path.parent().unwrap_or(Path::new(""));
         for object in &scene.objects {
             if let Object::Soup { path, .. } = object {

@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use raycast::Gpu;
-use raycast::output::{Encoding, Format};
-use raycast::scene::{self, CameraOverrides, Orbit, Split};
+use raycast::{CameraOverrides, Orbit, Split};
+use raycast::{Encoding, Format};
 
 use crate::common;
 use crate::{RenderFiles, RenderViews, Views};
@@ -93,7 +93,7 @@ fn every_view_of_a_job_is_its_single_render_on_each_device() {
         let mut recast = 0.0;
         for path in &scenes {
             let split = Split::default();
-            let start = scene::load_viewed(Some(path), Some(SIZE), &Default::default(), split);
+            let start = raycast::load_viewed(Some(path), Some(SIZE), &Default::default(), split);
             let mut scene = start.unwrap();
             let stem = path.file_stem().unwrap();
             for (name, mut camera) in job.views.cameras(&scene).unwrap() {

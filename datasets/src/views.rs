@@ -31,10 +31,9 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use serde_json::Value;
 
-use raycast::images::{Coverage, Images};
-use raycast::output;
-use raycast::scene::{self, Lens, Orbit, Projection, Scene, ViewCamera};
 use raycast::{AnyImages, Begun, Error, Gpu, Result, Viewer};
+use raycast::{Coverage, Images};
+use raycast::{Lens, Orbit, Projection, Scene, ViewCamera};
 
 use crate::files::{Files, RenderFiles, Whole};
 use crate::record::{self, Found};
@@ -81,7 +80,7 @@ impl Views {
             Views::Json(text) => text.clone(),
             Views::Orbit(orbit) => return Ok((orbit.names()?, Vec::new())),
         };
-        let cameras = scene::parse_views(&text, self.file())?;
+        let cameras = raycast::parse_views(&text, self.file())?;
         let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
         check_names(&names, self.file())?;
         Ok((names, cameras))
@@ -89,7 +88,7 @@ impl Views {
 
     /// Every view's name and camera for `scene` (its own camera the orbit's start), as a
     /// [`RenderViews`] job renders them (without a `size`).
-    pub fn cameras(&self, scene: &Scene) -> Result<Vec<(String, scene::Camera)>> {
+    pub fn cameras(&self, scene: &Scene) -> Result<Vec<(String, raycast::Camera)>> {
         let (names, cameras) = self.parse()?;
         let cameras = self.cameras_of(&cameras, scene)?;
         Ok(names.into_iter().zip(cameras).collect())
@@ -97,7 +96,7 @@ impl Views {
 
     /// Every view's camera for `scene`, whose own camera (at the job's size) is the orbit's
     /// start; `cameras` are a views file's.
-    fn cameras_of(&self, cameras: &[ViewCamera], scene: &Scene) -> Result<Vec<scene::Camera>> {
+    fn cameras_of(&self, cameras: &[ViewCamera], scene: &Scene) -> Result<Vec<raycast::Camera>> {
         match self {
             Views::Orbit(orbit) => orbit.cameras(scene),
             _ => (cameras.iter())
@@ -108,7 +107,7 @@ impl Views {
 }
 
 /// The names of the camera settings `view` gives.
-fn given(view: &scene::CameraOverrides) -> Vec<&'static str> {
+fn given(view: &raycast::CameraOverrides) -> Vec<&'static str> {
     let given = [
         ("eye", view.eye.is_some()),
         ("look_at", view.look_at.is_some()),
@@ -263,7 +262,7 @@ impl RenderViews {
         sizes.into_iter().try_for_each(|s| r.check_memory(s))?;
         let pixels: Vec<f64> = (0..names.len())
             .map(|v| {
-                let [nx, ny] = size(v).unwrap_or(scene::DEFAULT_RESOLUTION);
+                let [nx, ny] = size(v).unwrap_or(raycast::DEFAULT_RESOLUTION);
                 f64::from(nx) * f64::from(ny)
             })
             .collect();
@@ -310,7 +309,7 @@ impl RenderViews {
         let clock = Instant::now();
         let mut renderer = self.renderer()?;
         let share = renderer.job.share(shard);
-        output::check_writable(&self.render.out_dir)?;
+        raycast::check_writable(&self.render.out_dir)?;
         let [rendered, stale] = renderer.render_all(gpu, &share, on_view)?;
         let manifest = self.manifest_of(&renderer.job, &renderer.names, &renderer.record)?;
         Ok(ViewsSummary {
@@ -329,7 +328,7 @@ impl RenderViews {
     /// exclusive lock on `OUT/.manifest.lock` (removed as it is released), so that of shards
     /// finishing together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
-        output::check_writable(&self.render.out_dir)?;
+        raycast::check_writable(&self.render.out_dir)?;
         let job_part = record::job_part(&self.render)?;
         self.manifest_of(&self.job()?, &self.file_names(), &job_part)
     }
@@ -361,7 +360,7 @@ impl RenderViews {
             text.push('\n');
         }
         let path = out.join(MANIFEST);
-        output::write_file(&path, text.as_bytes())?;
+        raycast::write_file(&path, text.as_bytes())?;
         Ok(path)
     }
 
@@ -382,7 +381,7 @@ impl RenderViews {
             images.color = Some(vec![[0; 4]]);
         }
         // Any camera: the names do not depend on it.
-        let camera = scene::Camera {
+        let camera = raycast::Camera {
             projection: Projection::Perspective,
             eye: DVec3::ZERO,
             look: DVec3::NEG_Z,
@@ -423,7 +422,7 @@ struct Loaded {
     /// extent.
     viewer: Viewer,
     /// Its views' cameras, in the job's order ([`Views::cameras`]).
-    cameras: Vec<scene::Camera>,
+    cameras: Vec<raycast::Camera>,
     /// The digest of its files, in its views' records ([`record::scene_digest`]).
     digest: String,
     /// The temporary folders killed runs left in its folder, by view name: removed before
@@ -686,7 +685,7 @@ impl ViewRenderer {
     /// temporary folder and then in place.
     fn write_bands(&mut self, gpu: Option<&Gpu>, view: ViewFiles) -> Result<()> {
         let loaded = (self.loaded.as_mut()).expect("a view's scene is loaded");
-        output::write_folder(&view.folder, |temporary| {
+        raycast::write_folder(&view.folder, |temporary| {
             let files = view.render_files(&self.spec, &self.job, temporary);
             let camera = view.camera.clone();
             (loaded.viewer).render(camera, |scene| files.run_loaded(gpu, None, scene))?;
@@ -716,10 +715,10 @@ enum Started {
 }
 
 /// A view being rendered: its scene (by index in the job) and camera, its record, and the
-/// folder its files go in (written whole: [`output::write_folder`]).
+/// folder its files go in (written whole: [`raycast::write_folder`]).
 struct ViewFiles {
     scene: usize,
-    camera: scene::Camera,
+    camera: raycast::Camera,
     record: Vec<u8>,
     folder: PathBuf,
 }
@@ -744,7 +743,7 @@ fn write_record(temporary: &Path, record: &[u8]) -> Result<()> {
 /// A view's images, and where they go with its record.
 struct ViewWrite {
     images: AnyImages,
-    encoding: output::Encoding,
+    encoding: raycast::Encoding,
     view: ViewFiles,
 }
 
@@ -755,7 +754,7 @@ impl ViewWrite {
     fn finish(self) -> Result<()> {
         let view = &self.view;
         let files = self.images.encode(&self.encoding, &view.camera);
-        output::write_folder(&view.folder, |temporary| {
+        raycast::write_folder(&view.folder, |temporary| {
             for f in &files {
                 let path = temporary.join(f.name);
                 std::fs::write(&path, &f.bytes)
@@ -776,8 +775,8 @@ fn load<'a>(
     if loaded.as_ref().is_none_or(|l| l.index != s) {
         *loaded = None;
         let path = job.scenes[s].as_deref();
-        let view = scene::CameraOverrides::default();
-        let scene = scene::load_viewed(path, spec.render.size, &view, spec.render.split)?;
+        let view = raycast::CameraOverrides::default();
+        let scene = raycast::load_viewed(path, spec.render.size, &view, spec.render.split)?;
         *loaded = Some(Loaded {
             digest: record::scene_digest(path, &scene)?,
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
@@ -889,8 +888,8 @@ fn scene_weight(path: Option<&Path>) -> f64 {
     let size = |p: &Path| std::fs::metadata(p).map_or(0, |m| m.len());
     let bytes = match path {
         // The built-in scene's mesh.
-        None => scene::DEFAULT_SCENE_FILES[1].len() as u64,
-        Some(path) if scene::is_mesh_file(path) => size(path),
+        None => raycast::DEFAULT_SCENE_FILES[1].len() as u64,
+        Some(path) if raycast::is_mesh_file(path) => size(path),
         Some(path) => {
             let base = path.parent().unwrap_or(Path::new(""));
             let meshes = std::fs::read_to_string(path)

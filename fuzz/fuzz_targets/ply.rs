@@ -3,5 +3,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = raycast::scene::parse_mesh(data, "fuzz.ply".as_ref(), raycast::scene::Split::None);
+    let _ = raycast::parse_mesh(data, "fuzz.ply".as_ref(), raycast::Split::None);
 });

@@ -7,7 +7,7 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
         let triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]].map(Into::into);
         let _ = raycast::Scene::from_json(text, "fuzz.json".as_ref(), &mut |_, _| {
-            Ok(vec![raycast::scene::MeshPart {
+            Ok(vec![raycast::MeshPart {
                 name: String::new(),
                 triangles: vec![triangle],
             }])

@@ -12,12 +12,12 @@ use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use raycast::rays::{RayList, RayRows};
-use raycast::scene::Camera;
+use raycast::Camera;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
+use raycast::{RayList, RayRows};
 use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -769,7 +769,7 @@ impl ViewJob {
     fn check(&self, py: Python<'_>) -> PyResult<usize> {
         py.detach(|| {
             let views = self.job.check()?;
-            raycast::output::check_writable(&self.job.render.out_dir).map(|()| views)
+            raycast::check_writable(&self.job.render.out_dir).map(|()| views)
         })
         .map_err(to_py)
     }

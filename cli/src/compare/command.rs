@@ -7,8 +7,7 @@ use super::{
     Comparison, color_error_picture, compare, distance_error_picture, exceeded, mismatch_picture,
 };
 use crate::render::{check, render, timed};
-use raycast::output::{self, EncodedFile};
-use raycast::scene;
+use raycast::EncodedFile;
 use raycast::{AnyImages, Mode};
 use raycast::{Gpu, RenderOptions, Result};
 
@@ -48,14 +47,14 @@ impl Spec {
     /// Renders both sides, compares them and writes the pictures. `gpu` is needed where a
     /// side is a GPU mode.
     pub fn run(&self, gpu: Option<&Gpu>) -> Result<Outcome> {
-        let scene_a = scene::load_viewed(
+        let scene_a = raycast::load_viewed(
             Some(&self.scene),
             self.size,
             &Default::default(),
             Default::default(),
         )?;
         let mut scene_b = match &self.b_scene {
-            Some(path) => scene::load_viewed(
+            Some(path) => raycast::load_viewed(
                 Some(path),
                 self.size,
                 &Default::default(),
@@ -73,7 +72,7 @@ impl Spec {
             check(mode, options.clone())?;
         }
         if let Some(dir) = &self.out_dir {
-            output::check_writable(dir)?;
+            raycast::check_writable(dir)?;
         }
         let [mode_a, mode_b] = self.modes;
         let render = |scene, mode| {
@@ -103,7 +102,7 @@ impl Spec {
             fields.extend(report);
         }
         let written = match &self.out_dir {
-            Some(dir) => output::write_files(dir, &pictures(&c, &a, &b))?,
+            Some(dir) => raycast::write_files(dir, &pictures(&c, &a, &b))?,
             None => Vec::new(),
         };
         Ok(Outcome {
@@ -129,7 +128,7 @@ fn pictures(c: &Comparison, a: &AnyImages, b: &AnyImages) -> Vec<EncodedFile> {
         .into_iter()
         .map(|(name, img)| EncodedFile {
             name,
-            bytes: output::encode_png_rgb(&img),
+            bytes: raycast::encode_png_rgb(&img),
         })
         .collect()
 }

@@ -6,8 +6,8 @@ mod pictures;
 
 use serde::Serialize;
 
-use raycast::images::{Images, MISS};
 use raycast::{AnyImages, Precision};
+use raycast::{Images, MISS};
 
 pub use command::{Outcome, Spec};
 pub use pictures::{color_error_picture, distance_error_picture, mismatch_picture};

@@ -5,10 +5,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use raycast::images::Output;
-use raycast::output::encode_png_rgb;
-use raycast::scene::{Camera, CameraOverrides};
+use raycast::Output;
+use raycast::encode_png_rgb;
 use raycast::{AnyImages, Cpu, Device, Encoding, Format, Mode, Precision, RenderOptions};
+use raycast::{Camera, CameraOverrides};
 
 use super::state::{Current, Shared};
 use crate::compare;

@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicUsize;
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
-use raycast::scene::{self, Camera, Lens};
+use raycast::{Camera, Lens};
 use raycast::{Gpu, Result, Scene, ShadeHook, Viewer};
 use serde::Serialize;
 
@@ -144,7 +144,7 @@ impl Shared {
 
 /// The scene (or mesh) and the hook of `options`, and the files they were read from.
 fn load(options: &Options) -> Result<(Scene, Option<ShadeHook>, Vec<PathBuf>)> {
-    let scene = scene::load_viewed(
+    let scene = raycast::load_viewed(
         options.scene.as_deref(),
         options.size,
         &Default::default(),
@@ -170,7 +170,7 @@ fn as_given<S: serde::Serializer>(paths: &[PathBuf], serializer: S) -> Result<S:
 fn page_camera(scene: &Scene) -> PageCamera {
     let c = &scene.camera;
     let ahead = c.look.normalize();
-    let along = scene::bounds(&scene.objects)
+    let along = raycast::bounds(&scene.objects)
         .map(|(lo, hi)| ((lo + hi) / 2.0 - c.eye).dot(ahead))
         .filter(|d| *d > 0.0)
         .unwrap_or(c.focal_length);

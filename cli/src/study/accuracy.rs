@@ -21,11 +21,10 @@ use std::path::{Path, PathBuf};
 use super::{Align, Provenance, Stream, Table, cell, format_error, scene_name};
 use crate::compare;
 use crate::render::{render, timed};
-use raycast::images::{Images, MISS};
-use raycast::output;
-use raycast::scene::Scene;
+use raycast::Scene;
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
 use raycast::{AnyImages, Device, Mode, Precision};
+use raycast::{Images, MISS};
 
 /// The reference mode unless another is named: the CPU in f64 with the robust algorithms.
 pub const DEFAULT_REFERENCE: Mode = Mode {
@@ -187,7 +186,7 @@ pub fn run(
     let mut scenes = Vec::with_capacity(paths.len());
     let mut infos = Vec::with_capacity(paths.len());
     for path in paths {
-        let scene = raycast::scene::load_viewed(
+        let scene = raycast::load_viewed(
             Some(path),
             options.size,
             &Default::default(),
@@ -408,7 +407,7 @@ pub fn command(
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     if let Some(file) = markdown {
-        output::check_parent_writable(file)?;
+        raycast::check_parent_writable(file)?;
     }
     let needs_gpu = modes
         .as_ref()
@@ -427,7 +426,7 @@ pub fn command(
     say(Stream::Stdout, to_markdown(&result.rows).trim_end());
     if let Some(file) = markdown {
         let text = document(&Provenance::now(gpu.as_ref()), &result, file.parent());
-        output::write_file(file, text.as_bytes())?;
+        raycast::write_file(file, text.as_bytes())?;
         say(Stream::Stderr, &format!("wrote {}", file.display()));
     }
     Ok(())

@@ -30,10 +30,10 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{Stream, Table, format_seconds, median, plural};
+use raycast::MISS;
 use raycast::Viewer;
-use raycast::images::MISS;
-use raycast::scene::{Camera, Object, Scene};
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
+use raycast::{Camera, Object, Scene};
 use raycast::{Device, Mode, Precision};
 use raycast_datasets::Views;
 
@@ -197,8 +197,7 @@ impl Loaded {
 /// view at `size`). Views of different sizes are refused: a row has one size.
 pub fn load(path: &Path, size: Option<[u32; 2]>, views: Option<&Views>) -> Result<Loaded> {
     let start = Instant::now();
-    let scene =
-        raycast::scene::load_viewed(Some(path), size, &Default::default(), Default::default())?;
+    let scene = raycast::load_viewed(Some(path), size, &Default::default(), Default::default())?;
     let load_s = start.elapsed().as_secs_f64();
     let views = views
         .map(|views| view_cameras(views, &scene, size))
@@ -559,8 +558,8 @@ pub fn measure(
 /// `n` incoherent rays about `scene`'s geometry: origins uniform in a cube about the centre of
 /// its bounds, 4/3 of their largest extent across (the peers' torus: [-2, 2]^3), directions
 /// uniform on the sphere (seed 1).
-pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::rays::Ray> {
-    let (lo, hi) = raycast::scene::bounds(&scene.objects).unwrap_or_default();
+pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::Ray> {
+    let (lo, hi) = raycast::bounds(&scene.objects).unwrap_or_default();
     let centre = (lo + hi) / 2.0;
     let half = (hi - lo).max_element() / 2.0 * 4.0 / 3.0;
     let mut rays = super::selftest::scenes::incoherent_rays(n, half.max(1e-30), 1);

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use raycast::Gpu;
 use raycast::Result;
-use raycast::scene::Scene;
+use raycast::Scene;
 
 /// Where a line printed by a study's command goes. Each command keeps its results apart from
 /// its progress, so that `raycast ... > file` holds the results only.
@@ -287,7 +287,7 @@ pub fn load_scenes(paths: &[PathBuf], size: Option<[u32; 2]>) -> Result<Vec<Name
         .map(|path| {
             Ok(NamedScene {
                 name: scene_name(path),
-                scene: raycast::scene::load_viewed(
+                scene: raycast::load_viewed(
                     Some(path),
                     size,
                     &Default::default(),

@@ -22,9 +22,8 @@ use std::path::{Path, PathBuf};
 
 use super::{Align, NamedScene, Provenance, Stream, Table, cell, load_scenes, median};
 use raycast::Precision;
-use raycast::output;
-use raycast::scene::{MeshPart, Scene};
 use raycast::{Error, Gpu, Outputs, RenderOptions, Result, Search, Tuning};
+use raycast::{MeshPart, Scene};
 
 /// Above this many triangles brute force is not timed (the torus's 518,400 would take minutes
 /// a frame on lavapipe).
@@ -530,7 +529,7 @@ pub fn command(
     }
     let named = load_scenes(&files, None)?;
     if let Some(out) = out {
-        output::check_parent_writable(out)?;
+        raycast::check_parent_writable(out)?;
     }
     let gpu = Gpu::new()?;
     let (mut rows, mut spreads) = (Vec::new(), Vec::new());
@@ -562,7 +561,7 @@ pub fn command(
     };
     let text = document(&report);
     if let Some(out) = out {
-        output::write_file(out, text.as_bytes())?;
+        raycast::write_file(out, text.as_bytes())?;
     }
     say(Stream::Stdout, text.trim_end());
     if let Some(out) = out {

@@ -37,8 +37,8 @@ use super::{
 };
 use crate::compare;
 use crate::render::render;
-use raycast::output::{self, EncodedFile};
-use raycast::scene::Scene;
+use raycast::EncodedFile;
+use raycast::Scene;
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
 use raycast::{AnyImages, Device, Mode, Precision};
 
@@ -467,7 +467,7 @@ pub fn files(
         },
         EncodedFile {
             name: png,
-            bytes: output::encode_png_rgb(&picture),
+            bytes: raycast::encode_png_rgb(&picture),
         },
     ]
 }
@@ -483,9 +483,9 @@ pub fn run(
     provenance: &Provenance,
     progress: bool,
 ) -> Result<Vec<PathBuf>> {
-    output::check_writable(dir)?;
+    raycast::check_writable(dir)?;
     let rows = measure(scenes, options, gpu, progress)?;
-    output::write_files(dir, &files(provenance, options, scenes, &rows))
+    raycast::write_files(dir, &files(provenance, options, scenes, &rows))
 }
 
 /// `raycast tradeoff`: loads `scenes` (validated before the GPU is opened or `dir` created),
@@ -500,7 +500,7 @@ pub fn command(
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     let scenes = load_scenes(scenes, size)?;
-    output::check_writable(dir)?;
+    raycast::check_writable(dir)?;
     let gpu = Gpu::new()?;
     let options = Options {
         size,

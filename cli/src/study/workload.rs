@@ -16,7 +16,7 @@
 use std::path::{Path, PathBuf};
 
 use super::selftest::scenes::Rng;
-use raycast::output::{EncodedFile, check_writable, write_files};
+use raycast::{EncodedFile, check_writable, write_files};
 use raycast::{Error, Result};
 
 /// The peers' torus: `nu` around the axis, `nv` around the tube.

@@ -18,8 +18,8 @@ use crate::common;
 
 use common::*;
 use raycast::Algorithm::Textbook;
+use raycast::Pictures;
 use raycast::Precision;
-use raycast::output::Pictures;
 
 struct Comparison {
     name: String,
@@ -297,7 +297,7 @@ fn ray_tracing_scenes_load_with_their_materials_and_lights() {
         }
         let plain = raycast::Scene::from_json(&plain.to_string(), &path, &mut |mesh, split| {
             let mesh = dir.join(mesh);
-            raycast::scene::parse_mesh(&std::fs::read(&mesh).unwrap(), &mesh, split)
+            raycast::parse_mesh(&std::fs::read(&mesh).unwrap(), &mesh, split)
         })
         .unwrap();
         assert!(plain.lighting.is_empty());

@@ -6,7 +6,7 @@ use crate::common;
 use common::*;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::AnyImages;
-use raycast::images::{Images, MISS};
+use raycast::{Images, MISS};
 use raycast_cli::compare::{PixelMatch, compare};
 
 /// CPU f64 is the course's own arithmetic: all 18 pictures equal, every pixel. No GPU needed.

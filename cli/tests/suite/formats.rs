@@ -454,7 +454,7 @@ fn a_mesh_file_renders_framed_by_its_default_view() {
     // Every vertex projects inside the image, in front of the camera.
     let (k, camera_to_world) = camera_of(dir);
     let to_camera = camera_to_world.inverse();
-    let triangles = raycast::scene::load_mesh(mesh.as_ref()).unwrap();
+    let triangles = raycast::load_mesh(mesh.as_ref()).unwrap();
     for corner in triangles.iter().flatten() {
         let local = to_camera.transform_point3(DVec3::from_array(corner.to_array()));
         assert!(local.z > 0.0);

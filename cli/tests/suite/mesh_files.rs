@@ -8,7 +8,7 @@ use crate::common;
 use std::path::PathBuf;
 use std::process::Output;
 
-use raycast::scene::{Triangle, load_mesh};
+use raycast::{Triangle, load_mesh};
 use tempfile::TempDir;
 
 /// A square pyramid: a quad base (fan-triangulated from its first corner) and four sides.

@@ -8,7 +8,7 @@ use crate::common::{self, Kernel};
 use common::file_names;
 
 use raycast::Algorithm::{Robust, Textbook};
-use raycast::images::{Images, MISS, Outputs};
+use raycast::{Images, MISS, Outputs};
 
 fn only(id: bool, distance: bool, normal: bool) -> Outputs {
     Outputs {

@@ -6,10 +6,10 @@ use crate::common;
 
 use std::path::Path;
 
+use raycast::Scene;
 use raycast::ShadeHook;
-use raycast::images::{Images, MISS};
-use raycast::scene::Scene;
 use raycast::{AnyImages, Mode, RenderOptions};
+use raycast::{Images, MISS};
 use raycast_cli::compare::{ColorError, color_error};
 
 /// The ray-tracing scenes the instructor published renders of.

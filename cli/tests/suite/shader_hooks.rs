@@ -9,9 +9,9 @@ use std::process::Output;
 use std::time::{Duration, Instant};
 
 use raycast::Algorithm::{self, Robust, Textbook};
+use raycast::Scene;
 use raycast::ShadeHook;
-use raycast::images::{Images, MISS, Outputs};
-use raycast::scene::Scene;
+use raycast::{Images, MISS, Outputs};
 
 fn raycast(args: &[&str]) -> Output {
     common::raycast()

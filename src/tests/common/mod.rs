@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use raycast::images::Images;
-use raycast::scene::Scene;
+use raycast::Images;
+use raycast::Scene;
 use raycast::{Algorithm, Gpu, Mode};
 
 /// The device this test runs its GPU work on (lavapipe in CI). Without an adapter the tests fail
@@ -402,15 +402,15 @@ pub(crate) fn assert_same_bits<T: Copy + Into<f64>>(a: &Images<T>, b: &Images<T>
 }
 
 /// The hits of an f32 (or adaptive) cast.
-pub(crate) fn f32_hits(h: raycast::rays::AnyHits) -> raycast::rays::Hits<f32> {
+pub(crate) fn f32_hits(h: raycast::AnyHits) -> raycast::Hits<f32> {
     match h {
-        raycast::rays::AnyHits::F32(h) => h,
-        raycast::rays::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
+        raycast::AnyHits::F32(h) => h,
+        raycast::AnyHits::F64(_) => panic!("an f32 cast returned f64 hits"),
     }
 }
 
 /// A triangle soup as vertices and indices (each corner its own vertex).
-pub(crate) fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+pub(crate) fn indexed(triangles: &[raycast::Triangle]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     let vertices = triangles.iter().flatten().map(|v| v.to_array()).collect();
     let indices = (0..triangles.len() as u32)
         .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
@@ -419,7 +419,7 @@ pub(crate) fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>,
 }
 
 /// A geometry of one mesh, the triangle soup `triangles`.
-pub(crate) fn soup_geometry(triangles: &[raycast::scene::Triangle]) -> raycast::Geometry {
+pub(crate) fn soup_geometry(triangles: &[raycast::Triangle]) -> raycast::Geometry {
     let (vertices, indices) = indexed(triangles);
     let mut geometry = raycast::Geometry::new();
     geometry.add_mesh(&vertices, &indices).unwrap();

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use raycast::scene::{Scene, parse_mesh};
 use raycast::{Error, Result};
+use raycast::{Scene, parse_mesh};
 
 /// A file of the repository, by its path there.
 struct Embedded {

@@ -23,12 +23,12 @@ use serde::Serialize;
 use crate::compare::color_error;
 use crate::render::render;
 use raycast::Algorithm::{self, Robust, Textbook};
-use raycast::images::{Images, MISS};
-use raycast::output::Pictures;
-use raycast::rays::{AnyHits, Hits, Ray};
-use raycast::scene::Scene;
+use raycast::Pictures;
+use raycast::Scene;
+use raycast::{AnyHits, Hits, Ray};
 use raycast::{AnyImages, Device, Mode, Precision};
 use raycast::{Cpu, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
+use raycast::{Images, MISS};
 
 /// How far a bounded f32 distance may be from CPU f64's, relative, where both hit one object.
 pub const F32_DISTANCE_BOUND: f64 = 1e-5;

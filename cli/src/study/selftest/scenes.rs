@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use raycast::rays::Ray;
-use raycast::scene::{MeshPart, Scene, Triangle};
+use raycast::Ray;
+use raycast::{MeshPart, Scene, Triangle};
 
 /// The course's six scenes, by name.
 pub const COURSE_SCENES: [&str; 6] = [
