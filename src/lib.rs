@@ -13,7 +13,8 @@
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let images = gpu.render(&scene, &RenderOptions::default())?;
-//! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
+//! let encoding = Encoding::new(&[Format::Png, Format::Npy], None)?;
+//! raycast::write_files("out".as_ref(), &images.encode(&encoding, &scene.camera))?;
 //!
 //! let accel = gpu.commit(&Geometry::from_scene(&scene), Precision::F32)?;
 //! let ray = Ray { origin: [0.0, 0.1, 1.0], direction: [0.0, 0.0, -1.0] };

@@ -384,7 +384,8 @@ impl RenderFiles {
                 summary.hook_rays = images.hook_rays();
                 summary.elapsed = elapsed;
                 summary.recast = self.recast(&images);
-                summary.written = images.write(&self.out_dir, &self.encoding, &scene.camera)?;
+                let files = images.encode(&self.encoding, &scene.camera);
+                summary.written = raycast::write_files(&self.out_dir, &files)?;
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
@@ -453,7 +454,7 @@ impl RenderFiles {
     }
 
     /// The render of the images [`RenderFiles::run_loaded`] writes, begun, for a caller that
-    /// writes them itself (with [`AnyImages::write`], the same bytes); `None` for a render
+    /// writes them itself (with [`AnyImages::encode`], the same bytes); `None` for a render
     /// that goes in bands, which only `run_loaded` writes. `files` holds this render's
     /// [`RenderFiles::load_files`] once made, for the renders that follow.
     pub(crate) fn begin_images(

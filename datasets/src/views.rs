@@ -749,7 +749,7 @@ struct ViewWrite {
 
 impl ViewWrite {
     /// Writes the files and the record, then puts the folder in place; on an error leaves no
-    /// folder behind. The files are those [`AnyImages::write`] writes, written straight into
+    /// folder behind. The files are those [`AnyImages::encode`] makes, written straight into
     /// the temporary folder, which is what appears whole or not at all.
     fn finish(self) -> Result<()> {
         let view = &self.view;

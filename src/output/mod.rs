@@ -330,18 +330,6 @@ pub fn write_folder<T>(folder: &Path, write: impl FnOnce(&Path) -> Result<T>) ->
     }
 }
 
-/// Encodes (see [`encode`]) and writes into `dir`, all files or none; returns the files
-/// written.
-pub(crate) fn write<T: Real>(
-    images: &Images<T>,
-    dir: &Path,
-    encoding: &Encoding,
-    camera: &Camera,
-) -> Result<Vec<PathBuf>> {
-    check_writable(dir)?;
-    write_files(dir, &encode(images, encoding, camera))
-}
-
 /// PNG bytes of an RGB image.
 pub fn encode_png_rgb(img: &image::RgbImage) -> Vec<u8> {
     pictures::png(
@@ -377,9 +365,11 @@ pub fn check_parent_writable(file: &Path) -> Result<()> {
     check_writable(dir.unwrap_or(Path::new(".")))
 }
 
-/// Writes every file or none: all go to temporary names first, then are renamed into place.
-/// The temporary files are registered for removal on an interruption ([`remove_partial_files`]).
+/// Writes every file into `dir` (created if missing: [`check_writable`]) or none: all go to
+/// temporary names first, then are renamed into place. The temporary files are registered for
+/// removal on an interruption ([`remove_partial_files`]).
 pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
+    check_writable(dir)?;
     let named: Vec<(PathBuf, &[u8])> = files
         .iter()
         .map(|f| (dir.join(f.name), f.bytes.as_slice()))

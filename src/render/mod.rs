@@ -43,15 +43,8 @@ pub enum AnyImages {
 }
 
 impl AnyImages {
-    /// Encodes and writes the images, a render of `camera` (see `output::write`).
-    pub fn write(&self, dir: &Path, encoding: &Encoding, camera: &Camera) -> Result<Vec<PathBuf>> {
-        match self {
-            AnyImages::F32(i) => output::write(i, dir, encoding, camera),
-            AnyImages::F64(i) => output::write(i, dir, encoding, camera),
-        }
-    }
-
-    /// The files [`AnyImages::write`] writes, encoded in memory: their names and bytes.
+    /// The files of the images, a render of `camera`, encoded as `encoding` asks, in memory:
+    /// their names and bytes, for [`crate::write_files`].
     pub fn encode(&self, encoding: &Encoding, camera: &Camera) -> Vec<output::EncodedFile> {
         match self {
             AnyImages::F32(i) => output::encode(i, encoding, camera),
