@@ -342,7 +342,7 @@ impl Scene {
             .collect())
     }
 
-    fn add_triangles(
+    fn add_mesh(
         &mut self,
         vertices: PyReadonlyArray2<'_, f64>,
         triangles: PyReadonlyArray2<'_, u32>,
@@ -369,7 +369,7 @@ impl Scene {
         self.added(id)
     }
 
-    fn cast<'py>(
+    fn intersect<'py>(
         &self,
         py: Python<'py>,
         rays: RayArray<'_>,
@@ -434,7 +434,7 @@ impl Scene {
     }
 
     /// The generalized winding number at each query point (f64, on the CPU).
-    fn winding<'py>(
+    fn winding_numbers<'py>(
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'_, f64>,
@@ -474,7 +474,7 @@ impl Scene {
     }
 
     /// Every hit of each ray, ordered by t, as Open3D's `list_intersections` gives them.
-    fn list_intersections<'py>(
+    fn every_hit<'py>(
         &self,
         py: Python<'py>,
         rays: RayArray<'_>,
