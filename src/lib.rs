@@ -9,14 +9,14 @@
 //! that rays are cast at, Embree's commit-then-query:
 //!
 //! ```no_run
-//! use raycast::{Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
+//! use raycast::{DVec3, Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let images = gpu.render(&scene, &RenderOptions::default())?;
 //! images.write("out".as_ref(), &Encoding::new(&[Format::Png, Format::Npy], None)?, &scene.camera)?;
 //!
 //! let accel = gpu.commit(&Geometry::from_scene(&scene), Precision::F32)?;
-//! let ray = Ray { origin: [0.0, 0.1, 1.0], direction: [0.0, 0.0, -1.0] };
+//! let ray = Ray { origin: DVec3::new(0.0, 0.1, 1.0), direction: DVec3::NEG_Z };
 //! let hits = accel.intersect(&[ray])?;
 //! println!("object {} at t = {:?}", hits.id()[0], hits.t_f64()[0]);
 //! # Ok::<(), raycast::Error>(())
@@ -77,3 +77,6 @@ pub use crate::{
     render::{AnyImages, Progress, STREAM_PIXELS},
     scene::{Orbit, Scene},
 };
+/// The API's one vector type (points, directions, colours): glam's, re-exported so that a
+/// client's matches the library's version.
+pub use glam::DVec3;

@@ -17,7 +17,7 @@ use common::assert_same_bits;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
 use raycast::gpu::shader::{Kinds, Variant};
-use raycast::math::{Float, Real, Vec3, vec3};
+use raycast::math::{Float, Real, Vec3};
 use raycast::prepare::bvh::{Bvh, MAX_DEPTH, Search};
 use raycast::scene::{MeshPart, Scene};
 
@@ -30,7 +30,7 @@ fn dense_soup(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
             let c = rng.point(-1.0, 1.0);
             let corner = |rng: &mut common::Rng| {
                 let d = rng.point(-0.15, 0.15);
-                vec3(c[0] + d[0], c[1] + d[1], c[2] + d[2])
+                glam::DVec3::new(c[0] + d[0], c[1] + d[1], c[2] + d[2])
             };
             [corner(&mut rng), corner(&mut rng), corner(&mut rng)]
         })

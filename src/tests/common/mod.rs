@@ -415,11 +415,16 @@ pub(crate) fn indexed(triangles: &[raycast::scene::Triangle]) -> (Vec<[f64; 3]>,
     (vertices, indices)
 }
 
+/// Points written as arrays, as the API's vectors (the same bytes).
+pub(crate) fn dvec3s(points: &[[f64; 3]]) -> &[glam::DVec3] {
+    bytemuck::cast_slice(points)
+}
+
 /// A geometry of one mesh, the triangle soup `triangles`.
 pub(crate) fn soup_geometry(triangles: &[raycast::scene::Triangle]) -> raycast::Geometry {
     let (vertices, indices) = indexed(triangles);
     let mut geometry = raycast::Geometry::new();
-    geometry.add_mesh(&vertices, &indices).unwrap();
+    geometry.add_mesh(dvec3s(&vertices), &indices).unwrap();
     geometry
 }
 
