@@ -18,6 +18,18 @@ pub(crate) const MODULES: &[(&str, &str)] = &[
     ("triangle", include_str!("../../../shaders/triangle.wgsl")),
     ("hit", include_str!("../../../shaders/hit.wgsl")),
     ("traverse", include_str!("../../../shaders/traverse.wgsl")),
+    (
+        "traverse_packet",
+        include_str!("../../../shaders/traverse_packet.wgsl"),
+    ),
+    (
+        "traverse_lanes",
+        include_str!("../../../shaders/traverse_lanes.wgsl"),
+    ),
+    (
+        "traverse_ray",
+        include_str!("../../../shaders/traverse_ray.wgsl"),
+    ),
     ("certainty", include_str!("../../../shaders/certainty.wgsl")),
     ("nearest", include_str!("../../../shaders/nearest.wgsl")),
     ("count", include_str!("../../../shaders/count.wgsl")),
@@ -275,9 +287,16 @@ mod tests {
         assert_eq!(on_disk, listed, "shaders/ and MODULES differ");
         use rayon::prelude::*;
         MODULES.par_iter().for_each(|(name, _)| {
-            // The traversal module needs the BVH's bindings.
+            // The traversal modules need the BVH's bindings, the packets' their subgroups: each
+            // is validated where the kernel may import it.
+            let needs = match *name {
+                "traverse" | "traverse_ray" => Some("BVH"),
+                "traverse_packet" => Some("PACKETS"),
+                "traverse_lanes" => Some("LANES"),
+                _ => None,
+            };
             let variants = all_variants().into_iter();
-            for variant in variants.filter(|v| *name != "traverse" || v.uses_bvh()) {
+            for variant in variants.filter(|v| needs.is_none_or(|d| v.defines().contains(&d))) {
                 let source = assemble(name, &variant).unwrap();
                 let label = format!("shaders/{name}.wgsl ({variant:?})");
                 if let Err(e) = validate(&source, &label) {
@@ -364,9 +383,23 @@ mod tests {
             certainty: true,
             ..Variant::new(Float::F32, Algorithm::Robust)
         };
+        let packets = Variant {
+            bvh: true,
+            packets: true,
+            eight_lanes: true,
+            ..Variant::new(Float::F32, Algorithm::Robust)
+        };
         for (variant, with_hook) in [
             (variant, false),
             (variant.with_shade(hook.key, hook.traces), true),
+            (packets, false),
+            (
+                Variant {
+                    eight_lanes: false,
+                    ..packets
+                },
+                false,
+            ),
             (certainty, false),
             (
                 Variant {
@@ -384,6 +417,9 @@ mod tests {
                     "hooks" | "shade" => with_hook,
                     "certainty" => variant.certainty,
                     "traverse" => variant.bvh,
+                    "traverse_packet" => variant.uses_packets(),
+                    "traverse_lanes" => variant.lane_rays() > 1,
+                    "traverse_ray" => variant.bvh && !variant.uses_packets(),
                     "count" => variant.count,
                     "closest" => variant.closest,
                     _ => true,

@@ -107,7 +107,7 @@ pub(crate) struct Variant {
     /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
     /// Subgroups are exactly `crate::gpu::PACKET_LANES` invocations: packets vote by butterflies of
-    /// constant-xor shuffles (`EIGHT_LANES`, shaders/traverse.wgsl `packet_any`), which llvmpipe
+    /// constant-xor shuffles (`EIGHT_LANES`, shaders/traverse_packet.wgsl `packet_any`), which llvmpipe
     /// compiles to permutes instead of a loop over the lanes.
     pub eight_lanes: bool,
     /// The most rays a lane casts ([`Variant::lane_rays`]): [`MAX_LANE_RAYS`], or fewer for a
@@ -415,8 +415,8 @@ impl Variant {
     }
 
     /// How many rays each invocation casts, so that a packet is 8 times that many and every
-    /// node and primitive fetched serves them all (`LANES`, `LANE_RAYS`, shaders/traverse.wgsl
-    /// `traverse_bvh_lanes`): wherever packets are used (the camera's rays, a caller's) on
+    /// node and primitive fetched serves them all (`LANES`, `LANE_RAYS`,
+    /// shaders/traverse_lanes.wgsl `traverse_bvh_lanes`): wherever packets are used (the camera's rays, a caller's) on
     /// subgroups of exactly 8, eight (one subgroup in eight then casts the rays of its whole
     /// workgroup, 8x8 pixels of the camera's), or two with the certainty pass, which keeps each
     /// ray's record in private state and swaps the second's in around its work; else one.
