@@ -23,8 +23,8 @@ use crate::scene::{Object, Scene};
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
 pub(crate) const MAX_DEPTH: usize = 40;
-// The packet kernels hold their stack of 40 entries in five registers (`PacketStack` in
-// shaders/traverse.wgsl).
+// The packet kernels hold their stack of 40 entries in five registers (`packet_push` in
+// shaders/traverse_packet.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
 /// How the nearest hit is searched for among spheres and triangles ([`crate::Tuning::search`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]

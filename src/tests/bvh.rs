@@ -228,7 +228,7 @@ fn bvh_depth_stays_within_the_traversal_stack() {
     for (name, scene) in scenes() {
         let bvh = Bvh::build(&scene, Robust);
         assert!(bvh.depth() <= MAX_DEPTH, "{name}: depth {}", bvh.depth());
-        // What the kernels' stacks are sized to (shaders/traverse.wgsl, BVH_STACK).
+        // What the kernels' stacks are sized to (BVH_STACK: shaders/traverse_ray.wgsl, count.wgsl, closest.wgsl).
         let stack = bvh.stack_entries() as usize;
         assert!(
             stack >= bvh.depth() && stack <= MAX_DEPTH,
