@@ -41,8 +41,8 @@ fn peer_rays() -> Vec<Ray> {
             let x = (2.0 * (j as f64 + 0.5) / WIDTH as f64 - 1.0) * th * aspect;
             let d = [0, 1, 2].map(|k| forward[k] + x * right[k] + y * up[k]);
             rays.push(Ray {
-                origin: eye,
-                direction: norm(d),
+                origin: eye.into(),
+                direction: norm(d).into(),
             });
         }
     }
@@ -89,10 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => args[1..].to_vec(),
     };
     let triangles = raycast::load_mesh(mesh.as_ref())?;
-    let vertices: Vec<[f64; 3]> = triangles
-        .iter()
-        .flat_map(|t| t.map(|v| [v.x, v.y, v.z]))
-        .collect();
+    let vertices: Vec<raycast::DVec3> = triangles.iter().flatten().copied().collect();
     let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
         .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
         .collect();
@@ -103,8 +100,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if random {
         let mut next = uniform(12345);
         for ray in rays.iter_mut() {
-            ray.origin = [next() * 1.5, next() * 1.5, next() * 0.5];
-            ray.direction = [next(), next(), next()];
+            ray.origin = [next() * 1.5, next() * 1.5, next() * 0.5].into();
+            ray.direction = [next(), next(), next()].into();
         }
     }
     if let Some(s) = jitter {

@@ -3,12 +3,12 @@
 //!
 //!     cargo run --example cast_rays
 
-use raycast::{Cpu, Geometry, Gpu, Precision, Ray};
+use raycast::{Cpu, DVec3, Geometry, Gpu, Precision, Ray};
 
 fn main() -> raycast::Result<()> {
     // A unit cube as 12 triangles, and a sphere beside it.
-    let vertices: Vec<[f64; 3]> = (0..8)
-        .map(|k| [k & 1, (k >> 1) & 1, (k >> 2) & 1].map(|c| c as f64))
+    let vertices: Vec<DVec3> = (0..8)
+        .map(|k| DVec3::from([k & 1, (k >> 1) & 1, (k >> 2) & 1].map(|c| c as f64)))
         .collect();
     let triangles = [
         // The faces z = 0 and z = 1.
@@ -34,12 +34,12 @@ fn main() -> raycast::Result<()> {
     // Rays along x: through both, from between them, and one that misses.
     let along_x = |origin| Ray {
         origin,
-        direction: [1.0, 0.0, 0.0],
+        direction: DVec3::X,
     };
     let rays = [
-        along_x([-1.0, 0.3, 0.6]),
-        along_x([2.0, 0.3, 0.6]),
-        along_x([-1.0, 5.0, 0.6]),
+        along_x(DVec3::new(-1.0, 0.3, 0.6)),
+        along_x(DVec3::new(2.0, 0.3, 0.6)),
+        along_x(DVec3::new(-1.0, 5.0, 0.6)),
     ];
 
     // Commit builds the BVH and uploads it once; every query reuses it.

@@ -25,7 +25,7 @@ struct Params {
 // Only the primitive kinds a scene has are compiled in (SPHERES, PLANES, TRIANGLES).
 #if SPHERES
 // Spheres as vec4s (Sphere's layout: the centre in xyz, the radius in w), so that a subgroup can
-// load one a component per lane (shared_sphere in traverse.wgsl).
+// load one a component per lane (shared_sphere in traverse_packet.wgsl).
 @group(0) @binding(1) var<storage, read> spheres: array<vec4<real>>;
 
 // Sphere k.

@@ -1,10 +1,20 @@
 // Nearest-hit search: over every primitive (brute force), or the planes by brute force and the
-// rest through the BVH (BVH; shaders/traverse.wgsl). CPU mirror: src/cpu/nearest.rs.
+// rest through the BVH (BVH; shaders/traverse*.wgsl). CPU mirror: src/cpu/nearest.rs.
 #import types
 #import bindings
 #import hit
 #if BVH
 #import traverse
+#endif
+// The traversals this kernel uses, chosen here alone (Variant::defines decides which).
+#if PACKETS
+#import traverse_packet
+#endif
+#if LANES
+#import traverse_lanes
+#endif
+#if RAY_BY_RAY
+#import traverse_ray
 #endif
 #if CERTAINTY
 #import certainty

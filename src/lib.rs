@@ -9,7 +9,7 @@
 //! that rays are cast at, Embree's commit-then-query:
 //!
 //! ```no_run
-//! use raycast::{Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
+//! use raycast::{DVec3, Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
 //! let gpu = Gpu::new()?; // or Gpu::from_parts(adapter, device, queue)
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let images = gpu.render(&scene, &RenderOptions::default())?;
@@ -17,7 +17,7 @@
 //! raycast::write_files("out".as_ref(), &images.encode(&encoding, &scene.camera))?;
 //!
 //! let accel = gpu.commit(&Geometry::from_scene(&scene), Precision::F32)?;
-//! let ray = Ray { origin: [0.0, 0.1, 1.0], direction: [0.0, 0.0, -1.0] };
+//! let ray = Ray { origin: DVec3::new(0.0, 0.1, 1.0), direction: DVec3::NEG_Z };
 //! let hits = accel.intersect(&[ray])?;
 //! println!("object {} at t = {:?}", hits.id()[0], hits.t_f64()[0]);
 //! # Ok::<(), raycast::Error>(())
@@ -87,3 +87,6 @@ pub use crate::output::{
     DEFAULT_DEPTH_SCALE, Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable,
     check_writable, encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
 };
+/// The API's one vector type (points, directions, colours): glam's, re-exported so that a
+/// client's matches the library's version.
+pub use glam::DVec3;

@@ -231,6 +231,12 @@ impl From<glam::DVec3> for Vec3<f64> {
     }
 }
 
+impl From<Vec3<f64>> for glam::DVec3 {
+    fn from(v: Vec3<f64>) -> Self {
+        glam::DVec3::new(v.x, v.y, v.z)
+    }
+}
+
 impl<T: Real> Add for Vec3<T> {
     type Output = Self;
     #[inline]

@@ -7,6 +7,7 @@
 use crate::error::{Error, Result};
 use crate::images::MISS;
 use crate::math::{Real, Vec3, length, normalize};
+use glam::DVec3;
 
 /// A ray in world coordinates. Points on it are `origin + t * direction`, `t >= 0`. Laid out
 /// as six f64s, so rows of `origin, direction` (a numpy array's) are rays without copying.
@@ -14,9 +15,9 @@ use crate::math::{Real, Vec3, length, normalize};
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Ray {
     /// Where the ray starts.
-    pub origin: [f64; 3],
+    pub origin: DVec3,
     /// Its direction, of any non-zero length: `t` is measured in units of it.
-    pub direction: [f64; 3],
+    pub direction: DVec3,
 }
 
 /// Asks Linux to back the unused capacity of `v` with transparent huge pages (where they are
@@ -101,8 +102,8 @@ impl<'a> RayList<'a> {
 fn widen(row: &[f32; 6]) -> Ray {
     let x = row.map(f64::from);
     Ray {
-        origin: [x[0], x[1], x[2]],
-        direction: [x[3], x[4], x[5]],
+        origin: DVec3::new(x[0], x[1], x[2]),
+        direction: DVec3::new(x[3], x[4], x[5]),
     }
 }
 
@@ -318,7 +319,7 @@ pub(crate) fn one_origin(list: RayList<'_>) -> bool {
         })
     }
     match list.rays {
-        RayRows::F64(rays) => all_at(rays, |r| r.origin.map(f64::to_bits)),
+        RayRows::F64(rays) => all_at(rays, |r| r.origin.to_array().map(f64::to_bits)),
         RayRows::F32(rows) => all_at(rows, |r| [r[0], r[1], r[2]].map(f32::to_bits)),
     }
 }
@@ -328,8 +329,8 @@ pub(crate) fn one_origin(list: RayList<'_>) -> bool {
 /// `extent`. A camera's rays change smoothly and stray little; jitter raises it in
 /// proportion.
 fn packet_roughness(rays: &[Ray], row: usize, extent: f64) -> f64 {
-    let direction = |r: &Ray| normalize(Vec3::from_array(r.direction));
-    let origin = |r: &Ray| Vec3::from_array(r.origin);
+    let direction = |r: &Ray| normalize(Vec3::from(r.direction));
+    let origin = |r: &Ray| Vec3::from(r.origin);
     rays.chunks(row)
         .flat_map(|run| run.windows(3))
         .map(|w| {
@@ -342,12 +343,12 @@ fn packet_roughness(rays: &[Ray], row: usize, extent: f64) -> f64 {
 /// How far the rays of a packet are from its first: the largest distance between unit
 /// directions (about the angle, in radians) plus that between origins in units of `extent`.
 fn packet_spread(rays: &[Ray], extent: f64) -> f64 {
-    let direction = |r: &Ray| normalize(Vec3::from_array(r.direction));
+    let direction = |r: &Ray| normalize(Vec3::from(r.direction));
     let first = &rays[0];
     rays.iter()
         .map(|r| {
             length(direction(r) - direction(first))
-                + length(Vec3::from_array(r.origin) - Vec3::from_array(first.origin)) / extent
+                + length(Vec3::from(r.origin) - Vec3::from(first.origin)) / extent
         })
         .fold(0.0, f64::max)
 }
@@ -403,18 +404,20 @@ pub(crate) fn is_valid(ray: &Ray) -> bool {
         p.iter()
             .fold(true, |ok, x| ok & (x.abs() <= crate::scene::MAX_MAGNITUDE))
     };
-    within(&ray.origin) & within(&ray.direction) & (ray.direction != [0.0; 3])
+    within(&ray.origin.to_array())
+        & within(&ray.direction.to_array())
+        & (ray.direction != DVec3::ZERO)
 }
 
 /// Ray `k` finite and of a non-zero direction (its name formatted only on an error).
 fn check_ray(k: usize, ray: &Ray) -> Result<()> {
-    if let Some(x) = bad_coordinate(&ray.origin) {
+    if let Some(x) = bad_coordinate(&ray.origin.to_array()) {
         return Err(argument(&format!("rays[{k}] origin"), out_of_range(x)));
     }
-    if let Some(x) = bad_coordinate(&ray.direction) {
+    if let Some(x) = bad_coordinate(&ray.direction.to_array()) {
         return Err(argument(&format!("rays[{k}] direction"), out_of_range(x)));
     }
-    if ray.direction == [0.0; 3] {
+    if ray.direction == [0.0; 3].into() {
         return Err(argument(
             &format!("rays[{k}] direction"),
             "must not be zero".into(),

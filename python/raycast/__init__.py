@@ -423,7 +423,7 @@ class RaycastingScene:
         if v.ndim != 2:
             raise ValueError(f"{names[0]}: expected shape (N, 3), got {v.shape}")
         t = _triangle_indices(triangles, len(v), names[1])
-        return self._scene.add_triangles(v, t)
+        return self._scene.add_mesh(v, t)
 
     def add_sphere(self, center: ArrayLike, radius: float) -> int:
         """Adds a sphere; returns its geometry id (not in Open3D)."""
@@ -444,7 +444,7 @@ class RaycastingScene:
         accepted for Open3D compatibility and ignored. A ray with a NaN or infinite
         coordinate or a zero direction misses, as in Open3D (uvs and normals 0)."""
         _options(precision, device)
-        rows, out = _each_ray(rays, lambda r, w: r.query(self._scene.cast, w, precision, device))
+        rows, out = _each_ray(rays, lambda r, w: r.query(self._scene.intersect, w, precision, device))
         return _results(rows.spread_each(out, _MISS), rows.shape, _HIT_FIELDS)
 
     def test_occlusions(
@@ -498,7 +498,7 @@ class RaycastingScene:
     def _list_intersections(self, rows: _Rows, precision: str, device: str) -> Mapping:
         """The native ``list_intersections`` of the valid rays, as those of every ray: the
         others have no hits."""
-        out = rows.query(self._scene.list_intersections, precision, device)
+        out = rows.query(self._scene.every_hit, precision, device)
         if rows.valid is None:
             return out
         counts = rows.spread(np.diff(out["ray_splits"].astype(np.int64)), 0)
@@ -622,7 +622,7 @@ class RaycastingScene:
         (Barill et al. 2018). NaN at a point with a NaN or infinite coordinate."""
         _options(precision, device)
         rows = _query_points(query_points)
-        winding = rows.query(self._scene.winding, precision, device)
+        winding = rows.query(self._scene.winding_numbers, precision, device)
         return _result(rows.spread(winding, math.nan), rows.shape)
 
     def render(

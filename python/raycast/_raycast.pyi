@@ -12,12 +12,12 @@ class Scene:
     def __init__(self) -> None: ...
     @staticmethod
     def load(path: str) -> "Scene": ...
-    def add_triangles(
+    def add_mesh(
         self, vertices: npt.NDArray[np.float64], triangles: npt.NDArray[np.uint32]
     ) -> int: ...
     def add_sphere(self, center: List[float], radius: float) -> int: ...
     def add_plane(self, point: List[float], normal: List[float]) -> int: ...
-    def cast(
+    def intersect(
         self,
         rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
         width: Optional[int],
@@ -38,7 +38,7 @@ class Scene:
         precision: str,
         device: str,
     ) -> npt.NDArray[np.uint32]: ...
-    def list_intersections(
+    def every_hit(
         self,
         rays: Union[npt.NDArray[np.float32], npt.NDArray[np.float64]],
         precision: str,
@@ -53,7 +53,7 @@ class Scene:
         """The closest surface point to each (n, 3) point: flat ``points`` (3n), ``distance``
         (n), ``geometry_ids``, ``primitive_ids`` (n, uint32), ``primitive_uvs`` (2n) and
         ``primitive_normals`` (3n); float64 for f64, else float32."""
-    def winding(
+    def winding_numbers(
         self, points: npt.NDArray[np.float64], precision: str, device: str
     ) -> npt.NDArray[np.float64]:
         """The generalized winding number at each (n, 3) point."""

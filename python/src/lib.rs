@@ -13,6 +13,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::Camera;
+use raycast::DVec3;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
@@ -196,8 +197,13 @@ fn hits_dict<'py, T: numpy::Element + bytemuck::Pod>(
 }
 
 /// Query points as the Python half passes them: (n, 3) float64, C-contiguous.
-fn point_list<'a>(points: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [[f64; 3]]> {
-    rows_of(points, "query_points")
+fn point_list<'a>(points: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [DVec3]> {
+    rows_of::<f64, 3>(points, "query_points").map(bytemuck::cast_slice)
+}
+
+/// Vectors as rows of three numbers (the same bytes).
+fn vectors(v: Vec<DVec3>) -> Vec<[f64; 3]> {
+    bytemuck::allocation::cast_vec(v)
 }
 
 /// A vector of f64 as NumPy float32 (f32 and adaptive queries, as Open3D's) or float64.
@@ -215,12 +221,15 @@ fn id_array(py: Python<'_>, id: Vec<i32>) -> Bound<'_, PyArray1<u32>> {
 
 fn closest_dict(py: Python<'_>, c: Closest, f64_out: bool) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("points", real_array(py, flat(c.point), f64_out))?;
+    d.set_item("points", real_array(py, flat(vectors(c.point)), f64_out))?;
     d.set_item("distance", real_array(py, c.distance, f64_out))?;
     d.set_item("geometry_ids", id_array(py, c.id))?;
     d.set_item("primitive_ids", PyArray1::from_vec(py, c.primitive))?;
     d.set_item("primitive_uvs", real_array(py, flat(c.uv), f64_out))?;
-    d.set_item("primitive_normals", real_array(py, flat(c.normal), f64_out))?;
+    d.set_item(
+        "primitive_normals",
+        real_array(py, flat(vectors(c.normal)), f64_out),
+    )?;
     Ok(d)
 }
 
@@ -342,7 +351,7 @@ impl Scene {
             .collect())
     }
 
-    fn add_triangles(
+    fn add_mesh(
         &mut self,
         vertices: PyReadonlyArray2<'_, f64>,
         triangles: PyReadonlyArray2<'_, u32>,
@@ -353,7 +362,10 @@ impl Scene {
         let t = triangles
             .as_slice()
             .map_err(|_| PyValueError::new_err("triangles: expected a contiguous array"))?;
-        let v: Vec<[f64; 3]> = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let v: Vec<DVec3> = v
+            .chunks_exact(3)
+            .map(|c| DVec3::new(c[0], c[1], c[2]))
+            .collect();
         let t: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let id = self.geometry.add_mesh(&v, &t);
         self.added(id)
@@ -369,7 +381,7 @@ impl Scene {
         self.added(id)
     }
 
-    fn cast<'py>(
+    fn intersect<'py>(
         &self,
         py: Python<'py>,
         rays: RayArray<'_>,
@@ -434,7 +446,7 @@ impl Scene {
     }
 
     /// The generalized winding number at each query point (f64, on the CPU).
-    fn winding<'py>(
+    fn winding_numbers<'py>(
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'_, f64>,
@@ -474,7 +486,7 @@ impl Scene {
     }
 
     /// Every hit of each ray, ordered by t, as Open3D's `list_intersections` gives them.
-    fn list_intersections<'py>(
+    fn every_hit<'py>(
         &self,
         py: Python<'py>,
         rays: RayArray<'_>,

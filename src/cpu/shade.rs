@@ -71,7 +71,7 @@ pub(crate) struct HookScene<T> {
 
 impl<T: Real> HookScene<T> {
     pub(crate) fn new(lighting: &crate::scene::Lighting, objects: usize) -> HookScene<T> {
-        let v = |v: &Vec3<f64>| v.cast::<T>();
+        let v = |&v: &glam::DVec3| Vec3::from(v).cast::<T>();
         HookScene {
             materials: lighting
                 .materials

@@ -1,5 +1,6 @@
-//! Mirror of shaders/traverse.wgsl: the nearest hit over the spheres and triangles through the BVH
-//! built by src/prepare/bvh.rs.
+//! Mirror of shaders/traverse.wgsl (what the traversals share) and traverse_ray.wgsl (the
+//! traversal ray by ray): the nearest hit over the spheres and triangles through the BVH built by
+//! src/prepare/bvh.rs; and, for tests, of the packets' intervals (traverse_lanes.wgsl).
 
 use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
 use super::sphere::intersect_sphere;
@@ -194,7 +195,7 @@ pub(crate) fn join_intervals(a: &PacketInterval, b: &PacketInterval) -> PacketIn
 
 /// `box_entry` for a whole packet: where its rays enter the box at the earliest, or NO_HIT
 /// when `box_entry` is NO_HIT for every ray whose `t_max` is at most `t_max`. The bounds are
-/// exact (see shaders/traverse.wgsl): each slab distance is monotonic in the origin and the
+/// exact (see shaders/traverse_lanes.wgsl): each slab distance is monotonic in the origin and the
 /// inverse, so the corners of the intervals bound it.
 #[cfg(test)]
 pub(crate) fn interval_entry<T: Real>(

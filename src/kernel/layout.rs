@@ -239,11 +239,11 @@ pub(crate) const HOOK_LIGHTS_HEADER: usize = 16;
 impl From<&crate::scene::Material> for GpuMaterial {
     fn from(m: &crate::scene::Material) -> Self {
         GpuMaterial {
-            ka: m.ka.cast::<f32>().to_array(),
+            ka: crate::math::Vec3::from(m.ka).cast::<f32>().to_array(),
             phong_exponent: m.phong_exponent as f32,
-            kd: m.kd.cast::<f32>().to_array(),
-            ks: m.ks.cast::<f32>().to_array(),
-            km: m.km.cast::<f32>().to_array(),
+            kd: crate::math::Vec3::from(m.kd).cast::<f32>().to_array(),
+            ks: crate::math::Vec3::from(m.ks).cast::<f32>().to_array(),
+            km: crate::math::Vec3::from(m.km).cast::<f32>().to_array(),
             ..GpuMaterial::default()
         }
     }
@@ -254,14 +254,14 @@ impl From<&crate::scene::Light> for GpuLight {
         match l {
             crate::scene::Light::Directional { direction, color } => GpuLight {
                 kind: 0,
-                direction: direction.cast::<f32>().to_array(),
-                color: color.cast::<f32>().to_array(),
+                direction: crate::math::Vec3::from(*direction).cast::<f32>().to_array(),
+                color: crate::math::Vec3::from(*color).cast::<f32>().to_array(),
                 ..GpuLight::default()
             },
             crate::scene::Light::Point { position, color } => GpuLight {
-                position: position.cast::<f32>().to_array(),
+                position: crate::math::Vec3::from(*position).cast::<f32>().to_array(),
                 kind: 1,
-                color: color.cast::<f32>().to_array(),
+                color: crate::math::Vec3::from(*color).cast::<f32>().to_array(),
                 ..GpuLight::default()
             },
         }

@@ -23,8 +23,8 @@ use crate::scene::{Object, Scene};
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
 pub(crate) const MAX_DEPTH: usize = 40;
-// The packet kernels hold their stack of 40 entries in five registers (`PacketStack` in
-// shaders/traverse.wgsl).
+// The packet kernels hold their stack of 40 entries in five registers (`packet_push` in
+// shaders/traverse_packet.wgsl).
 const _: () = assert!(MAX_DEPTH <= 40);
 /// How the nearest hit is searched for among spheres and triangles ([`crate::Tuning::search`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -717,7 +717,7 @@ fn primitive_boxes(
     for object in &scene.objects {
         match object {
             Object::Sphere { center, radius } => {
-                let c = *center - origin;
+                let c = Vec3::from(*center) - origin;
                 spheres.push((c - Vec3::splat(*radius), c + Vec3::splat(*radius)));
             }
             Object::Triangle { corners } => triangles.push(triangle_box(corners, origin)),
@@ -891,7 +891,7 @@ fn stack_for_depth(depth: usize) -> u8 {
 }
 
 fn triangle_box(c: &crate::scene::Triangle, origin: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
-    let [a, b, c] = c.map(|p| p - origin);
+    let [a, b, c] = c.map(|p| Vec3::from(p) - origin);
     let lo = Vec3::from_array([0, 1, 2].map(|k| a.get(k).min(b.get(k)).min(c.get(k))));
     let hi = Vec3::from_array([0, 1, 2].map(|k| a.get(k).max(b.get(k)).max(c.get(k))));
     (lo, hi)
@@ -1040,9 +1040,9 @@ mod tests {
             .map(|k| {
                 let x = k as f64;
                 [
-                    crate::math::vec3(x, 0.0, -6.0),
-                    crate::math::vec3(x + 0.5, 0.0, -6.0),
-                    crate::math::vec3(x, 0.5, -6.0),
+                    glam::DVec3::new(x, 0.0, -6.0),
+                    glam::DVec3::new(x + 0.5, 0.0, -6.0),
+                    glam::DVec3::new(x, 0.5, -6.0),
                 ]
             })
             .collect();

@@ -110,14 +110,14 @@ impl<T: Real> Prepared<T> {
     pub(crate) fn kernel_ray(&self, ray: &crate::rays::Ray) -> Ray<T> {
         Ray {
             origin: self.kernel_point(ray.origin).cast(),
-            direction: (Vec3::from_array(ray.direction) * (1.0 / self.unit)).cast(),
+            direction: (Vec3::from(ray.direction) * (1.0 / self.unit)).cast(),
         }
     }
 
     /// A point (world coordinates) in the kernel's, in f64: measured from
     /// [`Prepared::origin`] and scaled by `1 / unit`.
-    pub(crate) fn kernel_point(&self, p: [f64; 3]) -> Vec3<f64> {
-        (Vec3::from_array(p) - self.origin) * (1.0 / self.unit)
+    pub(crate) fn kernel_point(&self, p: impl Into<Vec3<f64>>) -> Vec3<f64> {
+        (p.into() - self.origin) * (1.0 / self.unit)
     }
 
     /// Whether every camera ray starts at the kernel's origin: a perspective camera whose eye
@@ -286,13 +286,14 @@ impl<T: Real> Primitives<T> {
         for object in &scene.objects {
             match object {
                 Object::Sphere { center, radius } => spheres.push(Sphere {
-                    center: (*center - origin).cast(),
+                    center: (Vec3::from(*center) - origin).cast(),
                     radius: T::from_f64(*radius),
                 }),
                 Object::Plane { point, normal } => {
+                    let (point, normal) = (Vec3::from(*point), Vec3::from(*normal));
                     let point = match algorithm {
-                        Algorithm::Textbook => *point,
-                        Algorithm::Robust => *normal * dot(*point - origin, *normal),
+                        Algorithm::Textbook => point,
+                        Algorithm::Robust => normal * dot(point - origin, normal),
                     };
                     planes.push(Plane {
                         point: point.cast(),
@@ -352,9 +353,9 @@ impl<T: Real> Primitives<T> {
 /// Triangle `t` measured from `origin`, rounded to `T`.
 fn triangle_at<T: Real>(t: &crate::scene::Triangle, origin: Vec3<f64>) -> Triangle<T> {
     Triangle {
-        a: (t[0] - origin).cast(),
-        b: (t[1] - origin).cast(),
-        c: (t[2] - origin).cast(),
+        a: (Vec3::from(t[0]) - origin).cast(),
+        b: (Vec3::from(t[1]) - origin).cast(),
+        c: (Vec3::from(t[2]) - origin).cast(),
     }
 }
 

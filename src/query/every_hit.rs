@@ -35,11 +35,11 @@ impl Accel<'_> {
     /// [`Accel`]'s device, in its precision (f64 for adaptive).
     ///
     /// ```
-    /// use raycast::{Cpu, Geometry, Precision, Ray};
+    /// use raycast::{Cpu, DVec3, Geometry, Precision, Ray};
     /// let mut geometry = Geometry::new();
     /// geometry.add_sphere([0.0, 0.0, -3.0], 1.0)?;
     /// let accel = Cpu.commit(&geometry, Precision::F64)?;
-    /// let ray = Ray { origin: [0.0; 3], direction: [0.0, 0.0, -1.0] };
+    /// let ray = Ray { origin: DVec3::ZERO, direction: DVec3::NEG_Z };
     /// let hits = accel.every_hit(&[ray])?;
     /// assert_eq!((hits.ray_splits, hits.t), (vec![0, 2], vec![2.0, 4.0]));
     /// # Ok::<(), raycast::Error>(())

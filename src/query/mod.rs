@@ -12,12 +12,12 @@
 //! between `t_near` and `t_far`, and [`Accel::count`] counts the surfaces each ray crosses.
 //!
 //! ```no_run
-//! use raycast::{Geometry, Gpu, Precision, Ray};
+//! use raycast::{DVec3, Geometry, Gpu, Precision, Ray};
 //! let mut geometry = Geometry::new();
-//! let id = geometry.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+//! let id = geometry.add_mesh(&[DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)], &[[0, 1, 2]])?;
 //! let gpu = Gpu::new()?;
 //! let accel = gpu.commit(&geometry, Precision::F32)?;
-//! let ray = Ray { origin: [0.25, 0.25, 1.0], direction: [0.0, 0.0, -1.0] };
+//! let ray = Ray { origin: DVec3::new(0.25, 0.25, 1.0), direction: DVec3::NEG_Z };
 //! let hits = accel.intersect(&[ray])?;
 //! assert_eq!(hits.id()[0], id as i32);
 //! # Ok::<(), raycast::Error>(())
@@ -50,11 +50,11 @@ pub(crate) mod points;
 /// queries.
 ///
 /// ```
-/// use raycast::{Cpu, Geometry, Precision, Ray};
+/// use raycast::{Cpu, DVec3, Geometry, Precision, Ray};
 /// let mut geometry = Geometry::new();
 /// let sphere = geometry.add_sphere([0.0, 0.0, -3.0], 1.0)?;
 /// let accel = Cpu.commit(&geometry, Precision::F64)?;
-/// let ray = Ray { origin: [0.0; 3], direction: [0.0, 0.0, -1.0] };
+/// let ray = Ray { origin: DVec3::ZERO, direction: DVec3::NEG_Z };
 /// let hits = accel.intersect(&[ray])?;
 /// assert_eq!(hits.id()[0], sphere as i32);
 /// assert!((hits.t_f64()[0] - 2.0).abs() < 1e-12);
@@ -93,20 +93,20 @@ impl Geometry {
     /// Every coordinate must be finite and at most 1e18 in magnitude, every index in range.
     ///
     /// ```
-    /// use raycast::{Cpu, Geometry, Precision, Ray};
+    /// use raycast::{Cpu, DVec3, Geometry, Precision, Ray};
     /// let mut geometry = Geometry::new();
-    /// let square = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    /// let square = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
     /// let id = geometry.add_mesh(&square, &[[0, 1, 2], [0, 2, 3]])?;
     /// let accel = Cpu.commit(&geometry, Precision::F64)?;
-    /// let down = Ray { origin: [0.75, 0.25, 2.0], direction: [0.0, 0.0, -1.0] };
+    /// let down = Ray { origin: DVec3::new(0.75, 0.25, 2.0), direction: DVec3::NEG_Z };
     /// let hits = accel.intersect(&[down])?;
     /// assert_eq!((hits.id()[0], hits.t_f64()[0]), (id as i32, 2.0));
     /// assert_eq!(accel.count(&[down])?, [1]);
     /// # Ok::<(), raycast::Error>(())
     /// ```
-    pub fn add_mesh(&mut self, vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Result<u32> {
+    pub fn add_mesh(&mut self, vertices: &[DVec3], triangles: &[[u32; 3]]) -> Result<u32> {
         for (k, v) in vertices.iter().enumerate() {
-            check_point(v, &format!("vertices[{k}]"))?;
+            check_point(&v.to_array(), &format!("vertices[{k}]"))?;
         }
         let corners = triangles
             .iter()
@@ -114,15 +114,12 @@ impl Geometry {
             .map(|(k, t)| {
                 let corner = |c: usize| {
                     let i = t[c] as usize;
-                    vertices
-                        .get(i)
-                        .map(|v| Vec3::from_array(*v))
-                        .ok_or_else(|| {
-                            argument(
-                                &format!("triangles[{k}][{c}]"),
-                                format!("index {i} is out of range ({} vertices)", vertices.len()),
-                            )
-                        })
+                    vertices.get(i).copied().ok_or_else(|| {
+                        argument(
+                            &format!("triangles[{k}][{c}]"),
+                            format!("index {i} is out of range ({} vertices)", vertices.len()),
+                        )
+                    })
                 };
                 Ok([corner(0)?, corner(1)?, corner(2)?])
             })
@@ -134,33 +131,32 @@ impl Geometry {
     }
 
     /// Adds a sphere; returns its id. The radius must be positive.
-    pub fn add_sphere(&mut self, center: [f64; 3], radius: f64) -> Result<u32> {
-        check_point(&center, "center")?;
+    pub fn add_sphere(&mut self, center: impl Into<DVec3>, radius: f64) -> Result<u32> {
+        let center = center.into();
+        check_point(&center.to_array(), "center")?;
         if !(radius > 0.0 && radius <= crate::scene::MAX_MAGNITUDE) {
             return Err(argument(
                 "radius",
                 format!("must be positive and at most 1e18, got {radius}"),
             ));
         }
-        self.push(Object::Sphere {
-            center: Vec3::from_array(center),
-            radius,
-        })
+        self.push(Object::Sphere { center, radius })
     }
 
     /// Adds a plane through `point` facing `normal` (normalised here; it must not be zero);
     /// returns its id.
-    pub fn add_plane(&mut self, point: [f64; 3], normal: [f64; 3]) -> Result<u32> {
-        check_point(&point, "point")?;
-        check_point(&normal, "normal")?;
-        let n = Vec3::from_array(normal);
+    pub fn add_plane(&mut self, point: impl Into<DVec3>, normal: impl Into<DVec3>) -> Result<u32> {
+        let (point, normal) = (point.into(), normal.into());
+        check_point(&point.to_array(), "point")?;
+        check_point(&normal.to_array(), "normal")?;
+        let n = Vec3::from(normal);
         let length = crate::math::length(n);
         if length.is_nan() || length <= 0.0 {
             return Err(argument("normal", "must not be zero".into()));
         }
         self.push(Object::Plane {
-            point: Vec3::from_array(point),
-            normal: n * (1.0 / length),
+            point,
+            normal: (n * (1.0 / length)).into(),
         })
     }
 
@@ -196,12 +192,12 @@ impl Gpu {
     /// BVH built and the buffers uploaded now, once.
     ///
     /// ```no_run
-    /// use raycast::{Geometry, Gpu, Precision, Ray};
+    /// use raycast::{DVec3, Geometry, Gpu, Precision, Ray};
     /// let mut geometry = Geometry::new();
-    /// geometry.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+    /// geometry.add_mesh(&[DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)], &[[0, 1, 2]])?;
     /// let gpu = Gpu::new()?;
     /// let accel = gpu.commit(&geometry, Precision::Adaptive)?; // borrows `gpu`
-    /// let down = Ray { origin: [0.25, 0.25, 1.0], direction: [0.0, 0.0, -1.0] };
+    /// let down = Ray { origin: DVec3::new(0.25, 0.25, 1.0), direction: DVec3::NEG_Z };
     /// assert_eq!(accel.occluded(&[down], 0.0, 2.0)?, [true]);
     /// # Ok::<(), raycast::Error>(())
     /// ```

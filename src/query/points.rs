@@ -22,6 +22,7 @@ use crate::prepare::winding::{Dipole, dipoles};
 use crate::prepare::{kernel_origin, kernel_unit};
 use crate::rays::{Hits, INVALID_ID, Ray, RayList, argument, check_points};
 use crate::scene::Object;
+use glam::DVec3;
 
 /// The closest point on the geometry to each query point, in world coordinates and f64 (from
 /// a cast in the [`Accel`]'s precision): as Open3D's `compute_closest_points`, with the
@@ -29,7 +30,7 @@ use crate::scene::Object;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Closest {
     /// The closest point.
-    pub point: Vec<[f64; 3]>,
+    pub point: Vec<DVec3>,
     /// Its distance from the query point.
     pub distance: Vec<f64>,
     /// The id of the object it lies on ([`MISS`] where the geometry is empty).
@@ -41,7 +42,7 @@ pub struct Closest {
     pub uv: Vec<[f64; 2]>,
     /// The primitive's unit normal there: a triangle's by its corner order, a sphere's
     /// outward, a plane's own.
-    pub normal: Vec<[f64; 3]>,
+    pub normal: Vec<DVec3>,
 }
 
 /// How [`Accel::inside`] tells inside from outside.
@@ -82,16 +83,17 @@ impl Accel<'_> {
     /// for f64 to settle.
     ///
     /// ```
-    /// use raycast::{Cpu, Geometry, Precision};
+    /// use raycast::{Cpu, DVec3, Geometry, Precision};
     /// let mut geometry = Geometry::new();
-    /// geometry.add_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]])?;
+    /// geometry.add_mesh(&[DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)], &[[0, 1, 2]])?;
     /// let accel = Cpu.commit(&geometry, Precision::F64)?;
-    /// let closest = accel.closest(&[[0.25, 0.25, 2.0], [-1.0, -1.0, 0.0]])?;
-    /// assert_eq!(closest.point, [[0.25, 0.25, 0.0], [0.0, 0.0, 0.0]]);
+    /// let closest = accel.closest(&[DVec3::new(0.25, 0.25, 2.0), DVec3::new(-1.0, -1.0, 0.0)])?;
+    /// assert_eq!(closest.point, [DVec3::new(0.25, 0.25, 0.0), DVec3::ZERO]);
     /// assert_eq!(closest.distance[0], 2.0);
     /// # Ok::<(), raycast::Error>(())
     /// ```
-    pub fn closest(&self, points: &[[f64; 3]]) -> Result<Closest> {
+    pub fn closest(&self, points: &[DVec3]) -> Result<Closest> {
+        let points = bytemuck::cast_slice(points);
         check_points(points)?;
         self.scene.closest(self.gpu, self.mode, points)
     }
@@ -105,23 +107,25 @@ impl Accel<'_> {
     /// triangles near the point and by the dipoles of far BVH subtrees (Barill et al. 2018).
     ///
     /// ```
-    /// use raycast::{Cpu, Geometry, Precision};
+    /// use raycast::{Cpu, DVec3, Geometry, Precision};
     /// let mut geometry = Geometry::new();
-    /// let corners = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    /// let corners = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 0.0, 1.0)];
     /// geometry.add_mesh(&corners, &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])?;
     /// let accel = Cpu.commit(&geometry, Precision::F64)?;
-    /// let w = accel.winding_numbers(&[[0.1, 0.1, 0.1], [2.0, 2.0, 2.0]])?;
+    /// let w = accel.winding_numbers(&[DVec3::new(0.1, 0.1, 0.1), DVec3::new(2.0, 2.0, 2.0)])?;
     /// assert!((w[0] - 1.0).abs() < 1e-12 && w[1].abs() < 1e-12);
     /// # Ok::<(), raycast::Error>(())
     /// ```
-    pub fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
+    pub fn winding_numbers(&self, points: &[DVec3]) -> Result<Vec<f64>> {
+        let points = bytemuck::cast_slice(points);
         check_points(points)?;
         self.scene.winding_numbers(points)
     }
 
     /// Whether each of `points` is inside the geometry, by `sign`'s rule: Open3D's occupancy
     /// (and the sign of its signed distance) with [`Sign::Parity`].
-    pub fn inside(&self, points: &[[f64; 3]], sign: Sign) -> Result<Vec<bool>> {
+    pub fn inside(&self, points: &[DVec3], sign: Sign) -> Result<Vec<bool>> {
+        let points = bytemuck::cast_slice(points);
         check_points(points)?;
         match sign {
             Sign::Winding => Ok(self
@@ -148,7 +152,10 @@ impl Accel<'_> {
             for direction in parity_directions(samples) {
                 let rays: Vec<Ray> = origins
                     .iter()
-                    .map(|&origin| Ray { origin, direction })
+                    .map(|&origin| Ray {
+                        origin: origin.into(),
+                        direction: direction.into(),
+                    })
                     .collect();
                 // Crossings as every_hit lists them: one where a ray passes through an edge.
                 let crossings = self.crossings(RayList::from(&rays[..]))?;
@@ -254,8 +261,8 @@ impl RayScene {
             let rays: Vec<Ray> = points
                 .iter()
                 .map(|&origin| Ray {
-                    origin,
-                    direction: [0.0, 0.0, 1.0],
+                    origin: origin.into(),
+                    direction: [0.0, 0.0, 1.0].into(),
                 })
                 .collect();
             let rays = RayList::from(&rays[..]);
@@ -285,12 +292,12 @@ impl RayScene {
         let first = first_primitives(&self.scene.objects);
         let n = raw.id.len();
         let mut out = Closest {
-            point: vec![[f64::INFINITY; 3]; n],
+            point: vec![DVec3::INFINITY; n],
             distance: vec![f64::INFINITY; n],
             id: raw.id.clone(),
             primitive: vec![INVALID_ID; n],
             uv: vec![[0.0; 2]; n],
-            normal: vec![[0.0; 3]; n],
+            normal: vec![DVec3::ZERO; n],
         };
         for k in 0..n {
             let id = raw.id[k];
@@ -301,11 +308,11 @@ impl RayScene {
             let point = origin + p * unit;
             let primitive = raw.primitive[k] - first[id as usize];
             let object = &self.scene.objects[id as usize];
-            out.point[k] = point.to_array();
+            out.point[k] = point.into();
             out.distance[k] = raw.t[k].to_f64() * unit;
             out.primitive[k] = primitive;
             out.uv[k] = raw.uv[k].map(|x| x.to_f64());
-            out.normal[k] = surface_normal(object, primitive, point).to_array();
+            out.normal[k] = surface_normal(object, primitive, point).into();
         }
         out
     }
@@ -317,15 +324,15 @@ impl RayScene {
 fn surface_normal(object: &Object, primitive: u32, point: Vec3<f64>) -> Vec3<f64> {
     let triangle = |c: &crate::scene::Triangle| {
         triangle_normal::<f64, true>(&Triangle {
-            a: c[0],
-            b: c[1],
-            c: c[2],
+            a: c[0].into(),
+            b: c[1].into(),
+            c: c[2].into(),
         })
     };
     match object {
         // The closest point lies a radius from the centre.
-        Object::Sphere { center, .. } => normalize(point - *center),
-        Object::Plane { normal, .. } => *normal,
+        Object::Sphere { center, .. } => normalize(point - Vec3::from(*center)),
+        Object::Plane { normal, .. } => Vec3::from(*normal),
         Object::Triangle { corners } => triangle(corners),
         Object::Soup { triangles, .. } => triangle(&triangles[primitive as usize]),
     }

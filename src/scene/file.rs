@@ -656,20 +656,22 @@ impl Checker<'_> {
         let field = |name: &str| format!("objects[{i}].{name}");
         Ok(vec![match o {
             ObjectFile::Sphere { center, radius, .. } => Object::Sphere {
-                center: self.vector(&field("center"), *center)?,
+                center: self.vector(&field("center"), *center)?.into(),
                 radius: self.positive(&field("radius"), *radius)?,
             },
             ObjectFile::Plane { point, normal, .. } => {
                 let n = self.nonzero(&field("normal"), *normal)?;
                 Object::Plane {
-                    point: self.vector(&field("point"), *point)?,
-                    normal: normalize(n),
+                    point: self.vector(&field("point"), *point)?.into(),
+                    normal: normalize(n).into(),
                 }
             }
             ObjectFile::Triangle { corners, .. } => {
-                let mut c = [Vec3::default(); 3];
+                let mut c = [glam::DVec3::ZERO; 3];
                 for (k, corner) in corners.iter().enumerate() {
-                    c[k] = self.vector(&field(&format!("corners[{k}]")), *corner)?;
+                    c[k] = self
+                        .vector(&field(&format!("corners[{k}]")), *corner)?
+                        .into();
                 }
                 Object::Triangle { corners: c }
             }
@@ -747,10 +749,10 @@ impl Checker<'_> {
             }
             materials.push(Material {
                 name: m.name.clone(),
-                ka: self.color(&field("ka"), m.ka)?,
-                kd: self.color(&field("kd"), m.kd)?,
-                ks: self.color(&field("ks"), m.ks)?,
-                km: self.color(&field("km"), m.km)?,
+                ka: self.color(&field("ka"), m.ka)?.into(),
+                kd: self.color(&field("kd"), m.kd)?.into(),
+                ks: self.color(&field("ks"), m.ks)?.into(),
+                km: self.color(&field("km"), m.km)?.into(),
                 phong_exponent,
             });
         }
@@ -762,12 +764,12 @@ impl Checker<'_> {
                 let field = |name: &str| format!("lights[{i}].{name}");
                 Ok(match l {
                     LightFile::Directional { direction, color } => Light::Directional {
-                        direction: self.nonzero(&field("direction"), *direction)?,
-                        color: self.color(&field("color"), *color)?,
+                        direction: self.nonzero(&field("direction"), *direction)?.into(),
+                        color: self.color(&field("color"), *color)?.into(),
                     },
                     LightFile::Point { position, color } => Light::Point {
-                        position: self.vector(&field("position"), *position)?,
-                        color: self.color(&field("color"), *color)?,
+                        position: self.vector(&field("position"), *position)?.into(),
+                        color: self.color(&field("color"), *color)?.into(),
                     },
                 })
             })

@@ -17,8 +17,6 @@ use crate::error::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::math::Vec3;
-
 pub use camera::{Camera, CameraOverrides, Lens, Projection};
 pub(crate) use mesh::load_mesh_parts;
 pub use mesh::{MeshPart, Split, load_mesh, parse_mesh};
@@ -36,7 +34,7 @@ pub(crate) const DEFAULT_SCENE_BUNNY: &[u8] = include_bytes!("../../scenes/bunny
 pub const DEFAULT_SCENE_FILES: [&[u8]; 2] = [DEFAULT_SCENE_JSON.as_bytes(), DEFAULT_SCENE_BUNNY];
 
 /// One triangle by its corners, in the order that fixes its normal.
-pub type Triangle = [Vec3<f64>; 3];
+pub type Triangle = [DVec3; 3];
 
 /// A scene object. Its id is its index in [`Scene::objects`]; a soup is one object (a mesh
 /// file split in parts, [`Split`], is a soup for each).
@@ -45,16 +43,16 @@ pub enum Object {
     /// A sphere.
     Sphere {
         /// Its centre.
-        center: Vec3<f64>,
+        center: DVec3,
         /// Its radius, positive.
         radius: f64,
     },
     /// A plane.
     Plane {
         /// A point on it.
-        point: Vec3<f64>,
+        point: DVec3,
         /// Its normal, unit length (normalised on load).
-        normal: Vec3<f64>,
+        normal: DVec3,
     },
     /// A single triangle.
     Triangle {
@@ -89,13 +87,13 @@ pub struct Material {
     /// The name objects refer to it by.
     pub name: String,
     /// Ambient coefficients.
-    pub ka: Vec3<f64>,
+    pub ka: DVec3,
     /// Diffuse coefficients.
-    pub kd: Vec3<f64>,
+    pub kd: DVec3,
     /// Specular coefficients.
-    pub ks: Vec3<f64>,
+    pub ks: DVec3,
     /// Mirror coefficients.
-    pub km: Vec3<f64>,
+    pub km: DVec3,
     /// The Blinn-Phong exponent.
     pub phong_exponent: f64,
 }
@@ -106,16 +104,16 @@ pub enum Light {
     /// Light arriving along `direction` (non-zero) from infinitely far.
     Directional {
         /// The direction the light travels in.
-        direction: Vec3<f64>,
+        direction: DVec3,
         /// Its RGB intensity.
-        color: Vec3<f64>,
+        color: DVec3,
     },
     /// Light from a point.
     Point {
         /// Where the light is.
-        position: Vec3<f64>,
+        position: DVec3,
         /// Its RGB intensity.
-        color: Vec3<f64>,
+        color: DVec3,
     },
 }
 
@@ -182,8 +180,7 @@ impl std::fmt::Display for Lighting {
 pub fn bounds<'a>(objects: impl IntoIterator<Item = &'a Object>) -> Option<(DVec3, DVec3)> {
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
-    let mut grow = |p: &Vec3<f64>, r: f64| {
-        let p = DVec3::from(p.to_array());
+    let mut grow = |&p: &DVec3, r: f64| {
         lo = lo.min(p - r);
         hi = hi.max(p + r);
     };
@@ -287,7 +284,7 @@ impl Scene {
     /// overflow and subnormals.
     pub fn scaled_by_pow2(&self, k: i32) -> Scene {
         let f = 2f64.powi(k);
-        let v = |p: Vec3<f64>| p * f;
+        let v = |p: DVec3| p * f;
         let mut scene = self.clone();
         let c = &mut scene.camera;
         c.eye *= f;
@@ -350,7 +347,7 @@ impl Scene {
 
     /// The largest magnitude of any coordinate or radius of the objects (0 without any).
     pub(crate) fn objects_magnitude(&self) -> f64 {
-        let largest = |v: &Vec3<f64>| v.x.abs().max(v.y.abs()).max(v.z.abs());
+        let largest = |v: &DVec3| v.x.abs().max(v.y.abs()).max(v.z.abs());
         self.objects
             .iter()
             .map(|object| match object {

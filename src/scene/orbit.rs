@@ -10,7 +10,6 @@ use glam::DVec3;
 use super::camera::{default_depth_white, default_near};
 use super::{Camera, CameraOverrides, Lens, MAX_MAGNITUDE, Object, Projection, Scene, Triangle};
 use crate::error::{Error, Result};
-use crate::math::Vec3;
 
 /// A box, by its lowest and highest corners.
 type Bounds = (DVec3, DVec3);
@@ -400,15 +399,14 @@ fn flat_normal(objects: &[Object], extent: f64) -> Option<DVec3> {
         }
     }
     let corners = || triangles.iter().flat_map(|t| t.iter());
-    let point = |p: &Vec3<f64>| DVec3::from(p.to_array());
     let (origin, normal) = corners().find_map(|[a, b, c]| {
-        let (a, b, c) = (point(a), point(b), point(c));
+        let (a, b, c) = (*a, *b, *c);
         let n = (b - a).cross(c - a);
         (n.length() > 1e-9 * extent * extent).then(|| (a, n.normalize()))
     })?;
     corners()
         .flatten()
-        .all(|p| normal.dot(point(p) - origin).abs() <= 1e-6 * extent)
+        .all(|&p| normal.dot(p - origin).abs() <= 1e-6 * extent)
         .then_some(normal)
 }
 

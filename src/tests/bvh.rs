@@ -16,8 +16,8 @@ use std::path::Path;
 use common::assert_same_bits;
 use raycast::Algorithm::{self, Robust, Textbook};
 use raycast::cpu;
-use raycast::gpu::shader::Variant;
-use raycast::math::{Float, Real, Vec3, vec3};
+use raycast::gpu::shader::{Kinds, Variant};
+use raycast::math::{Float, Real, Vec3};
 use raycast::prepare::bvh::{Bvh, MAX_DEPTH, Search};
 use raycast::scene::{MeshPart, Scene};
 
@@ -30,7 +30,7 @@ fn dense_soup(seed: u64, n: usize, resolution: [u32; 2]) -> Scene {
             let c = rng.point(-1.0, 1.0);
             let corner = |rng: &mut common::Rng| {
                 let d = rng.point(-0.15, 0.15);
-                vec3(c[0] + d[0], c[1] + d[1], c[2] + d[2])
+                glam::DVec3::new(c[0] + d[0], c[1] + d[1], c[2] + d[2])
             };
             [corner(&mut rng), corner(&mut rng), corner(&mut rng)]
         })
@@ -161,9 +161,16 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
                 packets: gpu.has_packet_subgroups(),
                 ..gpu.scene_variant(&scene, Float::F32, algorithm)
             };
+            // The kernel a render of the scene compiles, and beside it kernels of every
+            // primitive kind, which the scenes share (fewer kernels to compile; the
+            // specialized_kernels tests show the two render alike).
+            let general = |bvh| Variant {
+                kinds: Kinds::ALL,
+                ..variant(bvh)
+            };
             let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(true));
             let bvh32 = bvh32.unwrap();
-            let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(false));
+            let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general(false));
             let brute32 = brute32.unwrap();
             // Where the textbook f32 formulas are wrong, as on the CPU (see above).
             let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
@@ -176,7 +183,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             // Rays traversing one by one find what the subgroup packets found.
             let per_ray = Variant {
                 packets: false,
-                ..variant(true)
+                ..general(true)
             };
             let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray);
             let per_ray = per_ray.unwrap();
@@ -189,7 +196,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             for lane_rays_limit in [2, 4] {
                 let lighter = Variant {
                     lane_rays_limit,
-                    ..variant(true)
+                    ..general(true)
                 };
                 let lighter = super::kernels::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
                 let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
@@ -202,6 +209,7 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
             }
             let variant64 = |bvh| Variant {
                 bvh,
+                kinds: Kinds::ALL,
                 ..gpu.scene_variant(&scene, Float::F64, algorithm)
             };
             let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(true));
@@ -220,7 +228,7 @@ fn bvh_depth_stays_within_the_traversal_stack() {
     for (name, scene) in scenes() {
         let bvh = Bvh::build(&scene, Robust);
         assert!(bvh.depth() <= MAX_DEPTH, "{name}: depth {}", bvh.depth());
-        // What the kernels' stacks are sized to (shaders/traverse.wgsl, BVH_STACK).
+        // What the kernels' stacks are sized to (BVH_STACK: shaders/traverse_ray.wgsl, count.wgsl, closest.wgsl).
         let stack = bvh.stack_entries() as usize;
         assert!(
             stack >= bvh.depth() && stack <= MAX_DEPTH,

@@ -294,7 +294,8 @@ fn scaling_by_a_power_of_two_only_scales_distances() {
     );
 }
 
-fn is_zero_area(t: &[raycast::math::Vec3<f64>; 3]) -> bool {
+fn is_zero_area(t: &[glam::DVec3; 3]) -> bool {
+    let t = t.map(raycast::math::Vec3::from);
     let n = raycast::math::cross(t[1] - t[0], t[2] - t[0]);
     raycast::math::dot(n, n) == 0.0
 }
@@ -501,7 +502,7 @@ fn a_centimetre_sphere_a_million_away_is_placed_exactly_in_f64() {
                 let (i, j) = (k as u32 / frame.nx, k as u32 % frame.nx);
                 let ray = raycast::kernel::frame::camera_ray(&frame, i, j);
                 let d = raycast::math::normalize(ray.direction);
-                let v = center - ray.origin;
+                let v = raycast::math::Vec3::from(center) - ray.origin;
                 let l = raycast::math::length(raycast::math::cross(v, d));
                 let near_silhouette = (l - radius).abs() <= 1e-6 * radius;
                 let id = images.id[k];

@@ -255,8 +255,8 @@ fn the_inner_layers_are_private() {
 #[test]
 fn the_public_api_reader_sees_grouped_imports() {
     let internal = internal_modules();
-    let text = code("use raycast::{Gpu, gpu::Job};\nuse raycast::Scene;")
-        .replace("raycast::", "crate::");
+    let text =
+        code("use raycast::{Gpu, gpu::Job};\nuse raycast::Scene;").replace("raycast::", "crate::");
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
 

@@ -7,7 +7,7 @@ use super::common;
 use common::{Rng, gpu, random_scene};
 use raycast::math::{Vec3, cross, dot, length};
 use raycast::render::Mode;
-use raycast::scene::{Object, Scene};
+use raycast::scene::{Object, Scene, Triangle};
 use raycast::{Closest, Geometry, Sign};
 
 fn mode(s: &str) -> Mode {
@@ -17,7 +17,7 @@ fn mode(s: &str) -> Mode {
 fn closest(geometry: &Geometry, mode: Mode, points: &[[f64; 3]]) -> Closest {
     raycast::commit_mode(Some(gpu()), geometry, mode)
         .unwrap()
-        .closest(points)
+        .closest(common::dvec3s(points))
         .unwrap()
 }
 
@@ -56,7 +56,8 @@ fn segment_distance(p: Vec3<f64>, a: Vec3<f64>, b: Vec3<f64>) -> f64 {
 
 /// The distance from `p` to a triangle: to its plane where `p` projects inside it, else to
 /// its nearest edge (a method other than the kernel's regions).
-fn triangle_distance(p: Vec3<f64>, t: &[Vec3<f64>; 3]) -> f64 {
+fn triangle_distance(p: Vec3<f64>, t: &[glam::DVec3; 3]) -> f64 {
+    let t = t.map(Vec3::from);
     let n = cross(t[1] - t[0], t[2] - t[0]);
     let n = n * (1.0 / length(n));
     let h = dot(p - t[0], n);
@@ -74,8 +75,8 @@ fn triangle_distance(p: Vec3<f64>, t: &[Vec3<f64>; 3]) -> f64 {
 fn distances(scene: &Scene, p: [f64; 3]) -> Vec<f64> {
     let p = Vec3::from(p);
     let to = |o: &Object| match o {
-        Object::Sphere { center, radius } => (length(p - *center) - radius).abs(),
-        Object::Plane { point, normal } => dot(p - *point, *normal).abs(),
+        Object::Sphere { center, radius } => (length(p - (*center).into()) - radius).abs(),
+        Object::Plane { point, normal } => dot(p - (*point).into(), (*normal).into()).abs(),
         Object::Triangle { corners } => triangle_distance(p, corners),
         Object::Soup { triangles, .. } => triangles
             .iter()
@@ -171,7 +172,7 @@ fn searching_in_a_spatial_order_changes_no_answer() {
     let in_pieces = |mode: Mode| {
         let accel = raycast::commit_mode(Some(gpu()), &geometry, mode).unwrap();
         let pieces: Vec<Closest> = (points.chunks(1000))
-            .map(|c| accel.closest(c).unwrap())
+            .map(|c| accel.closest(common::dvec3s(c)).unwrap())
             .collect();
         let mut all = Closest::default();
         for p in pieces {
@@ -183,15 +184,21 @@ fn searching_in_a_spatial_order_changes_no_answer() {
             all.normal.extend(p.normal);
         }
         let winding: Vec<f64> = (points.chunks(1000))
-            .flat_map(|c| accel.winding_numbers(c).unwrap())
+            .flat_map(|c| accel.winding_numbers(common::dvec3s(c)).unwrap())
             .collect();
         let parity = Sign::Parity { samples: 3 };
         let inside: Vec<bool> = (points.chunks(1000))
-            .flat_map(|c| accel.inside(c, parity).unwrap())
+            .flat_map(|c| accel.inside(common::dvec3s(c), parity).unwrap())
             .collect();
-        assert_eq!(accel.winding_numbers(&points).unwrap(), winding);
-        assert_eq!(accel.inside(&points, parity).unwrap(), inside);
-        (accel.closest(&points).unwrap(), all)
+        assert_eq!(
+            accel.winding_numbers(common::dvec3s(&points)).unwrap(),
+            winding
+        );
+        assert_eq!(
+            accel.inside(common::dvec3s(&points), parity).unwrap(),
+            inside
+        );
+        (accel.closest(common::dvec3s(&points)).unwrap(), all)
     };
     for m in ["gpu:f32:robust", "cpu:f32:robust", "cpu:f64:robust"] {
         let (whole, pieces) = in_pieces(mode(m));
@@ -210,15 +217,15 @@ fn empty_geometry_has_no_closest_point() {
 }
 
 /// A UV sphere mesh of `slices` x `stacks` about `centre`, as a geometry, and its triangles.
-fn uv_sphere(centre: [f64; 3], slices: usize, stacks: usize) -> (Geometry, Vec<[Vec3<f64>; 3]>) {
+fn uv_sphere(centre: [f64; 3], slices: usize, stacks: usize) -> (Geometry, Vec<Triangle>) {
     let triangles = common::sphere_mesh(centre, 1.0, slices, stacks);
     (common::soup_geometry(&triangles), triangles)
 }
 
 /// The solid angle of triangle `t` at `p` over 4 pi, in f64 (Van Oosterom and Strackee).
-fn exact_winding(p: Vec3<f64>, triangles: &[[Vec3<f64>; 3]]) -> f64 {
-    let one = |t: &[Vec3<f64>; 3]| {
-        let [a, b, c] = t.map(|v| v - p);
+fn exact_winding(p: Vec3<f64>, triangles: &[Triangle]) -> f64 {
+    let one = |t: &Triangle| {
+        let [a, b, c] = t.map(|v| Vec3::from(v) - p);
         let (la, lb, lc) = (length(a), length(b), length(c));
         let numerator = dot(a, cross(b, c));
         let denominator = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
@@ -228,7 +235,7 @@ fn exact_winding(p: Vec3<f64>, triangles: &[[Vec3<f64>; 3]]) -> f64 {
 }
 
 /// Points about the unit sphere at `centre`, some 1e-6 to 1e-3 off its mesh's faces.
-fn points_near(centre: [f64; 3], triangles: &[[Vec3<f64>; 3]], rng: &mut Rng) -> Vec<[f64; 3]> {
+fn points_near(centre: [f64; 3], triangles: &[Triangle], rng: &mut Rng) -> Vec<[f64; 3]> {
     let mut points: Vec<[f64; 3]> = (0..3000)
         .map(|_| {
             let d = rng.point(-1.6, 1.6);
@@ -236,6 +243,7 @@ fn points_near(centre: [f64; 3], triangles: &[[Vec3<f64>; 3]], rng: &mut Rng) ->
         })
         .collect();
     for (k, t) in triangles.iter().enumerate().step_by(3) {
+        let t = t.map(Vec3::from);
         let n = cross(t[1] - t[0], t[2] - t[0]);
         let n = n * (1.0 / length(n));
         let on = (t[0] + t[1] + t[2]) * (1.0 / 3.0);
@@ -257,12 +265,13 @@ fn the_winding_sign_is_right_off_a_closed_mesh() {
     let accel = raycast::Cpu
         .commit(&geometry, raycast::Precision::F64)
         .unwrap();
-    let w = accel.winding_numbers(&points).unwrap();
-    let distance = accel.closest(&points).unwrap().distance;
+    let w = accel.winding_numbers(common::dvec3s(&points)).unwrap();
+    let distance = accel.closest(common::dvec3s(&points)).unwrap().distance;
     let inside = |p: &[f64; 3]| {
         let p = Vec3::from(*p);
         triangles
             .iter()
+            .map(|t| t.map(Vec3::from))
             .all(|t| dot(cross(t[1] - t[0], t[2] - t[0]), p - t[0]) < 0.0)
     };
     let mut checked = 0;
@@ -286,7 +295,7 @@ fn the_winding_sign_is_right_off_a_closed_mesh() {
     }
     assert!(checked > 3500, "{checked}");
     assert!(largest < 0.02, "{largest}");
-    let for_sign = |sign| accel.inside(&points, sign).unwrap();
+    let for_sign = |sign| accel.inside(common::dvec3s(&points), sign).unwrap();
     let winding = for_sign(raycast::Sign::Winding);
     for samples in [1, 3] {
         let parity = for_sign(raycast::Sign::Parity { samples });
@@ -303,7 +312,7 @@ fn winding_numbers_of_an_open_mesh_match_the_exact_sum() {
     let centre = [-0.4, 0.2, 0.05];
     let (_, mut triangles) = uv_sphere(centre, 48, 32);
     triangles.retain(|t| {
-        let c = (t[0] + t[1] + t[2]) * (1.0 / 3.0) - Vec3::from(centre);
+        let c = (t[0] + t[1] + t[2]) * (1.0 / 3.0) - glam::DVec3::from(centre);
         c.y < 0.7 && !(c.x > 0.5 && c.z.abs() < 0.3)
     });
     let geometry = common::soup_geometry(&triangles);
@@ -315,7 +324,7 @@ fn winding_numbers_of_an_open_mesh_match_the_exact_sum() {
             mode(&format!("{device}:f32:robust")),
         )
         .unwrap()
-        .winding_numbers(&points)
+        .winding_numbers(common::dvec3s(&points))
         .unwrap();
         let mut largest: f64 = 0.0;
         for (k, p) in points.iter().enumerate() {
@@ -339,8 +348,8 @@ fn every_hit_lists_what_count_counts() {
         let mut rng = Rng(300 + seed);
         let rays: Vec<raycast::Ray> = (0..2000)
             .map(|_| raycast::Ray {
-                origin: rng.point(-4.0, 4.0),
-                direction: rng.direction(),
+                origin: rng.point(-4.0, 4.0).into(),
+                direction: rng.direction().into(),
             })
             .collect();
         for m in ["cpu:f64:robust", "gpu:f32:robust", "cpu:f32:textbook"] {
@@ -376,9 +385,11 @@ fn bad_point_queries_name_their_argument() {
         .unwrap();
     let nan = [[0.0, f64::NAN, 0.0]];
     let message = |e: raycast::Error| e.to_string();
-    assert!(message(accel.closest(&nan).unwrap_err()).contains("points[0]"));
-    assert!(message(accel.winding_numbers(&nan).unwrap_err()).contains("points[0]"));
-    let even = accel.inside(&[[0.0; 3]], raycast::Sign::Parity { samples: 2 });
+    assert!(message(accel.closest(common::dvec3s(&nan)).unwrap_err()).contains("points[0]"));
+    assert!(
+        message(accel.winding_numbers(common::dvec3s(&nan)).unwrap_err()).contains("points[0]")
+    );
+    let even = accel.inside(&[[0.0; 3].into()], raycast::Sign::Parity { samples: 2 });
     assert!(message(even.unwrap_err()).contains("samples"));
 }
 
@@ -400,7 +411,7 @@ fn unit_cube() -> Geometry {
         .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
         .collect();
     let mut geometry = Geometry::new();
-    geometry.add_mesh(&v, &triangles).unwrap();
+    geometry.add_mesh(common::dvec3s(&v), &triangles).unwrap();
     geometry
 }
 
@@ -417,7 +428,10 @@ fn a_ray_through_a_shared_edge_crosses_once() {
         ([0.5, 0.5, 0.25], [1.0, 1.0, 1.0]),
         ([-0.25, -0.25, 0.75], [1.0, 1.0, 1.0]),
     ]
-    .map(|(origin, direction)| raycast::Ray { origin, direction });
+    .map(|(origin, direction)| raycast::Ray {
+        origin: origin.into(),
+        direction: direction.into(),
+    });
     for m in ["cpu:f64:robust", "gpu:f32:robust", "cpu:f32:textbook"] {
         let accel = raycast::commit_mode(Some(gpu()), &cube, mode(m)).unwrap();
         let splits = accel.every_hit(&rays[..]).unwrap().ray_splits;
@@ -429,7 +443,10 @@ fn a_ray_through_a_shared_edge_crosses_once() {
             [-0.25, -0.25, 0.75],
         ];
         let inside = accel
-            .inside(&points, raycast::Sign::Parity { samples: 1 })
+            .inside(
+                common::dvec3s(&points),
+                raycast::Sign::Parity { samples: 1 },
+            )
             .unwrap();
         assert_eq!(inside, [true, true, false, false], "{m}");
     }

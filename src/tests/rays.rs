@@ -27,7 +27,10 @@ fn random_rays(rng: &mut Rng, n: usize) -> Vec<Ray> {
             if k % 4 == 0 {
                 direction[2] = -1.0;
             }
-            Ray { origin, direction }
+            Ray {
+                origin: origin.into(),
+                direction: direction.into(),
+            }
         })
         .collect()
 }
@@ -237,7 +240,8 @@ fn coherence_of_ray_lists() {
                 r.direction[0] + if k % 2 == 0 { 0.0045 } else { -0.0045 },
                 r.direction[1],
                 r.direction[2],
-            ],
+            ]
+            .into(),
         })
         .collect();
     assert!(!coherent(RayList::from(&zigzag), 2.0));
@@ -252,8 +256,8 @@ fn coherence_of_ray_lists() {
     // Parallel rays from origins a tenth of the scene apart.
     let spread: Vec<Ray> = (0..800)
         .map(|k| Ray {
-            origin: [0.2 * k as f64, 0.0, 5.0],
-            direction: [0.0, 0.0, -1.0],
+            origin: [0.2 * k as f64, 0.0, 5.0].into(),
+            direction: [0.0, 0.0, -1.0].into(),
         })
         .collect();
     assert!(!coherent(RayList::from(&spread), 2.0));
@@ -267,16 +271,16 @@ fn sphere_answers_are_exact() {
     let mut scene = Target::new();
     let id = scene.add_sphere([0.0, 0.0, 0.0], 1.0).unwrap();
     let outside = Ray {
-        origin: [0.0, 0.0, 5.0],
-        direction: [0.0, 0.0, -2.0],
+        origin: [0.0, 0.0, 5.0].into(),
+        direction: [0.0, 0.0, -2.0].into(),
     };
     let inside = Ray {
-        origin: [0.0, 0.0, 0.0],
-        direction: [0.0, 4.0, 0.0],
+        origin: [0.0, 0.0, 0.0].into(),
+        direction: [0.0, 4.0, 0.0].into(),
     };
     let away = Ray {
-        origin: [0.0, 0.0, 5.0],
-        direction: [0.0, 0.0, 1.0],
+        origin: [0.0, 0.0, 5.0].into(),
+        direction: [0.0, 0.0, 1.0].into(),
     };
     let rays = [outside, inside, away];
     for m in ["gpu:f32", "gpu:f64", "gpu:adaptive", "cpu:f32", "cpu:f64"] {
@@ -352,11 +356,13 @@ fn mesh_hits_name_their_triangle_and_barycentrics() {
         [0.0, 1.0, 0.0],
         [1.0, 1.0, 0.0],
     ];
-    let mesh = scene.add_mesh(&vertices, &[[0, 1, 2], [1, 3, 2]]).unwrap();
+    let mesh = scene
+        .add_mesh(common::dvec3s(&vertices), &[[0, 1, 2], [1, 3, 2]])
+        .unwrap();
     assert_eq!((sphere, mesh), (0, 1));
     let down = |x, y| Ray {
-        origin: [x, y, 1.0],
-        direction: [0.0, 0.0, -1.0],
+        origin: [x, y, 1.0].into(),
+        direction: [0.0, 0.0, -1.0].into(),
     };
     let rays = [down(0.25, 0.5), down(0.75, 0.5), down(2.0, 2.0)];
     for m in [
@@ -400,11 +406,11 @@ fn closed_mesh_barycentrics_and_parity() {
     let triangles = sphere_mesh([0.5, -0.25, 0.0], 1.0, 24, 16);
     let (vertices, indices) = indexed(&triangles);
     let mut scene = Target::new();
-    scene.add_mesh(&vertices, &indices).unwrap();
+    scene.add_mesh(common::dvec3s(&vertices), &indices).unwrap();
     let mut rng = Rng(7);
     let from = |origin: [f64; 3], rng: &mut Rng| Ray {
-        origin,
-        direction: rng.point(-1.0, 1.0),
+        origin: origin.into(),
+        direction: rng.point(-1.0, 1.0).into(),
     };
     let inside: Vec<Ray> = (0..500)
         .map(|_| from([0.5, -0.25, 0.1], &mut rng))
@@ -451,21 +457,23 @@ fn bad_input_is_an_error_naming_it() {
     let mut scene = Target::new();
     let message = |e: raycast::Error| e.to_string();
     let tri = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    let e = scene.add_mesh(&tri, &[[0, 1, 3]]).unwrap_err();
+    let e = scene
+        .add_mesh(common::dvec3s(&tri), &[[0, 1, 3]])
+        .unwrap_err();
     assert_eq!(
         message(e),
         "triangles[0][2]: index 3 is out of range (3 vertices)"
     );
     let e = scene
-        .add_mesh(&[[0.0; 3], [f64::NAN, 0.0, 0.0]], &[])
+        .add_mesh(&[[0.0; 3].into(), [f64::NAN, 0.0, 0.0].into()], &[])
         .unwrap_err();
     assert!(message(e).starts_with("vertices[1]: NaN is not a finite number"));
     assert!(scene.add_sphere([0.0; 3], 0.0).is_err());
     assert!(scene.add_plane([0.0; 3], [0.0; 3]).is_err());
     assert!(scene.is_empty(), "a refused object was kept");
     let zero = Ray {
-        origin: [0.0; 3],
-        direction: [0.0; 3],
+        origin: [0.0; 3].into(),
+        direction: [0.0; 3].into(),
     };
     let e = scene.cast(None, mode("cpu:f64"), &[zero]).unwrap_err();
     assert_eq!(message(e), "rays[0] direction: must not be zero");
@@ -480,8 +488,8 @@ fn bad_input_is_an_error_naming_it() {
 fn empty_scene_misses() {
     let scene = Target::new();
     let ray = Ray {
-        origin: [0.0; 3],
-        direction: [1.0, 0.0, 0.0],
+        origin: [0.0; 3].into(),
+        direction: [1.0, 0.0, 0.0].into(),
     };
     for m in ["gpu:f32", "cpu:f64"] {
         let hits = scene.cast(Some(gpu()), mode(m), &[ray; 3]).unwrap();
@@ -512,7 +520,7 @@ fn grazing_hits_keep_f32_accuracy() {
         let (vertices, indices) = indexed(&triangles);
         let vertices: Vec<[f64; 3]> = vertices.into_iter().map(f32_point).collect();
         let mut scene = Target::new();
-        scene.add_mesh(&vertices, &indices).unwrap();
+        scene.add_mesh(common::dvec3s(&vertices), &indices).unwrap();
         let mut rng = Rng(11);
         let rays: Vec<Ray> = (0..4000)
             .map(|_| {
@@ -530,8 +538,8 @@ fn grazing_hits_keep_f32_accuracy() {
                 let along = normalize(cross(normal, Vec3::from_array(rng.point(-1.0, 1.0))));
                 let d = normalize(along - normal * rng.range(0.0005, 0.02));
                 Ray {
-                    origin: f32_point((at - d * 3.0).to_array()),
-                    direction: f32_point(d.to_array()),
+                    origin: f32_point((at - d * 3.0).to_array()).into(),
+                    direction: f32_point(d.to_array()).into(),
                 }
             })
             .collect();
@@ -544,7 +552,7 @@ fn grazing_hits_keep_f32_accuracy() {
                 if h.id[k] < 0 || h.primitive[k] != exact.primitive[k] {
                     continue;
                 }
-                let d = Vec3::from_array(ray.direction);
+                let d = Vec3::from_array(ray.direction.into());
                 let n = Vec3::from_array(exact.normal[k]);
                 if dot(d, n).abs() >= 0.02 * length(d) {
                     continue;
@@ -575,16 +583,16 @@ fn f32_rows_equal_their_f64_rays() {
     let rows: Vec<[f32; 6]> = random_rays(&mut Rng(9), 2000)
         .iter()
         .map(|r| {
-            let [x, y, z] = r.origin.map(|v| v as f32);
-            let [dx, dy, dz] = r.direction.map(|v| v as f32);
+            let [x, y, z] = r.origin.to_array().map(|v| v as f32);
+            let [dx, dy, dz] = r.direction.to_array().map(|v| v as f32);
             [x, y, z, dx, dy, dz]
         })
         .collect();
     let rays: Vec<Ray> = rows
         .iter()
         .map(|r| Ray {
-            origin: [r[0], r[1], r[2]].map(f64::from),
-            direction: [r[3], r[4], r[5]].map(f64::from),
+            origin: [r[0], r[1], r[2]].map(f64::from).into(),
+            direction: [r[3], r[4], r[5]].map(f64::from).into(),
         })
         .collect();
     for m in ["gpu:f32", "cpu:f32"] {
@@ -632,7 +640,7 @@ fn adaptive_grazing_starts_decide_as_f64() {
             .map(|_| rng.point(-1.0, 1.0).map(|x| x as f32 as f64))
             .collect();
         let mut scene = Target::new();
-        scene.add_mesh(&v, &[[0, 1, 2]]).unwrap();
+        scene.add_mesh(common::dvec3s(&v), &[[0, 1, 2]]).unwrap();
         let [a, b, c] = [0, 1, 2].map(|k| Vec3::from_array(v[k]));
         let normal = normalize(cross(b - a, c - a));
         let at = a + (b - a) * 0.3 + (c - a) * 0.3;
@@ -644,8 +652,9 @@ fn adaptive_grazing_starts_decide_as_f64() {
                 Ray {
                     origin: (at - d * (2.0 * (1.0 + offset)))
                         .to_array()
-                        .map(|x| x as f32 as f64),
-                    direction: d.to_array().map(|x| x as f32 as f64),
+                        .map(|x| x as f32 as f64)
+                        .into(),
+                    direction: d.to_array().map(|x| x as f32 as f64).into(),
                 }
             })
             .collect();
@@ -676,7 +685,10 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
         let mut scene = Target::new();
         scene
             .add_mesh(
-                &corners.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
+                &corners
+                    .iter()
+                    .map(|&c| glam::DVec3::from(c))
+                    .collect::<Vec<_>>(),
                 &[[0, 1, 2]],
             )
             .unwrap();
@@ -686,7 +698,7 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
             [-60.5, -60.0, -60.0],
             [-60.0, -60.5, -60.0],
         ];
-        scene.add_mesh(&far, &[[0, 1, 2]]).unwrap();
+        scene.add_mesh(common::dvec3s(&far), &[[0, 1, 2]]).unwrap();
         let [a, b, c] = [corners[0], corners[1], corners[2]];
         let normal = normalize(cross(b - a, c - a));
         let across = normalize((a + b) * 0.5 - c);
@@ -694,8 +706,8 @@ fn adaptive_rays_near_far_triangles_decide_as_f64() {
             .map(|_| {
                 let on_edge = a + (b - a) * rng.range(0.1, 0.9) + across * rng.range(-2e-6, 2e-6);
                 Ray {
-                    origin: (on_edge + normal * 1e-3).to_array(),
-                    direction: (-normal).to_array(),
+                    origin: (on_edge + normal * 1e-3).to_array().into(),
+                    direction: (-normal).to_array().into(),
                 }
             })
             .collect();
@@ -726,8 +738,9 @@ fn adaptive_rays_near_far_spheres_decide_as_f64() {
                         centre[0] - 2e-3,
                         centre[1] + off * cos,
                         centre[2] + off * sin,
-                    ],
-                    direction: [1.0, 0.0, 0.0],
+                    ]
+                    .into(),
+                    direction: [1.0, 0.0, 0.0].into(),
                 }
             })
             .collect();
@@ -758,8 +771,8 @@ fn adaptive_rays_near_far_planes_decide_as_f64() {
                 let q = Vec3::from_array(rng.point(-0.01, 0.01));
                 let in_plane = q - normal * dot(q, normal);
                 Ray {
-                    origin: (point + in_plane + normal * 1e-3).to_array(),
-                    direction: (-normal).to_array(),
+                    origin: (point + in_plane + normal * 1e-3).to_array().into(),
+                    direction: (-normal).to_array().into(),
                 }
             })
             .collect();
@@ -816,7 +829,7 @@ fn wide_and_narrow_loads_give_the_same_answers() {
     );
     let target = Target::from_scene(scene);
     let rays = common::incoherent_rays(2000, 3.0, 7);
-    let points: Vec<[f64; 3]> = rays.iter().map(|r| r.origin).collect();
+    let points: Vec<glam::DVec3> = rays.iter().map(|r| r.origin).collect();
     let on = |g: &raycast::gpu::Gpu| {
         let m = mode("gpu:f32:robust");
         let hits = f32_hits(target.cast(Some(g), m, &rays).unwrap());

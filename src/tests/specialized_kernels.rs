@@ -1,7 +1,7 @@
 //! Kernels compiled for only the primitive kinds a scene has render exactly like the general
 //! kernel (every kind compiled in), for every combination of kinds, both algorithm sets and
 //! both precisions. (That the specialized kernel contains no code for absent kinds is checked
-//! on the naga module in `src/gpu/shader.rs`.)
+//! on the naga module in `src/gpu/shader/variant.rs`.)
 
 use super::common;
 

@@ -564,7 +564,7 @@ pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::Ray> {
     let half = (hi - lo).max_element() / 2.0 * 4.0 / 3.0;
     let mut rays = super::selftest::scenes::incoherent_rays(n, half.max(1e-30), 1);
     for ray in &mut rays {
-        ray.origin = std::array::from_fn(|a| ray.origin[a] + centre[a]);
+        ray.origin = std::array::from_fn(|a| ray.origin[a] + centre[a]).into();
     }
     rays
 }

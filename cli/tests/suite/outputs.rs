@@ -1,7 +1,7 @@
 //! `--outputs`: a kernel asked for some outputs computes and reads back only those, and they
 //! are bit for bit the full render's; the others keep their miss values, and the CLI writes
 //! the files of the outputs asked for only. (That the kernel leaves the normal functions
-//! uncalled is checked on the naga module in `src/gpu/shader.rs`.)
+//! uncalled is checked on the naga module in `src/gpu/shader/variant.rs`.)
 
 use crate::common::{self, Kernel};
 

@@ -180,7 +180,7 @@ impl fmt::Display for ParseError {
 /// (already checked): corners 0 1 2 3 become (0,1,2), (0,2,3), the order OBJ and PLY writers
 /// and other loaders assume, which keeps every triangle's winding (and so its normal).
 fn fan(corners: &[usize], vertices: &[Vec3<f64>], triangles: &mut Vec<Triangle>) {
-    let corner = |k: usize| vertices[corners[k]];
+    let corner = |k: usize| glam::DVec3::from(vertices[corners[k]]);
     for k in 1..corners.len().saturating_sub(1) {
         triangles.push([corner(0), corner(k), corner(k + 1)]);
     }
@@ -217,6 +217,7 @@ mod tests {
         .map(Vec3::from_array);
         let mut t = Vec::new();
         fan(&[0, 1, 2, 3], &v, &mut t);
+        let v = v.map(glam::DVec3::from);
         assert_eq!(t, vec![[v[0], v[1], v[2]], [v[0], v[2], v[3]]]);
     }
 

@@ -162,8 +162,8 @@ mod tests {
     use super::*;
     use crate::scene::Triangle;
 
-    fn v(x: f64, y: f64, z: f64) -> Vec3<f64> {
-        Vec3::from_array([x, y, z])
+    fn v(x: f64, y: f64, z: f64) -> glam::DVec3 {
+        glam::DVec3::new(x, y, z)
     }
 
     fn err(text: &str) -> String {
@@ -207,7 +207,7 @@ mod tests {
     #[test]
     fn coordinates_are_read_in_f64() {
         let t = triangles(b"v 0.1 0.2 1000000.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\n");
-        assert_eq!(t[0][0], Vec3::from_array([0.1, 0.2, 1000000.3]));
+        assert_eq!(t[0][0], Vec3::from_array([0.1, 0.2, 1000000.3]).into());
     }
 
     #[test]

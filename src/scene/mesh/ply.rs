@@ -579,8 +579,8 @@ impl Body for Binary<'_> {
 mod tests {
     use super::*;
 
-    fn v(x: f64, y: f64, z: f64) -> Vec3<f64> {
-        Vec3::from_array([x, y, z])
+    fn v(x: f64, y: f64, z: f64) -> glam::DVec3 {
+        glam::DVec3::new(x, y, z)
     }
 
     /// The mesh every happy-path file below holds: a quad (two triangles) and a triangle.

@@ -78,7 +78,7 @@ fn binary(bytes: &[u8]) -> Parsed<Vec<Triangle>> {
 /// One binary record's three corners (bytes 12..48; the normal and attribute are skipped).
 fn decode(record: &[u8]) -> Triangle {
     let f = |at: usize| f64::from(f32::from_le_bytes(record[at..at + 4].try_into().unwrap()));
-    let corner = |at: usize| Vec3::from_array([f(at), f(at + 4), f(at + 8)]);
+    let corner = |at: usize| glam::DVec3::new(f(at), f(at + 4), f(at + 8));
     [corner(12), corner(24), corner(36)]
 }
 
@@ -118,9 +118,9 @@ fn ascii(bytes: &[u8]) -> Parsed<Vec<Triangle>> {
 /// The rest of a facet after its `facet normal` line.
 fn facet(lines: &mut Statements) -> Parsed<Triangle> {
     lines.keyword("'outer loop'", b"outer")?;
-    let mut corners = [Vec3::default(); 3];
+    let mut corners = [glam::DVec3::ZERO; 3];
     for corner in &mut corners {
-        *corner = lines.vertex()?;
+        *corner = lines.vertex()?.into();
     }
     lines.keyword("'endloop'", b"endloop")?;
     lines.keyword("'endfacet'", b"endfacet")?;
@@ -230,7 +230,7 @@ mod tests {
     fn two_triangles() -> Vec<Triangle> {
         TWO.iter()
             .map(|t| {
-                let c = |k: usize| Vec3::from_array([t[k], t[k + 1], t[k + 2]].map(f64::from));
+                let c = |k: usize| glam::DVec3::from([t[k], t[k + 1], t[k + 2]].map(f64::from));
                 [c(0), c(3), c(6)]
             })
             .collect()

@@ -418,11 +418,16 @@ pub(crate) fn indexed(triangles: &[raycast::Triangle]) -> (Vec<[f64; 3]>, Vec<[u
     (vertices, indices)
 }
 
+/// Points written as arrays, as the API's vectors (the same bytes).
+pub(crate) fn dvec3s(points: &[[f64; 3]]) -> &[glam::DVec3] {
+    bytemuck::cast_slice(points)
+}
+
 /// A geometry of one mesh, the triangle soup `triangles`.
 pub(crate) fn soup_geometry(triangles: &[raycast::Triangle]) -> raycast::Geometry {
     let (vertices, indices) = indexed(triangles);
     let mut geometry = raycast::Geometry::new();
-    geometry.add_mesh(&vertices, &indices).unwrap();
+    geometry.add_mesh(dvec3s(&vertices), &indices).unwrap();
     geometry
 }
 

@@ -933,7 +933,10 @@ fn ray_list(ctx: &Ctx, kind: RayKind, precision: Precision, planted: bool) -> Re
     let mut errors: Vec<f64> = (0..n)
         .filter(|&k| ours.id[k] != MISS && ours.id[k] == exact.id()[k])
         .map(|k| {
-            let (o, d) = (length(rays[k].origin), length(rays[k].direction));
+            let (o, d) = (
+                length(rays[k].origin.into()),
+                length(rays[k].direction.into()),
+            );
             (ours.t[k] as f64 - t[k]).abs() * d / (o + t[k] * d)
         })
         .collect();

@@ -129,8 +129,8 @@ pub fn pinhole_rays(eye: [f64; 3], w: usize, h: usize, span: f64) -> Vec<Ray> {
             let x = (j as f64 + 0.5) / w as f64 - 0.5;
             let y = 0.5 - (i as f64 + 0.5) / h as f64;
             rays.push(Ray {
-                origin: eye,
-                direction: [span * x, 0.75 * span * y, -1.0],
+                origin: eye.into(),
+                direction: [span * x, 0.75 * span * y, -1.0].into(),
             });
         }
     }
@@ -141,7 +141,7 @@ pub fn pinhole_rays(eye: [f64; 3], w: usize, h: usize, span: f64) -> Vec<Ray> {
 /// origins.
 pub fn moved_along(rays: &[Ray], by: f64) -> Vec<Ray> {
     let moved = |r: &Ray| Ray {
-        origin: std::array::from_fn(|a| r.origin[a] + by * r.direction[a]),
+        origin: std::array::from_fn(|a| r.origin[a] + by * r.direction[a]).into(),
         ..*r
     };
     rays.iter().map(moved).collect()
@@ -153,8 +153,8 @@ pub fn incoherent_rays(n: usize, half: f64, seed: u64) -> Vec<Ray> {
     let mut rng = Rng(seed);
     (0..n)
         .map(|_| Ray {
-            origin: rng.point(-half, half),
-            direction: rng.direction(),
+            origin: rng.point(-half, half).into(),
+            direction: rng.direction().into(),
         })
         .collect()
 }
