@@ -2,8 +2,8 @@
 //! cannot fit is refused before it starts ([`Error::Memory`]), instead of failing an
 //! allocation part-way (docs/cli.md#limits).
 //!
-//! A render held whole (the CPU reference, adaptive precision, `--spp`, and GPU renders of at
-//! most [`super::STREAM_PIXELS`] pixels) holds its images: per sample an id, a distance and a
+//! A render held whole (the CPU reference, adaptive precision, `--spp`, and GPU renders not in
+//! bands) holds its images: per sample an id, a distance and a
 //! normal in its precision, a shade hook's colour, and adaptive precision's certainty; a
 //! supersampled one holds the samples' images and then the pixels' with their coverage. That
 //! is a lower bound (the encoded files, the GPU's buffers and the scene come on top), so a

@@ -219,8 +219,8 @@ pub struct ViewCamera {
 /// scene's camera takes, each with a `name` (docs/datasets.md). Every camera is checked here
 /// against no objects, so a bad field is refused before anything renders.
 pub fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
-    let cameras: Vec<CameraFile> =
-        deserialize(text, file).map_err(|e| wrong_shape(text, file, Shape::Views).unwrap_or(e))?;
+    let cameras: Vec<CameraFile> = deserialize(text, file)
+        .map_err(|e| wrong_shape(text, file, Shape::ViewsFile).unwrap_or(e))?;
     if cameras.is_empty() {
         return Err(Error::SceneValue {
             file: file.to_owned(),
@@ -326,7 +326,7 @@ enum Shape {
     /// A scene file: an object.
     Scene,
     /// A views file: a list of cameras.
-    Views,
+    ViewsFile,
 }
 
 /// The error for `text`, meant as a file of `shape`, where it is JSON of another shape: what
@@ -337,8 +337,8 @@ fn wrong_shape(text: &str, file: &Path, shape: Shape) -> Option<Error> {
     use serde_json::Value;
     let value: Value = serde_json::from_str(text).ok()?;
     let got = match (&value, shape) {
-        (Value::Object(_), Shape::Scene) | (Value::Array(_), Shape::Views) => return None,
-        (Value::Object(_), Shape::Views) => "an object (is it a scene file?)",
+        (Value::Object(_), Shape::Scene) | (Value::Array(_), Shape::ViewsFile) => return None,
+        (Value::Object(_), Shape::ViewsFile) => "an object (is it a scene file?)",
         (Value::Array(_), Shape::Scene) => "a list (is it a views file?)",
         (Value::String(_), _) => "a string",
         (Value::Number(_), _) => "a number",
@@ -347,7 +347,7 @@ fn wrong_shape(text: &str, file: &Path, shape: Shape) -> Option<Error> {
     };
     let expected = match shape {
         Shape::Scene => "a scene file is a JSON object with a `camera` and `objects`",
-        Shape::Views => "a views file is a JSON list of cameras",
+        Shape::ViewsFile => "a views file is a JSON list of cameras",
     };
     let before = &text[..text.len() - text.trim_start().len()];
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
