@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use raycast::Images;
 use raycast::Scene;
@@ -11,12 +11,25 @@ use raycast::{Algorithm, Gpu, Mode};
 /// The device this test runs its GPU work on (lavapipe in CI). Without an adapter the tests fail
 /// loudly: they are never skipped.
 pub(crate) fn gpu() -> &'static Gpu {
-    // Two devices, each test's thread given the next: lavapipe compiles a kernel on its
-    // device's queue thread, so tests running side by side compile theirs in parallel.
+    // Two devices, each test's thread given the one fewer running tests hold: lavapipe
+    // compiles a kernel on its device's queue thread, so tests side by side compile theirs in
+    // parallel only on different devices. A thread gives its device back when it ends (libtest
+    // runs each test on a thread of its own).
     static GPUS: OnceLock<[Gpu; 2]> = OnceLock::new();
-    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    static HOLDERS: Mutex<[usize; 2]> = Mutex::new([0; 2]);
+    struct Lease(usize);
+    impl Drop for Lease {
+        fn drop(&mut self) {
+            HOLDERS.lock().unwrap_or_else(|e| e.into_inner())[self.0] -= 1;
+        }
+    }
     thread_local! {
-        static MINE: usize = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 2;
+        static MINE: Lease = {
+            let mut holders = HOLDERS.lock().unwrap_or_else(|e| e.into_inner());
+            let index = usize::from(holders[1] < holders[0]);
+            holders[index] += 1;
+            Lease(index)
+        };
     }
     let gpus = GPUS.get_or_init(|| {
         if std::env::var_os("NODEVICE_SELECT").is_none() {
@@ -31,7 +44,7 @@ pub(crate) fn gpu() -> &'static Gpu {
         };
         [new(), new()]
     });
-    &gpus[MINE.with(|m| *m)]
+    &gpus[MINE.with(|m| m.0)]
 }
 
 /// The names of the entries of `dir`, sorted.
