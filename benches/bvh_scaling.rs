@@ -37,7 +37,7 @@ fn main() {
         .nth(2)
         .map_or(0, |s| s.parse().expect("MIN_TRIANGLES"));
     let gpu = Gpu::new().unwrap();
-    println!("adapter:      {}", gpu.info().name);
+    println!("adapter:      {}", gpu.info().adapter.name);
     // Through the BVH, each lane casting its most rays, as the scaling was first measured.
     let options = RenderOptions {
         precision: Some(Precision::F32),

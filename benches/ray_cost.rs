@@ -116,7 +116,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     for mode in modes {
         let parsed: raycast::Mode = mode.parse()?;
-        let accel = raycast::commit_mode(Some(&gpu), &geometry, parsed)?;
+        geometry.algorithm = parsed.algorithm;
+        let accel = match parsed.device {
+            raycast::Device::Gpu => gpu.commit(&geometry, parsed.precision)?,
+            raycast::Device::Cpu => raycast::Cpu.commit(&geometry, parsed.precision)?,
+        };
         accel.intersect(list)?;
         let mut seconds: Vec<f64> = (0..runs.max(1))
             .map(|_| {

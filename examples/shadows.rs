@@ -20,7 +20,7 @@ fn main() -> raycast::Result<()> {
         shade: Some(hook),
         outputs: Outputs {
             color: true,
-            ..Outputs::NONE
+            ..Outputs::default()
         },
         ..Default::default()
     };

@@ -5,7 +5,7 @@ use std::fmt;
 use std::str::FromStr;
 
 /// Which intersection formulas and coordinate handling a render uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Algorithm {
     /// The lecture's formulas in world coordinates as given: the quadratic discriminant
     /// `b^2 - 4ac`, Cramer's rule, `t = (p - e).n / (d.n)`. Kept as the baseline; it
@@ -15,7 +15,8 @@ pub enum Algorithm {
     /// sphere's perpendicular-distance discriminant with the stable root pair, the watertight
     /// ray/triangle test of Woop, Benthin and Wald with an exact f64 recheck of near-zero edge
     /// functions, planes in point-normal form with a parallel cutoff, and a conservative
-    /// `t >= min_t` test. See `docs/robustness.md`.
+    /// `t >= min_t` test. See `docs/robustness.md`. The default.
+    #[default]
     Robust,
 }
 

@@ -19,8 +19,9 @@ pub(crate) struct Pixel<T> {
     pub normal: [T; 3],
 }
 
-/// Per-pixel render outputs in precision `T` (`f32` from the GPU, `f32` or `f64` from the CPU).
-#[derive(Clone, Debug, PartialEq)]
+/// Per-pixel render outputs in precision `T` (`f32` from the GPU, `f32` or `f64` from the CPU);
+/// the default is an image of no pixels.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Images<T> {
     /// Pixels per row.
     pub width: u32,
@@ -114,7 +115,7 @@ pub struct Coverage {
 
 impl<T: Real> Images<T> {
     /// An image of `width * height` misses.
-    pub fn new_miss(width: u32, height: u32, focal_length: f64) -> Self {
+    pub(crate) fn new_miss(width: u32, height: u32, focal_length: f64) -> Self {
         let n = width as usize * height as usize;
         Images {
             width,
@@ -213,8 +214,8 @@ impl Outputs {
         ..Outputs::ALL
     };
 
-    /// No output.
-    pub const NONE: Outputs = Outputs {
+    /// No output ([`Outputs::default`]).
+    pub(crate) const NONE: Outputs = Outputs {
         id: false,
         distance: false,
         normal: false,
@@ -233,5 +234,12 @@ impl Outputs {
             }
         }
         o
+    }
+}
+
+/// No output: `Outputs { color: true, ..Outputs::default() }` asks for the colours alone.
+impl Default for Outputs {
+    fn default() -> Outputs {
+        Outputs::NONE
     }
 }

@@ -60,16 +60,16 @@ pub(crate) struct ReadmeDoctests;
 pub use crate::{
     algorithm::Algorithm,
     error::{Error, Result},
-    gpu::{Gpu, hooks::ShadeHook, kernel::UserKernel},
+    gpu::{Gpu, GpuInfo, hooks::ShadeHook, kernel::UserKernel},
     images::{Coverage, Images, MISS, Output, Outputs, Stages},
     mode::{Device, Mode, Precision},
     prepare::bvh::Search,
     query::{
-        Accel, Geometry, commit_mode,
+        Accel, Geometry,
         every_hit::Intersections,
         points::{Closest, Sign},
     },
-    rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, RayRows},
+    rays::{AnyHits, Hits, INVALID_ID, Ray, RayList},
     render::options::{Cpu, RenderOptions, Tuning},
     render::viewer::Viewer,
     render::{AnyImages, Begun, Progress},
@@ -84,7 +84,7 @@ pub use crate::scene::{
 
 // The file formats, and the writes that leave whole files or none.
 pub use crate::output::{
-    DEFAULT_DEPTH_SCALE, Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable,
+    Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable,
     check_writable, encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
 };
 /// The API's one vector type (points, directions, colours): glam's, re-exported so that a

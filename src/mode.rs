@@ -90,9 +90,6 @@ impl FromStr for Device {
     }
 }
 
-/// The algorithm set used unless one is named.
-pub(crate) const DEFAULT_ALGORITHM: Algorithm = Algorithm::Robust;
-
 /// A device, a precision and an algorithm set, written `DEVICE[:PRECISION][:ALGORITHM]`:
 /// `gpu:f32`, `cpu:f64:textbook`, or just `gpu` / `cpu` for the robust set in the default
 /// precision of a render without a hook ([`Precision::default_for`]: `gpu:adaptive:robust`,
@@ -114,8 +111,8 @@ impl FromStr for Mode {
         let device: Device = parts.next().unwrap_or_default().parse()?;
         let mut mode = Mode {
             device,
-            precision: Precision::default_for(device, DEFAULT_ALGORITHM, false),
-            algorithm: DEFAULT_ALGORITHM,
+            precision: Precision::default_for(device, Algorithm::default(), false),
+            algorithm: Algorithm::default(),
         };
         if let Some(p) = parts.next() {
             mode.precision = p.parse()?;

@@ -49,7 +49,7 @@ pub(crate) fn huge_pages<T>(v: &Vec<T>) {
 /// copy would be a share of a cast). Each is read as a [`Ray`] (`RayList::get`);
 /// f32 widens exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RayRows<'a> {
+pub(crate) enum RayRows<'a> {
     /// Rays in f64.
     F64(&'a [Ray]),
     /// Rows of `origin, direction` in f32.
@@ -59,21 +59,23 @@ pub enum RayRows<'a> {
 /// A caller's rays, and whether they are an image's: row-major rows of `width` rays, as a
 /// camera makes them (Open3D's `create_rays_pinhole`). The GPU traces coherent rays in packets
 /// ([`Accel::intersect`](crate::Accel::intersect)), an image's in tiles of two rows, as it
-/// does a camera's.
+/// does a camera's. A plain list is made `from` [`Ray`]s, or from rows of six f32s (origin,
+/// direction: numpy's float32 arrays as Open3D takes them), which are read as they are held,
+/// without converting the list first (numpy's widening copy would be a share of a cast).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayList<'a> {
     /// The rays.
-    pub rays: RayRows<'a>,
+    pub(crate) rays: RayRows<'a>,
     /// The width of the image they are the pixels of, row-major; `None`: a plain list.
-    pub width: Option<usize>,
+    pub(crate) width: Option<usize>,
 }
 
 impl<'a> RayList<'a> {
     /// An image's rays, in rows of `width` (the last row may be short).
-    pub fn image(rays: impl Into<RayRows<'a>>, width: usize) -> RayList<'a> {
+    pub fn image(rays: impl Into<RayList<'a>>, width: usize) -> RayList<'a> {
         RayList {
-            rays: rays.into(),
             width: Some(width.max(1)),
+            ..rays.into()
         }
     }
 
@@ -125,12 +127,27 @@ impl<'a> From<&'a [[f32; 6]]> for RayRows<'a> {
     }
 }
 
-impl<'a, T: Into<RayRows<'a>>> From<T> for RayList<'a> {
-    fn from(rays: T) -> Self {
-        RayList {
-            rays: rays.into(),
-            width: None,
+impl<'a> From<RayRows<'a>> for RayList<'a> {
+    fn from(rays: RayRows<'a>) -> Self {
+        RayList { rays, width: None }
+    }
+}
+
+/// A plain list of rays held as any of [`RayRows`]' forms.
+macro_rules! ray_list_from {
+    ($($held:ty),*) => {$(
+        impl<'a> From<$held> for RayList<'a> {
+            fn from(rays: $held) -> Self {
+                RayList::from(RayRows::from(rays))
+            }
         }
+    )*};
+}
+ray_list_from!(&'a [Ray], &'a Vec<Ray>, &'a [[f32; 6]]);
+
+impl<'a, const N: usize> From<&'a [Ray; N]> for RayList<'a> {
+    fn from(rays: &'a [Ray; N]) -> Self {
+        RayList::from(RayRows::F64(rays))
     }
 }
 

@@ -162,7 +162,7 @@ pub fn fusion_probe(gpu: &Gpu) -> Result<FusionReport> {
 
 /// What `raycast info` prints: the adapter, and the features and limits the renderer uses.
 pub fn describe(gpu: &Gpu) -> String {
-    let info = gpu.info();
+    let info = gpu.info().adapter;
     let features = gpu.device.features();
     let limits = gpu.device.limits();
     let has = |f: wgpu::Features| if features.contains(f) { "yes" } else { "no" };

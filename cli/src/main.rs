@@ -94,7 +94,7 @@ enum Command {
         depth: Option<raycast::Depth>,
         /// depth16.png's levels per scene unit: round(depth * scale), 0 on a miss or beyond
         /// 65535 (1000: millimetres for scenes in metres).
-        #[arg(long, value_name = "SCALE", default_value_t = raycast::DEFAULT_DEPTH_SCALE, value_parser = parse_depth_scale, allow_hyphen_values = true)]
+        #[arg(long, value_name = "SCALE", default_value_t = raycast::Encoding::default().depth_scale, value_parser = parse_depth_scale, allow_hyphen_values = true)]
         depth_scale: f64,
         /// The camera's position, X,Y,Z (replaces the scene's, or a mesh's default view's).
         #[arg(long, value_name = "X,Y,Z", value_parser = raycast_cli::parse_vector, allow_hyphen_values = true)]

@@ -356,7 +356,7 @@ impl RenderFiles {
             // The hook's file as given, or the shipped ray tracer's for `lit`.
             shader: options.shade.as_ref().map(|hook| hook.file.clone()),
             hook_rays: None,
-            device: gpu.map_or("the CPU".to_owned(), |g| g.info().name),
+            device: gpu.map_or("the CPU".to_owned(), |g| g.info().adapter.name),
             elapsed: Duration::ZERO,
             bands: None,
             peak_mib: None,

@@ -368,7 +368,15 @@ impl RenderViews {
     /// (with coverage when supersampled, with a hook's colours when shaded) and camera.json.
     fn file_names(&self) -> Vec<String> {
         let r = &self.render;
-        let mut images = Images::<f32>::new_miss(1, 1, 1.0);
+        // One pixel, a miss: the files' names do not depend on what it holds.
+        let mut images = Images::<f32> {
+            width: 1,
+            height: 1,
+            id: vec![raycast::MISS],
+            distance: vec![f32::INFINITY],
+            normal: vec![[0.0; 3]],
+            ..Images::default()
+        };
         if r.spp.is_some_and(|s| s > 1) {
             images.coverage = Some(Coverage {
                 spp: 4,

@@ -18,7 +18,7 @@ use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
-use raycast::{RayList, RayRows};
+use raycast::RayList;
 use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -89,20 +89,21 @@ enum RayArray<'py> {
 fn ray_list<'a>(rays: &'a RayArray<'_>, width: Option<usize>) -> PyResult<RayList<'a>> {
     let contiguous = || PyValueError::new_err("rays: expected a contiguous array");
     let rows = || PyValueError::new_err("rays: expected rows of 6 numbers");
-    let rows: RayRows<'a> = match rays {
+    let rows: RayList<'a> = match rays {
         RayArray::F32(a) => {
             let flat = a.as_slice().map_err(|_| contiguous())?;
-            RayRows::F32(bytemuck::try_cast_slice(flat).map_err(|_| rows())?)
+            let rows: &[[f32; 6]] = bytemuck::try_cast_slice(flat).map_err(|_| rows())?;
+            rows.into()
         }
         RayArray::F64(a) => {
             let flat = a.as_slice().map_err(|_| contiguous())?;
             let rays: &[Ray] = bytemuck::try_cast_slice(flat).map_err(|_| rows())?;
-            RayRows::F64(rays)
+            rays.into()
         }
     };
     Ok(match width {
         Some(w) => RayList::image(rows, w),
-        None => RayList::from(rows),
+        None => rows,
     })
 }
 
@@ -841,7 +842,7 @@ fn images_into<T: numpy::Element + bytemuck::Pod>(
 #[pyfunction]
 fn info(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let gpu = gpu()?;
-    let a = gpu.info();
+    let a = gpu.info().adapter;
     let d = PyDict::new(py);
     d.set_item("name", a.name.clone())?;
     d.set_item("backend", format!("{:?}", a.backend))?;

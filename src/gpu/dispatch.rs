@@ -1173,7 +1173,7 @@ fn check_limits<R: GpuReal>(
     if R::PRECISION == Float::F64 && !gpu.has_f64() {
         return Err(Error::Device(format!(
             "`precision` f64: the adapter {} has no f64 shader support (SHADER_F64); use `precision` f32",
-            gpu.info().name
+            gpu.info().adapter.name
         )));
     }
     let limits = gpu.device.limits();

@@ -99,7 +99,7 @@ impl Gpu {
             kinds: shader::Kinds::ALL,
             bvh: false,
             packets,
-            eight_lanes: packets && self.info().subgroup_max_size == PACKET_LANES,
+            eight_lanes: packets && self.adapter.get_info().subgroup_max_size == PACKET_LANES,
             lane_rays_limit: shader::MAX_LANE_RAYS,
             chunks: 1,
             chunk_bits: shader::chunk_bits_for(self.max_binding(), precision),
@@ -112,9 +112,8 @@ impl Gpu {
         }
     }
 
-    /// Whether kernels in f64 run here (`SHADER_F64`): f64 and adaptive precision's re-casts
-    /// on the GPU, and the f64 rechecks of robust f32.
-    pub fn has_f64(&self) -> bool {
+    /// [`GpuInfo::f64`].
+    pub(crate) fn has_f64(&self) -> bool {
         self.device.features().contains(wgpu::Features::SHADER_F64)
     }
 
@@ -126,11 +125,10 @@ impl Gpu {
             .contains(wgpu::Features::SHADER_INT64)
     }
 
-    /// Whether the BVH is traversed by packets here ([`crate::Tuning::packets`]): subgroups of
-    /// at least the 8 invocations a packet shares each node fetch among.
-    pub fn has_packet_subgroups(&self) -> bool {
+    /// [`GpuInfo::packet_subgroups`].
+    pub(crate) fn has_packet_subgroups(&self) -> bool {
         self.device.features().contains(wgpu::Features::SUBGROUP)
-            && self.info().subgroup_min_size >= PACKET_LANES
+            && self.adapter.get_info().subgroup_min_size >= PACKET_LANES
     }
 
     /// Whether the kernel's list and output buffers are mapped by the host directly rather
@@ -159,7 +157,7 @@ impl Gpu {
     ///
     /// ```no_run
     /// let gpu = raycast::Gpu::new()?;
-    /// println!("{} (f64 shaders: {})", gpu.info().name, gpu.has_f64());
+    /// println!("{} (f64 shaders: {})", gpu.info().adapter.name, gpu.info().f64);
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn new() -> Result<Gpu> {
@@ -259,10 +257,27 @@ impl Gpu {
         }
     }
 
-    /// The adapter's name, backend, driver and device type.
-    pub fn info(&self) -> wgpu::AdapterInfo {
-        self.adapter.get_info()
+    /// What this GPU is, and what the kernels can use of it.
+    pub fn info(&self) -> GpuInfo {
+        GpuInfo {
+            adapter: self.adapter.get_info(),
+            f64: self.has_f64(),
+            packet_subgroups: self.has_packet_subgroups(),
+        }
     }
+}
+
+/// What a GPU is ([`Gpu::info`]), and what the kernels can use of it.
+#[derive(Clone, Debug)]
+pub struct GpuInfo {
+    /// The adapter's name, backend, driver, device type and subgroup sizes.
+    pub adapter: wgpu::AdapterInfo,
+    /// Whether kernels in f64 run here (`SHADER_F64`): f64 and adaptive precision's re-casts
+    /// on the GPU, and the f64 rechecks of robust f32.
+    pub f64: bool,
+    /// Whether the BVH is traversed by packets here ([`crate::Tuning::packets`]): subgroups of
+    /// at least the 8 invocations a packet shares each node fetch among.
+    pub packet_subgroups: bool,
 }
 
 /// `RAYCAST_MAX_BINDING`, bytes of one storage binding at most (at least 1 MiB), if set.

@@ -122,8 +122,20 @@ pub struct Encoding {
     pub depth_scale: f64,
 }
 
-/// `--depth-scale`'s default: millimetres for scenes in metres.
-pub const DEFAULT_DEPTH_SCALE: f64 = 1000.0;
+/// The files `raycast render` writes unless told otherwise: every output as PNG, `color.png`
+/// transparent, `depth16.png`'s scale in millimetres for scenes in metres.
+impl Default for Encoding {
+    fn default() -> Encoding {
+        Encoding {
+            formats: vec![Format::Png],
+            outputs: Outputs::ALL,
+            background: None,
+            depth: Depth::Distance,
+            depth16: Depth::Z,
+            depth_scale: 1000.0,
+        }
+    }
+}
 
 impl Encoding {
     /// The outputs of `list` (`--outputs`) in `formats`, or without a list every output the
@@ -167,10 +179,7 @@ impl Encoding {
         Ok(Encoding {
             formats: formats.to_vec(),
             outputs,
-            background: None,
-            depth: Depth::Distance,
-            depth16: Depth::Z,
-            depth_scale: DEFAULT_DEPTH_SCALE,
+            ..Encoding::default()
         })
     }
 

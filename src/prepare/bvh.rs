@@ -29,9 +29,8 @@ const _: () = assert!(MAX_DEPTH <= 40);
 /// How the nearest hit is searched for among spheres and triangles ([`crate::Tuning::search`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Search {
-    /// Through a BVH where it pays: from [`Search::SPHERE_CROSSOVER`] spheres or
-    /// [`Search::TRIANGLE_CROSSOVER`] triangles, or a mix in between
-    /// (`spheres / SPHERE_CROSSOVER + triangles / TRIANGLE_CROSSOVER >= 1`).
+    /// Through a BVH where it pays: from 32 spheres or 8 triangles, or a mix in between
+    /// (`spheres / 32 + triangles / 8 >= 1`; [`Search::uses_bvh`] says for a scene).
     #[default]
     Auto,
     /// Always through a BVH.
@@ -45,10 +44,10 @@ impl Search {
     /// none: the smallest count at which the BVH was faster in every run of
     /// `benches/bvh_crossover.rs`, set before packets lowered the break-even
     /// (docs/performance.md#bvh, docs/specializations.md).
-    pub const SPHERE_CROSSOVER: usize = 32;
+    pub(crate) const SPHERE_CROSSOVER: usize = 32;
     /// The same for triangles, which cross over four times sooner: a (watertight) triangle
     /// test costs about four sphere tests. Chosen as [`Search::SPHERE_CROSSOVER`] was.
-    pub const TRIANGLE_CROSSOVER: usize = 8;
+    pub(crate) const TRIANGLE_CROSSOVER: usize = 8;
 
     /// Whether `scene` is rendered through a BVH.
     pub fn uses_bvh(self, scene: &Scene) -> bool {

@@ -63,6 +63,9 @@ pub(crate) mod points;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
+    /// The intersection formulas its commits use: robust by default. Embree's robust flag in
+    /// the same place: set on the geometry, before the commit.
+    pub algorithm: Algorithm,
     objects: Vec<Object>,
     /// The camera of the scene file it came from: its eye is where the robust kernel measures
     /// from. Without one, [`framing_camera`] places it at the objects' centre.
@@ -84,6 +87,7 @@ impl Geometry {
     /// A loaded scene's objects, measured from its camera's eye.
     pub fn from_scene(scene: &Scene) -> Geometry {
         Geometry {
+            algorithm: Algorithm::default(),
             objects: scene.objects.clone(),
             camera: Some(scene.camera.clone()),
         }
@@ -188,8 +192,8 @@ impl std::fmt::Debug for Accel<'_> {
 }
 
 impl Gpu {
-    /// Prepares `geometry` for queries on this GPU in `precision` (robust algorithm set): the
-    /// BVH built and the buffers uploaded now, once.
+    /// Prepares `geometry` for queries on this GPU in `precision` (with its
+    /// [`Geometry::algorithm`]): the BVH built and the buffers uploaded now, once.
     ///
     /// ```no_run
     /// use raycast::{DVec3, Geometry, Gpu, Precision, Ray};
@@ -207,19 +211,10 @@ impl Gpu {
 }
 
 impl Cpu {
-    /// Prepares `geometry` for queries by the CPU reference in `precision` (robust algorithm
-    /// set; adaptive precision casts in f64 throughout).
+    /// Prepares `geometry` for queries by the CPU reference in `precision` (with its
+    /// [`Geometry::algorithm`]; adaptive precision casts in f64 throughout).
     pub fn commit(&self, geometry: &Geometry, precision: Precision) -> Result<Accel<'static>> {
         Accel::new(geometry, None, Device::Cpu, precision)
-    }
-}
-
-/// Prepares `geometry` for queries in `mode` (any algorithm set): on `gpu` for a GPU mode.
-pub fn commit_mode<'d>(gpu: Option<&'d Gpu>, geometry: &Geometry, mode: Mode) -> Result<Accel<'d>> {
-    match (mode.device, gpu) {
-        (Device::Gpu, None) => Err(Error::Device("a gpu: cast needs a GPU".into())),
-        (Device::Gpu, gpu) => Accel::with_mode(geometry, gpu, mode),
-        (Device::Cpu, _) => Accel::with_mode(geometry, None, mode),
     }
 }
 
@@ -233,7 +228,7 @@ impl<'d> Accel<'d> {
         let mode = Mode {
             device,
             precision,
-            algorithm: Algorithm::Robust,
+            algorithm: geometry.algorithm,
         };
         Accel::with_mode(geometry, gpu, mode)
     }

@@ -282,7 +282,7 @@ impl Scene {
     /// The scene with every length (positions, radii, the camera's focal length and image
     /// plane) multiplied by `2^k`, directions kept: exact in binary floating point, barring
     /// overflow and subnormals.
-    pub fn scaled_by_pow2(&self, k: i32) -> Scene {
+    pub(crate) fn scaled_by_pow2(&self, k: i32) -> Scene {
         let f = 2f64.powi(k);
         let v = |p: DVec3| p * f;
         let mut scene = self.clone();

@@ -3,7 +3,10 @@
 
 use super::common;
 
+use std::path::Path;
+
 use raycast::Algorithm::Robust;
+use raycast::Scene;
 use raycast::ShadeHook;
 use raycast::images::{Images, Outputs};
 
@@ -130,4 +133,67 @@ fn a_hooks_rays_in_packets_find_what_they_find_ray_by_ray() {
     common::assert_same_bits(&a, &b, "packets against ray by ray");
     assert!(a.color.is_some() && a.color == b.color);
     assert!(a.hook_rays.is_some() && a.hook_rays == b.hook_rays);
+}
+
+/// The hook sees world coordinates whatever the scene's scale (the kernel works on the scene
+/// scaled to its camera's size and scales positions and distances back): a scene scaled by
+/// 2^k gives the hook positions and distances 2^k times the unscaled ones, so a hook that
+/// tests them against the scaled sphere colours the same pixels at every k.
+#[test]
+fn hooks_see_world_coordinates_at_every_power_of_two_scale() {
+    let json = r#"{"camera": {"eye": [0.75, 0.5, 0.25], "look": [0, 0, -1], "up": [0, 1, 0],
+        "focal_length": 0.5, "width": 0.375, "height": 0.25, "resolution": [40, 30]},
+        "objects": [{"type": "sphere", "center": [0.75, 0.5, -0.5], "radius": 0.125}]}"#;
+    let base = Scene::from_json(json, Path::new("small.json"), &mut |_, _| unreachable!()).unwrap();
+    let mut reference = None;
+    for k in [-40, -7, 0, 9, 40] {
+        let s = 2f64.powi(k);
+        // Red where |position - centre| is the radius to 1e-4 of it; green where position is
+        // origin + distance * direction to 1e-4 of the distance.
+        let hook = ShadeHook::check(
+            &format!(
+                "fn shade(hit: ShadeHit) -> vec4<f32> {{
+    if (hit.id < 0) {{
+        return vec4<f32>(0.0);
+    }}
+    let centre = vec3<f32>({cx:e}, {cy:e}, {cz:e});
+    let e = abs(distance(hit.position, centre) - {r:e}) / {r:e};
+    let on_ray = distance(hit.position, hit.origin + hit.distance * hit.direction) / hit.distance;
+    return vec4<f32>(select(0.0, 1.0, e < 1e-4), select(0.0, 1.0, on_ray < 1e-4), 0.0, 1.0);
+}}
+",
+                cx = 0.75 * s,
+                cy = 0.5 * s,
+                cz = -0.5 * s,
+                r = 0.125 * s,
+            ),
+            Path::new("test-hook.wgsl"),
+        )
+        .unwrap();
+        let color = Outputs {
+            color: true,
+            ..Outputs::default()
+        };
+        let images: Images<f32> = common::gpu_outputs(
+            common::gpu(),
+            &base.scaled_by_pow2(k),
+            Robust,
+            color,
+            Some(&hook),
+        )
+        .unwrap();
+        let color = images.color.expect("a hooked render has colours");
+        let hits = color.iter().filter(|c| c[3] == 255).count();
+        assert!(hits > 100, "2^{k}: {hits} hits");
+        assert!(
+            color
+                .iter()
+                .all(|c| *c == [255, 255, 0, 255] || *c == [0; 4]),
+            "2^{k}: a hit off the sphere or off its ray"
+        );
+        match &reference {
+            None => reference = Some(color),
+            Some(r) => assert!(r == &color, "2^{k}: the hook coloured other pixels"),
+        }
+    }
 }

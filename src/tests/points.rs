@@ -15,7 +15,7 @@ fn mode(s: &str) -> Mode {
 }
 
 fn closest(geometry: &Geometry, mode: Mode, points: &[[f64; 3]]) -> Closest {
-    raycast::commit_mode(Some(gpu()), geometry, mode)
+    common::commit(Some(gpu()), geometry, mode)
         .unwrap()
         .closest(common::dvec3s(points))
         .unwrap()
@@ -170,7 +170,7 @@ fn searching_in_a_spatial_order_changes_no_answer() {
     assert!(crate::prepare::order::spatial_order(&points).is_some());
     assert!(crate::prepare::order::spatial_order(&points[..1000]).is_none());
     let in_pieces = |mode: Mode| {
-        let accel = raycast::commit_mode(Some(gpu()), &geometry, mode).unwrap();
+        let accel = common::commit(Some(gpu()), &geometry, mode).unwrap();
         let pieces: Vec<Closest> = (points.chunks(1000))
             .map(|c| accel.closest(common::dvec3s(c)).unwrap())
             .collect();
@@ -318,7 +318,7 @@ fn winding_numbers_of_an_open_mesh_match_the_exact_sum() {
     let geometry = common::soup_geometry(&triangles);
     let points = points_near(centre, &triangles, &mut Rng(11));
     for device in ["cpu", "gpu"] {
-        let w = raycast::commit_mode(
+        let w = common::commit(
             Some(gpu()),
             &geometry,
             mode(&format!("{device}:f32:robust")),
@@ -353,7 +353,7 @@ fn every_hit_lists_what_count_counts() {
             })
             .collect();
         for m in ["cpu:f64:robust", "gpu:f32:robust", "cpu:f32:textbook"] {
-            let accel = raycast::commit_mode(Some(gpu()), &geometry, mode(m)).unwrap();
+            let accel = common::commit(Some(gpu()), &geometry, mode(m)).unwrap();
             let all = accel.every_hit(&rays[..]).unwrap();
             let counts = accel.count(&rays[..]).unwrap();
             let nearest = accel.intersect(&rays[..]).unwrap();
@@ -433,7 +433,7 @@ fn a_ray_through_a_shared_edge_crosses_once() {
         direction: direction.into(),
     });
     for m in ["cpu:f64:robust", "gpu:f32:robust", "cpu:f32:textbook"] {
-        let accel = raycast::commit_mode(Some(gpu()), &cube, mode(m)).unwrap();
+        let accel = common::commit(Some(gpu()), &cube, mode(m)).unwrap();
         let splits = accel.every_hit(&rays[..]).unwrap().ray_splits;
         assert_eq!(splits, [0, 2, 4, 5, 7], "{m}");
         let points = [

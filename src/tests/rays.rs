@@ -834,7 +834,7 @@ fn wide_and_narrow_loads_give_the_same_answers() {
         let m = mode("gpu:f32:robust");
         let hits = f32_hits(target.cast(Some(g), m, &rays).unwrap());
         let count = target.count(Some(g), m, &rays).unwrap();
-        let accel = raycast::commit_mode(Some(g), &target.geometry, m).unwrap();
+        let accel = common::commit(Some(g), &target.geometry, m).unwrap();
         (hits, count, accel.closest(&points).unwrap())
     };
     let (wide_hits, wide_count, wide_closest) = on(&wide);

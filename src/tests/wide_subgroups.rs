@@ -50,7 +50,7 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
         return;
     }
     let gpu = discrete_like();
-    let info = gpu.info();
+    let info = gpu.info().adapter;
     assert_eq!(
         (info.subgroup_min_size, info.subgroup_max_size),
         (16, 16),

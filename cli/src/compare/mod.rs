@@ -313,11 +313,14 @@ mod tests {
     use super::*;
 
     fn images(ids: &[i32], distance: &[f64]) -> AnyImages {
-        let mut i = Images::<f64>::new_miss(ids.len() as u32, 1, 1.0);
-        i.id = ids.to_vec();
-        i.distance = distance.to_vec();
-        i.normal = vec![[0.0, 0.0, 1.0]; ids.len()];
-        AnyImages::F64(i)
+        AnyImages::F64(Images {
+            width: ids.len() as u32,
+            height: 1,
+            id: ids.to_vec(),
+            distance: distance.to_vec(),
+            normal: vec![[0.0, 0.0, 1.0]; ids.len()],
+            ..Images::default()
+        })
     }
 
     #[test]

@@ -160,7 +160,7 @@ pub fn all_modes() -> Vec<Mode> {
 /// [`all_modes`] less what `gpu` cannot run: the GPU f64 modes when the adapter lacks
 /// `SHADER_F64`, every GPU mode when there is no GPU.
 pub fn default_modes(gpu: Option<&Gpu>) -> Vec<Mode> {
-    let f64_on_gpu = gpu.is_some_and(Gpu::has_f64);
+    let f64_on_gpu = gpu.is_some_and(|g| g.info().f64);
     all_modes()
         .into_iter()
         .filter(|m| match (m.device, m.precision) {
@@ -579,10 +579,14 @@ mod tests {
     #[test]
     fn lost_hits_and_non_finite_pixels_are_counted() {
         assert_eq!(lost_hits(&[MISS, 0, MISS, 1], &[0, 0, MISS, MISS]), 1);
-        let mut i = Images::<f32>::new_miss(4, 1, 1.0);
-        i.id = vec![MISS, 0, 0, 0];
-        i.distance = vec![f32::INFINITY, 1.0, f32::NAN, f32::INFINITY];
-        i.normal[1] = [0.0, 0.0, 1.0];
+        let mut i = Images::<f32> {
+            width: 4,
+            height: 1,
+            id: vec![MISS, 0, 0, 0],
+            distance: vec![f32::INFINITY, 1.0, f32::NAN, f32::INFINITY],
+            normal: vec![[0.0; 3], [0.0, 0.0, 1.0], [0.0; 3], [0.0; 3]],
+            ..Images::default()
+        };
         assert_eq!(non_finite(&i), 2);
         i.normal[0] = [f32::NAN, 0.0, 0.0];
         assert_eq!(non_finite(&i), 3);

@@ -32,7 +32,7 @@ use serde::Serialize;
 use super::{Stream, Table, format_seconds, median, plural};
 use raycast::MISS;
 use raycast::Viewer;
-use raycast::{Algorithm, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
+use raycast::{Algorithm, Cpu, Error, Gpu, RenderOptions, Result, Search, ShadeHook, Tuning};
 use raycast::{Camera, Object, Scene};
 use raycast::{Device, Mode, Precision};
 use raycast_datasets::Views;
@@ -512,7 +512,7 @@ pub fn measure(
     };
     let mrays_per_s = mrays(frame_s);
     let counts = Counts::of(scene);
-    let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(Gpu::info);
+    let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(|g| g.info().adapter);
     let last = timed.last().expect("at least one run");
     let secondary_rays = last.hook_rays;
     Ok(Row {
@@ -581,10 +581,14 @@ fn measure_rays(
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
     let rays = incoherent_rays(&loaded.scene, n);
-    let gpu = gpu.filter(|_| mode.device == Device::Gpu);
     reset_peak_rss();
-    let geometry = raycast::Geometry::from_scene(&loaded.scene);
-    let accel = raycast::commit_mode(gpu, &geometry, mode)?;
+    let mut geometry = raycast::Geometry::from_scene(&loaded.scene);
+    geometry.algorithm = mode.algorithm;
+    let accel = match (mode.device, gpu) {
+        (Device::Gpu, Some(gpu)) => gpu.commit(&geometry, mode.precision)?,
+        (Device::Gpu, None) => return Err(Error::Device("a gpu: cast needs a GPU".into())),
+        (Device::Cpu, _) => Cpu.commit(&geometry, mode.precision)?,
+    };
     let warm_up = accel.intersect(&rays[..])?;
     tick();
     let mut times = Vec::with_capacity(runs);
@@ -597,7 +601,7 @@ fn measure_rays(
     let trace_s = median(&times);
     let counts = Counts::of(&loaded.scene);
     let hits = warm_up.id().iter().filter(|&&id| id != MISS).count();
-    let info = gpu.map(Gpu::info);
+    let info = gpu.map(|g| g.info().adapter);
     Ok(Row {
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
@@ -720,7 +724,7 @@ fn cpu_model() -> Option<String> {
 pub fn header(loaded: &Loaded, options: &Options, gpu: Option<&Gpu>) -> Vec<String> {
     let mut lines = Vec::new();
     if let Some(g) = gpu {
-        let info = g.info();
+        let info = g.info().adapter;
         lines.push(format!(
             "adapter: {}, driver: {}",
             info.name, info.driver_info

@@ -76,7 +76,7 @@ impl Provenance {
         Provenance {
             command: command_line(),
             adapter: gpu.map(|g| {
-                let info = g.info();
+                let info = g.info().adapter;
                 (info.name, info.driver_info)
             }),
             date: utc_date_today(),

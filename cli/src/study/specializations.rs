@@ -171,7 +171,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     });
     plans.push(if !auto_bvh {
         Plan::not_applicable(Specialization::Packets, "no BVH for this scene")
-    } else if !gpu.has_packet_subgroups() {
+    } else if !gpu.info().packet_subgroups {
         Plan::not_applicable(
             Specialization::Packets,
             "no subgroups of 8 or more invocations on this device",
@@ -187,7 +187,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     let distance = Kernel {
         outputs: Outputs {
             distance: true,
-            ..Outputs::NONE
+            ..Outputs::default()
         },
         ..base
     };
@@ -597,11 +597,7 @@ pub fn crossover(
     for kind in ["spheres", "triangles"] {
         for n in CROSSOVER_SIZES {
             progress(kind, n);
-            let scene = if kind == "spheres" {
-                random_spheres(n, &mut rng)
-            } else {
-                random_triangles(n, &mut rng)
-            };
+            let scene = random_scene(kind, n, &mut rng);
             // Each lane casting its most rays, as the crossover was measured.
             let variants = [Search::BruteForce, Search::Bvh].map(|search| Kernel {
                 tuning: Tuning {
@@ -674,8 +670,8 @@ fn crossover_section(rows: &[CrossoverRow]) -> String {
          spheres / {} + triangles / {} >= 1 (`bvh::CROSSOVER`, `bvh::TRIANGLE_CROSSOVER`).\n\n{}",
         from("spheres"),
         from("triangles"),
-        Search::SPHERE_CROSSOVER,
-        Search::TRIANGLE_CROSSOVER,
+        auto_crossover("spheres"),
+        auto_crossover("triangles"),
         crossover_table(rows)
     )
 }
@@ -707,6 +703,23 @@ impl Rng {
 
 const CROSSOVER_CAMERA: &str = r#""camera": {"eye": [0, 0, 6], "look": [0, 0, -1], "up": [0, 1, 0],
     "focal_length": 1.5, "width": 1.6, "height": 0.9, "resolution": [640, 360]}"#;
+
+/// The smallest count of `kind` (spheres or triangles) alone from which [`Search::Auto`]
+/// builds a BVH: the library's rule, asked rather than restated.
+fn auto_crossover(kind: &str) -> usize {
+    let mut rng = Rng(1);
+    (1..)
+        .find(|&n| Search::Auto.uses_bvh(&random_scene(kind, n, &mut rng)))
+        .expect("Search::Auto builds a BVH for some count")
+}
+
+/// `n` random spheres or triangles, as `kind` says.
+fn random_scene(kind: &str, n: usize, rng: &mut Rng) -> Scene {
+    match kind {
+        "spheres" => random_spheres(n, rng),
+        _ => random_triangles(n, rng),
+    }
+}
 
 fn random_spheres(n: usize, rng: &mut Rng) -> Scene {
     let objects: Vec<String> = (0..n)

@@ -26,7 +26,7 @@ fn f64_without_shader_f64_is_a_clear_error() {
 fn robust_f32_without_f64_still_renders_the_course_bunny() {
     // Its robust f32 kernel leaves out the f64 recheck (src/tests/no_f64_device.rs).
     let gpu = gpu_without_f64();
-    assert!(!gpu.has_f64());
+    assert!(!gpu.info().f64);
     let scene = common::course_scene("bunny");
     let without = common::gpu_scene::<f32>(&gpu, &scene, Robust).unwrap();
     let with = common::gpu_scene::<f32>(common::gpu(), &scene, Robust).unwrap();

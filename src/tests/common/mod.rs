@@ -444,8 +444,25 @@ pub(crate) fn soup_geometry(triangles: &[raycast::Triangle]) -> raycast::Geometr
     geometry
 }
 
+/// `geometry` committed in `mode`, whose algorithm set replaces the geometry's: on `gpu`, which
+/// a GPU mode's test passes.
+pub(crate) fn commit<'g>(
+    gpu: Option<&'g Gpu>,
+    geometry: &raycast::Geometry,
+    mode: Mode,
+) -> raycast::Result<raycast::Accel<'g>> {
+    let mut geometry = geometry.clone();
+    geometry.algorithm = mode.algorithm;
+    match mode.device {
+        raycast::Device::Gpu => {
+            (gpu.expect("a GPU mode's test passes a GPU")).commit(&geometry, mode.precision)
+        }
+        raycast::Device::Cpu => raycast::Cpu.commit(&geometry, mode.precision),
+    }
+}
+
 /// A geometry cast at in whichever mode a test names, committed afresh for each call
-/// (`raycast::commit_mode`).
+/// ([`commit`]).
 #[derive(Default)]
 pub(crate) struct Target {
     pub geometry: raycast::Geometry,
@@ -463,7 +480,7 @@ impl Target {
     }
 
     fn commit<'g>(&self, gpu: Option<&'g Gpu>, mode: Mode) -> raycast::Result<raycast::Accel<'g>> {
-        raycast::commit_mode(gpu, &self.geometry, mode)
+        commit(gpu, &self.geometry, mode)
     }
 
     pub(crate) fn cast<'a>(

@@ -173,7 +173,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// Whether the adapter runs f64 kernels (`SHADER_F64`).
     fn has_f64(&self) -> bool {
-        self.gpu.has_f64()
+        self.gpu.info().f64
     }
 
     /// `mode` runs here: not f64 on an adapter without f64 kernels (adaptive precision re-casts
@@ -227,7 +227,7 @@ impl Adapter {
     /// Probes `gpu` for fusion ([`crate::adapter::fusion_probe`]) and describes it.
     pub fn probe(gpu: &Gpu) -> Result<Adapter> {
         let fusion = crate::adapter::fusion_probe(gpu)?;
-        let f64_support = gpu.has_f64();
+        let f64_support = gpu.info().f64;
         // Without f64 shaders the robust f32 kernel leaves out the f64 rechecks (edge signs,
         // a triangle's t) that the CPU mirror always makes.
         let rule = if fusion.unfused == fusion.samples && f64_support {
@@ -235,8 +235,8 @@ impl Adapter {
         } else {
             F32Rule::Bounded
         };
-        let info = gpu.info();
-        let subgroups = if gpu.has_packet_subgroups() {
+        let info = gpu.info().adapter;
+        let subgroups = if gpu.info().packet_subgroups {
             format!(
                 "{}-{} lanes",
                 info.subgroup_min_size, info.subgroup_max_size
@@ -567,7 +567,7 @@ fn f32_images(images: AnyImages) -> Result<Images<f32>> {
 /// f32 through the BVH, in packets or ray by ray, judged by the adapter's [`F32Rule`].
 fn random_f32(ctx: &Ctx, seed: u64, packets: bool, planted: bool) -> Result<Verdict> {
     let scene = random(seed);
-    if packets && !ctx.gpu.has_packet_subgroups() {
+    if packets && !ctx.gpu.info().packet_subgroups {
         return Ok(Verdict::skip("this adapter has no subgroups for packets"));
     }
     let tuning = Tuning {
@@ -1032,14 +1032,14 @@ const PACKET_LANES: u32 = 8;
 
 /// Whether this adapter's packets take the eight-lane path (subgroups exactly 8 wide).
 fn eight_lanes(gpu: &Gpu) -> bool {
-    gpu.has_packet_subgroups() && gpu.info().subgroup_max_size == PACKET_LANES
+    gpu.info().packet_subgroups && gpu.info().adapter.subgroup_max_size == PACKET_LANES
 }
 
 /// The packet traversal this adapter's subgroups select: eight lanes a packet by butterfly
 /// votes where subgroups are 8 wide, by `subgroupAny` and `subgroupAdd` where wider.
 fn packet_path(gpu: &Gpu) -> String {
-    let lanes = gpu.info().subgroup_max_size;
-    match (gpu.has_packet_subgroups(), eight_lanes(gpu)) {
+    let lanes = gpu.info().adapter.subgroup_max_size;
+    match (gpu.info().packet_subgroups, eight_lanes(gpu)) {
         (false, _) => "no subgroups: ray by ray".into(),
         (true, true) => format!("eight-lane packets ({lanes}-lane subgroups)"),
         (true, false) => format!("wide packets ({lanes}-lane subgroups)"),
@@ -1048,14 +1048,14 @@ fn packet_path(gpu: &Gpu) -> String {
 
 /// A line saying that the wide packet path does not run here, where it does not.
 fn wide_path_skipped<'a>(gpu: &Gpu) -> Option<Planned<'a>> {
-    let packets = gpu.has_packet_subgroups();
+    let packets = gpu.info().packet_subgroups;
     if packets && !eight_lanes(gpu) {
         return None;
     }
     let why = match packets {
         true => format!(
             "needs subgroups wider than 8 lanes; this adapter's are {}",
-            gpu.info().subgroup_max_size
+            gpu.info().adapter.subgroup_max_size
         ),
         false => "needs subgroups, which this device does not offer".to_owned(),
     };
