@@ -21,7 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let runs: usize = take("--runs").map_or(Ok(5), |r| r.parse())?;
     let size = take("--size");
     let gpu = Gpu::new()?;
-    println!("adapter: {} ({})", gpu.info().adapter.name, gpu.info().adapter.driver_info);
+    println!(
+        "adapter: {} ({})",
+        gpu.info().adapter.name,
+        gpu.info().adapter.driver_info
+    );
     println!("| scene | size | mode | median s | vs gpu:f32:textbook |");
     println!("|---|---|---|---|---|");
     for path in &args {

@@ -84,8 +84,8 @@ pub use crate::scene::{
 
 // The file formats, and the writes that leave whole files or none.
 pub use crate::output::{
-    Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable,
-    check_writable, encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
+    Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable, check_writable,
+    encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
 };
 /// The API's one vector type (points, directions, colours): glam's, re-exported so that a
 /// client's matches the library's version.

@@ -457,7 +457,7 @@ fn parse_spp(s: &str) -> std::result::Result<u32, String> {
         samples_per_pixel: Some(samples_per_pixel),
         ..RenderOptions::default()
     };
-    match options.check(Device::Cpu) {
+    match options.check(Device::Cpu, None) {
         Err(raycast::Error::Argument { message, .. }) => Err(message),
         _ => Ok(samples_per_pixel),
     }

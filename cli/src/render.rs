@@ -57,7 +57,7 @@ pub fn options(mode: Mode, options: RenderOptions) -> RenderOptions {
 
 /// Refuses what `options` ask of `mode` that it cannot do, before any render.
 pub fn check(mode: Mode, options: RenderOptions) -> Result<()> {
-    self::options(mode, options).check(mode.device)
+    self::options(mode, options).check(mode.device, None)
 }
 
 /// Renders `scene` in `mode` with `options`' other settings, on `gpu` for a GPU mode.

@@ -188,9 +188,14 @@ impl RenderFiles {
     }
 
     /// [`RenderFiles::check`] but for `scene` and `split`, which a job of many scenes checks
-    /// against its own ([`crate::RenderViews`]).
-    pub(crate) fn check_options(&self) -> Result<()> {
-        self.resolved(false).check_resolved()
+    /// against its own ([`crate::RenderViews`]); returns the render's files, read and checked.
+    pub(crate) fn check_options(&self) -> Result<Files> {
+        let resolved = self.resolved(false);
+        resolved.check_resolved()?;
+        let files = resolved.load_files()?;
+        let options = resolved.options(&files);
+        options.check(resolved.mode.device, None)?;
+        Ok(files)
     }
 
     fn check_resolved(&self) -> Result<()> {
@@ -213,9 +218,6 @@ impl RenderFiles {
         if self.lit && self.mode.precision == Precision::Adaptive {
             return refuse("lit", "runs with `precision` f32 or f64, not adaptive");
         }
-        // The CPU runs the course's ray tracer by its mirror, and no other hook.
-        let mirrored = self.lit && !gpu;
-        (self.mode).check_kernels(self.kernel.is_some(), self.shaded() && !mirrored)?;
         if self.shaded() {
             if self.encoding.background.is_some() {
                 return refuse(
@@ -247,20 +249,19 @@ impl RenderFiles {
         Ok(())
     }
 
-    /// Refuses a render of `size` pixels whose images, held whole, need more memory than
-    /// this machine has ([`Mode::check_memory`]); one in bands holds a band and passes.
-    pub(crate) fn check_memory(&self, size: [u32; 2]) -> Result<()> {
+    /// Refuses a render of `size` pixels with `files` whose images, held whole, need more
+    /// memory than this machine has ([`RenderOptions::check`]); one in bands holds a band and
+    /// passes.
+    pub(crate) fn check_memory(&self, size: [u32; 2], files: &Files) -> Result<()> {
         let huge = u64::from(size[0]) * u64::from(size[1]) > STREAM_PIXELS;
-        self.resolved(huge).check_resolved_memory(size, huge)
+        self.resolved(huge).check_resolved_memory(size, huge, files)
     }
 
-    fn check_resolved_memory(&self, size: [u32; 2], huge: bool) -> Result<()> {
-        if self.in_bands(huge) {
-            return Ok(());
+    fn check_resolved_memory(&self, size: [u32; 2], huge: bool, files: &Files) -> Result<()> {
+        match self.in_bands(huge) {
+            true => Ok(()),
+            false => self.options(files).check(self.mode.device, Some(size)),
         }
-        let spp = self.spp.unwrap_or(1);
-        let could_band = self.spp.is_none() && self.kernel.is_none();
-        (self.mode).check_memory(size, spp, self.shaded(), could_band)
     }
 
     /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
@@ -336,10 +337,11 @@ impl RenderFiles {
         scene: &Scene,
         huge: bool,
     ) -> Result<Summary> {
-        self.check_resolved_memory(scene.camera.resolution, huge)?;
+        let files = self.load_files()?;
+        self.check_resolved_memory(scene.camera.resolution, huge, &files)?;
         let options = RenderOptions {
             progress,
-            ..self.options(&self.load_files()?)
+            ..self.options(&files)
         };
         let gpu = self.device_for(&options, gpu, scene)?;
         raycast::check_writable(&self.out_dir)?;
@@ -468,11 +470,11 @@ impl RenderFiles {
         if resolved.in_bands(huge) {
             return Ok(None);
         }
-        resolved.check_resolved_memory(scene.camera.resolution, huge)?;
         let files = match files {
             Some(files) => files,
             None => files.insert(resolved.load_files()?),
         };
+        resolved.check_resolved_memory(scene.camera.resolution, huge, files)?;
         let options = resolved.options(files);
         Ok(Some(match resolved.device_for(&options, gpu, scene)? {
             Some(g) => Whole::Device(g.begin(scene, &options)?),

@@ -245,7 +245,7 @@ impl RenderViews {
         if r.emit_shader.is_some() {
             return refuse("emit_shader", "writes one kernel; render one view for it");
         }
-        r.check_options()?;
+        let files = r.check_options()?;
         let scenes: Vec<Option<PathBuf>> = match self.scenes.is_empty() {
             true => vec![None],
             false => self.scenes.iter().cloned().map(Some).collect(),
@@ -259,7 +259,9 @@ impl RenderViews {
         let mut sizes: Vec<[u32; 2]> = (0..names.len()).filter_map(size).collect();
         sizes.sort_unstable();
         sizes.dedup();
-        sizes.into_iter().try_for_each(|s| r.check_memory(s))?;
+        sizes
+            .into_iter()
+            .try_for_each(|s| r.check_memory(s, &files))?;
         let pixels: Vec<f64> = (0..names.len())
             .map(|v| {
                 let [nx, ny] = size(v).unwrap_or(raycast::DEFAULT_RESOLUTION);

@@ -14,11 +14,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::Camera;
 use raycast::DVec3;
+use raycast::RayList;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
-use raycast::RayList;
 use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).

@@ -75,7 +75,9 @@ impl ShadeHook {
         ShadeHook::check(RAYTRACE, Path::new(RAYTRACE_FILE))
     }
 
-    /// Reads and [`ShadeHook::check`]s the hook file at `path`.
+    /// Reads and checks the hook file at `path`, and registers it. The file defines
+    /// `fn shade(hit: ShadeHit) -> vec4<f32>` (shaders/hooks.wgsl declares `ShadeHit`), and may
+    /// cast rays with `trace` and `occluded`; errors name it (`FILE:LINE:COLUMN`).
     pub fn load(path: &Path) -> Result<ShadeHook> {
         let source = std::fs::read_to_string(path)
             .map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
@@ -85,7 +87,7 @@ impl ShadeHook {
     /// Checks a hook's `source` (read from `file`, which labels errors: `FILE:LINE:COLUMN`) and
     /// registers it. The file defines `fn shade(hit: ShadeHit) -> vec4<f32>`
     /// (shaders/hooks.wgsl declares `ShadeHit`), and may cast rays with `trace` and `occluded`.
-    pub fn check(source: &str, file: &Path) -> Result<ShadeHook> {
+    pub(crate) fn check(source: &str, file: &Path) -> Result<ShadeHook> {
         check(source, file)
     }
 

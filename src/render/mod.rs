@@ -370,23 +370,6 @@ impl Begun {
     }
 }
 
-impl Mode {
-    /// Refuses a kernel file (`kernel`) or a shade hook colouring `color.png` (`shade`) in this
-    /// mode other than on the GPU in f32 or f64, as [`crate::RenderOptions::check`] does: for a
-    /// caller that checks its options before it reads their files.
-    pub fn check_kernels(self, kernel: bool, shade: bool) -> Result<()> {
-        check_kernels(self, kernel, shade)
-    }
-
-    /// Refuses a render of `size` pixels of `spp` samples each held whole in this mode's
-    /// precision (with a shade hook's colours where `shaded`) whose images need more memory
-    /// than this process may use (docs/cli.md#limits); `bands` says whether it could go in
-    /// bands instead, which the error then advises.
-    pub fn check_memory(self, size: [u32; 2], spp: u32, shaded: bool, bands: bool) -> Result<()> {
-        memory::check_whole_render(size, spp, self.precision, shaded, bands)
-    }
-}
-
 /// Starts the render of `scene` in `mode` that [`render_request`] makes: a CPU render whole,
 /// a GPU render as far as the device (every check, the kernel chosen, the scene prepared for
 /// it), so that a caller can run the device's part on another thread while it prepares the

@@ -159,15 +159,28 @@ impl RenderOptions {
     /// Refuses what these options ask of `device` that it cannot do, before any render: samples
     /// per pixel that are not a perfect square, a kernel or a shade hook other than on the GPU
     /// in f32 or f64 (the CPU runs the course's ray tracer's mirror), tuning with adaptive
-    /// precision.
-    pub fn check(&self, device: Device) -> Result<()> {
+    /// precision; and, given the image's `size`, images held whole whose samples need more
+    /// memory than this process may use (docs/cli.md#limits; a render in bands holds a band
+    /// and is not asked for it).
+    pub fn check(&self, device: Device, size: Option<[u32; 2]>) -> Result<()> {
         if let Some(spp) = self.samples_per_pixel {
             supersample::side(spp).map_err(|message| Error::Argument {
                 option: "samples_per_pixel".into(),
                 message,
             })?;
         }
-        super::check_request(self.mode(device), &self.request())
+        let mode = self.mode(device);
+        super::check_request(mode, &self.request())?;
+        match size {
+            Some(size) => super::memory::check_whole_render(
+                size,
+                self.samples_per_pixel.unwrap_or(1),
+                mode.precision,
+                self.shade.is_some(),
+                self.samples_per_pixel.is_none() && self.kernel.is_none(),
+            ),
+            None => Ok(()),
+        }
     }
 
     fn request(&self) -> Request {

@@ -512,7 +512,9 @@ pub fn measure(
     };
     let mrays_per_s = mrays(frame_s);
     let counts = Counts::of(scene);
-    let on_gpu = gpu.filter(|_| mode.device == Device::Gpu).map(|g| g.info().adapter);
+    let on_gpu = gpu
+        .filter(|_| mode.device == Device::Gpu)
+        .map(|g| g.info().adapter);
     let last = timed.last().expect("at least one run");
     let secondary_rays = last.hook_rays;
     Ok(Row {
@@ -943,7 +945,9 @@ mod tests {
         );
         // The CPU runs the ray tracer's mirror and no other hook.
         let source = "fn shade(hit: ShadeHit) -> vec4<f32> { return vec4<f32>(1.0); }\n";
-        let other = raycast::ShadeHook::check(source, Path::new("other.wgsl")).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("other.wgsl"), source).unwrap();
+        let other = raycast::ShadeHook::load(&dir.path().join("other.wgsl")).unwrap();
         let cpu = |shade: ShadeHook| Options {
             modes: vec!["cpu:f32".parse().unwrap()],
             shade: Some(shade),

@@ -4,8 +4,6 @@
 
 use crate::common;
 
-use std::path::Path;
-
 use raycast::Scene;
 use raycast::ShadeHook;
 use raycast::{AnyImages, Mode, RenderOptions};
@@ -235,8 +233,12 @@ fn colours_of<T>(images: &Images<T>) -> &[[u8; 4]] {
         .expect("a hooked render has colours")
 }
 
+/// A hook loaded from its text, written to a file of its own.
 fn common_hook(source: &str) -> ShadeHook {
-    ShadeHook::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("test-hook.wgsl");
+    std::fs::write(&file, source).unwrap();
+    ShadeHook::load(&file).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The ambient-occlusion example casts exactly its 16 rays from every hit and none from a miss.

@@ -33,9 +33,11 @@ fn write(dir: &Path, name: &str, source: &str) -> PathBuf {
     path
 }
 
-/// A hook checked from its text (the label is only for messages).
+/// A hook loaded from its text, written to a file of its own.
 fn hook(source: &str) -> ShadeHook {
-    ShadeHook::check(source, Path::new("test-hook.wgsl")).unwrap_or_else(|e| panic!("{e}"))
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "test-hook.wgsl", source);
+    ShadeHook::load(&file).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Renders only the hook's colour.

@@ -20,7 +20,11 @@ fn adaptive_cost() -> Result<(), Box<dyn std::error::Error>> {
         args.drain(i..i + 2);
     }
     let gpu = Gpu::new()?;
-    println!("adapter: {} ({})", gpu.info().adapter.name, gpu.info().adapter.driver_info);
+    println!(
+        "adapter: {} ({})",
+        gpu.info().adapter.name,
+        gpu.info().adapter.driver_info
+    );
     println!(
         "| scene | robust f32 s | robust f64 s | certainty pass s | adaptive s | adaptive / f32 | re-cast |"
     );

@@ -46,7 +46,10 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
         outputs: encoding.outputs,
         ..RenderOptions::default()
     };
-    println!("adapter: {}; {path}, {n} views, {mode}", gpu.info().adapter.name);
+    println!(
+        "adapter: {}; {path}, {n} views, {mode}",
+        gpu.info().adapter.name
+    );
     println!(
         "| round | views, no files: s | kernel (GPU time): s | kernel / views | files of a view: ms |"
     );
