@@ -309,7 +309,7 @@ impl RenderViews {
         let clock = Instant::now();
         let mut renderer = self.renderer()?;
         let share = renderer.job.share(shard);
-        raycast::check_writable(&self.render.out_dir)?;
+        raycast_files::check_writable(&self.render.out_dir)?;
         let [rendered, stale] = renderer.render_all(gpu, &share, on_view)?;
         let manifest = self.manifest_of(&renderer.job, &renderer.names, &renderer.record)?;
         Ok(ViewsSummary {
@@ -328,7 +328,7 @@ impl RenderViews {
     /// exclusive lock on `OUT/.manifest.lock` (removed as it is released), so that of shards
     /// finishing together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
-        raycast::check_writable(&self.render.out_dir)?;
+        raycast_files::check_writable(&self.render.out_dir)?;
         let job_part = record::job_part(&self.render)?;
         self.manifest_of(&self.job()?, &self.file_names(), &job_part)
     }
@@ -360,7 +360,7 @@ impl RenderViews {
             text.push('\n');
         }
         let path = out.join(MANIFEST);
-        raycast::write_file(&path, text.as_bytes())?;
+        raycast_files::write_file(&path, text.as_bytes())?;
         Ok(path)
     }
 
@@ -685,7 +685,7 @@ impl ViewRenderer {
     /// temporary folder and then in place.
     fn write_bands(&mut self, gpu: Option<&Gpu>, view: ViewFiles) -> Result<()> {
         let loaded = (self.loaded.as_mut()).expect("a view's scene is loaded");
-        raycast::write_folder(&view.folder, |temporary| {
+        raycast_files::write_folder(&view.folder, |temporary| {
             let files = view.render_files(&self.spec, &self.job, temporary);
             let camera = view.camera.clone();
             (loaded.viewer).render(camera, |scene| files.run_loaded(gpu, None, scene))?;
@@ -715,7 +715,7 @@ enum Started {
 }
 
 /// A view being rendered: its scene (by index in the job) and camera, its record, and the
-/// folder its files go in (written whole: [`raycast::write_folder`]).
+/// folder its files go in (written whole: [`raycast_files::write_folder`]).
 struct ViewFiles {
     scene: usize,
     camera: raycast::Camera,
@@ -754,7 +754,7 @@ impl ViewWrite {
     fn finish(self) -> Result<()> {
         let view = &self.view;
         let files = self.images.encode(&self.encoding, &view.camera);
-        raycast::write_folder(&view.folder, |temporary| {
+        raycast_files::write_folder(&view.folder, |temporary| {
             for f in &files {
                 let path = temporary.join(f.name);
                 std::fs::write(&path, &f.bytes)

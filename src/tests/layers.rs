@@ -260,11 +260,11 @@ fn the_public_api_reader_sees_grouped_imports() {
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
 
-/// At most 152 public declarations: every `pub` declaration in src/ is part of the API
+/// At most 146 public declarations: every `pub` declaration in src/ is part of the API
 /// (everything else is `pub(crate)` or private), counted as lines that open one. A ratchet on
 /// the way to #63's 120 items (`scripts/public-items.py`), lowered as items leave the API.
 #[test]
-fn at_most_152_items_are_declared_public() {
+fn at_most_146_items_are_declared_public() {
     let mut files = Vec::new();
     sources(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
@@ -287,5 +287,5 @@ fn at_most_152_items_are_declared_public() {
                 .count()
         })
         .sum();
-    assert!(declared <= 152, "{declared} public declarations in src/");
+    assert!(declared <= 146, "{declared} public declarations in src/");
 }

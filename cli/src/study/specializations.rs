@@ -529,7 +529,7 @@ pub fn command(
     }
     let named = load_scenes(&files, None)?;
     if let Some(out) = out {
-        raycast::check_parent_writable(out)?;
+        raycast_files::check_parent_writable(out)?;
     }
     let gpu = Gpu::new()?;
     let (mut rows, mut spreads) = (Vec::new(), Vec::new());
@@ -561,7 +561,7 @@ pub fn command(
     };
     let text = document(&report);
     if let Some(out) = out {
-        raycast::write_file(out, text.as_bytes())?;
+        raycast_files::write_file(out, text.as_bytes())?;
     }
     say(Stream::Stdout, text.trim_end());
     if let Some(out) = out {
