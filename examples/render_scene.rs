@@ -28,7 +28,7 @@ fn main() -> raycast::Result<()> {
 
     // PNG pictures and NumPy arrays of the ids, distances and normals, with camera.json.
     let encoding = Encoding::new(&[Format::Png, Format::Npy], None)?;
-    for file in raycast::write_files(&out, &images.encode(&encoding, &scene.camera))? {
+    for file in raycast_files::write_files(&out, &images.encode(&encoding, &scene.camera))? {
         println!("wrote {}", file.display());
     }
     Ok(())

@@ -33,7 +33,7 @@ fn main() -> raycast::Result<()> {
     );
 
     let encoding = Encoding::new(&[Format::Png], Some(&[Output::Color]))?;
-    for file in raycast::write_files(&out, &images.encode(&encoding, &scene.camera))? {
+    for file in raycast_files::write_files(&out, &images.encode(&encoding, &scene.camera))? {
         println!("wrote {}", file.display());
     }
     Ok(())

@@ -26,8 +26,10 @@ cargo build --quiet --lib --bins --tests --examples
 cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
 # The docs build without warnings: the API as docs.rs shows it (the library has no features),
-# the renders to files (raycast-datasets) and the command line's library.
-RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-datasets -p raycast-cli
+# the files written whole (raycast-files), the renders to files (raycast-datasets) and the
+# command line's library.
+RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-files \
+    -p raycast-datasets -p raycast-cli
 # The measurement programs (benches/, outside the default members) compile; the check shares
 # the dependencies' metadata the docs were built with.
 cargo check --quiet -p raycast-benches

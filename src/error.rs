@@ -117,10 +117,20 @@ impl Error {
     }
 
     /// An I/O error on `path`.
-    pub fn io(path: impl Into<PathBuf>, err: impl std::fmt::Display) -> Self {
+    pub(crate) fn io(path: impl Into<PathBuf>, err: impl std::fmt::Display) -> Self {
         Error::Io {
             path: path.into(),
             message: err.to_string(),
+        }
+    }
+}
+
+/// A file or folder the files' writer could not write, printed alike: `PATH: MESSAGE`.
+impl From<raycast_files::Error> for Error {
+    fn from(e: raycast_files::Error) -> Error {
+        Error::Io {
+            path: e.path,
+            message: e.message,
         }
     }
 }
@@ -182,5 +192,15 @@ mod tests {
             "rays[0] direction: must not be zero"
         );
         assert_eq!(named("samples_per_pixel 4"), "`samples_per_pixel` 4");
+    }
+
+    #[test]
+    fn a_write_error_prints_as_the_files_crate_printed_it() {
+        let written = raycast_files::Error::new("out/id.png", "cannot write: File too large");
+        let line = written.to_string();
+        let e = Error::from(written);
+        assert!(matches!(&e, Error::Io { path, .. } if path.as_os_str() == "out/id.png"));
+        assert_eq!(e.to_string(), line);
+        assert_eq!(line, "out/id.png: cannot write: File too large");
     }
 }

@@ -6,7 +6,8 @@
 //! Two devices with the same methods: [`Gpu`] (the WGSL kernels on a wgpu adapter) and [`Cpu`]
 //! (the CPU reference, the kernels mirrored in Rust). Each renders a [`Scene`] (a camera and
 //! objects) with [`RenderOptions`], and commits a [`Geometry`] (objects alone) as an [`Accel`]
-//! that rays are cast at, Embree's commit-then-query:
+//! that rays are cast at, Embree's commit-then-query. The files of a render are written whole or
+//! not at all by the crate beside it, `raycast_files`:
 //!
 //! ```no_run
 //! use raycast::{DVec3, Encoding, Format, Geometry, Gpu, Precision, Ray, RenderOptions, Scene};
@@ -14,7 +15,7 @@
 //! let scene = Scene::load("scenes/course/bunny.json".as_ref())?;
 //! let images = gpu.render(&scene, &RenderOptions::default())?;
 //! let encoding = Encoding::new(&[Format::Png, Format::Npy], None)?;
-//! raycast::write_files("out".as_ref(), &images.encode(&encoding, &scene.camera))?;
+//! raycast_files::write_files("out".as_ref(), &images.encode(&encoding, &scene.camera))?;
 //!
 //! let accel = gpu.commit(&Geometry::from_scene(&scene), Precision::F32)?;
 //! let ray = Ray { origin: DVec3::new(0.0, 0.1, 1.0), direction: DVec3::NEG_Z };
@@ -82,11 +83,8 @@ pub use crate::scene::{
     is_mesh_file, load_mesh, load_viewed, parse_mesh, parse_views,
 };
 
-// The file formats, and the writes that leave whole files or none.
-pub use crate::output::{
-    Depth, EncodedFile, Encoding, Format, Pictures, check_parent_writable, check_writable,
-    encode_png_rgb, remove_partial_files, write_file, write_files, write_folder,
-};
+// The file formats.
+pub use crate::output::{Depth, Encoding, Format, Pictures, encode_png_rgb};
 /// The API's one vector type (points, directions, colours): glam's, re-exported so that a
 /// client's matches the library's version.
 pub use glam::DVec3;

@@ -107,13 +107,13 @@ pub fn peak_rss_mib() -> Option<f64> {
     Some(kib / 1024.0)
 }
 
-/// Removes the files being written ([`raycast::remove_partial_files`]), prints
+/// Removes the files being written ([`raycast_files::remove_partial_files`]), prints
 /// `message` (unless empty) as the one line on stderr and exits with `code`: for a signal
 /// handler on the way out, and for the allocator when the system refuses memory. On unix it
 /// leaves by `_exit`, without the exit handlers (a GPU driver's among them) that could hang
 /// while another thread is inside the driver.
 pub fn abandon(code: i32, message: &str) -> ! {
-    match raycast::remove_partial_files(|| -> std::convert::Infallible {
+    match raycast_files::remove_partial_files(|| -> std::convert::Infallible {
         if !message.is_empty() {
             eprintln!("{message}");
         }

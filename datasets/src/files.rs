@@ -344,9 +344,9 @@ impl RenderFiles {
             ..self.options(&files)
         };
         let gpu = self.device_for(&options, gpu, scene)?;
-        raycast::check_writable(&self.out_dir)?;
+        raycast_files::check_writable(&self.out_dir)?;
         if let Some(path) = &self.emit_shader {
-            raycast::check_parent_writable(path)?;
+            raycast_files::check_parent_writable(path)?;
         }
         let [nx, ny] = scene.camera.resolution;
         let mut summary = Summary {
@@ -387,12 +387,12 @@ impl RenderFiles {
                 summary.elapsed = elapsed;
                 summary.recast = self.recast(&images);
                 let files = images.encode(&self.encoding, &scene.camera);
-                summary.written = raycast::write_files(&self.out_dir, &files)?;
+                summary.written = raycast_files::write_files(&self.out_dir, &files)?;
             }
         }
         if let (Some(path), Some(g)) = (&self.emit_shader, gpu) {
             let source = g.kernel_source(scene, &options)?;
-            raycast::write_file(path, source.as_bytes())?;
+            raycast_files::write_file(path, source.as_bytes())?;
             summary.emitted = Some(path.clone());
         }
         Ok(summary)

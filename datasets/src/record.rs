@@ -50,7 +50,10 @@ pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
     };
     let text = |path: Option<&Path>| -> Result<Value> {
         path.map_or(Ok(Value::Null), |p| {
-            let bytes = std::fs::read(p).map_err(|e| Error::io(p, format!("cannot read: {e}")))?;
+            let bytes = std::fs::read(p).map_err(|e| Error::Io {
+                path: p.to_path_buf(),
+                message: format!("cannot read: {e}"),
+            })?;
             Ok(digest([&bytes[..]]).into())
         })
     };
@@ -122,7 +125,12 @@ pub(crate) fn scene_digest(path: Option<&Path>, scene: &Scene) -> Result<String>
     let Some(path) = path else {
         return Ok(digest(raycast::DEFAULT_SCENE_FILES));
     };
-    let read = |p: &Path| std::fs::read(p).map_err(|e| Error::io(p, format!("cannot read: {e}")));
+    let read = |p: &Path| {
+        std::fs::read(p).map_err(|e| Error::Io {
+            path: p.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })
+    };
     let mut files = vec![read(path)?];
     if !raycast::is_mesh_file(path) {
         let base = path.parent().unwrap_or(Path::new(""));

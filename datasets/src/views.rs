@@ -76,7 +76,10 @@ impl Views {
     /// The views' names, and a views file's cameras (checked but for what a scene decides).
     fn parse(&self) -> Result<(Vec<String>, Vec<ViewCamera>)> {
         let text = match self {
-            Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?,
+            Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::Io {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?,
             Views::Json(text) => text.clone(),
             Views::Orbit(orbit) => return Ok((orbit.names()?, Vec::new())),
         };
@@ -311,7 +314,7 @@ impl RenderViews {
         let clock = Instant::now();
         let mut renderer = self.renderer()?;
         let share = renderer.job.share(shard);
-        raycast::check_writable(&self.render.out_dir)?;
+        raycast_files::check_writable(&self.render.out_dir)?;
         let [rendered, stale] = renderer.render_all(gpu, &share, on_view)?;
         let manifest = self.manifest_of(&renderer.job, &renderer.names, &renderer.record)?;
         Ok(ViewsSummary {
@@ -330,7 +333,7 @@ impl RenderViews {
     /// exclusive lock on `OUT/.manifest.lock` (removed as it is released), so that of shards
     /// finishing together the last writes last and sees every view.
     pub fn write_manifest(&self) -> Result<PathBuf> {
-        raycast::check_writable(&self.render.out_dir)?;
+        raycast_files::check_writable(&self.render.out_dir)?;
         let job_part = record::job_part(&self.render)?;
         self.manifest_of(&self.job()?, &self.file_names(), &job_part)
     }
@@ -362,7 +365,7 @@ impl RenderViews {
             text.push('\n');
         }
         let path = out.join(MANIFEST);
-        raycast::write_file(&path, text.as_bytes())?;
+        raycast_files::write_file(&path, text.as_bytes())?;
         Ok(path)
     }
 
@@ -695,7 +698,7 @@ impl ViewRenderer {
     /// temporary folder and then in place.
     fn write_bands(&mut self, gpu: Option<&Gpu>, view: ViewFiles) -> Result<()> {
         let loaded = (self.loaded.as_mut()).expect("a view's scene is loaded");
-        raycast::write_folder(&view.folder, |temporary| {
+        raycast_files::write_folder(&view.folder, |temporary| {
             let files = view.render_files(&self.spec, &self.job, temporary);
             let camera = view.camera.clone();
             (loaded.viewer).render(camera, |scene| files.run_loaded(gpu, None, scene))?;
@@ -725,7 +728,7 @@ enum Started {
 }
 
 /// A view being rendered: its scene (by index in the job) and camera, its record, and the
-/// folder its files go in (written whole: [`raycast::write_folder`]).
+/// folder its files go in (written whole: [`raycast_files::write_folder`]).
 struct ViewFiles {
     scene: usize,
     camera: raycast::Camera,
@@ -747,7 +750,10 @@ impl ViewFiles {
 /// Writes a view's record (`record`, encoded) into its temporary folder.
 fn write_record(temporary: &Path, record: &[u8]) -> Result<()> {
     let path = temporary.join(record::RECORD);
-    std::fs::write(&path, record).map_err(|e| Error::io(&path, format!("cannot write: {e}")))
+    std::fs::write(&path, record).map_err(|e| Error::Io {
+        path: path.to_path_buf(),
+        message: format!("cannot write: {e}"),
+    })
 }
 
 /// A view's images, and where they go with its record.
@@ -764,11 +770,13 @@ impl ViewWrite {
     fn finish(self) -> Result<()> {
         let view = &self.view;
         let files = self.images.encode(&self.encoding, &view.camera);
-        raycast::write_folder(&view.folder, |temporary| {
+        raycast_files::write_folder(&view.folder, |temporary| {
             for f in &files {
                 let path = temporary.join(f.name);
-                std::fs::write(&path, &f.bytes)
-                    .map_err(|e| Error::io(&path, format!("cannot write: {e}")))?;
+                std::fs::write(&path, &f.bytes).map_err(|e| Error::Io {
+                    path: path.to_path_buf(),
+                    message: format!("cannot write: {e}"),
+                })?;
             }
             write_record(temporary, &view.record)
         })
@@ -944,7 +952,10 @@ impl Lock {
                 .truncate(false)
                 .write(true)
                 .open(path)
-                .map_err(|e| Error::io(path, format!("cannot create the lock file: {e}")))?;
+                .map_err(|e| Error::Io {
+                    path: path.to_path_buf(),
+                    message: format!("cannot create the lock file: {e}"),
+                })?;
             #[cfg(unix)]
             {
                 use std::os::fd::AsRawFd;
@@ -953,7 +964,10 @@ impl Lock {
                 // closed.
                 if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
                     let e = std::io::Error::last_os_error();
-                    return Err(Error::io(path, format!("cannot lock: {e}")));
+                    return Err(Error::Io {
+                        path: path.to_path_buf(),
+                        message: format!("cannot lock: {e}"),
+                    });
                 }
                 let identity = |m: std::fs::Metadata| (m.dev(), m.ino());
                 let locked = file.metadata().map(identity).ok();

@@ -780,9 +780,10 @@ impl ViewJob {
     /// `OUT` is writable, as `RenderViews::run` does first, and returns how many views it has:
     /// pairs `0..n`, every view of the first scene, then of the next.
     fn check(&self, py: Python<'_>) -> PyResult<usize> {
-        py.detach(|| {
+        py.detach(|| -> raycast::Result<usize> {
             let views = self.job.check()?;
-            raycast::check_writable(&self.job.render.out_dir).map(|()| views)
+            raycast_files::check_writable(&self.job.render.out_dir)?;
+            Ok(views)
         })
         .map_err(to_py)
     }

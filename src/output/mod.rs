@@ -1,17 +1,16 @@
 //! Writers: [`Images`] to png, ppm or npy files. Every file of a request is encoded in memory
-//! first, written under a temporary name and renamed into place only when all were written, so
-//! a failed render leaves no partial output.
+//! first, then written whole or not at all by `raycast_files` (the band-by-band files of
+//! `stream.rs` through its registry of temporary files), so a failed render leaves no partial
+//! output.
 
 mod color;
 mod depth;
 mod exr;
 mod npy;
-pub(crate) mod pending;
 mod pictures;
 pub(crate) mod stream;
 
 use std::borrow::Cow;
-use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
@@ -19,7 +18,7 @@ use crate::images::{Images, Output, Outputs};
 use crate::math::Real;
 use crate::scene::Camera;
 
-pub use self::{depth::Depth, pending::remove_partial_files, pictures::Pictures};
+pub use self::{depth::Depth, pictures::Pictures};
 pub(crate) use color::color_rgba8;
 #[cfg(test)]
 pub(crate) use color::pixel_coverage;
@@ -31,6 +30,7 @@ pub(crate) use npy::encode_npy;
 pub(crate) use pictures::PALETTE;
 pub(crate) use pictures::pictures;
 pub(crate) use pictures::{Picture, id_color, picture_set};
+pub(crate) use raycast_files::EncodedFile;
 
 /// An output format of `raycast render --format`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,14 +91,6 @@ impl FromStr for Format {
             format!("unknown format `{name}` (expected png, ppm, npy, npz, exr or depth16)")
         })
     }
-}
-
-/// One output file: its name in the output folder and its bytes.
-pub struct EncodedFile {
-    /// The file's name.
-    pub name: &'static str,
-    /// What it holds.
-    pub bytes: Vec<u8>,
 }
 
 /// The files a render writes: in which formats, of which outputs, `color.png` composited over
@@ -319,26 +311,6 @@ pub(crate) fn png_pictures<T: Real>(
     set
 }
 
-/// Writes the folder `folder` whole or not at all: `write` fills a temporary folder beside it
-/// (its parent folders created), which then replaces `folder` (a folder there is moved aside,
-/// then removed); at an error, or at an interruption ([`remove_partial_files`]), the temporary
-/// folder is removed. Returns what `write` returned.
-pub fn write_folder<T>(folder: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
-    let temporary = pending::temp_path(folder)?;
-    if let Some(parent) = temporary.parent() {
-        std::fs::create_dir_all(parent)
-            .map_err(|e| Error::io(parent, format!("cannot create folder: {e}")))?;
-    }
-    pending::create_dir(&temporary)?;
-    match write(&temporary) {
-        Ok(value) => pending::place_dir(&temporary, folder).map(|()| value),
-        Err(e) => {
-            pending::discard_dir(&temporary);
-            Err(e)
-        }
-    }
-}
-
 /// PNG bytes of an RGB image.
 pub fn encode_png_rgb(img: &image::RgbImage) -> Vec<u8> {
     pictures::png(
@@ -349,67 +321,6 @@ pub fn encode_png_rgb(img: &image::RgbImage) -> Vec<u8> {
     )
 }
 
-/// Creates `dir` if needed and checks a file can be created in it, before any rendering.
-pub fn check_writable(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| {
-        // The system's "File exists" or "Not a directory" where the folder, or one above it,
-        // is a file: name that file.
-        match dir.ancestors().find(|a| a.exists() && !a.is_dir()) {
-            Some(file) if file == dir => Error::io(dir, "is a file, not a folder"),
-            Some(file) => Error::io(dir, format!("{} is a file, not a folder", file.display())),
-            None => Error::io(dir, format!("cannot create folder: {e}")),
-        }
-    })?;
-    let probe = dir.join(format!(".raycast-write-test-{}", std::process::id()));
-    let created = pending::create(&probe);
-    pending::discard([probe.as_path()]);
-    created
-        .map(drop)
-        .map_err(|e| Error::io(dir, format!("folder is not writable: {e}")))
-}
-
-/// [`check_writable`] for the folder `file` goes into (the working folder for a bare name).
-pub fn check_parent_writable(file: &Path) -> Result<()> {
-    let dir = file.parent().filter(|d| !d.as_os_str().is_empty());
-    check_writable(dir.unwrap_or(Path::new(".")))
-}
-
-/// Writes every file into `dir` (created if missing: [`check_writable`]) or none: all go to
-/// temporary names first, then are renamed into place. The temporary files are registered for
-/// removal on an interruption ([`remove_partial_files`]).
-pub fn write_files(dir: &Path, files: &[EncodedFile]) -> Result<Vec<PathBuf>> {
-    check_writable(dir)?;
-    let named: Vec<(PathBuf, &[u8])> = files
-        .iter()
-        .map(|f| (dir.join(f.name), f.bytes.as_slice()))
-        .collect();
-    write_all_or_none(&named)
-}
-
-/// Writes one file whole or not at all: to a temporary name beside it, then renamed.
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_all_or_none(&[(path.to_owned(), bytes)]).map(drop)
-}
-
-/// [`write_files`] for files given by path: each is written to `.NAME.tmp-PID` beside it.
-fn write_all_or_none(files: &[(PathBuf, &[u8])]) -> Result<Vec<PathBuf>> {
-    // Every name is checked before any file is created.
-    let pairs = files
-        .iter()
-        .map(|(path, _)| Ok((pending::temp_path(path)?, path.clone())))
-        .collect::<Result<Vec<_>>>()?;
-    for ((tmp, _), (_, bytes)) in pairs.iter().zip(files) {
-        let written =
-            pending::create(tmp).and_then(|mut f| std::io::Write::write_all(&mut f, bytes));
-        if let Err(e) = written {
-            pending::discard(pairs.iter().map(|(tmp, _)| tmp.as_path()));
-            return Err(Error::io(tmp, format!("cannot write: {e}")));
-        }
-    }
-    pending::place_all(&pairs)?;
-    Ok(pairs.into_iter().map(|(_, path)| path).collect())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -418,35 +329,5 @@ mod tests {
     fn formats_parse() {
         assert_eq!("npy".parse::<Format>(), Ok(Format::Npy));
         assert!("jpg".parse::<Format>().unwrap_err().contains("jpg"));
-    }
-
-    #[test]
-    fn write_files_leaves_nothing_on_failure() {
-        let dir = tempfile::tempdir().unwrap();
-        // A folder where the second file should go makes its rename fail.
-        std::fs::create_dir(dir.path().join("b.bin")).unwrap();
-        std::fs::write(dir.path().join("b.bin").join("x"), b"").unwrap();
-        let files = [
-            EncodedFile {
-                name: "a.bin",
-                bytes: vec![1],
-            },
-            EncodedFile {
-                name: "b.bin",
-                bytes: vec![2],
-            },
-        ];
-        assert!(write_files(dir.path(), &files).is_err());
-        assert!(!pending::holds_any_in(dir.path()));
-        let names: Vec<_> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name().into_string().unwrap())
-            .collect();
-        // Neither a.bin nor any temporary file is left behind.
-        assert_eq!(names, ["b.bin"]);
-        // Written and placed: forgotten too.
-        std::fs::remove_dir_all(dir.path().join("b.bin")).unwrap();
-        assert_eq!(write_files(dir.path(), &files).unwrap().len(), 2);
-        assert!(!pending::holds_any_in(dir.path()));
     }
 }

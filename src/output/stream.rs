@@ -3,7 +3,8 @@
 //! [`super::png_pictures`], raw pixels fed to a streaming png encoder; ppm and npy:
 //! [`super::encode`], whose bodies are appended after the whole image's header),
 //! so the streamed files have exactly the pixels (and for ppm and npy, the bytes) of the
-//! whole-image ones. As with [`super::write_files`], everything goes to temporary names first and is
+//! whole-image ones. As with [`raycast_files::write_files`], everything goes to temporary names
+//! first (registered in [`raycast_files::pending`], for removal at an interruption) and is
 //! renamed into place only when every file is complete: none or all.
 
 use std::fs::File;
@@ -11,13 +12,14 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::{
-    EncodedFile, Encoding, Format, Picture, depth16_picture, encode_format, encode_npy, pending,
+    EncodedFile, Encoding, Format, Picture, depth16_picture, encode_format, encode_npy,
     png_pictures,
 };
 use crate::error::{Error, Result};
 use crate::images::Images;
 use crate::math::Real;
 use crate::scene::Camera;
+use raycast_files::pending;
 
 /// One file being written: its final path, its temporary path, its encoder.
 struct Stream {

@@ -44,7 +44,7 @@ pub enum AnyImages {
 
 impl AnyImages {
     /// The files of the images, a render of `camera`, encoded as `encoding` asks, in memory:
-    /// their names and bytes, for [`crate::write_files`].
+    /// their names and bytes, for [`raycast_files::write_files`].
     pub fn encode(&self, encoding: &Encoding, camera: &Camera) -> Vec<output::EncodedFile> {
         match self {
             AnyImages::F32(i) => output::encode(i, encoding, camera),

@@ -260,11 +260,12 @@ fn the_public_api_reader_sees_grouped_imports() {
     assert_eq!(imports(&text, &internal), ["gpu"].map(String::from).into());
 }
 
-/// At most 152 public declarations: every `pub` declaration in src/ is part of the API
-/// (everything else is `pub(crate)` or private), counted as lines that open one. A ratchet on
-/// the way to #63's 120 items (`scripts/public-items.py`), lowered as items leave the API.
+/// At most 132 public declarations: every `pub` declaration in src/ is part of the API
+/// (everything else is `pub(crate)` or private), counted as lines that open one: the 120
+/// items `scripts/public-items.py` counts (#63's cap) as declared, a ratchet that fails when a
+/// new one is added without another leaving.
 #[test]
-fn at_most_152_items_are_declared_public() {
+fn at_most_132_items_are_declared_public() {
     let mut files = Vec::new();
     sources(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
@@ -287,5 +288,5 @@ fn at_most_152_items_are_declared_public() {
                 .count()
         })
         .sum();
-    assert!(declared <= 152, "{declared} public declarations in src/");
+    assert!(declared <= 132, "{declared} public declarations in src/");
 }

@@ -7,9 +7,9 @@ use super::{
     Comparison, color_error_picture, compare, distance_error_picture, exceeded, mismatch_picture,
 };
 use crate::render::{check, render, timed};
-use raycast::EncodedFile;
 use raycast::{AnyImages, Mode};
 use raycast::{Gpu, RenderOptions, Result};
+use raycast_files::EncodedFile;
 
 /// What `raycast compare` is asked for.
 #[derive(Clone, Debug)]
@@ -72,7 +72,7 @@ impl Spec {
             check(mode, options.clone())?;
         }
         if let Some(dir) = &self.out_dir {
-            raycast::check_writable(dir)?;
+            raycast_files::check_writable(dir)?;
         }
         let [mode_a, mode_b] = self.modes;
         let render = |scene, mode| {
@@ -102,7 +102,7 @@ impl Spec {
             fields.extend(report);
         }
         let written = match &self.out_dir {
-            Some(dir) => raycast::write_files(dir, &pictures(&c, &a, &b))?,
+            Some(dir) => raycast_files::write_files(dir, &pictures(&c, &a, &b))?,
             None => Vec::new(),
         };
         Ok(Outcome {

@@ -192,7 +192,10 @@ pub fn run(
             &Default::default(),
             Default::default(),
         )?;
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         infos.push(SceneInfo::from_json(path, &text));
         scenes.push(scene);
     }
@@ -407,7 +410,7 @@ pub fn command(
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     if let Some(file) = markdown {
-        raycast::check_parent_writable(file)?;
+        raycast_files::check_parent_writable(file)?;
     }
     let needs_gpu = modes
         .as_ref()
@@ -426,7 +429,7 @@ pub fn command(
     say(Stream::Stdout, to_markdown(&result.rows).trim_end());
     if let Some(file) = markdown {
         let text = document(&Provenance::now(gpu.as_ref()), &result, file.parent());
-        raycast::write_file(file, text.as_bytes())?;
+        raycast_files::write_file(file, text.as_bytes())?;
         say(Stream::Stderr, &format!("wrote {}", file.display()));
     }
     Ok(())

@@ -303,15 +303,20 @@ pub fn scene_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
             files.push(path.clone());
             continue;
         }
-        let entries =
-            std::fs::read_dir(path).map_err(|e| Error::io(path, format!("cannot read: {e}")))?;
+        let entries = std::fs::read_dir(path).map_err(|e| Error::Io {
+            path: path.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })?;
         let mut found: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| p.extension().is_some_and(|e| e == "json"))
             .collect();
         found.sort();
         if found.is_empty() {
-            return Err(Error::io(path, "no .json scene files in this folder"));
+            return Err(Error::Io {
+                path: path.to_path_buf(),
+                message: "no .json scene files in this folder".into(),
+            });
         }
         files.extend(found);
     }
@@ -529,7 +534,7 @@ pub fn command(
     }
     let named = load_scenes(&files, None)?;
     if let Some(out) = out {
-        raycast::check_parent_writable(out)?;
+        raycast_files::check_parent_writable(out)?;
     }
     let gpu = Gpu::new()?;
     let (mut rows, mut spreads) = (Vec::new(), Vec::new());
@@ -561,7 +566,7 @@ pub fn command(
     };
     let text = document(&report);
     if let Some(out) = out {
-        raycast::write_file(out, text.as_bytes())?;
+        raycast_files::write_file(out, text.as_bytes())?;
     }
     say(Stream::Stdout, text.trim_end());
     if let Some(out) = out {

@@ -37,10 +37,10 @@ use super::{
 };
 use crate::compare;
 use crate::render::render;
-use raycast::EncodedFile;
 use raycast::Scene;
 use raycast::{Algorithm, Error, Gpu, RenderOptions, Result};
 use raycast::{AnyImages, Device, Mode, Precision};
+use raycast_files::EncodedFile;
 
 pub use plot::{LogAxis, plot};
 
@@ -483,9 +483,12 @@ pub fn run(
     provenance: &Provenance,
     progress: bool,
 ) -> Result<Vec<PathBuf>> {
-    raycast::check_writable(dir)?;
+    raycast_files::check_writable(dir)?;
     let rows = measure(scenes, options, gpu, progress)?;
-    raycast::write_files(dir, &files(provenance, options, scenes, &rows))
+    Ok(raycast_files::write_files(
+        dir,
+        &files(provenance, options, scenes, &rows),
+    )?)
 }
 
 /// `raycast tradeoff`: loads `scenes` (validated before the GPU is opened or `dir` created),
@@ -500,7 +503,7 @@ pub fn command(
     mut say: impl FnMut(Stream, &str),
 ) -> Result<()> {
     let scenes = load_scenes(scenes, size)?;
-    raycast::check_writable(dir)?;
+    raycast_files::check_writable(dir)?;
     let gpu = Gpu::new()?;
     let options = Options {
         size,

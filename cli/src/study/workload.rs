@@ -16,8 +16,8 @@
 use std::path::{Path, PathBuf};
 
 use super::selftest::scenes::Rng;
-use raycast::{EncodedFile, check_writable, write_files};
 use raycast::{Error, Result};
+use raycast_files::{EncodedFile, check_writable, write_files};
 
 /// The peers' torus: `nu` around the axis, `nv` around the tube.
 pub const TORUS_GRID: [usize; 2] = [720, 360];

@@ -66,7 +66,7 @@ fn views_cost() -> Result<(), Box<dyn std::error::Error>> {
             let (_, stages) = on_gpu::<f32>(&gpu, &scene, variant, true, None)?;
             kernel_s += stages.kernel_s.ok_or("the adapter has timestamp queries")?;
             let start = Instant::now();
-            raycast::write_files(dir.path(), &images.encode(&encoding, &scene.camera))?;
+            raycast_files::write_files(dir.path(), &images.encode(&encoding, &scene.camera))?;
             files_s += start.elapsed().as_secs_f64();
         }
         // Round 0 compiles the kernels.

@@ -1,6 +1,8 @@
 //! The temporary files being written, so that an interrupted process can remove them: output
 //! is all or nothing even when the command line is stopped by a signal
-//! ([`remove_partial_files`]).
+//! ([`remove_partial_files`]). A writer of its own (the library's band-by-band files) names its
+//! temporary files with [`temp_path`], creates them with [`create`], and places them with
+//! [`place_all`] or removes them with [`discard`].
 //!
 //! A temporary file is registered and created under the registry's lock (`create`), so an
 //! interruption either removes it or comes before it exists, and forgotten once renamed or
@@ -13,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError, TryLockError};
 use std::time::{Duration, Instant};
 
-use crate::error::{Error, Result};
+use crate::{Error, Result};
 
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
@@ -30,16 +32,16 @@ fn forget<'a>(held: &mut Vec<PathBuf>, paths: impl IntoIterator<Item = &'a Path>
 }
 
 /// The temporary name beside `path` its contents are written under: `.NAME.tmp-PID`.
-pub(crate) fn temp_path(path: &Path) -> Result<PathBuf> {
+pub fn temp_path(path: &Path) -> Result<PathBuf> {
     let name = path
         .file_name()
-        .ok_or_else(|| Error::io(path, "not a file name"))?
+        .ok_or_else(|| Error::new(path, "not a file name"))?
         .to_string_lossy();
     Ok(path.with_file_name(format!(".{name}.tmp-{}", std::process::id())))
 }
 
 /// Creates the temporary file `path`, registered for removal on an interruption.
-pub(crate) fn create(path: &Path) -> std::io::Result<File> {
+pub fn create(path: &Path) -> std::io::Result<File> {
     let mut held = registry();
     held.push(path.to_owned());
     let created = File::create(path);
@@ -50,7 +52,7 @@ pub(crate) fn create(path: &Path) -> std::io::Result<File> {
 }
 
 /// Removes the temporary files `paths` (those that exist) and forgets them.
-pub(crate) fn discard<'a>(paths: impl IntoIterator<Item = &'a Path>) {
+pub fn discard<'a>(paths: impl IntoIterator<Item = &'a Path>) {
     let mut held = registry();
     for path in paths {
         let _ = std::fs::remove_file(path);
@@ -61,7 +63,7 @@ pub(crate) fn discard<'a>(paths: impl IntoIterator<Item = &'a Path>) {
 /// Renames each temporary file to its final path, `(temporary, final)`, and forgets them; if one
 /// rename fails, removes the files already in place and the remaining temporary ones: none or
 /// all. An interruption waits until this is done.
-pub(crate) fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
+pub fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
     let mut held = registry();
     let mut placed = Ok(());
     for (k, (tmp, path)) in pairs.iter().enumerate() {
@@ -72,7 +74,7 @@ pub(crate) fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
             for (rest, _) in &pairs[k..] {
                 let _ = std::fs::remove_file(rest);
             }
-            placed = Err(Error::io(path, format!("cannot write: {e}")));
+            placed = Err(Error::new(path, format!("cannot write: {e}")));
             break;
         }
     }
@@ -88,7 +90,7 @@ pub(crate) fn create_dir(path: &Path) -> Result<()> {
     held.push(path.to_owned());
     std::fs::create_dir(path).map_err(|e| {
         held.pop();
-        Error::io(path, format!("cannot create folder: {e}"))
+        Error::new(path, format!("cannot create folder: {e}"))
     })
 }
 
@@ -118,7 +120,7 @@ pub(crate) fn place_dir(temporary: &Path, path: &Path) -> Result<()> {
     })();
     let _ = std::fs::remove_dir_all(if placed.is_ok() { &old } else { temporary });
     forget(&mut held, [temporary]);
-    placed.map_err(|e| Error::io(path, format!("cannot write: {e}")))
+    placed.map_err(|e| Error::new(path, format!("cannot write: {e}")))
 }
 
 /// Removes folder `path`, again while it is there: another thread may still be writing a view's
