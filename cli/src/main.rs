@@ -505,12 +505,6 @@ fn run(command: Command) -> Result<ExitCode> {
             fov,
             split,
         } => {
-            let mode = Mode {
-                device,
-                // Resolved by the render where not given (`default_precision`).
-                precision: precision.unwrap_or(Precision::default_for(device, algorithm, false)),
-                algorithm,
-            };
             let mut encoding = raycast::Encoding {
                 background,
                 depth_scale,
@@ -553,8 +547,9 @@ fn run(command: Command) -> Result<ExitCode> {
                     scenes.first().cloned()
                 },
                 size,
-                mode,
-                default_precision: precision.is_none(),
+                device,
+                precision,
+                algorithm,
                 spp,
                 band_rows,
                 shader,
@@ -772,7 +767,7 @@ fn render(spec: &raycast_datasets::RenderFiles, watch: bool) -> Result<()> {
         watch::start();
     }
     // One device for every render, so kernels compiled once stay cached.
-    let gpu = raycast_cli::render::gpu_for(&[spec.mode])?;
+    let gpu = raycast_cli::render::gpu_for([spec.device])?;
     let render_once = || {
         let mut summary = progress::cpu_rows(|p| spec.run(gpu.as_ref(), p))?;
         // A render in bands reports the process's peak memory, which the bands keep bounded.
@@ -868,7 +863,7 @@ fn render_views(
         }
     };
     batch.check()?;
-    let gpu = raycast_cli::render::gpu_for(&[batch.render.mode])?;
+    let gpu = raycast_cli::render::gpu_for([batch.render.device])?;
     let bar = progress::views_bar();
     let summary = batch.run(gpu.as_ref(), shard, &mut |done, total| {
         bar.set_length(total as u64);
@@ -882,7 +877,7 @@ fn render_views(
 }
 
 fn compare(spec: &compare::Spec) -> Result<ExitCode> {
-    let gpu = raycast_cli::render::gpu_for(&spec.modes)?;
+    let gpu = raycast_cli::render::gpu_for(spec.modes.iter().map(|m| m.device))?;
     let outcome = spec.run(gpu.as_ref())?;
     say(&outcome.json);
     for path in &outcome.written {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::str::FromStr;
 use std::time::{Duration, Instant};
 
-use raycast::{AnyImages, Cpu, Error, Gpu, RenderOptions, Result, Scene};
+use raycast::{Algorithm, AnyImages, Cpu, Error, Gpu, RenderOptions, Result, Scene};
 use raycast::{Device, Mode, Precision};
 use raycast_datasets::{Shard, Summary, ViewsSummary};
 
@@ -14,17 +14,20 @@ use raycast_datasets::{Shard, Summary, ViewsSummary};
 /// ([`Precision::default_for`]), which a hook changes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ModeArg {
-    mode: Mode,
-    precision_given: bool,
+    device: Device,
+    precision: Option<Precision>,
+    algorithm: Algorithm,
 }
 
 impl FromStr for ModeArg {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let mode: Mode = s.parse()?;
         Ok(ModeArg {
-            mode: s.parse()?,
+            device: mode.device,
             // The precision is the second field: the algorithm cannot be written without it.
-            precision_given: s.contains(':'),
+            precision: s.contains(':').then_some(mode.precision),
+            algorithm: mode.algorithm,
         })
     }
 }
@@ -33,15 +36,11 @@ impl ModeArg {
     /// The mode, for a render that needs a single kernel (a shade hook, or one frame timed
     /// alone) or not.
     pub fn resolve(self, single_kernel: bool) -> Mode {
-        let Mode {
-            device, algorithm, ..
-        } = self.mode;
-        match self.precision_given {
-            true => self.mode,
-            false => Mode {
-                precision: Precision::default_for(device, algorithm, single_kernel),
-                ..self.mode
-            },
+        let default = || Precision::default_for(self.device, self.algorithm, single_kernel);
+        Mode {
+            device: self.device,
+            precision: self.precision.unwrap_or_else(default),
+            algorithm: self.algorithm,
         }
     }
 }
@@ -76,8 +75,8 @@ pub fn render(
 }
 
 /// A GPU device when one of `modes` needs it.
-pub fn gpu_for(modes: &[Mode]) -> Result<Option<Gpu>> {
-    match modes.iter().any(|m| m.device == Device::Gpu) {
+pub fn gpu_for(devices: impl IntoIterator<Item = Device>) -> Result<Option<Gpu>> {
+    match devices.into_iter().any(|d| d == Device::Gpu) {
         true => Gpu::new().map(Some),
         false => Ok(None),
     }

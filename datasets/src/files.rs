@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use raycast::Encoding;
-use raycast::{AnyImages, Begun, Cpu, Device, Error, Gpu, Mode, Precision, Progress};
+use raycast::{Algorithm, AnyImages, Begun, Cpu, Device, Error, Gpu, Mode, Precision, Progress};
 use raycast::{CameraOverrides, Scene, Split};
 use raycast::{RenderOptions, Result, ShadeHook, UserKernel};
 
@@ -24,11 +24,6 @@ pub const STREAM_PIXELS: u64 = 1 << 24;
 /// Rows per band for a render in bands `width` pixels wide: about four million pixels.
 fn band_rows(width: u32) -> u32 {
     ((1u32 << 22) / width.max(1)).max(1)
-}
-
-/// Whether a render in `mode` can go in bands: a GPU kernel in f32 or f64.
-fn can_stream(mode: Mode) -> bool {
-    mode.device == Device::Gpu && mode.precision != Precision::Adaptive
 }
 
 /// The shade hook a tool asks for: `lit` ([`ShadeHook::raytrace`], the course's ray tracer) or
@@ -86,12 +81,12 @@ pub struct RenderFiles {
     pub scene: Option<PathBuf>,
     /// Overrides the scene's resolution.
     pub size: Option<[u32; 2]>,
-    /// The device, precision and algorithm set.
-    pub mode: Mode,
-    /// No precision was asked for: the render takes the default ([`Precision::default_for`]:
-    /// on the GPU adaptive where it can, f32 for a hook, a kernel or bands), and
-    /// `mode.precision` is not read.
-    pub default_precision: bool,
+    /// Where it renders.
+    pub device: Device,
+    /// In which precision; `None`: the render's default ([`RenderFiles::resolved_mode`]).
+    pub precision: Option<Precision>,
+    /// With which intersection formulas.
+    pub algorithm: Algorithm,
     /// Samples per pixel (a perfect square); `None`: one ray per pixel, no `alpha.npy`.
     pub spp: Option<u32>,
     /// Render and write in bands of at most this many rows.
@@ -150,33 +145,30 @@ pub struct Summary {
 }
 
 impl RenderFiles {
-    /// The mode the render runs in. With [`RenderFiles::default_precision`] on the GPU: adaptive
-    /// precision, which reproduces f64's hits and ids (the course's pictures) at close to f32's
-    /// cost; but f32 where a render needs a single kernel (`--shader`, `--kernel`,
-    /// `--emit-shader`, whose kernel can then be fed back with `--kernel`, bands, or an image of
-    /// more than [`STREAM_PIXELS`] pixels, `huge`, which f32 streams in bands) or the textbook
-    /// set, which adaptive precision does not run.
+    /// The mode the render runs in. Without a precision, the default ([`Precision::default_for`]):
+    /// on the GPU adaptive precision, which reproduces f64's hits and ids (the course's
+    /// pictures) at close to f32's cost; but f32 where a render needs a single kernel
+    /// (`--shader`, `--kernel`, `--emit-shader`, whose kernel can then be fed back with
+    /// `--kernel`, bands, or an image of more than [`STREAM_PIXELS`] pixels, `huge`, which f32
+    /// streams in bands) or the textbook set, which adaptive precision does not run.
     pub(crate) fn resolved_mode(&self, huge: bool) -> Mode {
-        if !self.default_precision {
-            return self.mode;
-        }
-        let device = self.mode.device;
         let single_kernel = self.shaded()
             || self.kernel.is_some()
             || self.emit_shader.is_some()
             || self.band_rows.is_some()
             || (huge && self.spp.is_none());
+        let default = || Precision::default_for(self.device, self.algorithm, single_kernel);
         Mode {
-            precision: Precision::default_for(device, self.mode.algorithm, single_kernel),
-            ..self.mode
+            device: self.device,
+            precision: self.precision.unwrap_or_else(default),
+            algorithm: self.algorithm,
         }
     }
 
-    /// This spec with its mode resolved ([`RenderFiles::resolved_mode`]).
+    /// This spec with its precision resolved ([`RenderFiles::resolved_mode`]).
     fn resolved(&self, huge: bool) -> RenderFiles {
         RenderFiles {
-            mode: self.resolved_mode(huge),
-            default_precision: false,
+            precision: Some(self.resolved_mode(huge).precision),
             ..self.clone()
         }
     }
@@ -194,7 +186,7 @@ impl RenderFiles {
         resolved.check_resolved()?;
         let files = resolved.load_files()?;
         let options = resolved.options(&files);
-        options.check(resolved.mode.device, None)?;
+        options.check(resolved.device, None)?;
         Ok(files)
     }
 
@@ -205,7 +197,7 @@ impl RenderFiles {
                 message: message.into(),
             })
         };
-        let gpu = self.mode.device == Device::Gpu;
+        let gpu = self.device == Device::Gpu;
         if self.emit_shader.is_some() && !gpu {
             return refuse(
                 "emit_shader",
@@ -215,7 +207,7 @@ impl RenderFiles {
         if self.lit && self.shader.is_some() {
             return Err(lit_and_shader());
         }
-        if self.lit && self.mode.precision == Precision::Adaptive {
+        if self.lit && self.precision == Some(Precision::Adaptive) {
             return refuse("lit", "runs with `precision` f32 or f64, not adaptive");
         }
         if self.shaded() {
@@ -260,8 +252,13 @@ impl RenderFiles {
     fn check_resolved_memory(&self, size: [u32; 2], huge: bool, files: &Files) -> Result<()> {
         match self.in_bands(huge) {
             true => Ok(()),
-            false => self.options(files).check(self.mode.device, Some(size)),
+            false => self.options(files).check(self.device, Some(size)),
         }
+    }
+
+    /// Whether this (resolved) render runs one GPU kernel, in f32 or f64, as bands need.
+    fn on_one_gpu_kernel(&self) -> bool {
+        self.device == Device::Gpu && self.precision != Some(Precision::Adaptive)
     }
 
     /// Whether a shade hook colours `color.png`: `--shader` or `--lit`.
@@ -272,7 +269,7 @@ impl RenderFiles {
     /// Whether the render can go in bands: a GPU kernel in f32 or f64, one sample per pixel,
     /// the assembled kernel.
     fn streamable(&self) -> bool {
-        self.spp.is_none() && can_stream(self.mode) && self.kernel.is_none()
+        self.spp.is_none() && self.on_one_gpu_kernel() && self.kernel.is_none()
     }
 
     /// Reads the scene and the shader, renders and writes every file (all or none), and the
@@ -280,14 +277,15 @@ impl RenderFiles {
     /// in `progress`.
     ///
     /// ```no_run
-    /// use raycast::Gpu;
+    /// use raycast::{Algorithm, Device, Gpu};
     /// use raycast::{Encoding, Format};
     /// use raycast_datasets::RenderFiles;
     /// let render = RenderFiles {
     ///     scene: Some("scenes/course/bunny.json".into()),
     ///     size: Some([1920, 1080]),
-    ///     mode: "gpu".parse().map_err(|e| raycast::Error::Argument { option: "mode".into(), message: e })?,
-    ///     default_precision: true,
+    ///     device: Device::Gpu,
+    ///     precision: None,
+    ///     algorithm: Algorithm::Robust,
     ///     spp: None,
     ///     band_rows: None,
     ///     shader: None,
@@ -353,7 +351,7 @@ impl RenderFiles {
             scene: (self.scene.as_ref())
                 .map_or("the default scene".into(), |p| p.display().to_string()),
             size: [nx, ny],
-            mode: self.mode,
+            mode: self.resolved_mode(huge),
             spp: self.spp,
             // The hook's file as given, or the shipped ray tracer's for `lit`.
             shader: options.shade.as_ref().map(|hook| hook.file.clone()),
@@ -401,7 +399,7 @@ impl RenderFiles {
     /// For plain adaptive precision, the fraction of `images`' pixels re-cast in f64 and
     /// whether on the GPU.
     fn recast(&self, images: &AnyImages) -> Option<(f64, bool)> {
-        let plain = self.spp.is_none() && self.mode.precision == Precision::Adaptive;
+        let plain = self.spp.is_none() && self.precision == Some(Precision::Adaptive);
         match images {
             AnyImages::F32(i) if plain => i.recast_fraction.map(|f| (f, i.recast_on_gpu)),
             _ => None,
@@ -420,8 +418,8 @@ impl RenderFiles {
     /// The options of this (resolved) render, with its `files`.
     fn options(&self, files: &Files) -> RenderOptions {
         RenderOptions {
-            precision: Some(self.mode.precision),
-            algorithm: self.mode.algorithm,
+            precision: self.precision,
+            algorithm: self.algorithm,
             outputs: self.encoding.outputs,
             samples_per_pixel: self.spp,
             shade: files.shade.clone(),
@@ -438,7 +436,7 @@ impl RenderFiles {
         gpu: Option<&'g Gpu>,
         scene: &Scene,
     ) -> Result<Option<&'g Gpu>> {
-        let gpu = match self.mode.device {
+        let gpu = match self.device {
             Device::Gpu => {
                 Some(gpu.ok_or_else(|| Error::Device("a GPU render needs a device".into()))?)
             }
@@ -452,7 +450,7 @@ impl RenderFiles {
 
     /// Whether this (resolved) render goes in bands, written as they come.
     fn in_bands(&self, huge: bool) -> bool {
-        self.mode.device == Device::Gpu && self.streamable() && (huge || self.band_rows.is_some())
+        self.device == Device::Gpu && self.streamable() && (huge || self.band_rows.is_some())
     }
 
     /// The render of the images [`RenderFiles::run_loaded`] writes, begun, for a caller that
@@ -509,12 +507,15 @@ mod tests {
     use super::*;
     use raycast::Format;
 
+    /// A render in `mode`, its precision left to the default where `default_precision`.
     fn spec(mode: &str, default_precision: bool) -> RenderFiles {
+        let mode: Mode = mode.parse().unwrap();
         RenderFiles {
             scene: None,
             size: None,
-            mode: mode.parse().unwrap(),
-            default_precision,
+            device: mode.device,
+            precision: (!default_precision).then_some(mode.precision),
+            algorithm: mode.algorithm,
             spp: None,
             band_rows: None,
             shader: None,

@@ -40,13 +40,13 @@ pub(crate) enum Found {
 /// The options of `render` that change a view's files, with raycast's version: the part of
 /// every view's record that the whole job shares. Reads the shade hook and the kernel file.
 pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
-    let device = match render.mode.device {
+    let device = match render.device {
         Device::Gpu => "gpu",
         Device::Cpu => "cpu",
     };
-    let precision = match render.default_precision {
-        true => "default".to_owned(),
-        false => render.mode.precision.to_string(),
+    let precision = match render.precision {
+        None => "default".to_owned(),
+        Some(p) => p.to_string(),
     };
     let text = |path: Option<&Path>| -> Result<Value> {
         path.map_or(Ok(Value::Null), |p| {
@@ -69,7 +69,7 @@ pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
             "size": render.size,
             "device": device,
             "precision": precision,
-            "algorithm": render.mode.algorithm.to_string(),
+            "algorithm": render.algorithm.to_string(),
             "spp": render.spp,
             "band_rows": render.band_rows,
             // A mesh file's objects: its ids.

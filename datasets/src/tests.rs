@@ -6,9 +6,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use raycast::Gpu;
 use raycast::{CameraOverrides, Orbit, Split};
 use raycast::{Encoding, Format};
+use raycast::{Gpu, Mode};
 
 use crate::common;
 use crate::{RenderFiles, RenderViews, Views};
@@ -22,12 +22,14 @@ fn scene_path(name: &str) -> PathBuf {
 /// A render of `scenes` to `out` in `mode` (the robust algorithms; the default precision where
 /// `mode` gives none) at 64x36 pixels, as png and npy.
 fn render_files(mode: &str, out: &Path) -> RenderFiles {
-    let default_precision = mode.split(':').count() == 1;
+    let parsed: Mode = mode.parse().unwrap();
     RenderFiles {
         scene: None,
         size: Some(SIZE),
-        mode: mode.parse().unwrap(),
-        default_precision,
+        device: parsed.device,
+        // The precision is the second field: without it, the render's default.
+        precision: mode.contains(':').then_some(parsed.precision),
+        algorithm: parsed.algorithm,
         spp: None,
         band_rows: None,
         shader: None,

@@ -17,7 +17,7 @@ use raycast::DVec3;
 use raycast::RayList;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
-    Hits, Intersections, Mode, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
+    Hits, Intersections, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
 use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
@@ -736,17 +736,9 @@ impl ViewJob {
         let render = RenderFiles {
             scene: None,
             size,
-            mode: Mode {
-                device,
-                // Resolved by the render where not given (`default_precision`).
-                precision: precision.unwrap_or(Precision::default_for(
-                    device,
-                    Algorithm::Robust,
-                    false,
-                )),
-                algorithm: Algorithm::Robust,
-            },
-            default_precision: precision.is_none(),
+            device,
+            precision,
+            algorithm: Algorithm::Robust,
             spp: None,
             band_rows: None,
             shader: None,
@@ -792,7 +784,7 @@ impl ViewJob {
     /// same record, unless the job forces), each into its folder, one view's files written
     /// while the next renders; how many it rendered.
     fn render(&mut self, py: Python<'_>, pairs: Vec<usize>) -> PyResult<usize> {
-        let gpu = match self.job.render.mode.device {
+        let gpu = match self.job.render.device {
             Device::Gpu => Some(gpu()?),
             Device::Cpu => None,
         };

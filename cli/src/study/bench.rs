@@ -858,7 +858,7 @@ pub fn command(
     options.check()?;
     let loaded = load(scene, size, options.views.as_ref())?;
     check_size(&loaded, &options)?;
-    let gpu = crate::render::gpu_for(&options.modes)?;
+    let gpu = crate::render::gpu_for(options.modes.iter().map(|m| m.device))?;
     if !json {
         for line in header(&loaded, &options, gpu.as_ref()) {
             say(Stream::Stdout, &line);
