@@ -126,8 +126,8 @@ impl Error {
 }
 
 /// A file or folder the files' writer could not write, printed alike: `PATH: MESSAGE`.
-impl From<raycast_files::Error> for Error {
-    fn from(e: raycast_files::Error) -> Error {
+impl From<raycast_files::FileError> for Error {
+    fn from(e: raycast_files::FileError) -> Error {
         Error::Io {
             path: e.path,
             message: e.message,
@@ -196,7 +196,7 @@ mod tests {
 
     #[test]
     fn a_write_error_prints_as_the_files_crate_printed_it() {
-        let written = raycast_files::Error::new("out/id.png", "cannot write: File too large");
+        let written = raycast_files::FileError::new("out/id.png", "cannot write: File too large");
         let line = written.to_string();
         let e = Error::from(written);
         assert!(matches!(&e, Error::Io { path, .. } if path.as_os_str() == "out/id.png"));

@@ -17,33 +17,33 @@ pub use pending::remove_partial_files;
 
 /// A file or folder that could not be written: the one line `PATH: MESSAGE`.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Error {
+pub struct FileError {
     /// The file or folder.
     pub path: PathBuf,
     /// The system's reason.
     pub message: String,
 }
 
-impl Error {
+impl FileError {
     /// An error on `path`.
-    pub fn new(path: impl Into<PathBuf>, message: impl std::fmt::Display) -> Error {
-        Error {
+    pub fn new(path: impl Into<PathBuf>, message: impl std::fmt::Display) -> FileError {
+        FileError {
             path: path.into(),
             message: message.to_string(),
         }
     }
 }
 
-impl std::fmt::Display for Error {
+impl std::fmt::Display for FileError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}: {}", self.path.display(), self.message)
     }
 }
 
-impl std::error::Error for Error {}
+impl std::error::Error for FileError {}
 
-/// The crate's result type.
-pub type Result<T, E = Error> = std::result::Result<T, E>;
+/// The crate's functions' result.
+type Result<T, E = FileError> = std::result::Result<T, E>;
 
 /// One output file: its name in the output folder and its bytes.
 pub struct EncodedFile {
@@ -57,14 +57,14 @@ pub struct EncodedFile {
 /// (its parent folders created), which then replaces `folder` (a folder there is moved aside,
 /// then removed); at an error, or at an interruption ([`remove_partial_files`]), the temporary
 /// folder is removed. Returns what `write` returned; `write`'s error type is the caller's.
-pub fn write_folder<T, E: From<Error>>(
+pub fn write_folder<T, E: From<FileError>>(
     folder: &Path,
     write: impl FnOnce(&Path) -> Result<T, E>,
 ) -> Result<T, E> {
     let temporary = pending::temp_path(folder)?;
     if let Some(parent) = temporary.parent() {
         std::fs::create_dir_all(parent)
-            .map_err(|e| Error::new(parent, format!("cannot create folder: {e}")))?;
+            .map_err(|e| FileError::new(parent, format!("cannot create folder: {e}")))?;
     }
     pending::create_dir(&temporary)?;
     match write(&temporary) {
@@ -82,9 +82,11 @@ pub fn check_writable(dir: &Path) -> Result<()> {
         // The system's "File exists" or "Not a directory" where the folder, or one above it,
         // is a file: name that file.
         match dir.ancestors().find(|a| a.exists() && !a.is_dir()) {
-            Some(file) if file == dir => Error::new(dir, "is a file, not a folder"),
-            Some(file) => Error::new(dir, format!("{} is a file, not a folder", file.display())),
-            None => Error::new(dir, format!("cannot create folder: {e}")),
+            Some(file) if file == dir => FileError::new(dir, "is a file, not a folder"),
+            Some(file) => {
+                FileError::new(dir, format!("{} is a file, not a folder", file.display()))
+            }
+            None => FileError::new(dir, format!("cannot create folder: {e}")),
         }
     })?;
     let probe = dir.join(format!(".raycast-write-test-{}", std::process::id()));
@@ -92,7 +94,7 @@ pub fn check_writable(dir: &Path) -> Result<()> {
     pending::discard([probe.as_path()]);
     created
         .map(drop)
-        .map_err(|e| Error::new(dir, format!("folder is not writable: {e}")))
+        .map_err(|e| FileError::new(dir, format!("folder is not writable: {e}")))
 }
 
 /// [`check_writable`] for the folder `file` goes into (the working folder for a bare name).
@@ -130,7 +132,7 @@ fn write_all_or_none(files: &[(PathBuf, &[u8])]) -> Result<Vec<PathBuf>> {
             pending::create(tmp).and_then(|mut f| std::io::Write::write_all(&mut f, bytes));
         if let Err(e) = written {
             pending::discard(pairs.iter().map(|(tmp, _)| tmp.as_path()));
-            return Err(Error::new(tmp, format!("cannot write: {e}")));
+            return Err(FileError::new(tmp, format!("cannot write: {e}")));
         }
     }
     pending::place_all(&pairs)?;
@@ -180,7 +182,7 @@ mod tests {
 
     #[test]
     fn errors_print_the_path_then_the_message() {
-        let error = Error::new("out/depth.png", "cannot write: File too large");
+        let error = FileError::new("out/depth.png", "cannot write: File too large");
         assert_eq!(
             error.to_string(),
             "out/depth.png: cannot write: File too large"
@@ -192,14 +194,15 @@ mod tests {
         let root = tempfile::tempdir().unwrap();
         let folder = root.path().join("views").join("0001");
         let written = write_folder(&folder, |temporary| {
-            std::fs::write(temporary.join("id.png"), b"new").map_err(|e| Error::new(temporary, e))
+            std::fs::write(temporary.join("id.png"), b"new")
+                .map_err(|e| FileError::new(temporary, e))
         });
         assert_eq!(written, Ok(()));
         assert_eq!(names(&folder), ["id.png"]);
         // A failed write leaves the folder there as it was, and no temporary folder beside it.
         let failed: Result<()> = write_folder(&folder, |temporary| {
             std::fs::write(temporary.join("id.png"), b"newer").unwrap();
-            Err(Error::new(temporary, "stopped"))
+            Err(FileError::new(temporary, "stopped"))
         });
         assert_eq!(failed.unwrap_err().message, "stopped");
         assert_eq!(std::fs::read(folder.join("id.png")).unwrap(), b"new");

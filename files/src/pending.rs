@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError, TryLockError};
 use std::time::{Duration, Instant};
 
-use crate::{Error, Result};
+use crate::{FileError, Result};
 
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
@@ -35,7 +35,7 @@ fn forget<'a>(held: &mut Vec<PathBuf>, paths: impl IntoIterator<Item = &'a Path>
 pub fn temp_path(path: &Path) -> Result<PathBuf> {
     let name = path
         .file_name()
-        .ok_or_else(|| Error::new(path, "not a file name"))?
+        .ok_or_else(|| FileError::new(path, "not a file name"))?
         .to_string_lossy();
     Ok(path.with_file_name(format!(".{name}.tmp-{}", std::process::id())))
 }
@@ -74,7 +74,7 @@ pub fn place_all(pairs: &[(PathBuf, PathBuf)]) -> Result<()> {
             for (rest, _) in &pairs[k..] {
                 let _ = std::fs::remove_file(rest);
             }
-            placed = Err(Error::new(path, format!("cannot write: {e}")));
+            placed = Err(FileError::new(path, format!("cannot write: {e}")));
             break;
         }
     }
@@ -90,7 +90,7 @@ pub(crate) fn create_dir(path: &Path) -> Result<()> {
     held.push(path.to_owned());
     std::fs::create_dir(path).map_err(|e| {
         held.pop();
-        Error::new(path, format!("cannot create folder: {e}"))
+        FileError::new(path, format!("cannot create folder: {e}"))
     })
 }
 
@@ -120,7 +120,7 @@ pub(crate) fn place_dir(temporary: &Path, path: &Path) -> Result<()> {
     })();
     let _ = std::fs::remove_dir_all(if placed.is_ok() { &old } else { temporary });
     forget(&mut held, [temporary]);
-    placed.map_err(|e| Error::new(path, format!("cannot write: {e}")))
+    placed.map_err(|e| FileError::new(path, format!("cannot write: {e}")))
 }
 
 /// Removes folder `path`, again while it is there: another thread may still be writing a view's
