@@ -151,75 +151,84 @@ fn cpu_bvh_equals_brute_force_bit_for_bit() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+// One test per algorithm set, so that the two run side by side.
+
 #[test]
-fn gpu_bvh_equals_brute_force_and_the_cpu_traversal() {
+fn gpu_bvh_equals_brute_force_and_the_cpu_traversal_robust() {
+    gpu_bvh_equals_brute_force_and_the_cpu_traversal(Robust);
+}
+
+#[test]
+fn gpu_bvh_equals_brute_force_and_the_cpu_traversal_textbook() {
+    gpu_bvh_equals_brute_force_and_the_cpu_traversal(Textbook);
+}
+
+fn gpu_bvh_equals_brute_force_and_the_cpu_traversal(algorithm: Algorithm) {
     let gpu = common::gpu();
     for (name, scene) in scenes() {
-        for algorithm in [Robust, Textbook] {
-            let variant = |bvh| Variant {
-                bvh,
-                packets: gpu.has_packet_subgroups(),
-                ..gpu.scene_variant(&scene, Float::F32, algorithm)
-            };
-            // The kernel a render of the scene compiles, and beside it kernels of every
-            // primitive kind, which the scenes share (fewer kernels to compile; the
-            // specialized_kernels tests show the two render alike).
-            let general = |bvh| Variant {
-                kinds: Kinds::ALL,
-                ..variant(bvh)
-            };
-            let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(true));
-            let bvh32 = bvh32.unwrap();
-            let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general(false));
-            let brute32 = brute32.unwrap();
-            // Where the textbook f32 formulas are wrong, as on the CPU (see above).
-            let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
-            let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Search::Bvh);
-            assert_same_bits(
-                &bvh32,
-                &cpu32,
-                &format!("{name} {algorithm}: GPU vs CPU BVH, f32"),
-            );
-            // Rays traversing one by one find what the subgroup packets found.
-            let per_ray = Variant {
-                packets: false,
+        let variant = |bvh| Variant {
+            bvh,
+            packets: gpu.has_packet_subgroups(),
+            ..gpu.scene_variant(&scene, Float::F32, algorithm)
+        };
+        // The kernel a render of the scene compiles, and beside it kernels of every
+        // primitive kind, which the scenes share (fewer kernels to compile; the
+        // specialized_kernels tests show the two render alike).
+        let general = |bvh| Variant {
+            kinds: Kinds::ALL,
+            ..variant(bvh)
+        };
+        let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(true));
+        let bvh32 = bvh32.unwrap();
+        let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general(false));
+        let brute32 = brute32.unwrap();
+        // Where the textbook f32 formulas are wrong, as on the CPU (see above).
+        let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
+        let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Search::Bvh);
+        assert_same_bits(
+            &bvh32,
+            &cpu32,
+            &format!("{name} {algorithm}: GPU vs CPU BVH, f32"),
+        );
+        // Rays traversing one by one find what the subgroup packets found.
+        let per_ray = Variant {
+            packets: false,
+            ..general(true)
+        };
+        let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray);
+        let per_ray = per_ray.unwrap();
+        assert_same_bits(
+            &per_ray,
+            &cpu32,
+            &format!("{name} {algorithm}: per-ray traversal"),
+        );
+        // So do the lighter kernels of smaller renders, with fewer rays a lane.
+        for lane_rays_limit in [2, 4] {
+            let lighter = Variant {
+                lane_rays_limit,
                 ..general(true)
             };
-            let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray);
-            let per_ray = per_ray.unwrap();
-            assert_same_bits(
-                &per_ray,
-                &cpu32,
-                &format!("{name} {algorithm}: per-ray traversal"),
-            );
-            // So do the lighter kernels of smaller renders, with fewer rays a lane.
-            for lane_rays_limit in [2, 4] {
-                let lighter = Variant {
-                    lane_rays_limit,
-                    ..general(true)
-                };
-                let lighter = super::kernels::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
-                let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
-                assert_same_bits(&lighter, &cpu32, &what);
-            }
-            let what = format!("{name} {algorithm}: GPU vs CPU brute force");
-            assert_same_bits(&brute32, &cpu_brute32, &what);
-            if algorithm == Robust && !out_of_f32_range(&name) {
-                assert_eq!(bvh32.id, brute32.id, "{name} {algorithm} f32");
-            }
-            let variant64 = |bvh| Variant {
-                bvh,
-                kinds: Kinds::ALL,
-                ..gpu.scene_variant(&scene, Float::F64, algorithm)
-            };
-            let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(true));
-            let brute64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(false));
-            assert_eq!(
-                bvh64.unwrap().id,
-                brute64.unwrap().id,
-                "{name} {algorithm} f64"
-            );
+            let lighter = super::kernels::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
+            let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
+            assert_same_bits(&lighter, &cpu32, &what);
         }
+        let what = format!("{name} {algorithm}: GPU vs CPU brute force");
+        assert_same_bits(&brute32, &cpu_brute32, &what);
+        if algorithm == Robust && !out_of_f32_range(&name) {
+            assert_eq!(bvh32.id, brute32.id, "{name} {algorithm} f32");
+        }
+        let variant64 = |bvh| Variant {
+            bvh,
+            kinds: Kinds::ALL,
+            ..gpu.scene_variant(&scene, Float::F64, algorithm)
+        };
+        let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(true));
+        let brute64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(false));
+        assert_eq!(
+            bvh64.unwrap().id,
+            brute64.unwrap().id,
+            "{name} {algorithm} f64"
+        );
     }
 }
 

@@ -6,7 +6,7 @@
 //! test runs itself again in a child process with it set (Mesa reads it when it starts) and
 //! checks there that those kernels give the CPU reference's answers: camera renders bit for bit
 //! in f32, ids in f64 and adaptive precision, ray lists from one origin and from many, and a
-//! hook that casts rays against its CPU mirror. Its
+//! hook that casts rays against its CPU mirror (in two tests, so two children). Its
 //! device is opened as on a discrete GPU, without host-mapped buffers: rays, images and hits go
 //! through staging buffers.
 
@@ -28,16 +28,17 @@ use common::assert_same_bits;
 
 /// Set in the child process, which does the checking.
 const WIDTH_VAR: &str = "LP_NATIVE_VECTOR_WIDTH";
-const TEST: &str = "sixteen_lane_subgroups_give_the_cpu_answers";
 
-#[test]
-fn sixteen_lane_subgroups_give_the_cpu_answers() {
+/// Runs `check` in a child process of this test binary with 16-lane subgroups: here, the
+/// child runs the test `test` (this module's) again, with the variable set, and must pass;
+/// there, `check` runs on the 16-lane device.
+fn with_sixteen_lanes(test: &str, check: impl FnOnce()) {
     if std::env::var_os(WIDTH_VAR).is_none() {
-        // This test's full name in the test binary: its module path less the crate's name.
+        // The test's full name in the test binary: its module path less the crate's name.
         let module = module_path!().split_once("::").map_or("", |(_, rest)| rest);
         let exe = std::env::current_exe().expect("the test binary's path");
         let output = Command::new(exe)
-            .args(["--exact", &format!("{module}::{TEST}"), "--nocapture"])
+            .args(["--exact", &format!("{module}::{test}"), "--nocapture"])
             .args(["--test-threads", "1"])
             .env(WIDTH_VAR, "512")
             .env("NODEVICE_SELECT", "1")
@@ -59,18 +60,41 @@ fn sixteen_lane_subgroups_give_the_cpu_answers() {
     let packets = gpu.variant(Float::F32, Robust);
     assert!(packets.packets && !packets.eight_lanes && packets.lane_rays() == 1);
     assert!(!gpu.host_memory(), "staging buffers, as on a discrete GPU");
-    for (name, scene) in scenes() {
-        for algorithm in [Robust, Textbook] {
-            camera_renders_agree(&name, &scene, algorithm);
-        }
-        let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
-        let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
-        assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
-    }
-    for seed in [2, 3] {
-        ray_lists_agree(seed);
-    }
-    lit_renders_agree();
+    check();
+}
+
+// Two tests, two children, so that the two halves of the checking run side by side.
+
+#[test]
+fn sixteen_lane_subgroups_render_and_light_as_the_cpu_robust_and_adaptive() {
+    with_sixteen_lanes(
+        "sixteen_lane_subgroups_render_and_light_as_the_cpu_robust_and_adaptive",
+        || {
+            for (name, scene) in scenes() {
+                camera_renders_agree(&name, &scene, Robust);
+                let gpu = discrete_like();
+                let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
+                let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
+                assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
+            }
+            lit_renders_agree();
+        },
+    );
+}
+
+#[test]
+fn sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu() {
+    with_sixteen_lanes(
+        "sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu",
+        || {
+            for (name, scene) in scenes() {
+                camera_renders_agree(&name, &scene, Textbook);
+            }
+            for seed in [2, 3] {
+                ray_lists_agree(seed);
+            }
+        },
+    );
 }
 
 /// lavapipe opened with the features raycast asks of any GPU, not the host-mapped buffers it
