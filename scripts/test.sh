@@ -23,16 +23,28 @@ pip_install=$!
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
 # dependencies they share are compiled once (maturin's own build would compile them again).
 cargo build --quiet --lib --bins --tests --examples
-cargo test "$@"
-echo "test.sh: Rust tests done at ${SECONDS} s" >&2
 # The docs build without warnings: the API as docs.rs shows it (the library has no features),
 # the files written whole (raycast-files), the renders to files (raycast-datasets) and the
-# command line's library.
-RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-files \
-    -p raycast-datasets -p raycast-cli
-# The measurement programs (benches/, outside the default members) compile; the check shares
-# the dependencies' metadata the docs were built with.
-cargo check --quiet -p raycast-benches
+# command line's library. The measurement programs (benches/, outside the default members)
+# compile; the check shares the dependencies' metadata the docs were built with. Both run
+# beside the tests, whose threads wait on lavapipe's compiler and leave the cores a share of
+# idle time: cargo holds the build folder only while it builds, and the docs start once
+# `cargo test` has found everything built (were they first, it would wait for them).
+docs_log=target/docs.log
+(
+    sleep 5
+    RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --lib -p raycast -p raycast-files \
+        -p raycast-datasets -p raycast-cli
+    cargo check --quiet -p raycast-benches
+) >"$docs_log" 2>&1 &
+docs=$!
+cargo test "$@"
+echo "test.sh: Rust tests done at ${SECONDS} s" >&2
+if ! wait "$docs"; then
+    cat "$docs_log" >&2
+    echo "test.sh: the docs or the measurement programs failed" >&2
+    exit 1
+fi
 echo "test.sh: docs done at ${SECONDS} s" >&2
 # The Python package as maturin lays it out (python/raycast/ with the extension inside it),
 # from the extension built above. `pip install ./python` builds the same in release.

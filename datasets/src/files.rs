@@ -83,7 +83,8 @@ pub struct RenderFiles {
     pub size: Option<[u32; 2]>,
     /// Where it renders.
     pub device: Device,
-    /// In which precision; `None`: the render's default ([`Precision::default_for`], given what the render needs).
+    /// In which precision; `None`: the render's default ([`Precision::default_for`], given
+    /// what the render needs).
     pub precision: Option<Precision>,
     /// With which intersection formulas.
     pub algorithm: Algorithm,
