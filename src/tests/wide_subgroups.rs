@@ -67,34 +67,38 @@ fn with_sixteen_lanes(test: &str, check: impl FnOnce()) {
 
 #[test]
 fn sixteen_lane_subgroups_render_and_light_as_the_cpu_robust_and_adaptive() {
-    with_sixteen_lanes(
-        "sixteen_lane_subgroups_render_and_light_as_the_cpu_robust_and_adaptive",
-        || {
-            for (name, scene) in scenes() {
-                camera_renders_agree(&name, &scene, Robust);
-                let gpu = discrete_like();
-                let adaptive = raycast::render::adaptive::render_adaptive(gpu, &scene).unwrap();
-                let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
-                assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
-            }
-            lit_renders_agree();
-        },
-    );
+    let test = "sixteen_lane_subgroups_render_and_light_as_the_cpu_robust_and_adaptive";
+    with_sixteen_lanes(test, || {
+        every_camera_render_agrees(Robust);
+        adaptive_renders_agree();
+        lit_renders_agree();
+    });
 }
 
 #[test]
 fn sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu() {
-    with_sixteen_lanes(
-        "sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu",
-        || {
-            for (name, scene) in scenes() {
-                camera_renders_agree(&name, &scene, Textbook);
-            }
-            for seed in [2, 3] {
-                ray_lists_agree(seed);
-            }
-        },
-    );
+    let test = "sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu";
+    with_sixteen_lanes(test, || {
+        every_camera_render_agrees(Textbook);
+        ray_lists_agree(2);
+        ray_lists_agree(3);
+    });
+}
+
+/// [`camera_renders_agree`] for every scene.
+fn every_camera_render_agrees(algorithm: Algorithm) {
+    for (name, scene) in scenes() {
+        camera_renders_agree(&name, &scene, algorithm);
+    }
+}
+
+/// Adaptive precision's ids are the CPU's f64 ids in every scene.
+fn adaptive_renders_agree() {
+    for (name, scene) in scenes() {
+        let adaptive = raycast::render::adaptive::render_adaptive(discrete_like(), &scene).unwrap();
+        let truth = cpu::render_with::<f64>(&scene, Robust, Search::Bvh);
+        assert_eq!(adaptive.images.id, truth.id, "{name}: adaptive ids");
+    }
 }
 
 /// lavapipe opened with the features raycast asks of any GPU, not the host-mapped buffers it
