@@ -6,15 +6,6 @@
 #import hit
 #import traverse
 #import traverse_packet
-#if SPHERES
-#import sphere
-#endif
-#if TRIANGLES
-#import triangle
-#endif
-#if CERTAINTY
-#import certainty
-#endif
 
 // What the traversal needs of one of a lane's rays.
 struct Traced {

@@ -7,12 +7,6 @@
 #import bindings
 #import hit
 #import traverse
-#if SPHERES
-#import sphere
-#endif
-#if TRIANGLES
-#import triangle
-#endif
 
 // This invocation's index in its subgroup (set by `main`).
 var<private> lane: u32;
