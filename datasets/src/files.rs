@@ -176,8 +176,14 @@ impl RenderFiles {
 
     /// Refuses the option combinations that cannot render, before anything is read.
     pub fn check(&self) -> Result<()> {
-        self.check_options()?;
-        check_split(self.split, std::iter::once(self.scene.as_deref()))
+        self.checked().map(drop)
+    }
+
+    /// [`RenderFiles::check`], returning the render's files, read and checked.
+    fn checked(&self) -> Result<Files> {
+        let files = self.check_options()?;
+        check_split(self.split, std::iter::once(self.scene.as_deref()))?;
+        Ok(files)
     }
 
     /// [`RenderFiles::check`] but for `scene` and `split`, which a job of many scenes checks
@@ -303,7 +309,7 @@ impl RenderFiles {
     /// # Ok::<(), raycast::Error>(())
     /// ```
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<Arc<Progress>>) -> Result<Summary> {
-        self.check()?;
+        let files = self.checked()?;
         let scene = raycast::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
         if let Some(path) = &self.scene
             && !self.shaded()
@@ -315,7 +321,7 @@ impl RenderFiles {
                 scene.lighting
             );
         }
-        self.run_loaded(gpu, progress, &scene)
+        self.run_with(gpu, progress, &scene, &files)
     }
 
     /// [`RenderFiles::run`] of `scene`, loaded already (with its camera as the render sees it).
@@ -325,8 +331,20 @@ impl RenderFiles {
         progress: Option<Arc<Progress>>,
         scene: &Scene,
     ) -> Result<Summary> {
+        self.run_with(gpu, progress, scene, &self.load_files()?)
+    }
+
+    /// [`RenderFiles::run_loaded`] with the render's `files`, read already.
+    fn run_with(
+        &self,
+        gpu: Option<&Gpu>,
+        progress: Option<Arc<Progress>>,
+        scene: &Scene,
+        files: &Files,
+    ) -> Result<Summary> {
         let huge = scene.camera.pixel_count() > STREAM_PIXELS;
-        self.resolved(huge).run_resolved(gpu, progress, scene, huge)
+        self.resolved(huge)
+            .run_resolved(gpu, progress, scene, huge, files)
     }
 
     fn run_resolved(
@@ -335,12 +353,12 @@ impl RenderFiles {
         progress: Option<Arc<Progress>>,
         scene: &Scene,
         huge: bool,
+        files: &Files,
     ) -> Result<Summary> {
-        let files = self.load_files()?;
-        self.check_resolved_memory(scene.camera.resolution, huge, &files)?;
+        self.check_resolved_memory(scene.camera.resolution, huge, files)?;
         let options = RenderOptions {
             progress,
-            ..self.options(&files)
+            ..self.options(files)
         };
         let gpu = self.device_for(&options, gpu, scene)?;
         raycast_files::check_writable(&self.out_dir)?;
