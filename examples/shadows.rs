@@ -19,8 +19,10 @@ fn main() -> raycast::Result<()> {
     let options = RenderOptions {
         shade: Some(hook),
         outputs: Outputs {
+            id: false,
+            distance: false,
+            normal: false,
             color: true,
-            ..Outputs::default()
         },
         ..Default::default()
     };

@@ -237,9 +237,9 @@ impl Outputs {
     }
 }
 
-/// No output: `Outputs { color: true, ..Outputs::default() }` asks for the colours alone.
+/// Every output, as a render makes them unless told otherwise ([`crate::RenderOptions`]).
 impl Default for Outputs {
     fn default() -> Outputs {
-        Outputs::NONE
+        Outputs::ALL
     }
 }

@@ -171,8 +171,10 @@ fn hooks_see_world_coordinates_at_every_power_of_two_scale() {
         )
         .unwrap();
         let color = Outputs {
+            id: false,
+            distance: false,
+            normal: false,
             color: true,
-            ..Outputs::default()
         };
         let images: Images<f32> = common::gpu_outputs(
             common::gpu(),

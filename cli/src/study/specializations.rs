@@ -186,8 +186,10 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
     });
     let distance = Kernel {
         outputs: Outputs {
+            id: false,
             distance: true,
-            ..Outputs::default()
+            normal: false,
+            color: false,
         },
         ..base
     };

@@ -43,8 +43,10 @@ fn hook(source: &str) -> ShadeHook {
 /// Renders only the hook's colour.
 fn shaded<R: Kernel>(scene: &Scene, algorithm: Algorithm, hook: &ShadeHook) -> Vec<[u8; 4]> {
     let color = Outputs {
+        id: false,
+        distance: false,
+        normal: false,
         color: true,
-        ..Outputs::default()
     };
     let images: Images<R> =
         common::gpu_outputs(common::gpu(), scene, algorithm, color, Some(hook)).unwrap();
@@ -236,9 +238,10 @@ fn level(n: f32) -> u8 {
 fn check_normal_as_colour<R: Kernel>(scene: &Scene, algorithm: Algorithm, name: &str) -> usize {
     let hook = hook(NORMAL_AS_COLOUR);
     let outputs = Outputs {
+        id: false,
+        distance: false,
         normal: true,
         color: true,
-        ..Outputs::default()
     };
     let images: Images<R> =
         common::gpu_outputs(common::gpu(), scene, algorithm, outputs, Some(&hook)).unwrap();
