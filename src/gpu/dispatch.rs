@@ -226,15 +226,19 @@ pub(crate) fn specialized<R: GpuReal>(
     casts: Casts,
     prepared: &Prepared<R>,
 ) -> Result<Variant> {
+    let sized = match variant.as_given {
+        false => variant
+            .with_stack_for(prepared.bvh().map(|b| &**b))
+            .with_planes(prepared.primitives.planes.len()),
+        true => variant,
+    };
     let variant = Variant {
         casts,
         rays_from_origin: variant.rays_from_origin
             && casts != Casts::Rays
             && prepared.camera_rays_from_origin(),
         list_origin: variant.list_origin && casts == Casts::Rays,
-        ..variant
-            .with_stack_for(prepared.bvh().map(|b| &**b))
-            .with_planes(prepared.primitives.planes.len())
+        ..sized
     };
     match (casts, variant.count || variant.occluded) {
         (Casts::Rays, false) => Ok(variant.with_outputs(crate::images::Outputs::GEOMETRY)),
@@ -337,6 +341,14 @@ fn check_job<R: GpuReal>(variant: &Variant, streamed: bool, prepared: &Prepared<
             variant.uses_bvh(),
             R::PRECISION.name(),
             prepared.bvh().is_some()
+        )));
+    }
+    let planes = prepared.primitives.planes.len();
+    let stack = prepared.bvh().map_or(0, |b| b.stack_entries());
+    if variant.bvh_stack < stack || (variant.planes != 0 && usize::from(variant.planes) != planes) {
+        return Err(Error::Device(format!(
+            "the kernel variant (a stack of {} entries, {} planes) does not fit the prepared scene (a stack of {stack}, {planes} planes)",
+            variant.bvh_stack, variant.planes
         )));
     }
     Ok(())
@@ -1132,7 +1144,8 @@ fn create_pipeline(gpu: &Gpu, variant: &Variant) -> Result<Compiled> {
     let shader_module = match variant.is_ours() {
         // SAFETY: a kernel assembled from shaders/ alone indexes its fixed-size arrays within
         // bounds: the traversal's stacks hold at least the tree's depth in entries, one waiting
-        // node per level at most (`with_stack_for` in `specialized`; tests check it). Its loops
+        // node per level at most (`with_stack_for` in `specialized`, or `check_job` for a variant
+        // compiled as given; tests check it). Its loops
         // end (the traversal visits each node at most once), and it divides only by nonzero
         // values. The driver still bounds storage accesses (robustBufferAccess).
         true => unsafe {

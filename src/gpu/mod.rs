@@ -109,6 +109,7 @@ impl Gpu {
             shade: None,
             hook_rays: false,
             kernel: None,
+            as_given: false,
         }
     }
 

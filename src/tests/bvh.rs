@@ -165,23 +165,26 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal_textbook() {
 
 fn gpu_bvh_equals_brute_force_and_the_cpu_traversal(algorithm: Algorithm) {
     let gpu = common::gpu();
+    // Kernels of every primitive kind, their stack deep enough for any tree and their plane
+    // loops to any count, compiled as given: each serves every scene (a compile each; the
+    // specialized_kernels tests show they render as the specialized ones do).
+    let general = |precision, bvh| Variant {
+        kinds: Kinds::ALL,
+        bvh,
+        rays_from_origin: false,
+        as_given: true,
+        ..gpu.variant(precision, algorithm)
+    };
     for (name, scene) in scenes() {
-        let variant = |bvh| Variant {
-            bvh,
-            packets: gpu.has_packet_subgroups(),
+        // The kernel a render of the scene compiles.
+        let bvh32 = Variant {
+            bvh: true,
             ..gpu.scene_variant(&scene, Float::F32, algorithm)
         };
-        // The kernel a render of the scene compiles, and beside it kernels of every
-        // primitive kind, which the scenes share (fewer kernels to compile; the
-        // specialized_kernels tests show the two render alike).
-        let general = |bvh| Variant {
-            kinds: Kinds::ALL,
-            ..variant(bvh)
-        };
-        let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, variant(true));
-        let bvh32 = bvh32.unwrap();
-        let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general(false));
-        let brute32 = brute32.unwrap();
+        let bvh32 = bvh32.for_rays(scene.camera.pixel_count());
+        let bvh32 = super::kernels::gpu_variant::<f32>(gpu, &scene, bvh32).unwrap();
+        let brute32 = general(Float::F32, false);
+        let brute32 = super::kernels::gpu_variant::<f32>(gpu, &scene, brute32).unwrap();
         // Where the textbook f32 formulas are wrong, as on the CPU (see above).
         let cpu_brute32 = cpu::render_with::<f32>(&scene, algorithm, Search::BruteForce);
         let cpu32 = cpu::render_with::<f32>(&scene, algorithm, Search::Bvh);
@@ -193,43 +196,64 @@ fn gpu_bvh_equals_brute_force_and_the_cpu_traversal(algorithm: Algorithm) {
         // Rays traversing one by one find what the subgroup packets found.
         let per_ray = Variant {
             packets: false,
-            ..general(true)
+            ..general(Float::F32, true)
         };
-        let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray);
-        let per_ray = per_ray.unwrap();
+        let per_ray = super::kernels::gpu_variant::<f32>(gpu, &scene, per_ray).unwrap();
         assert_same_bits(
             &per_ray,
             &cpu32,
             &format!("{name} {algorithm}: per-ray traversal"),
         );
-        // So do the lighter kernels of smaller renders, with fewer rays a lane.
-        for lane_rays_limit in [2, 4] {
-            let lighter = Variant {
+        // So do the kernels of every number of rays a lane (renders of every size).
+        for lane_rays_limit in [2, 4, 8] {
+            let lanes = Variant {
                 lane_rays_limit,
-                ..general(true)
+                ..general(Float::F32, true)
             };
-            let lighter = super::kernels::gpu_variant::<f32>(gpu, &scene, lighter).unwrap();
+            let lanes = super::kernels::gpu_variant::<f32>(gpu, &scene, lanes).unwrap();
             let what = format!("{name} {algorithm}: at most {lane_rays_limit} rays a lane");
-            assert_same_bits(&lighter, &cpu32, &what);
+            assert_same_bits(&lanes, &cpu32, &what);
         }
         let what = format!("{name} {algorithm}: GPU vs CPU brute force");
         assert_same_bits(&brute32, &cpu_brute32, &what);
         if algorithm == Robust && !out_of_f32_range(&name) {
             assert_eq!(bvh32.id, brute32.id, "{name} {algorithm} f32");
         }
-        let variant64 = |bvh| Variant {
-            bvh,
-            kinds: Kinds::ALL,
-            ..gpu.scene_variant(&scene, Float::F64, algorithm)
-        };
-        let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(true));
-        let brute64 = super::kernels::gpu_variant::<f64>(gpu, &scene, variant64(false));
+        let bvh64 = general(Float::F64, true);
+        let bvh64 = super::kernels::gpu_variant::<f64>(gpu, &scene, bvh64);
+        let brute64 = general(Float::F64, false);
+        let brute64 = super::kernels::gpu_variant::<f64>(gpu, &scene, brute64);
         assert_eq!(
             bvh64.unwrap().id,
             brute64.unwrap().id,
             "{name} {algorithm} f64"
         );
     }
+}
+
+/// A kernel compiled as given must still fit the scene it renders: a traversal stack shallower
+/// than the scene's tree, or a constant plane count other than the scene's, is refused before
+/// anything runs (the unchecked kernel relies on the first).
+#[test]
+fn a_kernel_compiled_as_given_is_refused_where_the_scene_does_not_fit_it() {
+    let gpu = common::gpu();
+    let scene = dense_soup(1, 3000, [8, 6]);
+    let tree = Bvh::build(&scene, Robust);
+    let given = Variant {
+        bvh: true,
+        as_given: true,
+        ..gpu.variant(Float::F32, Robust)
+    };
+    let shallow = Variant {
+        bvh_stack: tree.stack_entries() - 1,
+        ..given
+    };
+    let one_plane = Variant { planes: 1, ..given };
+    for (variant, what) in [(shallow, "a stack of"), (one_plane, "1 planes")] {
+        let e = super::kernels::gpu_variant::<f32>(gpu, &scene, variant).unwrap_err();
+        assert!(e.to_string().contains(what), "{e}");
+    }
+    assert!(super::kernels::gpu_variant::<f32>(gpu, &scene, given).is_ok());
 }
 
 #[test]

@@ -22,11 +22,8 @@ pub(crate) fn gpu_scene<R: GpuReal>(
     scene: &Scene,
     algorithm: Algorithm,
 ) -> raycast::Result<Images<R>> {
-    gpu_variant(
-        gpu,
-        scene,
-        gpu.scene_variant(scene, R::PRECISION, algorithm),
-    )
+    let variant = gpu.scene_variant(scene, R::PRECISION, algorithm);
+    gpu_variant(gpu, scene, variant.for_rays(scene.camera.pixel_count()))
 }
 
 /// [`gpu_variant`] in dispatches of at most `max_rows` image rows.

@@ -8,7 +8,7 @@ use super::common;
 use std::path::Path;
 
 use raycast::Algorithm::{Robust, Textbook};
-use raycast::gpu::shader::Kinds;
+use raycast::gpu::shader::{Kinds, Variant};
 use raycast::math::Float;
 use raycast::scene::{MeshPart, Scene};
 
@@ -49,12 +49,18 @@ fn specialized_kernels_render_like_the_general_one() {
         let kinds = Kinds::of_scene(&scene);
         for algorithm in [Textbook, Robust] {
             let special32 = super::kernels::gpu_scene::<f32>(gpu, &scene, algorithm).unwrap();
-            let general = gpu.variant(Float::F32, algorithm);
+            let general = Variant {
+                as_given: true,
+                ..gpu.variant(Float::F32, algorithm)
+            };
             assert_eq!(general.kinds, Kinds::ALL);
             let general32 = super::kernels::gpu_variant::<f32>(gpu, &scene, general).unwrap();
             assert_eq!(special32, general32, "f32 {algorithm} {kinds:?}");
             let special64 = super::kernels::gpu_scene::<f64>(gpu, &scene, algorithm).unwrap();
-            let general = gpu.variant(Float::F64, algorithm);
+            let general = Variant {
+                as_given: true,
+                ..gpu.variant(Float::F64, algorithm)
+            };
             let general64 = super::kernels::gpu_variant::<f64>(gpu, &scene, general).unwrap();
             assert_eq!(special64, general64, "f64 {algorithm} {kinds:?}");
         }

@@ -139,18 +139,29 @@ fn scenes() -> Vec<(String, Scene)> {
 /// f64 BVH render the CPU's ids.
 fn camera_renders_agree(name: &str, scene: &Scene, algorithm: Algorithm) {
     let gpu = discrete_like();
-    let variant = |precision, packets| Variant {
+    // The packets' kernel a render of the scene compiles; the per-ray and f64 ones of every
+    // primitive kind, compiled as given, one for every scene (a compile each).
+    let packets = Variant {
+        bvh: true,
+        ..gpu.scene_variant(scene, Float::F32, algorithm)
+    };
+    let general = |precision, packets| Variant {
         bvh: true,
         packets,
-        ..gpu.scene_variant(scene, precision, algorithm)
+        rays_from_origin: false,
+        as_given: true,
+        ..gpu.variant(precision, algorithm)
     };
     let cpu32 = cpu::render_with::<f32>(scene, algorithm, Search::Bvh);
-    for packets in [true, false] {
-        let gpu32 = super::kernels::gpu_variant::<f32>(gpu, scene, variant(Float::F32, packets));
-        let what = format!("{name} {algorithm} f32, packets {packets}");
+    for (variant, way) in [
+        (packets, "packets"),
+        (general(Float::F32, false), "per ray"),
+    ] {
+        let gpu32 = super::kernels::gpu_variant::<f32>(gpu, scene, variant);
+        let what = format!("{name} {algorithm} f32, {way}");
         assert_same_bits(&gpu32.unwrap(), &cpu32, &what);
     }
-    let gpu64 = super::kernels::gpu_variant::<f64>(gpu, scene, variant(Float::F64, true)).unwrap();
+    let gpu64 = super::kernels::gpu_variant::<f64>(gpu, scene, general(Float::F64, true)).unwrap();
     let cpu64 = cpu::render_with::<f64>(scene, algorithm, Search::Bvh);
     assert_eq!(gpu64.id, cpu64.id, "{name} {algorithm} f64 ids");
 }

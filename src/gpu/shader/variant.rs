@@ -144,6 +144,12 @@ pub(crate) struct Variant {
     /// of the assembled one: its source is registered under this key, and the rest of the
     /// variant says what the host binds and reads back for it.
     pub kernel: Option<SourceKey>,
+    /// Compiled as given: the dispatch neither sizes the traversal stack nor fixes the plane
+    /// loops to the scene it renders, so that one kernel serves many scenes (tests comparing
+    /// traversals over many scenes; each kernel is a compile). The stack must still hold the
+    /// scene's tree and a constant plane count match its planes ([`crate::gpu::dispatch`]
+    /// checks both).
+    pub as_given: bool,
 }
 
 /// The most rays a lane of a packet kernel casts ([`Variant::lane_rays`]).
@@ -209,6 +215,7 @@ impl Variant {
             shade: None,
             hook_rays: false,
             kernel: None,
+            as_given: false,
         }
     }
 
@@ -528,6 +535,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         shade: None,
                         hook_rays: false,
                         kernel: None,
+                        as_given: false,
                     };
                     let traversals = [
                         (false, false, false),
