@@ -151,11 +151,14 @@ bench() { # NAME ARGS...
 # f64 where the adapter has it (raycast info: `shader f64: yes`).
 torus_modes=gpu:f32
 grep -q '^shader f64: *yes' "$raw/info.txt" && torus_modes=gpu:f32,gpu:f64
-bench torus "$work/torus/torus.json" --mode "$torus_modes"
-bench big "$work/big/torus.json"
-bench spheres "$work/torus/spheres.json"
+# Both BVH traversals where the adapter has packets (raycast info: `packet traversal: yes`).
+traversals=per-ray
+grep -q 'packet traversal: *yes' "$raw/info.txt" && traversals=packets,per-ray
+bench torus "$work/torus/torus.json" --mode "$torus_modes" --traversal "$traversals"
+bench big "$work/big/torus.json" --traversal "$traversals"
+bench spheres "$work/torus/spheres.json" --traversal "$traversals"
 bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
-bench lit "$work/lit/bunny.json" --lit
+bench lit "$work/lit/bunny.json" --lit --traversal "$traversals"
 
 # Adaptive precision is two passes (bench times single frames): whole renders, wall time,
 # f32 and adaptive in turn, each round alternating which goes first.
@@ -247,6 +250,11 @@ peers = [json.loads(l) for l in text("mitsuba.jsonl").splitlines() if l.startswi
 def by_mode(name, mode):
     return next((r for r in bench[name] if r["mode"] == mode), None)
 
+def config(r):
+    # The mode, and the traversal where one was asked for.
+    t = r.get("traversal", "auto")
+    return r["mode"] if t == "auto" else "%s %s" % (r["mode"], t)
+
 f32, f64 = by_mode("torus", "gpu:f32:robust"), by_mode("torus", "gpu:f64:robust")
 report = {
     "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -296,7 +304,7 @@ for name, rs in bench.items():
         what = workload(name, r)
         secondary = r.get("secondary_mrays_per_s")
         md.append("| %s | %s | %s | %s | %s | %s | %s | %.1f |" % (
-            what, r["mode"], format(r["rays"], ","), fmt(r["mrays_per_s"] / 1e3, ".3g"),
+            what, config(r), format(r["rays"], ","), fmt(r["mrays_per_s"] / 1e3, ".3g"),
             fmt(r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3, ".2f"), fmt(r["trace_s"] * 1e3, ".2f"),
             fmt(secondary and secondary / 1e3, ".3g"), 100 * r["hit_fraction"]))
 md += ["", "Grays/s from GPU timestamps where the device has them (kernel time), else wall time "
@@ -324,7 +332,7 @@ for name, rs in bench.items():
         if r.get("readback_bytes") is None:
             continue
         md.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
-            workload(name, r), r["mode"], ms(r["trace_s"]), ms(r["trace_gpu_s"]),
+            workload(name, r), config(r), ms(r["trace_s"]), ms(r["trace_gpu_s"]),
             fmt(r["whole_over_kernel"], ".2f"), ms(r["write_s"]), ms(r["wait_s"]),
             ms(r["convert_s"]), ms(r["copy_s"]), fmt(r["readback_bytes"] / 1e6, ".1f")))
 md += ["", "The trace (`trace_s`, wall) against its kernel (GPU timestamps); of the trace, the inputs "

@@ -178,6 +178,17 @@ pub fn describe(gpu: &Gpu) -> String {
         "host-mapped buffers: {}\n",
         has(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
     );
+    // Whether `raycast bench --traversal packets` can run here (gpu-check reads this line).
+    s += &format!(
+        "subgroups:    {} to {} invocations; packet traversal: {}\n",
+        info.subgroup_min_size,
+        info.subgroup_max_size,
+        if gpu.info().packet_subgroups {
+            "yes"
+        } else {
+            "no"
+        }
+    );
     s += &format!(
         "max storage buffer binding: {} bytes\n",
         limits.max_storage_buffer_binding_size

@@ -290,6 +290,10 @@ enum Command {
         /// bvh, brute-force.
         #[arg(long, value_delimiter = ',', default_value = "auto")]
         accel: Vec<Search>,
+        /// Comma-separated BVH traversals of GPU modes: auto (the device's choice), packets (a
+        /// subgroup's rays together, each node fetched once for them), per-ray.
+        #[arg(long, value_delimiter = ',', default_value = "auto")]
+        traversal: Vec<study::bench::Traversal>,
         /// Run this shade hook in every frame (GPU modes); a hook that casts rays reports them
         /// as secondary rays a second.
         #[arg(long, value_name = "FILE")]
@@ -649,6 +653,7 @@ fn run(command: Command) -> Result<ExitCode> {
             json,
             mode,
             accel,
+            traversal,
             shader,
             lit,
             rays,
@@ -665,6 +670,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 // A frame is timed as one kernel: never adaptive.
                 modes: mode.into_iter().map(|m| m.resolve(true)).collect(),
                 accels: accel,
+                traversals: traversal,
                 shade,
                 rays: rays.map(|n| n as usize),
                 views,

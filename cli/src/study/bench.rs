@@ -50,6 +50,65 @@ pub const DEFAULT_MODE: Mode = Mode {
 /// The most rays `--rays` casts: their list and hits fit a few GiB.
 pub const MAX_RAYS: usize = 1 << 26;
 
+/// How a GPU kernel's rays walk the BVH (`--traversal`): the device's choice, a subgroup's rays
+/// together sharing each node's fetch, or each ray alone ([`raycast::Tuning::packets`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Traversal {
+    Auto,
+    Packets,
+    PerRay,
+}
+
+impl Traversal {
+    /// `auto`, `packets` or `per-ray`, as `--traversal` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Traversal::Auto => "auto",
+            Traversal::Packets => "packets",
+            Traversal::PerRay => "per-ray",
+        }
+    }
+
+    /// [`raycast::Tuning::packets`] for this traversal.
+    fn packets(self) -> Option<bool> {
+        match self {
+            Traversal::Auto => None,
+            Traversal::Packets => Some(true),
+            Traversal::PerRay => Some(false),
+        }
+    }
+}
+
+impl std::str::FromStr for Traversal {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Traversal, String> {
+        [Traversal::Auto, Traversal::Packets, Traversal::PerRay]
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| format!("`{s}`: expected auto, packets or per-ray"))
+    }
+}
+
+/// One configuration a row measures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config {
+    pub mode: Mode,
+    pub accel: Search,
+    pub traversal: Traversal,
+}
+
+impl std::fmt::Display for Config {
+    /// The mode and acceleration, and the traversal where one is asked for.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {}", self.mode, accel_name(self.accel))?;
+        match self.traversal {
+            Traversal::Auto => Ok(()),
+            t => write!(f, " {}", t.name()),
+        }
+    }
+}
+
 /// What to measure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -57,6 +116,8 @@ pub struct Options {
     pub runs: usize,
     pub modes: Vec<Mode>,
     pub accels: Vec<Search>,
+    /// GPU modes' traversals (`auto` alone on the CPU, which has one).
+    pub traversals: Vec<Traversal>,
     /// A shade hook every frame runs (GPU modes; on the CPU only the ray tracer's mirror).
     pub shade: Option<ShadeHook>,
     /// Cast this many incoherent rays ([`incoherent_rays`]) instead of the camera's.
@@ -73,6 +134,7 @@ impl Default for Options {
             runs: DEFAULT_RUNS,
             modes: vec![DEFAULT_MODE],
             accels: vec![Search::Auto],
+            traversals: vec![Traversal::Auto],
             shade: None,
             rays: None,
             views: None,
@@ -81,12 +143,21 @@ impl Default for Options {
 }
 
 impl Options {
-    /// Every (mode, accel) pair, mode by mode, in the order given.
-    pub fn configurations(&self) -> Vec<(Mode, Search)> {
-        self.modes
-            .iter()
-            .flat_map(|&m| self.accels.iter().map(move |&a| (m, a)))
-            .collect()
+    /// Every (mode, accel, traversal), mode by mode, then accel by accel, in the order given.
+    pub fn configurations(&self) -> Vec<Config> {
+        let mut c = Vec::new();
+        for &mode in &self.modes {
+            for &accel in &self.accels {
+                for &traversal in &self.traversals {
+                    c.push(Config {
+                        mode,
+                        accel,
+                        traversal,
+                    });
+                }
+            }
+        }
+        c
     }
 
     /// At least one run and one configuration; no adaptive precision (module docs).
@@ -97,10 +168,17 @@ impl Options {
                 message: "at least one timed run is needed".into(),
             });
         }
-        if self.modes.is_empty() || self.accels.is_empty() {
+        if self.modes.is_empty() || self.accels.is_empty() || self.traversals.is_empty() {
             return Err(Error::Argument {
-                option: "--mode/--accel".into(),
+                option: "--mode/--accel/--traversal".into(),
                 message: "nothing to measure".into(),
+            });
+        }
+        let chosen = self.traversals != [Traversal::Auto];
+        if let Some(m) = (self.modes.iter()).find(|m| chosen && m.device == Device::Cpu) {
+            return Err(Error::Argument {
+                option: "--traversal".into(),
+                message: format!("{m}: the CPU reference has one traversal; leave out --traversal"),
             });
         }
         if let Some(m) = self
@@ -117,7 +195,14 @@ impl Options {
             });
         }
         for &mode in &self.modes {
-            crate::render::check(mode, self.render_options(Search::Auto))?;
+            for &traversal in &self.traversals {
+                let config = Config {
+                    mode,
+                    accel: Search::Auto,
+                    traversal,
+                };
+                crate::render::check(mode, self.render_options(config))?;
+            }
         }
         match self.rays {
             Some(n) if n == 0 || n > MAX_RAYS => Err(Error::Argument {
@@ -132,6 +217,10 @@ impl Options {
                 option: "--rays".into(),
                 message: "a ray list chooses its own acceleration; leave out --accel".into(),
             }),
+            Some(_) if chosen => Err(Error::Argument {
+                option: "--rays".into(),
+                message: "a ray list chooses its own traversal; leave out --traversal".into(),
+            }),
             Some(_) if self.views.is_some() => Err(Error::Argument {
                 option: "--rays".into(),
                 message: "a ray list has no camera; leave out --orbit and --views".into(),
@@ -140,14 +229,15 @@ impl Options {
         }
     }
 
-    /// What every frame renders with `accel`: every output, with the hook, timed, each lane
-    /// casting its most rays as a kernel traced many times should.
-    fn render_options(&self, accel: Search) -> RenderOptions {
+    /// What every frame of `config` renders with: every output, with the hook, timed, each
+    /// lane casting its most rays as a kernel traced many times should.
+    fn render_options(&self, config: Config) -> RenderOptions {
         RenderOptions {
             shade: self.shade.clone(),
             timed: true,
             tuning: Tuning {
-                search: accel,
+                search: config.accel,
+                packets: config.traversal.packets(),
                 most_lane_rays: true,
                 ..Tuning::default()
             },
@@ -269,6 +359,8 @@ pub struct Row {
     pub mode: String,
     /// The acceleration asked for: `auto`, `bvh` or `brute-force`.
     pub accel: String,
+    /// The traversal asked for: `auto`, `packets` or `per-ray` ([`Traversal`]).
+    pub traversal: &'static str,
     /// Whether the render went through a BVH (what `auto` chose).
     pub bvh: bool,
     /// Image size `[width, height]` (of every view).
@@ -404,16 +496,11 @@ impl Run {
     }
 }
 
-/// One frame in `mode` (never adaptive) with `accel` and `options`' hook, its stages timed
-/// apart ([`raycast::Stages`]).
-fn run_once(
-    scene: &Scene,
-    mode: Mode,
-    accel: Search,
-    gpu: Option<&Gpu>,
-    options: &Options,
-) -> Result<Run> {
-    let images = crate::render::render(scene, mode, gpu, options.render_options(accel))?;
+/// One frame of `config` (never adaptive) with `options`' hook, its stages timed apart
+/// ([`raycast::Stages`]).
+fn run_once(scene: &Scene, config: Config, gpu: Option<&Gpu>, options: &Options) -> Result<Run> {
+    let mode = config.mode;
+    let images = crate::render::render(scene, mode, gpu, options.render_options(config))?;
     let stages = images
         .stages()
         .expect("f32 and f64 renders report their stages");
@@ -438,18 +525,17 @@ fn run_once(
     })
 }
 
-/// One run of `loaded` in `mode` with `accel`: a frame from the scene's camera, or with
-/// `viewer` one from each view's camera (the frames' stages summed). `tick` is called after
-/// every frame.
+/// One run of `loaded` in `config`: a frame from the scene's camera, or with `viewer` one from
+/// each view's camera (the frames' stages summed). `tick` is called after every frame.
 fn run_frames(
     loaded: &Loaded,
     viewer: Option<&mut Viewer>,
-    (mode, accel): (Mode, Search),
+    config: Config,
     gpu: Option<&Gpu>,
     options: &Options,
     tick: &mut dyn FnMut(),
 ) -> Result<Run> {
-    let frame = |scene: &Scene| run_once(scene, mode, accel, gpu, options);
+    let frame = |scene: &Scene| run_once(scene, config, gpu, options);
     let Some(viewer) = viewer else {
         let run = frame(&loaded.scene)?;
         tick();
@@ -463,17 +549,21 @@ fn run_frames(
     Ok(Run::total(&frames))
 }
 
-/// Measures `loaded` in `mode` with `accel`: one warm-up run, then `runs` timed ones (module
-/// docs). `tick` is called after every frame.
+/// Measures `loaded` in `config`: one warm-up run, then `runs` timed ones (module docs). `tick`
+/// is called after every frame.
 pub fn measure(
     loaded: &Loaded,
-    config: (Mode, Search),
+    config: Config,
     runs: usize,
     gpu: Option<&Gpu>,
     options: &Options,
     tick: &mut dyn FnMut(),
 ) -> Result<Row> {
-    let (mode, accel) = config;
+    let Config {
+        mode,
+        accel,
+        traversal,
+    } = config;
     let scene = &loaded.scene;
     reset_peak_rss();
     // Views share one viewer, as a dataset's views of a scene share its BVH's shape.
@@ -521,6 +611,7 @@ pub fn measure(
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
         accel: accel_name(accel).to_owned(),
+        traversal: traversal.name(),
         bvh: last.bvh_nodes.is_some(),
         size: loaded.size(),
         views: Some(loaded.cameras().len()),
@@ -608,6 +699,7 @@ fn measure_rays(
         scene: loaded.path.display().to_string(),
         mode: mode.to_string(),
         accel: accel_name(Search::Auto).to_owned(),
+        traversal: Traversal::Auto.name(),
         bvh: Search::Auto.uses_bvh(&loaded.scene),
         size: [n.min(u32::MAX as usize) as u32, 1],
         views: None,
@@ -668,10 +760,10 @@ pub fn run(
     );
     let mut rows = Vec::with_capacity(configurations.len());
     for config in configurations {
-        bar.set_message(format!("{} {}", config.0, accel_name(config.1)));
+        bar.set_message(config.to_string());
         let mut tick = || bar.inc(1);
         let row = match options.rays {
-            Some(n) => measure_rays(loaded, config.0, n, options.runs, gpu, &mut tick)?,
+            Some(n) => measure_rays(loaded, config.mode, n, options.runs, gpu, &mut tick)?,
             None => measure(loaded, config, options.runs, gpu, options, &mut tick)?,
         };
         bar.suspend(|| on_row(&row));
@@ -798,6 +890,10 @@ pub fn to_table(rows: &[Row]) -> String {
         } else {
             r.accel.clone()
         };
+        let accel = match r.traversal {
+            "auto" => accel,
+            traversal => format!("{accel} {traversal}"),
+        };
         table.row([
             r.mode.clone(),
             accel,
@@ -830,10 +926,14 @@ pub fn stage_lines(rows: &[Row]) -> Vec<String> {
                 format!("{} s", format_seconds(s))
             });
             Some(format!(
-                "{} {}: trace {} s, of it write {} s, wait {} s, convert {} s; GPU copy {copy}; \
+                "{} {}{}: trace {} s, of it write {} s, wait {} s, convert {} s; GPU copy {copy}; \
                  {} MB read back",
                 r.mode,
                 r.accel,
+                match r.traversal {
+                    "auto" => String::new(),
+                    traversal => format!(" {traversal}"),
+                },
                 format_seconds(r.trace_s),
                 seconds(r.write_s),
                 seconds(r.wait_s),
@@ -896,7 +996,7 @@ mod tests {
         let c: Vec<String> = options
             .configurations()
             .iter()
-            .map(|(m, a)| format!("{m} {}", accel_name(*a)))
+            .map(Config::to_string)
             .collect();
         assert_eq!(
             c,
@@ -907,6 +1007,41 @@ mod tests {
                 "cpu:f32:robust brute-force"
             ]
         );
+    }
+
+    #[test]
+    fn traversals_follow_their_acceleration_and_only_gpu_camera_casts_choose_one() {
+        let traversals = vec![Traversal::Packets, Traversal::PerRay];
+        let options = Options {
+            runs: 1,
+            traversals: traversals.clone(),
+            ..Options::default()
+        };
+        let c: Vec<String> = (options.configurations().iter())
+            .map(Config::to_string)
+            .collect();
+        assert_eq!(
+            c,
+            ["gpu:f32:robust auto packets", "gpu:f32:robust auto per-ray"]
+        );
+        let cpu = Options {
+            modes: vec!["cpu:f32".parse().unwrap()],
+            ..options.clone()
+        };
+        let e = cpu.check().unwrap_err().to_string();
+        assert!(e.starts_with("--traversal") && e.contains("cpu:f32"), "{e}");
+        let listed = Options {
+            rays: Some(10),
+            ..options
+        };
+        let e = listed.check().unwrap_err().to_string();
+        assert!(e.starts_with("--rays") && e.contains("traversal"), "{e}");
+        let names: Vec<Traversal> = ["auto", "packets", "per-ray"]
+            .iter()
+            .map(|n| n.parse().unwrap())
+            .collect();
+        assert_eq!(names, [vec![Traversal::Auto], traversals].concat());
+        assert!("wide".parse::<Traversal>().unwrap_err().contains("`wide`"));
     }
 
     #[test]

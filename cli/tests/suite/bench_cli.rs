@@ -10,10 +10,11 @@ use common::repo_path;
 use raycast::Algorithm;
 
 /// Every key of a `--json` line, in order.
-const KEYS: [&str; 36] = [
+const KEYS: [&str; 37] = [
     "scene",
     "mode",
     "accel",
+    "traversal",
     "bvh",
     "size",
     "views",
