@@ -37,6 +37,12 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION
     [[ -x $binary ]] || { say "gpu-check: no binary at $binary (cargo build --release)"; exit 2; }
     mkdir -p "$dir/lib" || exit 2
     cp "${BASH_SOURCE[0]}" "$dir/gpu-check.sh" && cp "$binary" "$dir/raycast" || exit 2
+    # The commit the kit was packed at, for the report ("-dirty" with uncommitted changes).
+    local commit
+    if commit=$(git -C "$here/.." rev-parse --short=12 HEAD 2>/dev/null); then
+        git -C "$here/.." diff --quiet HEAD 2>/dev/null || commit+=-dirty
+        echo "$commit" >"$dir/commit"
+    fi
     if command -v strip >/dev/null; then strip "$dir/raycast"; else say "gpu-check: no strip; the binary keeps its symbols"; fi
     local lib found
     for lib in "${kit_libs[@]}"; do
@@ -215,10 +221,10 @@ if [[ -n $peer_bench ]]; then
 fi
 
 # --- the report -----------------------------------------------------------------------------
-python3 - "$out" "$binary" "$size" "$runs" "$views" <<'EOF'
+python3 - "$out" "$binary" "$size" "$runs" "$views" "$here" <<'EOF'
 import datetime, json, os, platform, statistics, sys
 
-out, binary, size, runs, n_views = sys.argv[1:6]
+out, binary, size, runs, n_views, here = sys.argv[1:7]
 n_views = int(n_views)
 raw = os.path.join(out, "raw")
 
@@ -256,12 +262,22 @@ def config(r):
     return r["mode"] if t == "auto" else "%s %s" % (r["mode"], t)
 
 f32, f64 = by_mode("torus", "gpu:f32:robust"), by_mode("torus", "gpu:f64:robust")
+info = dict(l.split(":", 1) for l in text("info.txt").splitlines() if ":" in l)
+commit_file = os.path.join(here, "commit")
 report = {
     "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    "device": info.get("adapter", "").strip() or None,
+    "driver": info.get("driver info", "").strip() or None,
+    "commit": open(commit_file).read().strip() if os.path.exists(commit_file) else None,
     "host": platform.node(), "binary": binary, "size": size, "runs": int(runs),
     "info": text("info.txt").splitlines(), "selftest": {"lines": selftest, "summary": summary},
     "steps": {s[0]: {"exit": int(s[1]), "seconds": int(s[2])} for s in steps},
     "bench": bench, "adaptive_render_s": medians, "mitsuba": peers,
+    # Each workload by mode and traversal: what docs/gpu/reports/ keeps at a glance.
+    "workloads": [{"workload": name, "mode": r["mode"], "traversal": r.get("traversal", "auto"),
+                   "kernel_ms": r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3,
+                   "grays_per_s": r["mrays_per_s"] / 1e3, "whole_ms": r["trace_s"] * 1e3}
+                  for name, rs in bench.items() for r in rs],
     "views": {
         "views": n_views,
         "batch_s": views["batch"][0] if views["batch"] else None,

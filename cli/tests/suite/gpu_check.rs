@@ -22,7 +22,10 @@ fn gpu_check_runs_from_a_packed_folder() {
         "{}",
         String::from_utf8_lossy(&pack.stderr)
     );
-    assert_eq!(common::file_names(&kit), ["gpu-check.sh", "lib", "raycast"]);
+    assert_eq!(
+        common::file_names(&kit),
+        ["commit", "gpu-check.sh", "lib", "raycast"]
+    );
     let size = |p: &std::path::Path| std::fs::metadata(p).unwrap().len();
     assert!(size(&kit.join("raycast")) < size(env!("CARGO_BIN_EXE_raycast").as_ref()));
 
@@ -50,6 +53,21 @@ fn gpu_check_runs_from_a_packed_folder() {
     for (step, result) in report["steps"].as_object().unwrap() {
         assert_eq!(result["exit"], 0, "{step}");
     }
+    // What the kit was packed from: this checkout's commit.
+    let head = Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .current_dir(common::repo_path(""))
+        .output()
+        .unwrap();
+    let head = String::from_utf8_lossy(&head.stdout).trim().to_owned();
+    assert!(
+        report["commit"].as_str().unwrap().starts_with(&head),
+        "{head}"
+    );
+    assert!(report["device"].as_str().unwrap().contains("llvmpipe"));
+    let workloads = report["workloads"].as_array().unwrap();
+    let per_ray = |w: &&serde_json::Value| w["traversal"] == "per-ray";
+    assert_eq!(workloads.iter().filter(per_ray).count(), 5, "{workloads:?}");
     let bench = &report["bench"];
     let torus = bench["torus"].as_array().unwrap();
     // Each mode by both traversals (lavapipe's subgroups hold packets), which see the same.
