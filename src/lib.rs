@@ -45,6 +45,12 @@ mod rays;
 mod render;
 mod scene;
 
+// The GPU cost model's traces (feature `model`, off by default): for benches/gpu_model, not
+// part of the library's API.
+#[cfg(feature = "model")]
+#[doc(hidden)]
+pub mod model;
+
 // The tests that reach below the API (the kernel variants, the mirror, preparation), a module
 // per topic in the library's own test binary; they name the crate `raycast` as a client would.
 #[cfg(test)]

@@ -12,6 +12,8 @@ pub(crate) mod every_hit;
 pub(crate) mod hit;
 pub(crate) mod margin;
 pub(crate) mod nearest;
+#[cfg(any(test, feature = "model"))]
+pub(crate) mod packet;
 pub(crate) mod plane;
 pub(crate) mod raytrace;
 pub(crate) mod shade;

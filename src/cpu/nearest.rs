@@ -32,10 +32,9 @@ pub(crate) fn nearest_hit<T: Real, const ROBUST: bool>(
     nearest_hit_before::<T, ROBUST>(ray, min_t, t_far(), prims)
 }
 
-/// The nearest hit, searching no box that starts beyond `t_max` (shadow rays,
-/// [`super::shade`]'s `occluded`): the nearest one where it is before t_max, and may be any
-/// hit where none is.
-pub(crate) fn nearest_hit_before<T: Real, const ROBUST: bool>(
+/// The nearest hit of what is tested before the BVH (the planes; the spheres where there is
+/// no BVH), `t_max` where there is none.
+pub(crate) fn before_bvh<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
     t_max: T,
@@ -54,6 +53,19 @@ pub(crate) fn nearest_hit_before<T: Real, const ROBUST: bool>(
         let t = intersect_plane::<T, ROBUST>(ray, plane, min_t);
         keep(t, KIND_PLANE, k, &prims.plane_objects, &mut best);
     }
+    best
+}
+
+/// The nearest hit, searching no box that starts beyond `t_max` (shadow rays,
+/// [`super::shade`]'s `occluded`): the nearest one where it is before t_max, and may be any
+/// hit where none is.
+pub(crate) fn nearest_hit_before<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    t_max: T,
+    prims: &Primitives<T>,
+) -> Hit<T> {
+    let mut best = before_bvh::<T, ROBUST>(ray, min_t, t_max, prims);
     match &prims.bvh {
         None => nearest_triangle::<T, ROBUST>(ray, min_t, prims, &mut best),
         Some(bvh) => traverse_bvh::<T, ROBUST>(ray, min_t, prims, &bvh.nodes, &mut best),

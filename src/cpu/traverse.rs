@@ -307,35 +307,45 @@ fn intersect_leaf<T: Real, const ROBUST: bool>(
     count: u32,
     best: &mut Hit<T>,
 ) {
-    let n = leaf_len(count);
+    for k in first..first + leaf_len(count) {
+        intersect_primitive::<T, ROBUST>(ray, shear, min_t, prims, k, count, best);
+    }
+}
+
+/// Tests primitive `k` of a leaf whose count word is `count` (its kind and object).
+pub(crate) fn intersect_primitive<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    shear: &Shear<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    k: u32,
+    count: u32,
+    best: &mut Hit<T>,
+) {
     let leaf = leaf_object(count);
     if count & SPHERE_LEAF != 0 {
-        for k in first..first + n {
-            let t = intersect_sphere::<T, ROBUST>(ray, &prims.spheres[k as usize], min_t);
-            let key = |i| prims.sphere_key(i);
-            keep_ordered(t, KIND_SPHERE, k, leaf, &prims.sphere_objects, key, best);
-        }
+        let t = intersect_sphere::<T, ROBUST>(ray, &prims.spheres[k as usize], min_t);
+        let key = |i| prims.sphere_key(i);
+        keep_ordered(t, KIND_SPHERE, k, leaf, &prims.sphere_objects, key, best);
     } else {
-        for k in first..first + n {
-            let tri = &prims.triangles[k as usize];
-            let t = intersect_triangle::<T, ROBUST>(ray, shear, tri, min_t);
-            let key = |i| prims.triangle_key(i);
-            keep_ordered(
-                t,
-                KIND_TRIANGLE,
-                k,
-                leaf,
-                &prims.triangle_objects,
-                key,
-                best,
-            );
-        }
+        let tri = &prims.triangles[k as usize];
+        let t = intersect_triangle::<T, ROBUST>(ray, shear, tri, min_t);
+        let key = |i| prims.triangle_key(i);
+        keep_ordered(
+            t,
+            KIND_TRIANGLE,
+            k,
+            leaf,
+            &prims.triangle_objects,
+            key,
+            best,
+        );
     }
 }
 
 /// The farthest a box may start and still be searched (`cull_t` in WGSL, whose certainty pass
 /// searches further; the CPU has no certainty pass).
-fn cull_t<T: Real>(best: &Hit<T>) -> T {
+pub(crate) fn cull_t<T: Real>(best: &Hit<T>) -> T {
     best.t
 }
 
@@ -380,6 +390,31 @@ pub(crate) fn traverse_bvh<T: Real, const ROBUST: bool>(
     nodes: &[BvhNode],
     best: &mut Hit<T>,
 ) {
+    traverse_bvh_traced::<T, ROBUST>(ray, min_t, prims, nodes, best, &mut ());
+}
+
+/// What a traversal did, step by step, for the GPU cost model (feature `model`): the nodes it
+/// visited and the leaves whose primitives it tested, with how many lanes (rays) wanted each.
+/// `()` records nothing, so the traversal without a trail compiles to the same code.
+pub(crate) trait Trail {
+    /// Node `node` visited, wanted by `lanes` rays.
+    fn node(&mut self, _node: u32, _lanes: u32) {}
+    /// The `n` primitives from `first` of child `child`'s leaf (count word `count`) tested,
+    /// wanted by `lanes` rays.
+    fn leaf(&mut self, _child: usize, _first: u32, _count: u32, _lanes: u32) {}
+}
+
+impl Trail for () {}
+
+/// [`traverse_bvh`], telling `trail` each node visited and each leaf tested.
+pub(crate) fn traverse_bvh_traced<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    nodes: &[BvhNode],
+    best: &mut Hit<T>,
+    trail: &mut impl Trail,
+) {
     let ri = ray_inverse(ray);
     let shear = shear_of(ray.direction);
     let mut stack_node = [0u32; BVH_STACK];
@@ -387,16 +422,19 @@ pub(crate) fn traverse_bvh<T: Real, const ROBUST: bool>(
     let mut sp = 0;
     let mut node = 0u32;
     loop {
+        trail.node(node, 1);
         let n = visit(nodes, node, ray, &ri, min_t, cull_t(best));
         let (t0, t1) = (n.t0, n.t1);
         let leaf0 = n.reference0 & LEAF_BIT != 0;
         let leaf1 = n.reference1 & LEAF_BIT != 0;
         if t0 != no_hit() && leaf0 {
             let first = n.reference0 & !LEAF_BIT;
+            trail.leaf(0, first, n.count0, 1);
             intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count0, best);
         }
         if t1 != no_hit() && leaf1 {
             let first = n.reference1 & !LEAF_BIT;
+            trail.leaf(1, first, n.count1, 1);
             intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count1, best);
         }
         let go0 = t0 != no_hit() && !leaf0 && t0 <= cull_t(best);

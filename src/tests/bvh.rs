@@ -370,3 +370,72 @@ fn packet_intervals_skip_only_boxes_every_ray_misses() {
         );
     }
 }
+
+/// The packet traversal's mirror (src/cpu/packet.rs, the GPU cost model's) gives every ray of
+/// a packet exactly the per-ray traversal's nearest hit (t to the bit, object, kind,
+/// primitive), in f32 and f64: for camera packets (8x4 pixels, as a 32-lane subgroup casts
+/// them) and for packets of incoherent rays, whose paths diverge most.
+#[test]
+fn packet_mirror_gives_each_ray_the_per_ray_answer() {
+    let scenes = [
+        dense_soup(7, 400, [32, 24]),
+        sphere_cloud(8, 120, [32, 24]),
+        common::course_scene("bunny"),
+    ];
+    for mut scene in scenes {
+        scene.camera.resolution = [32, 24];
+        packet_mirror_agrees::<f32>(&scene);
+        packet_mirror_agrees::<f64>(&scene);
+    }
+}
+
+fn packet_mirror_agrees<T: Real>(scene: &Scene) {
+    use raycast::cpu::traverse::traverse_bvh;
+    let prepared = raycast::prepare::Prepared::<T>::new(scene, Robust, Search::Bvh);
+    let (prims, frame) = (&prepared.primitives, &prepared.frame);
+    let nodes = &prepared.bvh().unwrap().nodes;
+    let camera = (0..24 * 32).map(|k| {
+        let (tile, lane) = (k / 32, k % 32);
+        let i = (tile / 4) * 4 + lane / 8;
+        let j = (tile % 4) * 8 + lane % 8;
+        raycast::kernel::frame::camera_ray(frame, i as u32, j as u32)
+    });
+    let mut rng = common::Rng(3);
+    let incoherent = (0..256).map(|_| {
+        let o = rng.point(-2.0, 2.0);
+        let d = rng.point(-1.0, 1.0);
+        raycast::kernel::types::Ray {
+            origin: Vec3::from_array(o.map(T::from_f64)),
+            direction: Vec3::from_array(d.map(T::from_f64)),
+        }
+    });
+    let rays: Vec<_> = camera.chain(incoherent).collect();
+    let start = |r| {
+        cpu::nearest::before_bvh::<T, true>(r, frame.min_t, raycast::kernel::types::t_far(), prims)
+    };
+    for packet in rays.chunks(32) {
+        let mut together: Vec<_> = packet.iter().map(start).collect();
+        cpu::packet::traverse_bvh_packet::<T, true>(
+            packet,
+            frame.min_t,
+            prims,
+            nodes,
+            &mut together,
+            &mut (),
+        );
+        for (ray, hit) in packet.iter().zip(&together) {
+            let mut alone = start(ray);
+            traverse_bvh::<T, true>(ray, frame.min_t, prims, nodes, &mut alone);
+            assert_eq!(
+                (hit.t.to_f64().to_bits(), hit.object, hit.kind, hit.index),
+                (
+                    alone.t.to_f64().to_bits(),
+                    alone.object,
+                    alone.kind,
+                    alone.index
+                ),
+                "{ray:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,344 @@
+//! The traces of the GPU cost model (feature `model`, off by default; benches/gpu_model and
+//! docs/gpu.md#a-cost-model): a workload's rays grouped into 32-lane subgroups as the kernel
+//! dispatches them on a GPU whose subgroups are 32 lanes (one ray a lane), and each subgroup's
+//! traversal, per ray or as a packet, replayed through the CPU mirror as the lockstep steps the
+//! subgroup runs, with the bytes each step reads. Not part of the library's API.
+
+use std::mem::size_of;
+
+use crate::algorithm::Algorithm;
+use crate::cpu::hit::Hit;
+use crate::cpu::nearest::before_bvh;
+use crate::cpu::packet::traverse_bvh_packet;
+use crate::cpu::traverse::{Trail, traverse_bvh_traced};
+use crate::kernel::frame::camera_ray;
+use crate::kernel::layout::{GpuSphere, GpuTriangle};
+use crate::kernel::types::{Ray as KernelRay, t_far};
+use crate::math::Real;
+use crate::prepare::Prepared;
+use crate::prepare::bvh::{BvhNode, SPHERE_LEAF, Search, leaf_len};
+use crate::rays::Ray;
+use crate::scene::Scene;
+
+/// Lanes of a subgroup on the GPUs the model describes.
+const LANES: usize = 32;
+/// Where each buffer starts in the model's address space (byte addresses; far apart).
+const NODES_AT: u64 = 0;
+const TRIANGLES_AT: u64 = 1 << 40;
+const SPHERES_AT: u64 = 2 << 40;
+
+/// How the subgroup's rays walk the BVH: shaders/traverse_packet.wgsl or traverse_ray.wgsl.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Traversal {
+    /// The subgroup walks the tree as one packet (the camera kernel's default with subgroups).
+    Packets,
+    /// Each lane walks its own ray's path; the subgroup runs the lanes' loops in lockstep.
+    PerRay,
+}
+
+/// What a step of a subgroup does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Op {
+    /// Tests rays against a node's two child boxes.
+    Node,
+    /// Tests rays against a triangle.
+    Triangle,
+    /// Tests rays against a sphere.
+    Sphere,
+}
+
+/// One lockstep step of a subgroup: every lane waits for its slowest one.
+#[derive(Clone, Copy, Debug)]
+pub struct Step {
+    pub op: Op,
+    /// The lanes whose ray needed this step (per ray: the lanes still running this operation;
+    /// packets: the rays that wanted the node or test the primitive).
+    pub wanted: u32,
+    /// Where this step's reads end in [`Trace::reads`] (they start where the previous step's end).
+    pub reads_end: u32,
+}
+
+/// A subgroup's steps and the reads they make: byte addresses of whole elements (a node,
+/// triangle or sphere; `bytes` of [`Workload::element_bytes`]), one a lane that reads, one for
+/// the subgroup where the element is shared.
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    pub steps: Vec<Step>,
+    pub reads: Vec<u64>,
+    /// The lanes of the subgroup whose ray is the workload's (the others repeat a neighbour's
+    /// ray, or idle).
+    pub rays: u32,
+}
+
+enum Precision {
+    F32(Prepared<f32>),
+    F64(Prepared<f64>),
+}
+
+enum Source {
+    /// The camera's rays at its resolution.
+    Camera,
+    /// A caller's ray list, in the kernel's coordinates later.
+    List(Vec<Ray>),
+}
+
+/// A scene prepared as the kernel's robust algorithm sees it, in f32 or f64, and its rays.
+pub struct Workload {
+    prepared: Precision,
+    source: Source,
+}
+
+impl Workload {
+    /// The camera's rays of `scene` (at `scene.camera.resolution`), or with `rays` those rays;
+    /// `None` where the scene is searched without a BVH.
+    pub fn new(scene: &Scene, rays: Option<Vec<Ray>>, f64: bool) -> Option<Workload> {
+        let prepared = match f64 {
+            false => Precision::F32(Prepared::new(scene, Algorithm::Robust, Search::Auto)),
+            true => Precision::F64(Prepared::new(scene, Algorithm::Robust, Search::Auto)),
+        };
+        let bvh = match &prepared {
+            Precision::F32(p) => p.bvh().is_some(),
+            Precision::F64(p) => p.bvh().is_some(),
+        };
+        let source = rays.map_or(Source::Camera, Source::List);
+        bvh.then_some(Workload { prepared, source })
+    }
+
+    /// The rays cast (pixels or listed rays).
+    pub fn rays(&self) -> usize {
+        match (&self.source, &self.prepared) {
+            (Source::List(rays), _) => rays.len(),
+            (Source::Camera, Precision::F32(p)) => pixels(p.resolution()),
+            (Source::Camera, Precision::F64(p)) => pixels(p.resolution()),
+        }
+    }
+
+    /// How many subgroups the kernel dispatches.
+    pub fn subgroups(&self) -> usize {
+        match (&self.source, &self.prepared) {
+            (Source::List(rays), _) => rays.len().div_ceil(64) * 2,
+            (Source::Camera, Precision::F32(p)) => blocks(p.resolution()) * 2,
+            (Source::Camera, Precision::F64(p)) => blocks(p.resolution()) * 2,
+        }
+    }
+
+    /// The bytes of a node, a triangle and a sphere in the kernel's buffers.
+    pub fn element_bytes(&self, address: u64) -> u32 {
+        let f64 = matches!(self.prepared, Precision::F64(_));
+        match (address >= SPHERES_AT, address >= TRIANGLES_AT, f64) {
+            (true, _, false) => size_of::<GpuSphere<f32>>() as u32,
+            (true, _, true) => size_of::<GpuSphere<f64>>() as u32,
+            (_, true, false) => size_of::<GpuTriangle<f32>>() as u32,
+            (_, true, true) => size_of::<GpuTriangle<f64>>() as u32,
+            _ => size_of::<BvhNode>() as u32,
+        }
+    }
+
+    /// Replays subgroup `subgroup` (in dispatch order) with `traversal` into `out`; returns the
+    /// objects its lanes' rays hit (`-1`: a miss), lane by lane.
+    pub fn trace(&self, traversal: Traversal, subgroup: usize, out: &mut Trace) -> Vec<i32> {
+        match &self.prepared {
+            Precision::F32(p) => self.trace_in(p, traversal, subgroup, out),
+            Precision::F64(p) => self.trace_in(p, traversal, subgroup, out),
+        }
+    }
+
+    fn trace_in<T: Real>(
+        &self,
+        prepared: &Prepared<T>,
+        traversal: Traversal,
+        subgroup: usize,
+        out: &mut Trace,
+    ) -> Vec<i32> {
+        let lanes = self.lane_rays(prepared, traversal, subgroup);
+        out.steps.clear();
+        out.reads.clear();
+        out.rays = lanes.iter().filter(|l| l.1).count() as u32;
+        let min_t = match self.source {
+            Source::Camera => prepared.frame.min_t,
+            Source::List(_) => T::ZERO,
+        };
+        let prims = &prepared.primitives;
+        let nodes = &prepared.bvh().expect("a workload has a BVH").nodes;
+        let rays: Vec<KernelRay<T>> = lanes.iter().filter_map(|l| l.0).collect();
+        let mut best: Vec<Hit<T>> = rays
+            .iter()
+            .map(|r| before_bvh::<T, true>(r, min_t, t_far(), prims))
+            .collect();
+        match traversal {
+            Traversal::Packets => {
+                let mut steps = PacketSteps {
+                    out,
+                    f64: size_of::<T>() == 8,
+                };
+                traverse_bvh_packet::<T, true>(&rays, min_t, prims, nodes, &mut best, &mut steps);
+            }
+            Traversal::PerRay => {
+                let mut paths = vec![Path::default(); rays.len()];
+                paths.iter_mut().for_each(|p| p.f64 = size_of::<T>() == 8);
+                for ((ray, best), path) in rays.iter().zip(&mut best).zip(&mut paths) {
+                    traverse_bvh_traced::<T, true>(ray, min_t, prims, nodes, best, path);
+                }
+                lockstep(&paths, out);
+            }
+        }
+        best.iter().map(|h| h.object).collect()
+    }
+
+    /// The rays of a subgroup's lanes in the kernel's coordinates (`None`: the lane idles),
+    /// each with whether its result is written (the packet kernel casts a neighbour's ray in
+    /// a lane beyond the image or list, the per-ray kernel returns).
+    fn lane_rays<T: Real>(
+        &self,
+        prepared: &Prepared<T>,
+        traversal: Traversal,
+        subgroup: usize,
+    ) -> Vec<(Option<KernelRay<T>>, bool)> {
+        let packets = traversal == Traversal::Packets;
+        let (group, half) = (subgroup / 2, subgroup % 2);
+        (half * LANES..(half + 1) * LANES)
+            .map(|local| match &self.source {
+                Source::List(rays) => {
+                    let k = group * 64 + local;
+                    let inside = k < rays.len();
+                    let ray = (inside || packets)
+                        .then(|| prepared.kernel_ray(&rays[k.min(rays.len() - 1)]));
+                    (ray, inside)
+                }
+                Source::Camera => {
+                    let [nx, ny] = prepared.resolution();
+                    let across = (nx as usize).div_ceil(8);
+                    // packet_tile_offset in shaders/entry.wgsl; the per-ray kernel's 8x8
+                    // workgroup numbers its invocations row by row.
+                    let (x, y) = match packets {
+                        true => {
+                            let tile = local >> 3;
+                            (
+                                (tile & 1) * 4 + (local & 3),
+                                (tile >> 1) * 2 + ((local >> 2) & 1),
+                            )
+                        }
+                        false => (local % 8, local / 8),
+                    };
+                    let j = ((group % across) * 8 + x) as u32;
+                    let i = ((group / across) * 8 + y) as u32;
+                    let inside = j < nx && i < ny;
+                    let ray = (inside || packets)
+                        .then(|| camera_ray(&prepared.frame, i.min(ny - 1), j.min(nx - 1)));
+                    (ray, inside)
+                }
+            })
+            .collect()
+    }
+}
+
+fn pixels([nx, ny]: [u32; 2]) -> usize {
+    nx as usize * ny as usize
+}
+
+/// The 8x8 workgroups over an image.
+fn blocks([nx, ny]: [u32; 2]) -> usize {
+    (nx as usize).div_ceil(8) * (ny as usize).div_ceil(8)
+}
+
+/// The address of primitive `k` of a leaf with count word `count`.
+fn primitive_at(k: u32, count: u32, f64: bool) -> (Op, u64) {
+    let scale = if f64 { 2 } else { 1 };
+    match count & SPHERE_LEAF != 0 {
+        true => (Op::Sphere, SPHERES_AT + k as u64 * 16 * scale),
+        false => (Op::Triangle, TRIANGLES_AT + k as u64 * 40 * scale),
+    }
+}
+
+/// The packet's steps as it walks: a node for the whole subgroup, then each primitive of the
+/// leaves it enters, each fetched once.
+struct PacketSteps<'a> {
+    out: &'a mut Trace,
+    f64: bool,
+}
+
+impl PacketSteps<'_> {
+    fn push(&mut self, op: Op, wanted: u32, address: u64) {
+        self.out.reads.push(address);
+        let reads_end = self.out.reads.len() as u32;
+        self.out.steps.push(Step {
+            op,
+            wanted,
+            reads_end,
+        });
+    }
+}
+
+impl Trail for PacketSteps<'_> {
+    fn node(&mut self, node: u32, lanes: u32) {
+        self.push(Op::Node, lanes, NODES_AT + node as u64 * 64);
+    }
+
+    fn leaf(&mut self, _child: usize, first: u32, count: u32, lanes: u32) {
+        for k in first..first + leaf_len(count) {
+            let (op, address) = primitive_at(k, count, self.f64);
+            self.push(op, lanes, address);
+        }
+    }
+}
+
+/// A leaf tested: its first primitive and count word.
+type Leaf = (u32, u32);
+
+/// One ray's path: each iteration of traverse_bvh's loop, its node and the leaves it tested
+/// (first primitive and count word, child 0's then child 1's).
+#[derive(Clone, Default)]
+struct Path {
+    iterations: Vec<(u32, [Option<Leaf>; 2])>,
+    f64: bool,
+}
+
+impl Trail for Path {
+    fn node(&mut self, node: u32, _lanes: u32) {
+        self.iterations.push((node, [None, None]));
+    }
+
+    fn leaf(&mut self, child: usize, first: u32, count: u32, _lanes: u32) {
+        if let Some(last) = self.iterations.last_mut() {
+            last.1[child] = Some((first, count));
+        }
+    }
+}
+
+/// The subgroup's lockstep steps for its lanes' `paths`: iteration k of every lane's loop runs
+/// together, its node visit, then child 0's leaf loop as long as the longest, then child 1's.
+fn lockstep(paths: &[Path], out: &mut Trace) {
+    let f64 = paths.iter().any(|p| p.f64);
+    let longest = paths.iter().map(|p| p.iterations.len()).max().unwrap_or(0);
+    for k in 0..longest {
+        let running = || paths.iter().filter_map(|p| p.iterations.get(k));
+        for (node, _) in running() {
+            out.reads.push(NODES_AT + *node as u64 * 64);
+        }
+        let wanted = running().count() as u32;
+        out.steps.push(Step {
+            op: Op::Node,
+            wanted,
+            reads_end: out.reads.len() as u32,
+        });
+        for child in 0..2 {
+            let leaves = || running().filter_map(move |(_, l)| l[child]);
+            let widest = leaves().map(|(_, c)| leaf_len(c)).max().unwrap_or(0);
+            for i in 0..widest {
+                let mut op = Op::Triangle;
+                let mut wanted = 0;
+                for (first, count) in leaves().filter(|&(_, c)| leaf_len(c) > i) {
+                    let address;
+                    (op, address) = primitive_at(first + i, count, f64);
+                    out.reads.push(address);
+                    wanted += 1;
+                }
+                out.steps.push(Step {
+                    op,
+                    wanted,
+                    reads_end: out.reads.len() as u32,
+                });
+            }
+        }
+    }
+}
