@@ -34,6 +34,11 @@ pub enum Traversal {
     Packets,
     /// Each lane walks its own ray's path; the subgroup runs the lanes' loops in lockstep.
     PerRay,
+    /// A kernel not written yet (Aila and Laine's while-while): each lane walks its own path
+    /// as `PerRay`, but visits nodes until it has leaves to test and then waits, and the
+    /// subgroup tests all its lanes' leaves together, so that lanes finding leaves at
+    /// different depths share the leaf steps. Same nodes and leaves a lane as `PerRay`.
+    WhileWhile,
 }
 
 /// What a step of a subgroup does.
@@ -173,13 +178,16 @@ impl Workload {
                 };
                 traverse_bvh_packet::<T, true>(&rays, min_t, prims, nodes, &mut best, &mut steps);
             }
-            Traversal::PerRay => {
+            Traversal::PerRay | Traversal::WhileWhile => {
                 let mut paths = vec![Path::default(); rays.len()];
                 paths.iter_mut().for_each(|p| p.f64 = size_of::<T>() == 8);
                 for ((ray, best), path) in rays.iter().zip(&mut best).zip(&mut paths) {
                     traverse_bvh_traced::<T, true>(ray, min_t, prims, nodes, best, path);
                 }
-                lockstep(&paths, out);
+                match traversal {
+                    Traversal::PerRay => lockstep(&paths, out),
+                    _ => while_while(&paths, out),
+                }
             }
         }
         best.iter().map(|h| h.object).collect()
@@ -340,5 +348,129 @@ fn lockstep(paths: &[Path], out: &mut Trace) {
                 });
             }
         }
+    }
+}
+
+/// The subgroup's steps for its lanes' `paths` as a while-while kernel runs them: in each
+/// round every lane visits nodes up to the next one with leaves to test (the round's node
+/// steps last as long as the lane with most), then every lane tests those leaves together
+/// (as long as the lane with most primitives).
+fn while_while(paths: &[Path], out: &mut Trace) {
+    let f64 = paths.iter().any(|p| p.f64);
+    let mut at = vec![0usize; paths.len()];
+    while at.iter().zip(paths).any(|(&k, p)| k < p.iterations.len()) {
+        // Each lane's nodes this round: to its next iteration with a leaf, inclusive.
+        let ends: Vec<usize> = (at.iter().zip(paths))
+            .map(|(&k, p)| {
+                let rest = &p.iterations[k.min(p.iterations.len())..];
+                let leaf = rest.iter().position(|(_, l)| l.iter().any(Option::is_some));
+                k + leaf.map_or(rest.len(), |i| i + 1)
+            })
+            .collect();
+        let longest = (ends.iter().zip(&at))
+            .map(|(e, k)| e - k)
+            .max()
+            .unwrap_or(0);
+        for step in 0..longest {
+            let mut wanted = 0;
+            for ((&k, &end), p) in at.iter().zip(&ends).zip(paths) {
+                if k + step < end {
+                    out.reads
+                        .push(NODES_AT + p.iterations[k + step].0 as u64 * 64);
+                    wanted += 1;
+                }
+            }
+            out.steps.push(Step {
+                op: Op::Node,
+                wanted,
+                reads_end: out.reads.len() as u32,
+            });
+        }
+        // The leaves each lane found at the end of its round, child 0's then child 1's.
+        let leaves: Vec<Vec<Leaf>> = (ends.iter().zip(&at).zip(paths))
+            .map(|((&end, &k), p)| match end > k {
+                true => p.iterations[end - 1].1.iter().flatten().copied().collect(),
+                false => Vec::new(),
+            })
+            .collect();
+        let primitives = |l: &[Leaf]| l.iter().map(|&(_, c)| leaf_len(c)).sum::<u32>();
+        let widest = leaves.iter().map(|l| primitives(l)).max().unwrap_or(0);
+        for i in 0..widest {
+            let mut op = Op::Triangle;
+            let mut wanted = 0;
+            for lane in &leaves {
+                if let Some((first, count)) = nth_primitive(lane, i) {
+                    let address;
+                    (op, address) = primitive_at(first, count, f64);
+                    out.reads.push(address);
+                    wanted += 1;
+                }
+            }
+            out.steps.push(Step {
+                op,
+                wanted,
+                reads_end: out.reads.len() as u32,
+            });
+        }
+        at = ends;
+    }
+}
+
+/// Primitive `i` of the run of `leaves` (one after the other): its index and count word.
+fn nth_primitive(leaves: &[Leaf], mut i: u32) -> Option<(u32, u32)> {
+    for &(first, count) in leaves {
+        if i < leaf_len(count) {
+            return Some((first + i, count));
+        }
+        i -= leaf_len(count);
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A while-while subgroup does a per-ray subgroup's work, grouped otherwise: the same reads
+    /// and the same lane-steps wanted, the same answers, and never more leaf steps than its
+    /// lanes' longest run of primitives allows. (Built with the feature only:
+    /// `cargo test -p raycast --features model --lib model`.)
+    #[test]
+    fn while_while_regroups_the_per_ray_work() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/course/bunny.json");
+        let mut scene = Scene::load(&path).unwrap();
+        scene.camera.resolution = [64, 32];
+        let workload = Workload::new(&scene, None, false).unwrap();
+        let (mut per_ray, mut while_while) = (Trace::default(), Trace::default());
+        let wanted = |t: &Trace| t.steps.iter().map(|s| s.wanted as u64).sum::<u64>();
+        let mut fewer = 0;
+        for g in 0..workload.subgroups() {
+            let a = workload.trace(Traversal::PerRay, g, &mut per_ray);
+            let b = workload.trace(Traversal::WhileWhile, g, &mut while_while);
+            assert_eq!(a, b, "subgroup {g}: answers");
+            let mut reads = (per_ray.reads.clone(), while_while.reads.clone());
+            reads.0.sort_unstable();
+            reads.1.sort_unstable();
+            assert_eq!(reads.0, reads.1, "subgroup {g}: reads");
+            assert_eq!(wanted(&per_ray), wanted(&while_while), "subgroup {g}");
+            fewer += usize::from(while_while.steps.len() < per_ray.steps.len());
+        }
+        assert!(fewer > 0, "while-while never saved a step");
+    }
+
+    #[test]
+    fn nth_primitive_walks_the_leaves_in_turn() {
+        let leaves = [(10, 2), (40, 3)];
+        let found: Vec<_> = (0..6).map(|i| nth_primitive(&leaves, i)).collect();
+        let expected = [
+            Some((10, 2)),
+            Some((11, 2)),
+            Some((40, 3)),
+            Some((41, 3)),
+            Some((42, 3)),
+            None,
+        ];
+        assert_eq!(found, expected);
     }
 }

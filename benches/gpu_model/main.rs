@@ -3,7 +3,7 @@
 //! predicted from the device's parameters.
 //!
 //!     gpu_model SCENE [--size WxH] [--rays N] [--f64] --device h200|rtx4090
-//!               [--traversal packets|per-ray|both] [--json]
+//!               [--traversal packets|per-ray|while-while|both|all] [--json]
 //!     gpu_model --calibrate [--bench DIR]   # the H200 report's workloads against its figures
 
 mod cache;
@@ -94,6 +94,7 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
     let traversal = match f.traversal {
         Traversal::Packets => "packets",
         Traversal::PerRay => "per-ray",
+        Traversal::WhileWhile => "while-while",
     };
     let workload = match (job.rays, job.size) {
         (Some(n), _) => format!(r#""rays_list": {n}"#),
@@ -164,13 +165,19 @@ fn parse(args: &[String]) -> Result<Args, String> {
                 traversals = match v.as_str() {
                     "packets" => vec![Traversal::Packets],
                     "per-ray" => vec![Traversal::PerRay],
+                    "while-while" => vec![Traversal::WhileWhile],
                     "both" => vec![Traversal::Packets, Traversal::PerRay],
-                    _ => return Err(format!("--traversal: {v} is not packets, per-ray or both")),
+                    "all" => vec![Traversal::Packets, Traversal::PerRay, Traversal::WhileWhile],
+                    _ => {
+                        return Err(format!(
+                            "--traversal: {v} is not packets, per-ray, while-while, both or all"
+                        ));
+                    }
                 };
             }
             "--f64" => f64 = true,
             "--json" => json = true,
-            "--calibrate" => calibrate = Some("/work/bench".to_owned()),
+            "--calibrate" => calibrate = Some(calibrate.unwrap_or_default()),
             "--bench" => calibrate = Some(value("--bench")?),
             s if s.starts_with("--") => return Err(format!("{s}: unknown option")),
             s if scene.is_none() => scene = Some(s.to_owned()),
@@ -179,6 +186,13 @@ fn parse(args: &[String]) -> Result<Args, String> {
     }
     if calibrate.is_none() && scene.is_none() {
         return Err("a scene file, or --calibrate, is needed".into());
+    }
+    if calibrate.as_deref() == Some("") {
+        return Err(
+            "--calibrate needs --bench DIR: the workloads of `raycast workload` in \
+             DIR/torus, DIR/torus5m (--triangles 5000000) and DIR/spheres"
+                .into(),
+        );
     }
     Ok(Args {
         job: scene.map(|scene| Job {
