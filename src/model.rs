@@ -130,12 +130,10 @@ impl Workload {
     /// The bytes of a node, a triangle and a sphere in the kernel's buffers.
     pub fn element_bytes(&self, address: u64) -> u32 {
         let f64 = matches!(self.prepared, Precision::F64(_));
-        match (address >= SPHERES_AT, address >= TRIANGLES_AT, f64) {
-            (true, _, false) => size_of::<GpuSphere<f32>>() as u32,
-            (true, _, true) => size_of::<GpuSphere<f64>>() as u32,
-            (_, true, false) => size_of::<GpuTriangle<f32>>() as u32,
-            (_, true, true) => size_of::<GpuTriangle<f64>>() as u32,
-            _ => size_of::<BvhNode>() as u32,
+        match (address >= SPHERES_AT, address >= TRIANGLES_AT) {
+            (true, _) => sphere_bytes(f64),
+            (_, true) => triangle_bytes(f64),
+            _ => NODE_BYTES,
         }
     }
 
@@ -249,12 +247,68 @@ fn blocks([nx, ny]: [u32; 2]) -> usize {
     (nx as usize).div_ceil(8) * (ny as usize).div_ceil(8)
 }
 
+const NODE_BYTES: u32 = size_of::<BvhNode>() as u32;
+
+fn sphere_bytes(f64: bool) -> u32 {
+    match f64 {
+        false => size_of::<GpuSphere<f32>>() as u32,
+        true => size_of::<GpuSphere<f64>>() as u32,
+    }
+}
+
+fn triangle_bytes(f64: bool) -> u32 {
+    match f64 {
+        false => size_of::<GpuTriangle<f32>>() as u32,
+        true => size_of::<GpuTriangle<f64>>() as u32,
+    }
+}
+
+/// The address of node `node`.
+fn node_at(node: u32) -> u64 {
+    NODES_AT + u64::from(node) * u64::from(NODE_BYTES)
+}
+
 /// The address of primitive `k` of a leaf with count word `count`.
 fn primitive_at(k: u32, count: u32, f64: bool) -> (Op, u64) {
-    let scale = if f64 { 2 } else { 1 };
     match count & SPHERE_LEAF != 0 {
-        true => (Op::Sphere, SPHERES_AT + k as u64 * 16 * scale),
-        false => (Op::Triangle, TRIANGLES_AT + k as u64 * 40 * scale),
+        true => (
+            Op::Sphere,
+            SPHERES_AT + u64::from(k) * u64::from(sphere_bytes(f64)),
+        ),
+        false => (
+            Op::Triangle,
+            TRIANGLES_AT + u64::from(k) * u64::from(triangle_bytes(f64)),
+        ),
+    }
+}
+
+impl Trace {
+    /// Ends a step of `op` that `wanted` lanes needed, after the reads pushed since the last.
+    fn end_step(&mut self, op: Op, wanted: u32) {
+        let reads_end = self.reads.len() as u32;
+        self.steps.push(Step {
+            op,
+            wanted,
+            reads_end,
+        });
+    }
+
+    /// The leaf steps of lanes testing `runs` (each lane's primitives, its leaves one after
+    /// the other) together: step i tests primitive i of every lane that has one.
+    fn leaf_steps(&mut self, runs: &[Vec<Leaf>], f64: bool) {
+        let primitives = |l: &[Leaf]| l.iter().map(|&(_, c)| leaf_len(c)).sum::<u32>();
+        let widest = runs.iter().map(|l| primitives(l)).max().unwrap_or(0);
+        for i in 0..widest {
+            let mut op = Op::Triangle;
+            let mut wanted = 0;
+            for (first, count) in runs.iter().filter_map(|run| nth_primitive(run, i)) {
+                let address;
+                (op, address) = primitive_at(first, count, f64);
+                self.reads.push(address);
+                wanted += 1;
+            }
+            self.end_step(op, wanted);
+        }
     }
 }
 
@@ -268,18 +322,13 @@ struct PacketSteps<'a> {
 impl PacketSteps<'_> {
     fn push(&mut self, op: Op, wanted: u32, address: u64) {
         self.out.reads.push(address);
-        let reads_end = self.out.reads.len() as u32;
-        self.out.steps.push(Step {
-            op,
-            wanted,
-            reads_end,
-        });
+        self.out.end_step(op, wanted);
     }
 }
 
 impl Trail for PacketSteps<'_> {
     fn node(&mut self, node: u32, lanes: u32) {
-        self.push(Op::Node, lanes, NODES_AT + node as u64 * 64);
+        self.push(Op::Node, lanes, node_at(node));
     }
 
     fn leaf(&mut self, _child: usize, first: u32, count: u32, lanes: u32) {
@@ -321,32 +370,14 @@ fn lockstep(paths: &[Path], out: &mut Trace) {
     for k in 0..longest {
         let running = || paths.iter().filter_map(|p| p.iterations.get(k));
         for (node, _) in running() {
-            out.reads.push(NODES_AT + *node as u64 * 64);
+            out.reads.push(node_at(*node));
         }
-        let wanted = running().count() as u32;
-        out.steps.push(Step {
-            op: Op::Node,
-            wanted,
-            reads_end: out.reads.len() as u32,
-        });
+        out.end_step(Op::Node, running().count() as u32);
         for child in 0..2 {
-            let leaves = || running().filter_map(move |(_, l)| l[child]);
-            let widest = leaves().map(|(_, c)| leaf_len(c)).max().unwrap_or(0);
-            for i in 0..widest {
-                let mut op = Op::Triangle;
-                let mut wanted = 0;
-                for (first, count) in leaves().filter(|&(_, c)| leaf_len(c) > i) {
-                    let address;
-                    (op, address) = primitive_at(first + i, count, f64);
-                    out.reads.push(address);
-                    wanted += 1;
-                }
-                out.steps.push(Step {
-                    op,
-                    wanted,
-                    reads_end: out.reads.len() as u32,
-                });
-            }
+            let runs: Vec<Vec<Leaf>> = running()
+                .map(|(_, l)| l[child].into_iter().collect())
+                .collect();
+            out.leaf_steps(&runs, f64);
         }
     }
 }
@@ -375,43 +406,20 @@ fn while_while(paths: &[Path], out: &mut Trace) {
             let mut wanted = 0;
             for ((&k, &end), p) in at.iter().zip(&ends).zip(paths) {
                 if k + step < end {
-                    out.reads
-                        .push(NODES_AT + p.iterations[k + step].0 as u64 * 64);
+                    out.reads.push(node_at(p.iterations[k + step].0));
                     wanted += 1;
                 }
             }
-            out.steps.push(Step {
-                op: Op::Node,
-                wanted,
-                reads_end: out.reads.len() as u32,
-            });
+            out.end_step(Op::Node, wanted);
         }
         // The leaves each lane found at the end of its round, child 0's then child 1's.
-        let leaves: Vec<Vec<Leaf>> = (ends.iter().zip(&at).zip(paths))
+        let runs: Vec<Vec<Leaf>> = (ends.iter().zip(&at).zip(paths))
             .map(|((&end, &k), p)| match end > k {
                 true => p.iterations[end - 1].1.iter().flatten().copied().collect(),
                 false => Vec::new(),
             })
             .collect();
-        let primitives = |l: &[Leaf]| l.iter().map(|&(_, c)| leaf_len(c)).sum::<u32>();
-        let widest = leaves.iter().map(|l| primitives(l)).max().unwrap_or(0);
-        for i in 0..widest {
-            let mut op = Op::Triangle;
-            let mut wanted = 0;
-            for lane in &leaves {
-                if let Some((first, count)) = nth_primitive(lane, i) {
-                    let address;
-                    (op, address) = primitive_at(first, count, f64);
-                    out.reads.push(address);
-                    wanted += 1;
-                }
-            }
-            out.steps.push(Step {
-                op,
-                wanted,
-                reads_end: out.reads.len() as u32,
-            });
-        }
+        out.leaf_steps(&runs, f64);
         at = ends;
     }
 }
@@ -431,9 +439,9 @@ fn nth_primitive(leaves: &[Leaf], mut i: u32) -> Option<(u32, u32)> {
 mod tests {
     use super::*;
 
-    /// A while-while subgroup does a per-ray subgroup's work, grouped otherwise: the same reads
-    /// and the same lane-steps wanted, the same answers, and never more leaf steps than its
-    /// lanes' longest run of primitives allows. (Built with the feature only:
+    /// A while-while subgroup does a per-ray subgroup's work, grouped otherwise: the same reads,
+    /// the same lane-steps wanted and the same answers, in fewer steps somewhere. (Built with
+    /// the feature only:
     /// `cargo test -p raycast --features model --lib model`.)
     #[test]
     fn while_while_regroups_the_per_ray_work() {
