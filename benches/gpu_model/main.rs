@@ -2,9 +2,9 @@
 //! rays replayed through the CPU mirror, in lockstep, through an L1 and L2 model, and a time
 //! predicted from the device's parameters.
 //!
-//!     gpu_model SCENE [--size WxH] [--rays N] [--f64] --device h200|rtx4090
+//!     gpu_model SCENE [--size WxH] [--rays N] [--f64] [--device h200|rtx4090 (h200)]
 //!               [--traversal packets|per-ray|while-while|both|all] [--json]
-//!     gpu_model --calibrate [--bench DIR]   # the H200 report's workloads against its figures
+//!     gpu_model --calibrate --bench DIR   # the H200 report's workloads against its figures
 
 mod cache;
 mod calibration;
