@@ -159,22 +159,17 @@ fn keep_ordered(t: real, kind: u32, index: u32, base: u32, leaf: u32, best: ptr<
 #endif
 }
 
-// Tests the `count` primitives of a leaf from `first` (`shear`: shear_of(ray.direction)).
-fn intersect_leaf(ray: Ray, shear: Shear, min_t: real, first: u32, count: u32, best: ptr<function, Hit>) {
-    let n = leaf_len(count);
+// Tests primitive `k` of a leaf whose count word is `count` (its kind and object; `shear`:
+// shear_of(ray.direction)).
+fn intersect_primitive(ray: Ray, shear: Shear, min_t: real, k: u32, count: u32, best: ptr<function, Hit>) {
     let leaf = leaf_object(count);
     if ((count & SPHERE_LEAF) != 0u) {
 #if SPHERES
-        for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, leaf, best);
-        }
+        keep_ordered(intersect_sphere(ray, sphere_at(k), min_t), KIND_SPHERE, k, 0u, leaf, best);
 #endif
     } else {
 #if TRIANGLES
-        let base = params.sphere_count + params.plane_count;
-        for (var k = first; k < first + n; k++) {
-            keep_ordered(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, base, leaf, best);
-        }
+        keep_ordered(intersect_triangle(ray, shear, triangle_at(k), min_t), KIND_TRIANGLE, k, params.sphere_count + params.plane_count, leaf, best);
 #endif
     }
 }
@@ -212,4 +207,37 @@ fn visit_parts(q0: vec4<u32>, q1: vec4<u32>, q2: vec4<u32>, q3: vec4<u32>, ray: 
 fn visit(node: u32, ray: Ray, ri: RayInverse, min_t: real, t_max: real) -> Visit {
     let w = node_words(node);
     return visit_parts(w.q0, w.q1, w.q2, w.q3, ray, ri, min_t, t_max);
+}
+
+// Whether a child reference is a leaf's (its first primitive, with LEAF_BIT) rather than a node's.
+fn is_leaf(reference: u32) -> bool {
+    return (reference & LEAF_BIT) != 0u;
+}
+
+// The primitives of the leaf children a traversal tests after a visit (those of `take0`,
+// `take1`: for a packet, that some ray of it enters), leaf 0's then leaf 1's, as one run that
+// a single loop walks (run_primitive): the kernel then holds one site of each primitive test
+// rather than one per child, which would double the two-ray kernels' code, slow to compile,
+// for no faster trace. A loop over the two children around each leaf's loop, whose trip count
+// is at most 2, may be unrolled, and traces slower (docs/experiments.md#eight-rays-a-lane).
+struct LeafRun {
+    length0: u32, // leaf 0's primitives in the run
+    length: u32,
+    from0: u32,   // primitive i < length0 of the run is from0 + i,
+    from1: u32,   // any later one from1 + i (u32 arithmetic wraps)
+}
+
+fn leaf_run(n: Visit, take0: bool, take1: bool) -> LeafRun {
+    let length0 = select(0u, leaf_len(n.count0), take0);
+    let length1 = select(0u, leaf_len(n.count1), take1);
+    return LeafRun(length0, length0 + length1, n.reference0 & ~LEAF_BIT, (n.reference1 & ~LEAF_BIT) - length0);
+}
+
+// Whether primitive i of `run` is leaf 1's.
+fn in_leaf1(run: LeafRun, i: u32) -> bool {
+    return i >= run.length0;
+}
+
+fn run_primitive(run: LeafRun, i: u32) -> u32 {
+    return select(run.from0, run.from1, in_leaf1(run, i)) + i;
 }

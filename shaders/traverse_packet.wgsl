@@ -176,34 +176,6 @@ fn shared_triangle(k: u32) -> Triangle {
 #endif
 #endif
 
-// The primitives of the leaf children a packet tests after a visit (those of `take0`,
-// `take1` that some ray of it enters), leaf 0's then leaf 1's, as one run that a single loop
-// walks (run_primitive): the kernel then holds one site of each primitive test rather than
-// one per child, which would double the two-ray kernels' code, slow to compile, for no faster
-// trace. A loop over the two children around each leaf's loop, whose trip count is at most 2,
-// may be unrolled, and traces slower (docs/experiments.md#eight-rays-a-lane).
-struct LeafRun {
-    length0: u32, // leaf 0's primitives in the run
-    length: u32,
-    from0: u32,   // primitive i < length0 of the run is from0 + i,
-    from1: u32,   // any later one from1 + i (u32 arithmetic wraps)
-}
-
-fn leaf_run(n: Visit, take0: bool, take1: bool) -> LeafRun {
-    let length0 = select(0u, leaf_len(n.count0), take0);
-    let length1 = select(0u, leaf_len(n.count1), take1);
-    return LeafRun(length0, length0 + length1, n.reference0 & ~LEAF_BIT, (n.reference1 & ~LEAF_BIT) - length0);
-}
-
-// Whether primitive i of `run` is leaf 1's.
-fn in_leaf1(run: LeafRun, i: u32) -> bool {
-    return i >= run.length0;
-}
-
-fn run_primitive(run: LeafRun, i: u32) -> u32 {
-    return select(run.from0, run.from1, in_leaf1(run, i)) + i;
-}
-
 // Whether a lane loads primitive k of a leaf the whole subgroup enters, for its rays that want
 // it (`wanted`): in f32 every lane does, spreading the subgroup's shared load (lane_sphere,
 // lane_triangle: shared_sphere, shared_triangle); in f64 each lane loads what it tests: f64

@@ -32,13 +32,14 @@ const SPHERES_AT: u64 = 2 << 40;
 pub enum Traversal {
     /// The subgroup walks the tree as one packet (the camera kernel's default with subgroups).
     Packets,
-    /// Each lane walks its own ray's path; the subgroup runs the lanes' loops in lockstep.
+    /// Each lane walks its own ray's path (traverse_ray.wgsl, Aila and Laine's while-while):
+    /// it visits nodes until it has leaves to test and then waits, and the subgroup tests all
+    /// its lanes' leaves together, so that lanes finding leaves at different depths share the
+    /// leaf steps.
     PerRay,
-    /// A kernel not written yet (Aila and Laine's while-while): each lane walks its own path
-    /// as `PerRay`, but visits nodes until it has leaves to test and then waits, and the
-    /// subgroup tests all its lanes' leaves together, so that lanes finding leaves at
-    /// different depths share the leaf steps. Same nodes and leaves a lane as `PerRay`.
-    WhileWhile,
+    /// The per-ray kernel before #61: one loop visiting a node and testing its leaves, the
+    /// subgroup running the lanes' loops in lockstep. Same nodes and leaves a lane as `PerRay`.
+    IfIf,
 }
 
 /// What a step of a subgroup does.
@@ -176,14 +177,14 @@ impl Workload {
                 };
                 traverse_bvh_packet::<T, true>(&rays, min_t, prims, nodes, &mut best, &mut steps);
             }
-            Traversal::PerRay | Traversal::WhileWhile => {
+            Traversal::PerRay | Traversal::IfIf => {
                 let mut paths = vec![Path::default(); rays.len()];
                 paths.iter_mut().for_each(|p| p.f64 = size_of::<T>() == 8);
                 for ((ray, best), path) in rays.iter().zip(&mut best).zip(&mut paths) {
                     traverse_bvh_traced::<T, true>(ray, min_t, prims, nodes, best, path);
                 }
                 match traversal {
-                    Traversal::PerRay => lockstep(&paths, out),
+                    Traversal::IfIf => lockstep(&paths, out),
                     _ => while_while(&paths, out),
                 }
             }
@@ -439,30 +440,30 @@ fn nth_primitive(leaves: &[Leaf], mut i: u32) -> Option<(u32, u32)> {
 mod tests {
     use super::*;
 
-    /// A while-while subgroup does a per-ray subgroup's work, grouped otherwise: the same reads,
+    /// A while-while subgroup (the per-ray kernel's) does an if-if subgroup's work, grouped otherwise: the same reads,
     /// the same lane-steps wanted and the same answers, in fewer steps somewhere. (Built with
     /// the feature only:
     /// `cargo test -p raycast --features model --lib model`.)
     #[test]
-    fn while_while_regroups_the_per_ray_work() {
+    fn while_while_regroups_the_if_if_work() {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/course/bunny.json");
         let mut scene = Scene::load(&path).unwrap();
         scene.camera.resolution = [64, 32];
         let workload = Workload::new(&scene, None, false).unwrap();
-        let (mut per_ray, mut while_while) = (Trace::default(), Trace::default());
+        let (mut if_if, mut while_while) = (Trace::default(), Trace::default());
         let wanted = |t: &Trace| t.steps.iter().map(|s| s.wanted as u64).sum::<u64>();
         let mut fewer = 0;
         for g in 0..workload.subgroups() {
-            let a = workload.trace(Traversal::PerRay, g, &mut per_ray);
-            let b = workload.trace(Traversal::WhileWhile, g, &mut while_while);
+            let a = workload.trace(Traversal::IfIf, g, &mut if_if);
+            let b = workload.trace(Traversal::PerRay, g, &mut while_while);
             assert_eq!(a, b, "subgroup {g}: answers");
-            let mut reads = (per_ray.reads.clone(), while_while.reads.clone());
+            let mut reads = (if_if.reads.clone(), while_while.reads.clone());
             reads.0.sort_unstable();
             reads.1.sort_unstable();
             assert_eq!(reads.0, reads.1, "subgroup {g}: reads");
-            assert_eq!(wanted(&per_ray), wanted(&while_while), "subgroup {g}");
-            fewer += usize::from(while_while.steps.len() < per_ray.steps.len());
+            assert_eq!(wanted(&if_if), wanted(&while_while), "subgroup {g}");
+            fewer += usize::from(while_while.steps.len() < if_if.steps.len());
         }
         assert!(fewer > 0, "while-while never saved a step");
     }

@@ -45,7 +45,8 @@ pub const REPORT: &[Measured] = &[
         size: [3840, 2160],
         rays: Some(2_000_000),
         f64: false,
-        traversal: Traversal::PerRay,
+        // Measured at ab15888, before the per-ray kernel's two loops.
+        traversal: Traversal::IfIf,
         ms: 9.05,
     },
 ];

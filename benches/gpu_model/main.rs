@@ -3,7 +3,7 @@
 //! predicted from the device's parameters.
 //!
 //!     gpu_model SCENE [--size WxH] [--rays N] [--f64] [--device h200|rtx4090 (h200)]
-//!               [--traversal packets|per-ray|while-while|both|all] [--json]
+//!               [--traversal packets|per-ray|if-if|both|all] [--json]
 //!     gpu_model --calibrate --bench DIR   # the H200 report's workloads against its figures
 
 mod cache;
@@ -94,7 +94,7 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
     let traversal = match f.traversal {
         Traversal::Packets => "packets",
         Traversal::PerRay => "per-ray",
-        Traversal::WhileWhile => "while-while",
+        Traversal::IfIf => "if-if",
     };
     let workload = match (job.rays, job.size) {
         (Some(n), _) => format!(r#""rays_list": {n}"#),
@@ -165,12 +165,12 @@ fn parse(args: &[String]) -> Result<Args, String> {
                 traversals = match v.as_str() {
                     "packets" => vec![Traversal::Packets],
                     "per-ray" => vec![Traversal::PerRay],
-                    "while-while" => vec![Traversal::WhileWhile],
+                    "if-if" => vec![Traversal::IfIf],
                     "both" => vec![Traversal::Packets, Traversal::PerRay],
-                    "all" => vec![Traversal::Packets, Traversal::PerRay, Traversal::WhileWhile],
+                    "all" => vec![Traversal::Packets, Traversal::PerRay, Traversal::IfIf],
                     _ => {
                         return Err(format!(
-                            "--traversal: {v} is not packets, per-ray, while-while, both or all"
+                            "--traversal: {v} is not packets, per-ray, if-if, both or all"
                         ));
                     }
                 };

@@ -297,21 +297,6 @@ pub(crate) fn keep_ordered<T: Real>(
     }
 }
 
-/// Tests the `count` primitives of a leaf from `first` (`shear`: `shear_of(ray.direction)`).
-fn intersect_leaf<T: Real, const ROBUST: bool>(
-    ray: &Ray<T>,
-    shear: &Shear<T>,
-    min_t: T,
-    prims: &Primitives<T>,
-    first: u32,
-    count: u32,
-    best: &mut Hit<T>,
-) {
-    for k in first..first + leaf_len(count) {
-        intersect_primitive::<T, ROBUST>(ray, shear, min_t, prims, k, count, best);
-    }
-}
-
 /// Tests primitive `k` of a leaf whose count word is `count` (its kind and object).
 pub(crate) fn intersect_primitive<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
@@ -380,9 +365,11 @@ pub(crate) fn visit<T: Real>(
     }
 }
 
-/// Ordered traversal: of two children hit, leaves are tested at once and the nearer inner
-/// node is visited first, the farther one waiting on a short stack with its entry distance,
-/// skipped when popped if a hit nearer than that entry has been found.
+/// Ordered traversal: of two children hit, leaves are tested and the nearer inner node is
+/// visited first, the farther one waiting on a short stack with its entry distance, skipped
+/// when popped if a hit nearer than that entry has been found. Two loops as in WGSL (nodes
+/// until one has a leaf the ray enters, then its leaves): the same nodes and primitives, in
+/// the same order, as one loop doing both.
 pub(crate) fn traverse_bvh<T: Real, const ROBUST: bool>(
     ray: &Ray<T>,
     min_t: T,
@@ -417,51 +404,129 @@ pub(crate) fn traverse_bvh_traced<T: Real, const ROBUST: bool>(
 ) {
     let ri = ray_inverse(ray);
     let shear = shear_of(ray.direction);
-    let mut stack_node = [0u32; BVH_STACK];
-    let mut stack_t = [T::ZERO; BVH_STACK];
-    let mut sp = 0;
+    let mut stack = Stack {
+        node: [0u32; BVH_STACK],
+        t: [T::ZERO; BVH_STACK],
+        sp: 0,
+    };
     let mut node = 0u32;
     loop {
-        trail.node(node, 1);
-        let n = visit(nodes, node, ray, &ri, min_t, cull_t(best));
-        let (t0, t1) = (n.t0, n.t1);
-        let leaf0 = n.reference0 & LEAF_BIT != 0;
-        let leaf1 = n.reference1 & LEAF_BIT != 0;
-        if t0 != no_hit() && leaf0 {
-            let first = n.reference0 & !LEAF_BIT;
-            trail.leaf(0, first, n.count0, 1);
-            intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count0, best);
-        }
-        if t1 != no_hit() && leaf1 {
-            let first = n.reference1 & !LEAF_BIT;
-            trail.leaf(1, first, n.count1, 1);
-            intersect_leaf::<T, ROBUST>(ray, &shear, min_t, prims, first, n.count1, best);
-        }
-        let go0 = t0 != no_hit() && !leaf0 && t0 <= cull_t(best);
-        let go1 = t1 != no_hit() && !leaf1 && t1 <= cull_t(best);
-        if go0 && go1 {
-            let first0 = t0 <= t1;
-            stack_node[sp] = if first0 { n.reference1 } else { n.reference0 };
-            stack_t[sp] = if first0 { t1 } else { t0 };
-            sp += 1;
-            node = if first0 { n.reference0 } else { n.reference1 };
-        } else if go0 {
-            node = n.reference0;
-        } else if go1 {
-            node = n.reference1;
-        } else {
-            let mut next = false;
-            while sp > 0 {
-                sp -= 1;
-                if stack_t[sp] <= cull_t(best) {
-                    node = stack_node[sp];
-                    next = true;
-                    break;
-                }
+        let (n, run) = loop {
+            trail.node(node, 1);
+            let n = visit(nodes, node, ray, &ri, min_t, cull_t(best));
+            let run = leaf_run(
+                &n,
+                n.t0 != no_hit() && is_leaf(n.reference0),
+                n.t1 != no_hit() && is_leaf(n.reference1),
+            );
+            if run.length != 0 || !next_node(&n, best, &mut stack, &mut node) {
+                break (n, run);
             }
-            if !next {
-                break;
-            }
+        };
+        if run.length == 0 {
+            break;
         }
+        if run.length0 != 0 {
+            trail.leaf(0, run.from0, n.count0, 1);
+        }
+        if run.length != run.length0 {
+            trail.leaf(1, n.reference1 & !LEAF_BIT, n.count1, 1);
+        }
+        for i in 0..run.length {
+            let count = if in_leaf1(&run, i) {
+                n.count1
+            } else {
+                n.count0
+            };
+            intersect_primitive::<T, ROBUST>(
+                ray,
+                &shear,
+                min_t,
+                prims,
+                run_primitive(&run, i),
+                count,
+                best,
+            );
+        }
+        if !next_node(&n, best, &mut stack, &mut node) {
+            break;
+        }
+    }
+}
+
+/// The traversal's stack of waiting nodes and their entry distances (`stack_node`, `stack_t`
+/// and `sp` in WGSL).
+struct Stack<T> {
+    node: [u32; BVH_STACK],
+    t: [T; BVH_STACK],
+    sp: usize,
+}
+
+/// Where a ray goes after visiting `n` and testing its leaves (`next_node` in WGSL): to the
+/// inner child it enters before `best`, the nearer where both (the other pushed), else to the
+/// next waiting node it may still reach. Sets `node`; false when no node is left.
+fn next_node<T: Real>(n: &Visit<T>, best: &Hit<T>, stack: &mut Stack<T>, node: &mut u32) -> bool {
+    let go0 = n.t0 != no_hit() && !is_leaf(n.reference0) && n.t0 <= cull_t(best);
+    let go1 = n.t1 != no_hit() && !is_leaf(n.reference1) && n.t1 <= cull_t(best);
+    if go0 && go1 {
+        let first0 = n.t0 <= n.t1;
+        stack.node[stack.sp] = if first0 { n.reference1 } else { n.reference0 };
+        stack.t[stack.sp] = if first0 { n.t1 } else { n.t0 };
+        stack.sp += 1;
+        *node = if first0 { n.reference0 } else { n.reference1 };
+        return true;
+    }
+    if go0 || go1 {
+        *node = if go0 { n.reference0 } else { n.reference1 };
+        return true;
+    }
+    while stack.sp > 0 {
+        stack.sp -= 1;
+        if stack.t[stack.sp] <= cull_t(best) {
+            *node = stack.node[stack.sp];
+            return true;
+        }
+    }
+    false
+}
+
+/// Whether a child reference is a leaf's rather than a node's (`is_leaf`).
+pub(crate) fn is_leaf(reference: u32) -> bool {
+    reference & LEAF_BIT != 0
+}
+
+/// The primitives of the leaf children tested after a visit, leaf 0's then leaf 1's, as one
+/// run (`LeafRun` in WGSL).
+pub(crate) struct LeafRun {
+    pub length0: u32,
+    pub length: u32,
+    pub from0: u32,
+    pub from1: u32,
+}
+
+/// Whether primitive `i` of `run` is leaf 1's (`in_leaf1`).
+pub(crate) fn in_leaf1(run: &LeafRun, i: u32) -> bool {
+    i >= run.length0
+}
+
+/// The index of primitive `i` of `run` (`run_primitive`).
+pub(crate) fn run_primitive(run: &LeafRun, i: u32) -> u32 {
+    (if in_leaf1(run, i) {
+        run.from1
+    } else {
+        run.from0
+    })
+    .wrapping_add(i)
+}
+
+/// The run of the leaves `take0` and `take1` of `n` (`leaf_run`).
+pub(crate) fn leaf_run<T>(n: &Visit<T>, take0: bool, take1: bool) -> LeafRun {
+    let length0 = if take0 { leaf_len(n.count0) } else { 0 };
+    let length1 = if take1 { leaf_len(n.count1) } else { 0 };
+    LeafRun {
+        length0,
+        length: length0 + length1,
+        from0: n.reference0 & !LEAF_BIT,
+        from1: (n.reference1 & !LEAF_BIT).wrapping_sub(length0),
     }
 }
