@@ -162,6 +162,9 @@ traversals=per-ray
 grep -q 'packet traversal: *yes' "$raw/info.txt" && traversals=packets,per-ray
 bench torus "$work/torus/torus.json" --mode "$torus_modes" --traversal "$traversals"
 bench big "$work/big/torus.json" --traversal "$traversals"
+# A quarter of the size each way: where packets cost what the triangles seen do, not the rays
+# (the H200's 5M torus took about 8.4 ms from 960x540 to 1920x1080, docs/gpu.md).
+bench big-small "$work/big/torus.json" --size "$((${size%x*} / 4))x$((${size#*x} / 4))" --traversal "$traversals"
 bench spheres "$work/torus/spheres.json" --traversal "$traversals"
 bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
 bench lit "$work/lit/bunny.json" --lit --traversal "$traversals"
@@ -241,7 +244,8 @@ steps = [l.split() for l in text("steps.txt").splitlines()]
 selftest = text("selftest.txt").splitlines()
 summary = next((l for l in reversed(selftest) if l.startswith("selftest:")), "selftest: no summary")
 bench = {name: rows("bench-%s.jsonl" % name)
-         for name in ("torus", "big", "spheres", "incoherent", "lit", "peer-torus", "views")}
+         for name in ("torus", "big", "big-small", "spheres", "incoherent", "lit", "peer-torus",
+                      "views")}
 views = {"batch": [], "single": []}
 for line in text("views.txt").splitlines():
     kind, end, start = line.split()
@@ -308,6 +312,7 @@ md = ["# raycast gpu-check, %s" % report["date"], "",
       "| workload | mode | rays | Grays/s | kernel ms | wall ms | secondary Grays/s | hit % |",
       "|---|---|---:|---:|---:|---:|---:|---:|"]
 names = {"torus": "torus, %s triangles", "big": "big torus, %s triangles",
+         "big-small": "big torus, %s triangles, a quarter of the size",
          "spheres": "100 spheres", "incoherent": "incoherent rays, torus (%s triangles)",
          "lit": "lit course bunny (--lit)", "peer-torus": "peers' torus.obj, %s triangles",
          "views": "course bunny, %d orbit views at 640x360 (the dataset's)" % n_views}

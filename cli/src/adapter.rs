@@ -178,16 +178,19 @@ pub fn describe(gpu: &Gpu) -> String {
         "host-mapped buffers: {}\n",
         has(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
     );
-    // Whether `raycast bench --traversal packets` can run here (gpu-check reads this line).
+    // Whether `raycast bench --traversal packets` can run here (gpu-check reads `yes`), and
+    // whether casts take it by default.
+    let packets = match (
+        gpu.info().packet_subgroups,
+        gpu.info().packet_rays_per_primitive,
+    ) {
+        (false, _) => "no".to_owned(),
+        (true, None) => "yes, when asked (casts go ray by ray here)".to_owned(),
+        (true, Some(r)) => format!("yes, by default from {r} rays a sphere or triangle"),
+    };
     s += &format!(
-        "subgroups:    {} to {} invocations; packet traversal: {}\n",
-        info.subgroup_min_size,
-        info.subgroup_max_size,
-        if gpu.info().packet_subgroups {
-            "yes"
-        } else {
-            "no"
-        }
+        "subgroups:    {} to {} invocations; packet traversal: {packets}\n",
+        info.subgroup_min_size, info.subgroup_max_size,
     );
     s += &format!(
         "max storage buffer binding: {} bytes\n",

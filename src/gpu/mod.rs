@@ -37,6 +37,13 @@ pub(crate) const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::SHADER_F64
 /// Invocations that share one node fetch in the packet traversal.
 pub(crate) const PACKET_LANES: u32 = 8;
 
+/// Rays a sphere or triangle from which a cast on a CPU adapter goes in packets by default
+/// ([`GpuInfo::packet_rays_per_primitive`]): where fewer rays meet the primitives they see, a
+/// packet visits the union of its rays' paths, which costs more than the fetches it shares.
+/// The crossover measured on lavapipe (docs/performance.md#packets-or-per-ray) on the tori of
+/// 518,400 and 4,999,696 triangles, which fill the same share of the image.
+pub(crate) const PACKET_RAYS_PER_PRIMITIVE: f64 = 0.15;
+
 /// An adapter with an open device and queue, and the kernels compiled on it so far.
 pub struct Gpu {
     /// The adapter the device was opened on.
@@ -58,7 +65,8 @@ pub struct Gpu {
 
 impl Gpu {
     /// The kernel variant for `scene`: only its primitive kinds compiled in, a BVH where it
-    /// pays (`crate::prepare::bvh::worth_it`).
+    /// pays (`crate::prepare::bvh::worth_it`), packets where they pay for its camera's pixels
+    /// ([`Gpu::packets_pay`]).
     pub(crate) fn scene_variant(
         &self,
         scene: &crate::scene::Scene,
@@ -72,6 +80,11 @@ impl Gpu {
             rays_from_origin: algorithm == crate::Algorithm::Robust
                 && scene.camera.projection == crate::scene::Projection::Perspective,
             bvh: crate::prepare::bvh::worth_it(scene),
+            packets: general.packets
+                && self.packets_pay(
+                    scene.camera.pixel_count(),
+                    crate::prepare::bvh::bounded_count(scene),
+                ),
             chunks: shader::chunks_for(scene, general.chunk_bits),
             ..general.with_kinds(shader::Kinds::of_scene(scene))
         }
@@ -264,7 +277,25 @@ impl Gpu {
             adapter: self.adapter.get_info(),
             f64: self.has_f64(),
             packet_subgroups: self.has_packet_subgroups(),
+            packet_rays_per_primitive: self.packet_rays_per_primitive(),
         }
+    }
+
+    /// [`GpuInfo::packet_rays_per_primitive`]: on a CPU adapter, whose per-lane loads are
+    /// loops over the lanes, packets sharing fetches pay once rays are many for the primitives
+    /// they see; a hardware GPU traces ray by ray, which the cost model predicts faster on
+    /// every workload it replays (docs/gpu.md#a-cost-model) until a GPU's measurements say
+    /// where packets pay there.
+    fn packet_rays_per_primitive(&self) -> Option<f64> {
+        let cpu = self.adapter.get_info().device_type == wgpu::DeviceType::Cpu;
+        (cpu && self.has_packet_subgroups()).then_some(PACKET_RAYS_PER_PRIMITIVE)
+    }
+
+    /// Whether a cast of `rays` rays through a BVH over `primitives` spheres and triangles
+    /// goes in packets by default here (the tuning's `packets` overrides it).
+    pub(crate) fn packets_pay(&self, rays: u64, primitives: usize) -> bool {
+        self.packet_rays_per_primitive()
+            .is_some_and(|r| rays as f64 >= r * primitives as f64)
     }
 }
 
@@ -276,9 +307,13 @@ pub struct GpuInfo {
     /// Whether kernels in f64 run here (`SHADER_F64`): f64 and adaptive precision's re-casts
     /// on the GPU, and the f64 rechecks of robust f32.
     pub f64: bool,
-    /// Whether the BVH is traversed by packets here ([`crate::Tuning::packets`]): subgroups of
-    /// at least the 8 invocations a packet shares each node fetch among.
+    /// Whether the BVH can be traversed by packets here ([`crate::Tuning::packets`]):
+    /// subgroups of at least the 8 invocations a packet shares each node fetch among.
     pub packet_subgroups: bool,
+    /// Rays a sphere or triangle from which a cast goes in packets by default (a render's
+    /// pixels, a list's rays, over the scene's spheres and triangles); `None`: each ray walks
+    /// the BVH alone unless packets are asked for, as on hardware GPUs.
+    pub packet_rays_per_primitive: Option<f64>,
 }
 
 /// `RAYCAST_MAX_BINDING`, bytes of one storage binding at most (at least 1 MiB), if set.

@@ -34,7 +34,7 @@ use crate::kernel::layout::GpuReal;
 use crate::math::{Float, Vec3};
 use crate::mode::{Device, Mode, Precision};
 use crate::prepare::Prepared;
-use crate::prepare::bvh::Search;
+use crate::prepare::bvh::{Search, bounded_count};
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
@@ -239,9 +239,10 @@ impl<'d> Accel<'d> {
         Ok(Accel { scene, gpu, mode })
     }
 
-    /// The nearest hit of every ray (`t >= 0`). On the GPU, coherent rays (neighbours in the
-    /// list start close together and point nearly the same way) are traced in packets sharing
-    /// node fetches, others one by one.
+    /// The nearest hit of every ray (`t >= 0`). Rays are traced one by one, or where the
+    /// device takes packets ([`crate::GpuInfo::packet_rays_per_primitive`]: lavapipe, for lists
+    /// of many rays for the scene's primitives) and they are coherent (neighbours in the list
+    /// start close together and point nearly the same way), in packets sharing node fetches.
     pub fn intersect<'a>(&self, rays: impl Into<RayList<'a>>) -> Result<AnyHits> {
         self.scene.nearest(self.gpu, self.mode, rays.into(), 0.0)
     }
@@ -547,7 +548,8 @@ impl RayScene {
             count: query == Query::Count,
             closest: query == Query::Closest,
             occluded: matches!(query, Query::Occluded(_)),
-            packets: general.packets && coherent(rays, self.extent),
+            packets: gpu.packets_pay(rays.len() as u64, bounded_count(&self.scene))
+                && coherent(rays, self.extent),
             list_origin: one_origin(rays),
             ..general
         };

@@ -439,3 +439,29 @@ fn packet_mirror_agrees<T: Real>(scene: &Scene) {
         }
     }
 }
+
+/// On lavapipe, a CPU adapter, a render goes in packets where its rays are many for the
+/// scene's spheres and triangles (at least `packet_rays_per_primitive` a primitive: the
+/// crossover measured on the tori), ray by ray where they are fewer; packets asked for are
+/// taken either way. Both traversals give the same bits (the tests above).
+#[test]
+fn lavapipe_casts_in_packets_only_with_enough_rays_a_primitive() {
+    let gpu = common::gpu();
+    let per_primitive = gpu.info().packet_rays_per_primitive;
+    let per_primitive = per_primitive.expect("lavapipe takes packets by default");
+    let scene = |rays: u32| dense_soup(7, 10_000, [rays, 1]);
+    let primitives = raycast::prepare::bvh::bounded_count(&scene(1));
+    let threshold = (per_primitive * primitives as f64).ceil() as u32;
+    let uses_packets = |rays: u32, tuning: raycast::Tuning| {
+        let scene = scene(rays);
+        let variant = gpu.scene_variant(&scene, Float::F32, Robust);
+        tuning.apply(variant, &scene, gpu).unwrap().uses_packets()
+    };
+    let asked = raycast::Tuning {
+        packets: Some(true),
+        ..Default::default()
+    };
+    assert!(uses_packets(threshold, Default::default()));
+    assert!(!uses_packets(threshold - 1, Default::default()));
+    assert!(uses_packets(threshold - 1, asked));
+}

@@ -177,12 +177,23 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             "no subgroups of 8 or more invocations on this device",
         )
     } else {
-        // The device's choice is packets: the base kernel is the row's "with".
-        let off = tuned(Tuning {
-            packets: Some(false),
-            ..base.tuning
-        });
-        toggle(base, off, true, Specialization::Packets)
+        let traversal = |packets| {
+            tuned(Tuning {
+                packets: Some(packets),
+                ..base.tuning
+            })
+        };
+        // The device's choice for the scene's pixels and primitives (`Gpu::packets_pay`).
+        let default_with = gpu
+            .info()
+            .packet_rays_per_primitive
+            .is_some_and(|r| scene.camera.pixel_count() as f64 >= r * (spheres + triangles) as f64);
+        toggle(
+            traversal(true),
+            traversal(false),
+            default_with,
+            Specialization::Packets,
+        )
     });
     let distance = Kernel {
         outputs: Outputs {

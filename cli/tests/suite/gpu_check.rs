@@ -67,7 +67,7 @@ fn gpu_check_runs_from_a_packed_folder() {
     assert!(report["device"].as_str().unwrap().contains("llvmpipe"));
     let workloads = report["workloads"].as_array().unwrap();
     let per_ray = |w: &&serde_json::Value| w["traversal"] == "per-ray";
-    assert_eq!(workloads.iter().filter(per_ray).count(), 5, "{workloads:?}");
+    assert_eq!(workloads.iter().filter(per_ray).count(), 6, "{workloads:?}");
     let bench = &report["bench"];
     let torus = bench["torus"].as_array().unwrap();
     // Each mode by both traversals (lavapipe's subgroups hold packets), which see the same.
@@ -83,7 +83,7 @@ fn gpu_check_runs_from_a_packed_folder() {
             "gpu:f64:robust \"per-ray\""
         ]
     );
-    for name in ["torus", "big", "spheres", "lit"] {
+    for name in ["torus", "big", "big-small", "spheres", "lit"] {
         let rows = bench[name].as_array().unwrap();
         for pair in rows.chunks(2) {
             assert_eq!(pair[0]["hit_fraction"], pair[1]["hit_fraction"], "{name}");
@@ -98,6 +98,7 @@ fn gpu_check_runs_from_a_packed_folder() {
         assert!((hit - 0.345).abs() < 0.002, "{hit}");
     }
     assert_eq!(bench["big"][0]["triangles"], 200_704);
+    assert_eq!(bench["big-small"][0]["rays"], 160 * 90);
     assert_eq!(bench["spheres"][0]["spheres"], 100);
     assert_eq!(bench["incoherent"][0]["rays"], 100_000);
     assert!(bench["lit"][0]["secondary_rays"].as_u64().unwrap() > 0);

@@ -449,7 +449,7 @@ impl Variant {
     /// `FOUR_LANE_RAYS` rays (the certainty pass one), four below `EIGHT_LANE_RAYS`, else
     /// eight (the certainty pass two). Each ray a lane lengthens the kernel that llvmpipe
     /// translates in every process, even with Mesa's shader cache warm, which only a render of
-    /// many rays repays (docs/performance.md#rays-a-lane-by-render-size).
+    /// many rays repays (docs/performance.md#eight-rays-a-lane).
     /// `raycast bench`, Python's casts and ray lists keep eight: they trace the same kernel
     /// many times.
     pub(crate) fn for_rays(self, rays: u64) -> Variant {
