@@ -11,12 +11,14 @@ use crate::cpu::hit::Hit;
 use crate::cpu::nearest::before_bvh;
 use crate::cpu::packet::traverse_bvh_packet;
 use crate::cpu::traverse::{Trail, traverse_bvh_traced};
+use crate::cpu::wide::traverse_wide_traced;
 use crate::kernel::frame::camera_ray;
 use crate::kernel::layout::{GpuSphere, GpuTriangle};
 use crate::kernel::types::{Ray as KernelRay, t_far};
 use crate::math::Real;
 use crate::prepare::Prepared;
 use crate::prepare::bvh::{BvhNode, SPHERE_LEAF, Search, leaf_len};
+use crate::prepare::wide::{WideBvh, WideNode};
 use crate::rays::Ray;
 use crate::scene::Scene;
 
@@ -26,6 +28,7 @@ const LANES: usize = 32;
 const NODES_AT: u64 = 0;
 const TRIANGLES_AT: u64 = 1 << 40;
 const SPHERES_AT: u64 = 2 << 40;
+const WIDE_NODES_AT: u64 = 3 << 40;
 
 /// How the subgroup's rays walk the BVH: shaders/traverse_packet.wgsl or traverse_ray.wgsl.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +43,9 @@ pub enum Traversal {
     /// The per-ray kernel before #61: one loop visiting a node and testing its leaves, the
     /// subgroup running the lanes' loops in lockstep. Same nodes and leaves a lane as `PerRay`.
     IfIf,
+    /// Per ray through the compressed 8-wide tree (#62; src/cpu/wide.rs, no WGSL yet), in
+    /// two loops as `PerRay`: 80-byte nodes, eight boxes decoded and tested a visit.
+    Wide,
 }
 
 /// What a step of a subgroup does.
@@ -47,6 +53,8 @@ pub enum Traversal {
 pub enum Op {
     /// Tests rays against a node's two child boxes.
     Node,
+    /// Decodes and tests a wide node's eight child boxes.
+    WideNode,
     /// Tests rays against a triangle.
     Triangle,
     /// Tests rays against a sphere.
@@ -92,6 +100,8 @@ enum Source {
 pub struct Workload {
     prepared: Precision,
     source: Source,
+    /// The wide tree, collapsed from the binary one when first asked for.
+    wide: std::sync::OnceLock<Option<WideBvh>>,
 }
 
 impl Workload {
@@ -107,7 +117,11 @@ impl Workload {
             Precision::F64(p) => p.bvh().is_some(),
         };
         let source = rays.map_or(Source::Camera, Source::List);
-        bvh.then_some(Workload { prepared, source })
+        bvh.then_some(Workload {
+            prepared,
+            source,
+            wide: std::sync::OnceLock::new(),
+        })
     }
 
     /// The rays cast (pixels or listed rays).
@@ -131,11 +145,43 @@ impl Workload {
     /// The bytes of a node, a triangle and a sphere in the kernel's buffers.
     pub fn element_bytes(&self, address: u64) -> u32 {
         let f64 = matches!(self.prepared, Precision::F64(_));
-        match (address >= SPHERES_AT, address >= TRIANGLES_AT) {
-            (true, _) => sphere_bytes(f64),
-            (_, true) => triangle_bytes(f64),
+        match address {
+            a if a >= WIDE_NODES_AT => WIDE_NODE_BYTES,
+            a if a >= SPHERES_AT => sphere_bytes(f64),
+            a if a >= TRIANGLES_AT => triangle_bytes(f64),
             _ => NODE_BYTES,
         }
+    }
+
+    /// The geometry's bytes a triangle on the device with `traversal`'s tree: each triangle
+    /// (40 bytes in f32, 80 in f64), its object id (4) and the tree (as
+    /// `raycast::Stages::bytes_per_triangle` counts them); `None` without triangles.
+    pub fn bytes_per_triangle(&self, traversal: Traversal) -> Option<f64> {
+        let (triangles, tree, f64) = match &self.prepared {
+            Precision::F32(p) => (p.primitives.triangles.len(), p.bvh()?.bytes(), false),
+            Precision::F64(p) => (p.primitives.triangles.len(), p.bvh()?.bytes(), true),
+        };
+        let tree = match traversal {
+            Traversal::Wide => self.wide_tree()?.bytes(),
+            _ => tree,
+        };
+        let bytes = triangles * (triangle_bytes(f64) as usize + 4) + tree;
+        (triangles > 0).then(|| bytes as f64 / triangles as f64)
+    }
+
+    /// Whether the scene has a wide tree (#62): triangles only.
+    pub fn has_wide_tree(&self) -> bool {
+        self.wide_tree().is_some()
+    }
+
+    /// The wide tree, where the scene has one.
+    fn wide_tree(&self) -> Option<&WideBvh> {
+        self.wide
+            .get_or_init(|| match &self.prepared {
+                Precision::F32(p) => WideBvh::collapse(p.bvh()?),
+                Precision::F64(p) => WideBvh::collapse(p.bvh()?),
+            })
+            .as_ref()
     }
 
     /// Replays subgroup `subgroup` (in dispatch order) with `traversal` into `out`; returns the
@@ -177,11 +223,24 @@ impl Workload {
                 };
                 traverse_bvh_packet::<T, true>(&rays, min_t, prims, nodes, &mut best, &mut steps);
             }
-            Traversal::PerRay | Traversal::IfIf => {
-                let mut paths = vec![Path::default(); rays.len()];
-                paths.iter_mut().for_each(|p| p.f64 = size_of::<T>() == 8);
+            Traversal::PerRay | Traversal::IfIf | Traversal::Wide => {
+                let wide = traversal == Traversal::Wide;
+                let path = Path {
+                    f64: size_of::<T>() == 8,
+                    wide,
+                    ..Path::default()
+                };
+                let mut paths = vec![path; rays.len()];
                 for ((ray, best), path) in rays.iter().zip(&mut best).zip(&mut paths) {
-                    traverse_bvh_traced::<T, true>(ray, min_t, prims, nodes, best, path);
+                    match wide {
+                        true => {
+                            let tree = self.wide_tree().expect("a wide tree for this scene");
+                            traverse_wide_traced::<T, true>(ray, min_t, prims, tree, best, path)
+                        }
+                        false => {
+                            traverse_bvh_traced::<T, true>(ray, min_t, prims, nodes, best, path)
+                        }
+                    }
                 }
                 match traversal {
                     Traversal::IfIf => lockstep(&paths, out),
@@ -249,6 +308,7 @@ fn blocks([nx, ny]: [u32; 2]) -> usize {
 }
 
 const NODE_BYTES: u32 = size_of::<BvhNode>() as u32;
+const WIDE_NODE_BYTES: u32 = size_of::<WideNode>() as u32;
 
 fn sphere_bytes(f64: bool) -> u32 {
     match f64 {
@@ -267,6 +327,11 @@ fn triangle_bytes(f64: bool) -> u32 {
 /// The address of node `node`.
 fn node_at(node: u32) -> u64 {
     NODES_AT + u64::from(node) * u64::from(NODE_BYTES)
+}
+
+/// The address of wide node `node`.
+fn wide_node_at(node: u32) -> u64 {
+    WIDE_NODES_AT + u64::from(node) * u64::from(WIDE_NODE_BYTES)
 }
 
 /// The address of primitive `k` of a leaf with count word `count`.
@@ -343,40 +408,64 @@ impl Trail for PacketSteps<'_> {
 /// A leaf tested: its first primitive and count word.
 type Leaf = (u32, u32);
 
-/// One ray's path: each iteration of traverse_bvh's loop, its node and the leaves it tested
-/// (first primitive and count word, child 0's then child 1's).
+/// One ray's path: each node it visited (its address) and the leaves it tested there (the
+/// child, and its first primitive and count word; in the order tested).
 #[derive(Clone, Default)]
 struct Path {
-    iterations: Vec<(u32, [Option<Leaf>; 2])>,
+    iterations: Vec<(u64, Vec<(usize, Leaf)>)>,
     f64: bool,
+    /// Through the wide tree: its nodes.
+    wide: bool,
+}
+
+impl Path {
+    fn node_op(paths: &[Path]) -> Op {
+        match paths.iter().any(|p| p.wide) {
+            true => Op::WideNode,
+            false => Op::Node,
+        }
+    }
 }
 
 impl Trail for Path {
     fn node(&mut self, node: u32, _lanes: u32) {
-        self.iterations.push((node, [None, None]));
+        let address = match self.wide {
+            true => wide_node_at(node),
+            false => node_at(node),
+        };
+        self.iterations.push((address, Vec::new()));
     }
 
     fn leaf(&mut self, child: usize, first: u32, count: u32, _lanes: u32) {
         if let Some(last) = self.iterations.last_mut() {
-            last.1[child] = Some((first, count));
+            last.1.push((child, (first, count)));
         }
     }
 }
 
 /// The subgroup's lockstep steps for its lanes' `paths`: iteration k of every lane's loop runs
-/// together, its node visit, then child 0's leaf loop as long as the longest, then child 1's.
+/// together, its node visit, then child 0's leaf loop as long as the longest, then child 1's
+/// (and so on for a wide node's).
 fn lockstep(paths: &[Path], out: &mut Trace) {
     let f64 = paths.iter().any(|p| p.f64);
     let longest = paths.iter().map(|p| p.iterations.len()).max().unwrap_or(0);
     for k in 0..longest {
         let running = || paths.iter().filter_map(|p| p.iterations.get(k));
         for (node, _) in running() {
-            out.reads.push(node_at(*node));
+            out.reads.push(*node);
         }
-        out.end_step(Op::Node, running().count() as u32);
-        for child in 0..2 {
+        out.end_step(Path::node_op(paths), running().count() as u32);
+        let children = running()
+            .flat_map(|(_, l)| l.iter().map(|&(c, _)| c + 1))
+            .max();
+        for child in 0..children.unwrap_or(0) {
             let runs: Vec<Vec<Leaf>> = running()
-                .map(|(_, l)| l[child].into_iter().collect())
+                .map(|(_, l)| {
+                    (l.iter())
+                        .filter(|&&(c, _)| c == child)
+                        .map(|&(_, leaf)| leaf)
+                        .collect()
+                })
                 .collect();
             out.leaf_steps(&runs, f64);
         }
@@ -395,7 +484,7 @@ fn while_while(paths: &[Path], out: &mut Trace) {
         let ends: Vec<usize> = (at.iter().zip(paths))
             .map(|(&k, p)| {
                 let rest = &p.iterations[k.min(p.iterations.len())..];
-                let leaf = rest.iter().position(|(_, l)| l.iter().any(Option::is_some));
+                let leaf = rest.iter().position(|(_, l)| !l.is_empty());
                 k + leaf.map_or(rest.len(), |i| i + 1)
             })
             .collect();
@@ -407,16 +496,20 @@ fn while_while(paths: &[Path], out: &mut Trace) {
             let mut wanted = 0;
             for ((&k, &end), p) in at.iter().zip(&ends).zip(paths) {
                 if k + step < end {
-                    out.reads.push(node_at(p.iterations[k + step].0));
+                    out.reads.push(p.iterations[k + step].0);
                     wanted += 1;
                 }
             }
-            out.end_step(Op::Node, wanted);
+            out.end_step(Path::node_op(paths), wanted);
         }
         // The leaves each lane found at the end of its round, child 0's then child 1's.
         let runs: Vec<Vec<Leaf>> = (ends.iter().zip(&at).zip(paths))
             .map(|((&end, &k), p)| match end > k {
-                true => p.iterations[end - 1].1.iter().flatten().copied().collect(),
+                true => p.iterations[end - 1]
+                    .1
+                    .iter()
+                    .map(|&(_, leaf)| leaf)
+                    .collect(),
                 false => Vec::new(),
             })
             .collect();

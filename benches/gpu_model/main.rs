@@ -3,7 +3,7 @@
 //! predicted from the device's parameters.
 //!
 //!     gpu_model SCENE [--size WxH] [--rays N] [--f64] [--device h200|rtx4090 (h200)]
-//!               [--traversal packets|per-ray|if-if|both|all] [--json]
+//!               [--traversal packets|per-ray|if-if|wide|both|all] [--json]
 //!     gpu_model --calibrate --bench DIR   # the H200 report's workloads against its figures
 
 mod cache;
@@ -32,6 +32,8 @@ pub struct Figures {
     pub dram_bytes_per_ray: f64,
     pub predicted_ms: f64,
     pub bound: &'static str,
+    /// The geometry's bytes a triangle on the device with this traversal's tree.
+    pub bytes_per_triangle: Option<f64>,
 }
 
 /// A workload as the command line names it.
@@ -48,6 +50,12 @@ const CHUNK: usize = 4096;
 
 pub fn model(job: &Job, device: &Device, traversal: Traversal) -> Result<Figures, String> {
     let workload = workload(job)?;
+    if traversal == Traversal::Wide && !workload.has_wide_tree() {
+        return Err(format!(
+            "{}: no wide tree (spheres keep the binary tree)",
+            job.scene
+        ));
+    }
     let mut machine = Machine::new(device, job.f64, traversal == Traversal::Packets);
     let mut totals = Totals::default();
     let subgroups = workload.subgroups();
@@ -75,6 +83,7 @@ pub fn model(job: &Job, device: &Device, traversal: Traversal) -> Result<Figures
         dram_bytes_per_ray: (totals.dram_sectors * cache::SECTOR) as f64 / rays,
         predicted_ms,
         bound,
+        bytes_per_triangle: workload.bytes_per_triangle(traversal),
     })
 }
 
@@ -95,6 +104,7 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         Traversal::Packets => "packets",
         Traversal::PerRay => "per-ray",
         Traversal::IfIf => "if-if",
+        Traversal::Wide => "wide",
     };
     let workload = match (job.rays, job.size) {
         (Some(n), _) => format!(r#""rays_list": {n}"#),
@@ -102,7 +112,7 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         (None, None) => r#""size": "scene""#.to_owned(),
     };
     format!(
-        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}"}}"#,
+        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}", "bytes_per_triangle": {}}}"#,
         job.scene.replace('\\', "\\\\").replace('"', "\\\""),
         if job.f64 { "f64" } else { "f32" },
         device.name,
@@ -113,6 +123,8 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         f.dram_bytes_per_ray,
         f.predicted_ms,
         f.bound,
+        f.bytes_per_triangle
+            .map_or("null".to_owned(), |b| format!("{b:.1}")),
     )
 }
 
@@ -166,11 +178,17 @@ fn parse(args: &[String]) -> Result<Args, String> {
                     "packets" => vec![Traversal::Packets],
                     "per-ray" => vec![Traversal::PerRay],
                     "if-if" => vec![Traversal::IfIf],
+                    "wide" => vec![Traversal::Wide],
                     "both" => vec![Traversal::Packets, Traversal::PerRay],
-                    "all" => vec![Traversal::Packets, Traversal::PerRay, Traversal::IfIf],
+                    "all" => vec![
+                        Traversal::Packets,
+                        Traversal::PerRay,
+                        Traversal::IfIf,
+                        Traversal::Wide,
+                    ],
                     _ => {
                         return Err(format!(
-                            "--traversal: {v} is not packets, per-ray, if-if, both or all"
+                            "--traversal: {v} is not packets, per-ray, if-if, wide, both or all"
                         ));
                     }
                 };
@@ -234,6 +252,10 @@ fn main() -> ExitCode {
                 f.predicted_ms,
                 f.bound
             ),
+            // `all` goes on past a scene without a wide tree.
+            Err(e) if t == Traversal::Wide && args.traversals.len() > 1 => {
+                eprintln!("gpu_model: {e}")
+            }
             Err(e) => {
                 eprintln!("gpu_model: {e}");
                 return ExitCode::from(2);

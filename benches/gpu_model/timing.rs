@@ -12,6 +12,9 @@ use crate::device::Device;
 /// children; the robust triangle test; the sphere test), and what packets add: the node's
 /// eight broadcasts and the votes, a triangle's five broadcasts.
 const NODE_INSTRUCTIONS: f64 = 48.0;
+/// A wide node's visit (#62, src/cpu/wide.rs): eight box tests as a binary node's, each box
+/// decoded first (six multiply-adds), and the slots' order and the pushes.
+const WIDE_NODE_INSTRUCTIONS: f64 = 8.0 * (24.0 + 6.0) + 32.0;
 const TRIANGLE_INSTRUCTIONS: f64 = 60.0;
 const SPHERE_INSTRUCTIONS: f64 = 30.0;
 const PACKET_NODE_EXTRA: f64 = 16.0;
@@ -109,6 +112,7 @@ impl Machine {
             let (instructions, extra) = match (step.op, self.packets) {
                 (Op::Node, false) => (NODE_INSTRUCTIONS, 0.0),
                 (Op::Node, true) => (NODE_INSTRUCTIONS, PACKET_NODE_EXTRA),
+                (Op::WideNode, _) => (WIDE_NODE_INSTRUCTIONS, 0.0),
                 (Op::Triangle, p) => (
                     TRIANGLE_INSTRUCTIONS,
                     if p { PACKET_PRIMITIVE_EXTRA } else { 0.0 },

@@ -20,6 +20,9 @@ pub(crate) mod shade;
 pub(crate) mod sphere;
 pub(crate) mod traverse;
 pub(crate) mod triangle;
+// The 8-wide tree's traversal (#62), for the cost model and the tests until a kernel walks it.
+#[cfg(any(test, feature = "model"))]
+pub(crate) mod wide;
 pub(crate) mod winding;
 
 use std::sync::atomic::{AtomicU32, Ordering};

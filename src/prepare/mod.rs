@@ -11,6 +11,9 @@
 pub(crate) mod bvh;
 pub(crate) mod order;
 pub(crate) mod shared;
+// The compressed 8-wide tree (#62), for the cost model and the tests until a kernel walks it.
+#[cfg(any(test, feature = "model"))]
+pub(crate) mod wide;
 pub(crate) mod winding;
 
 use std::borrow::Cow;

@@ -465,3 +465,66 @@ fn lavapipe_casts_in_packets_only_with_enough_rays_a_primitive() {
     assert!(!uses_packets(threshold - 1, Default::default()));
     assert!(uses_packets(threshold - 1, asked));
 }
+
+/// The compressed 8-wide tree (#62) finds what the binary tree finds, bit for bit (t, object,
+/// primitive), in f32 and f64: camera rays and incoherent rays through dense soups, the course
+/// bunny and the extreme scenes, their triangles and planes; every primitive is named by
+/// exactly one leaf.
+#[test]
+fn the_wide_tree_finds_the_binary_trees_hits() {
+    let mut scenes = vec![
+        dense_soup(7, 400, [32, 24]),
+        dense_soup(11, 3000, [32, 24]),
+        common::course_scene("bunny"),
+    ];
+    scenes.extend(common::extreme_scenes().into_iter().map(|(_, s)| s));
+    // Their triangles: the wide tree holds no spheres.
+    for scene in &mut scenes {
+        (scene.objects).retain(|o| !matches!(o, raycast::scene::Object::Sphere { .. }));
+    }
+    scenes.retain(|s| s.primitive_counts()[2] > 0);
+    assert!(scenes.len() >= 20, "{} scenes", scenes.len());
+    for mut scene in scenes {
+        scene.camera.resolution = [32, 24];
+        assert!(wide_agrees::<f32>(&scene), "{:?}", scene.camera);
+        wide_agrees::<f64>(&scene);
+    }
+}
+
+/// Whether `scene` has a wide tree, asserting that it agrees with the binary one.
+fn wide_agrees<T: Real>(scene: &Scene) -> bool {
+    use raycast::cpu::traverse::traverse_bvh;
+    use raycast::cpu::wide::traverse_wide;
+    use raycast::prepare::wide::WideBvh;
+    let prepared = raycast::prepare::Prepared::<T>::new(scene, Robust, Search::Bvh);
+    let (prims, frame) = (&prepared.primitives, &prepared.frame);
+    let bvh = prepared.bvh().unwrap();
+    let Some(wide) = WideBvh::collapse(bvh) else {
+        return false;
+    };
+    let mut named = wide.primitives.clone();
+    named.sort_unstable();
+    assert!(named.iter().copied().eq(0..prims.triangles.len() as u32));
+    let camera = (0..24 * 32).map(|k| raycast::kernel::frame::camera_ray(frame, k / 32, k % 32));
+    let mut rng = common::Rng(5);
+    let incoherent = (0..256).map(|_| {
+        let o = rng.point(-2.0, 2.0);
+        let d = rng.point(-1.0, 1.0);
+        raycast::kernel::types::Ray {
+            origin: Vec3::from_array(o.map(T::from_f64)),
+            direction: Vec3::from_array(d.map(T::from_f64)),
+        }
+    });
+    let start = |r: &raycast::kernel::types::Ray<T>| {
+        cpu::nearest::before_bvh::<T, true>(r, frame.min_t, raycast::kernel::types::t_far(), prims)
+    };
+    for ray in camera.chain(incoherent) {
+        let (mut binary, mut wide_hit) = (start(&ray), start(&ray));
+        traverse_bvh::<T, true>(&ray, frame.min_t, prims, &bvh.nodes, &mut binary);
+        traverse_wide::<T, true>(&ray, frame.min_t, prims, &wide, &mut wide_hit);
+        let key =
+            |h: &raycast::cpu::hit::Hit<T>| (h.t.to_f64().to_bits(), h.object, h.kind, h.index);
+        assert_eq!(key(&wide_hit), key(&binary), "{ray:?}");
+    }
+    true
+}

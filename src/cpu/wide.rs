@@ -1,0 +1,97 @@
+//! The traversal of the compressed 8-wide BVH (src/prepare/wide.rs, #62), ray by ray: the
+//! reference a WGSL traversal of it is to mirror, and what the GPU cost model replays
+//! (`--traversal wide`). A node's eight boxes are decoded and tested in the order the ray's
+//! octant gives its slots (nearer first, mostly); the leaves it enters are tested at once, the
+//! nodes pushed farthest first with their entry distances, each skipped when popped if a hit
+//! nearer than its entry has been found. The same nodes' primitives as the binary tree's, boxes
+//! only larger, so the same nearest hit.
+
+use super::hit::Hit;
+use super::traverse::{Trail, box_entry, cull_t, intersect_primitive, ray_inverse};
+use crate::kernel::types::{Ray, no_hit, shear_of};
+use crate::math::Real;
+use crate::prepare::Primitives;
+use crate::prepare::bvh::{LEAF_OBJECT_SHIFT, MIXED_OBJECTS};
+use crate::prepare::wide::{WIDTH, WideBvh};
+
+/// The count word a leaf's primitives are tested with: triangles, each one's object looked up
+/// (a wide node has no room for its leaves' objects).
+const TRIANGLE_LEAF: u32 = MIXED_OBJECTS << LEAF_OBJECT_SHIFT;
+
+/// The ray's octant: bit `a` set where its direction's component `a` is negative. It visits
+/// slot `k ^ octant` `k`-th.
+fn octant<T: Real>(ray: &Ray<T>) -> usize {
+    let d = ray.direction.to_array();
+    (0..3).filter(|&a| d[a] < T::ZERO).map(|a| 1 << a).sum()
+}
+
+/// [`traverse_wide_traced`] without a trail.
+#[cfg(test)]
+pub(crate) fn traverse_wide<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    wide: &WideBvh,
+    best: &mut Hit<T>,
+) {
+    traverse_wide_traced::<T, ROBUST>(ray, min_t, prims, wide, best, &mut ());
+}
+
+/// The nearest hit through `wide`, telling `trail` each node visited and each leaf tested (its
+/// first primitive in the wide tree's order and its length as a count word).
+pub(crate) fn traverse_wide_traced<T: Real, const ROBUST: bool>(
+    ray: &Ray<T>,
+    min_t: T,
+    prims: &Primitives<T>,
+    wide: &WideBvh,
+    best: &mut Hit<T>,
+    trail: &mut impl Trail,
+) {
+    let ri = ray_inverse(ray);
+    let shear = shear_of(ray.direction);
+    let octant = octant(ray);
+    let mut stack: Vec<(u32, T)> = Vec::with_capacity(wide.depth * (WIDTH - 1) + 1);
+    let mut node = 0u32;
+    loop {
+        trail.node(node, 1);
+        let n = &wide.nodes[node as usize];
+        let mut leaves = Vec::with_capacity(WIDTH);
+        let mut inner = Vec::with_capacity(WIDTH);
+        for k in 0..WIDTH {
+            let s = k ^ octant;
+            if !n.used(s) {
+                continue;
+            }
+            let (lo, hi) = n.child_box(s);
+            let t = box_entry(lo, hi, ray, &ri, min_t, cull_t(best));
+            if t == no_hit() {
+                continue;
+            }
+            match n.is_node(s) {
+                true => inner.push((n.child_node(s), t)),
+                false => leaves.push(n.leaf(s)),
+            }
+        }
+        for (child, &(first, count)) in leaves.iter().enumerate() {
+            trail.leaf(child, first, count, 1);
+            for k in first..first + count {
+                let binary = wide.primitives[k as usize];
+                intersect_primitive::<T, ROBUST>(
+                    ray,
+                    &shear,
+                    min_t,
+                    prims,
+                    binary,
+                    TRIANGLE_LEAF,
+                    best,
+                );
+            }
+        }
+        stack.extend(inner.iter().rev().filter(|&&(_, t)| t <= cull_t(best)));
+        let next = std::iter::from_fn(|| stack.pop()).find(|&(_, t)| t <= cull_t(best));
+        match next {
+            Some((child, _)) => node = child,
+            None => break,
+        }
+    }
+}
