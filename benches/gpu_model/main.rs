@@ -32,6 +32,9 @@ pub struct Figures {
     pub dram_bytes_per_ray: f64,
     pub predicted_ms: f64,
     pub bound: &'static str,
+    /// Of the steps a subgroup ran (per ray, as `steps_per_ray`) and the L2 bytes, the nodes'.
+    pub node_steps_per_ray: f64,
+    pub node_l2_bytes_per_ray: f64,
     /// The geometry's bytes a triangle on the device with this traversal's tree.
     pub bytes_per_triangle: Option<f64>,
 }
@@ -83,6 +86,8 @@ pub fn model(job: &Job, device: &Device, traversal: Traversal) -> Result<Figures
         dram_bytes_per_ray: (totals.dram_sectors * cache::SECTOR) as f64 / rays,
         predicted_ms,
         bound,
+        node_steps_per_ray: totals.node_lane_steps as f64 / rays,
+        node_l2_bytes_per_ray: (totals.node_l2_sectors * cache::SECTOR) as f64 / rays,
         bytes_per_triangle: workload.bytes_per_triangle(traversal),
     })
 }
@@ -112,7 +117,7 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         (None, None) => r#""size": "scene""#.to_owned(),
     };
     format!(
-        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}", "bytes_per_triangle": {}}}"#,
+        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}", "node_steps_per_ray": {:.1}, "node_l2_bytes_per_ray": {:.1}, "bytes_per_triangle": {}}}"#,
         job.scene.replace('\\', "\\\\").replace('"', "\\\""),
         if job.f64 { "f64" } else { "f32" },
         device.name,
@@ -123,6 +128,8 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         f.dram_bytes_per_ray,
         f.predicted_ms,
         f.bound,
+        f.node_steps_per_ray,
+        f.node_l2_bytes_per_ray,
         f.bytes_per_triangle
             .map_or("null".to_owned(), |b| format!("{b:.1}")),
     )

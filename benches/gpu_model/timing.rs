@@ -40,6 +40,9 @@ pub struct Totals {
     pub l1_sectors: u64,
     pub l2_sectors: u64,
     pub dram_sectors: u64,
+    /// Of the lane steps and L2 sectors, the nodes' (the rest are the primitives').
+    pub node_lane_steps: u64,
+    pub node_l2_sectors: u64,
     pub issue_cycles: f64,
     /// Each subgroup's own latency, cycles, in dispatch order.
     pub latency: Vec<f64>,
@@ -95,6 +98,7 @@ impl Machine {
             self.sectors.sort_unstable();
             self.sectors.dedup();
             let mut wait = 0.0f64;
+            let l2_before = totals.l2_sectors;
             for &s in &self.sectors {
                 totals.l1_sectors += 1;
                 let cycles = if self.l1[sm].access(s) {
@@ -108,6 +112,10 @@ impl Machine {
                     d.dram_cycles
                 };
                 wait = wait.max(cycles);
+            }
+            if matches!(step.op, Op::Node | Op::WideNode) {
+                totals.node_lane_steps += trace.rays as u64;
+                totals.node_l2_sectors += totals.l2_sectors - l2_before;
             }
             let (instructions, extra) = match (step.op, self.packets) {
                 (Op::Node, false) => (NODE_INSTRUCTIONS, 0.0),

@@ -50,13 +50,13 @@ pub(crate) fn traverse_wide_traced<T: Real, const ROBUST: bool>(
     let ri = ray_inverse(ray);
     let shear = shear_of(ray.direction);
     let octant = octant(ray);
-    let mut stack: Vec<(u32, T)> = Vec::with_capacity(wide.depth * (WIDTH - 1) + 1);
-    let mut node = 0u32;
-    loop {
+    // Waiting children, nearest last: a node, or a leaf (its first primitive and count).
+    let mut stack: Vec<(Waiting, T)> = Vec::with_capacity(wide.depth * WIDTH + 1);
+    let mut next = Some(0u32);
+    while let Some(node) = next {
         trail.node(node, 1);
         let n = &wide.nodes[node as usize];
-        let mut leaves = Vec::with_capacity(WIDTH);
-        let mut inner = Vec::with_capacity(WIDTH);
+        let mut hits: Vec<(Waiting, T)> = Vec::with_capacity(WIDTH);
         for k in 0..WIDTH {
             let s = k ^ octant;
             if !n.used(s) {
@@ -67,31 +67,50 @@ pub(crate) fn traverse_wide_traced<T: Real, const ROBUST: bool>(
             if t == no_hit() {
                 continue;
             }
-            match n.is_node(s) {
-                true => inner.push((n.child_node(s), t)),
-                false => leaves.push(n.leaf(s)),
-            }
+            let child = match n.is_node(s) {
+                true => Waiting::Node(n.child_node(s)),
+                false => Waiting::Leaf(n.leaf(s)),
+            };
+            hits.push((child, t));
         }
-        for (child, &(first, count)) in leaves.iter().enumerate() {
-            trail.leaf(child, first, count, 1);
-            for k in first..first + count {
-                let binary = wide.primitives[k as usize];
-                intersect_primitive::<T, ROBUST>(
-                    ray,
-                    &shear,
-                    min_t,
-                    prims,
-                    binary,
-                    TRIANGLE_LEAF,
-                    best,
-                );
+        // Farthest first onto the stack (a stable sort: ties keep the octant's order).
+        hits.sort_by(|a, b| b.1.partial_cmp(&a.1).expect("entries are numbers"));
+        stack.extend(hits);
+        next = None;
+        let mut tested = 0;
+        while let Some((child, t)) = stack.pop() {
+            if t > cull_t(best) {
+                continue;
             }
-        }
-        stack.extend(inner.iter().rev().filter(|&&(_, t)| t <= cull_t(best)));
-        let next = std::iter::from_fn(|| stack.pop()).find(|&(_, t)| t <= cull_t(best));
-        match next {
-            Some((child, _)) => node = child,
-            None => break,
+            match child {
+                Waiting::Node(c) => {
+                    next = Some(c);
+                    break;
+                }
+                Waiting::Leaf((first, count)) => {
+                    trail.leaf(tested, first, count, 1);
+                    tested += 1;
+                    for k in first..first + count {
+                        let binary = wide.primitives[k as usize];
+                        intersect_primitive::<T, ROBUST>(
+                            ray,
+                            &shear,
+                            min_t,
+                            prims,
+                            binary,
+                            TRIANGLE_LEAF,
+                            best,
+                        );
+                    }
+                }
+            }
         }
     }
+}
+
+/// A child waiting on the traversal's stack.
+#[derive(Clone, Copy)]
+enum Waiting {
+    Node(u32),
+    Leaf((u32, u32)),
 }

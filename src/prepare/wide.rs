@@ -201,29 +201,24 @@ fn root_child(root: &BvhNode) -> Child {
 /// and their leaves hold at most [`NODE_PRIMITIVES`] primitives.
 fn open(nodes: &[BvhNode], node: Child) -> Vec<Child> {
     let n = &nodes[node.reference as usize];
-    let mut children = vec![n.child(0), n.child(1)];
-    let primitives = |cs: &[Child]| -> u32 {
-        cs.iter()
-            .filter(|c| is_leaf(c))
-            .map(|c| leaf_len(c.count))
-            .sum()
-    };
+    let mut children = Vec::with_capacity(WIDTH);
+    children.extend([n.child(0), n.child(1)]);
+    let leaf_primitives = |c: &Child| if is_leaf(c) { leaf_len(c.count) } else { 0 };
+    let mut primitives: u32 = children.iter().map(leaf_primitives).sum();
     while children.len() < WIDTH {
-        let openable = (0..children.len()).filter(|&i| {
-            let c = children[i];
-            if is_leaf(&c) {
-                return false;
-            }
+        // Opening a node child adds its leaf children's primitives.
+        let added = |c: &Child| {
             let b = &nodes[c.reference as usize];
-            let mut after: Vec<Child> = children.clone();
-            after.swap_remove(i);
-            after.extend([b.child(0), b.child(1)]);
-            primitives(&after) <= NODE_PRIMITIVES
+            leaf_primitives(&b.child(0)) + leaf_primitives(&b.child(1))
+        };
+        let openable = (0..children.len()).filter(|&i| {
+            !is_leaf(&children[i]) && primitives + added(&children[i]) <= NODE_PRIMITIVES
         });
         let Some(i) = openable.max_by(|&i, &j| area(&children[i]).total_cmp(&area(&children[j])))
         else {
             break;
         };
+        primitives += added(&children[i]);
         let b = &nodes[children[i].reference as usize];
         children[i] = b.child(0);
         children.push(b.child(1));
@@ -319,7 +314,7 @@ fn assign_slots(children: &[Child]) -> [Option<usize>; WIDTH] {
         reference: 0,
         count: 0,
     });
-    let mut costs = Vec::new();
+    let mut costs = [(0.0f64, 0u8, 0u8); WIDTH * WIDTH];
     for (i, c) in children.iter().enumerate() {
         let m = centre(c);
         for s in 0..WIDTH {
@@ -329,13 +324,15 @@ fn assign_slots(children: &[Child]) -> [Option<usize>; WIDTH] {
                     sign * (m[a] - n[a])
                 })
                 .sum();
-            costs.push((cost, i, s));
+            costs[i * WIDTH + s] = (cost, i as u8, s as u8);
         }
     }
-    costs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let costs = &mut costs[..children.len() * WIDTH];
+    costs.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
     let mut slots = [None; WIDTH];
-    let mut placed = vec![false; children.len()];
-    for (_, i, s) in costs {
+    let mut placed = [false; WIDTH];
+    for &(_, i, s) in costs.iter() {
+        let (i, s) = (i as usize, s as usize);
         if !placed[i] && slots[s].is_none() {
             slots[s] = Some(i);
             placed[i] = true;
