@@ -311,6 +311,9 @@ impl RenderFiles {
     pub fn run(&self, gpu: Option<&Gpu>, progress: Option<Arc<Progress>>) -> Result<Summary> {
         let files = self.checked()?;
         let scene = raycast::load_viewed(self.scene.as_deref(), self.size, &self.view, self.split)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
         if let Some(path) = &self.scene
             && !self.shaded()
             && !scene.lighting.is_empty()

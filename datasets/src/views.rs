@@ -795,6 +795,9 @@ fn load<'a>(
         let path = job.scenes[s].as_deref();
         let view = raycast::CameraOverrides::default();
         let scene = raycast::load_viewed(path, spec.render.size, &view, spec.render.split)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
         *loaded = Some(Loaded {
             digest: record::scene_digest(path, &scene)?,
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),

@@ -338,6 +338,7 @@ impl RayScene {
                 camera,
                 objects: geometry.objects.clone(),
                 lighting: Default::default(),
+                warnings: Vec::new(),
             },
             extent: extent(bounds),
             cache: Mutex::default(),

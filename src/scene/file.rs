@@ -1,12 +1,13 @@
 //! The scene file format (JSON, a superset of the course's) and its validation into [`Scene`].
 
-use std::collections::HashMap;
-use std::path::Path;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
 use glam::DVec3;
 
+use super::instance::{self, TransformFile};
 use super::{
     Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, MeshPart, OBJECT_VALUES, Object,
     Projection, Scene, Split, Triangle, camera,
@@ -18,6 +19,9 @@ use crate::math::{Vec3, length, normalize};
 #[serde(deny_unknown_fields)]
 struct SceneFile {
     camera: CameraFile,
+    /// Meshes by name, each loaded once and placed by `instance` objects.
+    #[serde(default)]
+    meshes: BTreeMap<String, MeshFile>,
     objects: Vec<ObjectFile>,
     /// The course's ray-tracing scenes add these (validated, not rendered).
     #[serde(default)]
@@ -94,6 +98,18 @@ enum LightFile {
     },
 }
 
+/// A mesh file a scene declares once (`"meshes"`), as one object wherever it is placed.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshFile {
+    stl: Option<String>,
+    obj: Option<String>,
+    ply: Option<String>,
+    #[serde(default)]
+    #[allow(dead_code)]
+    comment: Option<serde_json::Value>,
+}
+
 /// An object: its shape and, in ray-tracing scenes, the name of its material.
 #[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -147,6 +163,19 @@ enum ObjectFile {
         #[serde(default)]
         values: Option<Vec<f64>>,
     },
+    /// A declared mesh placed by a transform (identity where none is given).
+    Instance {
+        mesh: String,
+        #[serde(default)]
+        transform: Option<TransformFile>,
+        #[serde(default)]
+        #[allow(dead_code)]
+        comment: Option<serde_json::Value>,
+        #[serde(default)]
+        material: Option<String>,
+        #[serde(default)]
+        values: Option<Vec<f64>>,
+    },
 }
 
 /// Resolves a soup's mesh file name, in the parts a [`Split`] asks for: what a scene's loader
@@ -159,7 +188,8 @@ impl ObjectFile {
             ObjectFile::Sphere { material, .. }
             | ObjectFile::Plane { material, .. }
             | ObjectFile::Triangle { material, .. }
-            | ObjectFile::Soup { material, .. } => material.as_deref(),
+            | ObjectFile::Soup { material, .. }
+            | ObjectFile::Instance { material, .. } => material.as_deref(),
         }
     }
 
@@ -168,7 +198,8 @@ impl ObjectFile {
             ObjectFile::Sphere { values, .. }
             | ObjectFile::Plane { values, .. }
             | ObjectFile::Triangle { values, .. }
-            | ObjectFile::Soup { values, .. } => values.as_deref(),
+            | ObjectFile::Soup { values, .. }
+            | ObjectFile::Instance { values, .. } => values.as_deref(),
         }
     }
 }
@@ -185,12 +216,25 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
     if raw.camera.name.is_some() {
         return Err(checker.fail("camera.name", "only the cameras of a views file have names"));
     }
+    let mut meshes = Meshes {
+        declared: &raw.meshes,
+        loaded: HashMap::new(),
+    };
     let objects = raw
         .objects
         .iter()
         .enumerate()
-        .map(|(i, o)| checker.object(i, o, load_mesh))
+        .map(|(i, o)| checker.object(i, o, load_mesh, &mut meshes))
         .collect::<Result<Vec<_>>>()?;
+    let warnings = (raw.meshes.keys())
+        .filter(|name| !meshes.loaded.contains_key(*name))
+        .map(|name| {
+            format!(
+                "{}: meshes.{name} is declared but no instance places it",
+                file.display()
+            )
+        })
+        .collect();
     let counts: Vec<usize> = objects.iter().map(Vec::len).collect();
     let objects: Vec<Object> = objects.into_iter().flatten().collect();
     let camera = checker.camera(&raw.camera, &objects)?;
@@ -199,6 +243,7 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
         camera,
         objects,
         lighting,
+        warnings,
     })
 }
 
@@ -287,6 +332,7 @@ pub(super) fn mesh_scene(
             ..Lighting::default()
         },
         objects,
+        warnings: Vec::new(),
     })
 }
 
@@ -298,6 +344,9 @@ fn deserialize<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Resul
         let path = path.trim_end_matches('?').trim_end_matches('.');
         let inner = e.into_inner();
         let message = suggest_name(&strip_position(&inner.to_string()));
+        let message = (instance::SHAPES.iter()).fold(message, |m, (serde_says, we_say)| {
+            m.replace(serde_says, we_say)
+        });
         let message = if path.is_empty() || path == "." {
             message
         } else {
@@ -652,7 +701,13 @@ impl Checker<'_> {
     }
 
     /// The objects of `objects[i]`: one, or a soup's parts.
-    fn object(&self, i: usize, o: &ObjectFile, load_mesh: &mut LoadMesh) -> Result<Vec<Object>> {
+    fn object(
+        &self,
+        i: usize,
+        o: &ObjectFile,
+        load_mesh: &mut LoadMesh,
+        meshes: &mut Meshes,
+    ) -> Result<Vec<Object>> {
         let field = |name: &str| format!("objects[{i}].{name}");
         Ok(vec![match o {
             ObjectFile::Sphere { center, radius, .. } => Object::Sphere {
@@ -696,7 +751,32 @@ impl Checker<'_> {
                 let parts = load_mesh(name, split.unwrap_or_default())?;
                 return self.soups(Path::new(name), &format!("objects[{i}] "), parts);
             }
+            ObjectFile::Instance {
+                mesh, transform, ..
+            } => {
+                let m = match transform {
+                    Some(t) => self.transform(&field("transform"), t)?,
+                    None => glam::DAffine3::IDENTITY,
+                };
+                let (path, triangles) = meshes.load(mesh, self, &field("mesh"), load_mesh)?;
+                let triangles = instance::place(triangles, &m);
+                self.mesh_values(&format!("objects[{i}] "), &triangles)?;
+                Object::Soup {
+                    path: path.clone(),
+                    triangles,
+                }
+            }
         }])
+    }
+
+    /// The affine map of the transform at `field`: finite numbers, an affine matrix or
+    /// non-zero parts, not singular.
+    fn transform(&self, field: &str, t: &TransformFile) -> Result<glam::DAffine3> {
+        for (under, x) in t.numbers() {
+            self.number(&format!("{field}{under}"), x)?;
+        }
+        t.affine()
+            .map_err(|(under, message)| self.fail(format!("{field}{under}"), message))
     }
 
     /// The objects of a mesh file's `parts`, each a soup of the file `path`; `place` starts
@@ -842,6 +922,59 @@ impl Checker<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// The meshes a scene declares, each loaded when an instance first places it.
+struct Meshes<'a> {
+    declared: &'a BTreeMap<String, MeshFile>,
+    loaded: HashMap<String, (PathBuf, Vec<Triangle>)>,
+}
+
+impl Meshes<'_> {
+    /// Mesh `name`'s file and triangles (an instance's `field` names it).
+    fn load(
+        &mut self,
+        name: &str,
+        checker: &Checker,
+        field: &str,
+        load_mesh: &mut LoadMesh,
+    ) -> Result<&(PathBuf, Vec<Triangle>)> {
+        if !self.loaded.contains_key(name) {
+            let Some(declared) = self.declared.get(name) else {
+                let known: Vec<&str> = self.declared.keys().map(String::as_str).collect();
+                let nearest = (known.iter())
+                    .map(|k| (edit_distance(name, k), *k))
+                    .filter(|(d, _)| *d <= (name.chars().count() / 3).max(1))
+                    .min();
+                let message = match (known.is_empty(), nearest) {
+                    (true, _) => format!("no mesh `{name}`: the scene declares none in \"meshes\""),
+                    (false, Some((_, k))) => format!("unknown mesh `{name}`, did you mean `{k}`?"),
+                    (false, None) => format!(
+                        "unknown mesh `{name}`, expected one of `{}`",
+                        known.join("`, `")
+                    ),
+                };
+                return Err(checker.fail(field, message));
+            };
+            let place = format!("meshes.{name}");
+            let file = match (&declared.stl, &declared.obj, &declared.ply) {
+                (Some(f), None, None) | (None, Some(f), None) | (None, None, Some(f)) => f,
+                _ => {
+                    return Err(checker.fail(
+                        place,
+                        "a mesh needs exactly one of \"stl\", \"obj\" or \"ply\"",
+                    ));
+                }
+            };
+            let triangles: Vec<Triangle> = (load_mesh(file, Split::None)?.into_iter())
+                .flat_map(|part| part.triangles)
+                .collect();
+            checker.mesh_values(&format!("{place} "), &triangles)?;
+            self.loaded
+                .insert(name.to_owned(), (PathBuf::from(file), triangles));
+        }
+        Ok(&self.loaded[name])
     }
 }
 

@@ -6,6 +6,7 @@
 
 mod camera;
 mod file;
+mod instance;
 pub(crate) use file::MAX_MAGNITUDE;
 pub use file::{ViewCamera, parse_views};
 mod mesh;
@@ -78,6 +79,9 @@ pub struct Scene {
     /// Materials and lights, as the course's ray-tracing scenes give them: validated and kept,
     /// but the ray caster renders geometry only (ids, distances, normals).
     pub lighting: Lighting,
+    /// What the scene file holds that is allowed but likely a mistake (a mesh declared and
+    /// never placed), a line each, for the caller to show.
+    pub warnings: Vec<String>,
 }
 
 /// A material of the course's ray-tracing assignment (Blinn-Phong with a mirror term): RGB

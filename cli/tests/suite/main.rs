@@ -14,6 +14,7 @@ mod cpu_reference;
 mod faults;
 mod formats;
 mod gpu_check;
+mod instances;
 mod interrupt;
 mod kernel_file;
 mod mesh_files;
