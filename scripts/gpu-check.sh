@@ -43,7 +43,22 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION
         git -C "$here/.." diff --quiet HEAD 2>/dev/null || commit+=-dirty
         echo "$commit" >"$dir/commit"
     fi
-    if command -v strip >/dev/null; then strip "$dir/raycast"; else say "gpu-check: no strip; the binary keeps its symbols"; fi
+    # The cost model (docs/gpu.md#a-cost-model), where it was built beside the binary
+    # (`cargo build --release -p raycast-benches --bin gpu_model`): its predictions for the
+    # device go into the report beside the measurements.
+    local model
+    model=$(dirname "$binary")/gpu_model
+    if [[ -x $model ]]; then
+        cp "$model" "$dir/gpu_model" || exit 2
+    else
+        say "gpu-check: no gpu_model beside $binary: the report will have no predictions"
+    fi
+    if command -v strip >/dev/null; then
+        strip "$dir/raycast"
+        [[ -x $dir/gpu_model ]] && strip "$dir/gpu_model"
+    else
+        say "gpu-check: no strip; the binaries keep their symbols"
+    fi
     local lib found
     for lib in "${kit_libs[@]}"; do
         found=$(ldconfig -p 2>/dev/null | awk -v l="$lib" '$1 == l {print $NF; exit}')
@@ -169,6 +184,32 @@ bench spheres "$work/torus/spheres.json" --traversal "$traversals"
 bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
 bench lit "$work/lit/bunny.json" --lit --traversal "$traversals"
 
+# The cost model's predictions for the same workloads, where the kit has gpu_model and the
+# model has the device's parameters (GPU_MODEL_DEVICE names them: h200, rtx4090).
+model_device=${GPU_MODEL_DEVICE:-}
+if [[ -z $model_device ]]; then
+    case $(grep -i '^adapter:' "$raw/info.txt") in
+        *H200*) model_device=h200 ;;
+        *4090*) model_device=rtx4090 ;;
+    esac
+fi
+predict() { # NAME ARGS...
+    local name=$1; shift
+    step "model-$name" "$raw/model-$name.jsonl" "$here/gpu_model" "$@" --device "$model_device" --json
+}
+if [[ -x $here/gpu_model && -n $model_device ]]; then
+    quarter=$((${size%x*} / 4))x$((${size#*x} / 4))
+    predict torus "$work/torus/torus.json" --size "$size" --traversal both
+    grep -q '^shader f64: *yes' "$raw/info.txt" &&
+        predict torus-f64 "$work/torus/torus.json" --size "$size" --traversal both --f64
+    predict big "$work/big/torus.json" --size "$size" --traversal both
+    predict big-small "$work/big/torus.json" --size "$quarter" --traversal both
+    predict spheres "$work/torus/spheres.json" --size "$size" --traversal both
+    predict incoherent "$work/torus/torus.json" --rays "$rays" --traversal per-ray
+else
+    say "gpu-check: no predictions (the kit has no gpu_model, or the model has no parameters for this device: GPU_MODEL_DEVICE=h200|rtx4090)"
+fi
+
 # Adaptive precision is two passes (bench times single frames): whole renders, wall time,
 # f32 and adaptive in turn, each round alternating which goes first.
 adaptive_times() {
@@ -246,6 +287,18 @@ summary = next((l for l in reversed(selftest) if l.startswith("selftest:")), "se
 bench = {name: rows("bench-%s.jsonl" % name)
          for name in ("torus", "big", "big-small", "spheres", "incoherent", "lit", "peer-torus",
                       "views")}
+# The cost model's predictions, by the bench workload they predict (torus-f64: the torus in f64).
+model = {name: rows("model-%s.jsonl" % name)
+         for name in ("torus", "torus-f64", "big", "big-small", "spheres", "incoherent")}
+
+def predicted(name, r):
+    # The model's ms for bench row r of workload name: same precision and traversal (a ray
+    # list, per ray: the traversal it chooses for incoherent rays).
+    f64 = r["mode"].startswith("gpu:f64")
+    rows_ = model.get(name + "-f64" if f64 and name == "torus" else name, [])
+    t = r.get("traversal", "auto")
+    t = "per-ray" if t == "auto" else t
+    return next((m["predicted_ms"] for m in rows_ if m["traversal"] == t), None)
 views = {"batch": [], "single": []}
 for line in text("views.txt").splitlines():
     kind, end, start = line.split()
@@ -280,8 +333,10 @@ report = {
     # Each workload by mode and traversal: what docs/gpu/reports/ keeps at a glance.
     "workloads": [{"workload": name, "mode": r["mode"], "traversal": r.get("traversal", "auto"),
                    "kernel_ms": r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3,
-                   "grays_per_s": r["mrays_per_s"] / 1e3, "whole_ms": r["trace_s"] * 1e3}
+                   "grays_per_s": r["mrays_per_s"] / 1e3, "whole_ms": r["trace_s"] * 1e3,
+                   "predicted_ms": predicted(name, r)}
                   for name, rs in bench.items() for r in rs],
+    "model": model,
     "views": {
         "views": n_views,
         "batch_s": views["batch"][0] if views["batch"] else None,
@@ -360,6 +415,19 @@ md += ["", "The trace (`trace_s`, wall) against its kernel (GPU timestamps); of 
        "written, the host's wait for the device and the conversion of what was read back; the GPU's "
        "copy to host-mapped memory where measured. Medians of the runs; the dataset's row sums its "
        "views. Ray lists (`--rays`) report no parts."]
+predictions = [w for w in report["workloads"] if w["predicted_ms"] is not None]
+if predictions:
+    device = next((m["device"] for rs in model.values() for m in rs), "?")
+    md += ["", "## The cost model against the kernel (gpu_model --device %s)" % device, "",
+           "| workload | mode | traversal | predicted ms | measured ms | measured / predicted |",
+           "|---|---|---|---:|---:|---:|"]
+    for w in predictions:
+        measured = w["kernel_ms"] if w["kernel_ms"] is not None else w["whole_ms"]
+        md.append("| %s | %s | %s | %.3f | %.2f | %.1f |" % (
+            w["workload"], w["mode"], w["traversal"], w["predicted_ms"], measured,
+            measured / w["predicted_ms"]))
+    md += ["", "Measured: kernel ms (GPU timestamps), the incoherent rays' whole cast (upload and "
+           "readback included, which the model leaves out)."]
 if peers:
     md += ["", "## Mitsuba 3 (peer_bench.py)", "", "| peer | workload | build s | trace s | Grays/s |",
            "|---|---|---:|---:|---:|"]

@@ -1,6 +1,8 @@
 //! scripts/gpu-check.sh end to end on lavapipe, as on a GPU machine without a Rust toolchain:
 //! the script packs itself, the stripped binary and the Vulkan loader into an empty folder,
-//! and runs from there (`--quick` sizes), writing report.md and report.json.
+//! and runs from there (`--quick` sizes), writing report.md and report.json. Where the cost
+//! model was built beside the binary (`cargo build -p raycast-benches`, not in CI), the kit
+//! brings it and the report sets its predictions for the H200 beside the measurements.
 
 use crate::common;
 
@@ -22,15 +24,20 @@ fn gpu_check_runs_from_a_packed_folder() {
         "{}",
         String::from_utf8_lossy(&pack.stderr)
     );
-    assert_eq!(
-        common::file_names(&kit),
-        ["commit", "gpu-check.sh", "lib", "raycast"]
-    );
+    let model = std::path::Path::new(env!("CARGO_BIN_EXE_raycast"))
+        .with_file_name("gpu_model")
+        .exists();
+    let mut kit_files = vec!["commit", "gpu-check.sh", "lib", "raycast"];
+    if model {
+        kit_files.insert(2, "gpu_model");
+    }
+    assert_eq!(common::file_names(&kit), kit_files);
     let size = |p: &std::path::Path| std::fs::metadata(p).unwrap().len();
     assert!(size(&kit.join("raycast")) < size(env!("CARGO_BIN_EXE_raycast").as_ref()));
 
     let out = dir.path().join("report");
     let run = Command::new(kit.join("gpu-check.sh"))
+        .env("GPU_MODEL_DEVICE", "h200")
         .args(["--quick", "--out"])
         .arg(&out)
         .arg(kit.join("raycast"))
@@ -127,4 +134,10 @@ fn gpu_check_runs_from_a_packed_folder() {
     ] {
         assert!(md.contains(part), "report.md lacks {part}");
     }
+    // The model's prediction beside each workload it replays: camera casts by both
+    // traversals, the incoherent list per ray; none for the lit bunny (a hook's rays).
+    let predicted = |w: &&serde_json::Value| w["predicted_ms"].as_f64().is_some_and(|p| p > 0.0);
+    let predictions = workloads.iter().filter(predicted).count();
+    assert_eq!(predictions, if model { 11 } else { 0 }, "{workloads:?}");
+    assert_eq!(md.contains("## The cost model against the kernel"), model);
 }
