@@ -400,16 +400,7 @@ fn packet_mirror_agrees<T: Real>(scene: &Scene) {
         let j = (tile % 4) * 8 + lane % 8;
         raycast::kernel::frame::camera_ray(frame, i as u32, j as u32)
     });
-    let mut rng = common::Rng(3);
-    let incoherent = (0..256).map(|_| {
-        let o = rng.point(-2.0, 2.0);
-        let d = rng.point(-1.0, 1.0);
-        raycast::kernel::types::Ray {
-            origin: Vec3::from_array(o.map(T::from_f64)),
-            direction: Vec3::from_array(d.map(T::from_f64)),
-        }
-    });
-    let rays: Vec<_> = camera.chain(incoherent).collect();
+    let rays: Vec<_> = camera.chain(incoherent_rays::<T>(3, 256)).collect();
     let start = |r| {
         cpu::nearest::before_bvh::<T, true>(r, frame.min_t, raycast::kernel::types::t_far(), prims)
     };
@@ -506,19 +497,10 @@ fn wide_agrees<T: Real>(scene: &Scene) -> bool {
     named.sort_unstable();
     assert!(named.iter().copied().eq(0..prims.triangles.len() as u32));
     let camera = (0..24 * 32).map(|k| raycast::kernel::frame::camera_ray(frame, k / 32, k % 32));
-    let mut rng = common::Rng(5);
-    let incoherent = (0..256).map(|_| {
-        let o = rng.point(-2.0, 2.0);
-        let d = rng.point(-1.0, 1.0);
-        raycast::kernel::types::Ray {
-            origin: Vec3::from_array(o.map(T::from_f64)),
-            direction: Vec3::from_array(d.map(T::from_f64)),
-        }
-    });
     let start = |r: &raycast::kernel::types::Ray<T>| {
         cpu::nearest::before_bvh::<T, true>(r, frame.min_t, raycast::kernel::types::t_far(), prims)
     };
-    for ray in camera.chain(incoherent) {
+    for ray in camera.chain(incoherent_rays::<T>(5, 256)) {
         let (mut binary, mut wide_hit) = (start(&ray), start(&ray));
         traverse_bvh::<T, true>(&ray, frame.min_t, prims, &bvh.nodes, &mut binary);
         traverse_wide::<T, true>(&ray, frame.min_t, prims, &wide, &mut wide_hit);
@@ -527,4 +509,20 @@ fn wide_agrees<T: Real>(scene: &Scene) -> bool {
         assert_eq!(key(&wide_hit), key(&binary), "{ray:?}");
     }
     true
+}
+
+/// `n` rays from origins in a cube of side 4 about the origin, directions uniform in a cube
+/// (seeded), in the kernel's precision.
+fn incoherent_rays<T: Real>(seed: u64, n: usize) -> Vec<raycast::kernel::types::Ray<T>> {
+    let mut rng = common::Rng(seed);
+    (0..n)
+        .map(|_| {
+            let o = rng.point(-2.0, 2.0);
+            let d = rng.point(-1.0, 1.0);
+            raycast::kernel::types::Ray {
+                origin: Vec3::from_array(o.map(T::from_f64)),
+                direction: Vec3::from_array(d.map(T::from_f64)),
+            }
+        })
+        .collect()
 }
