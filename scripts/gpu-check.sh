@@ -332,6 +332,7 @@ report = {
     "bench": bench, "adaptive_render_s": medians, "mitsuba": peers,
     # Each workload by mode and traversal: what docs/gpu/reports/ keeps at a glance.
     "workloads": [{"workload": name, "mode": r["mode"], "traversal": r.get("traversal", "auto"),
+                   "packets": r.get("packets"),
                    "kernel_ms": r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3,
                    "grays_per_s": r["mrays_per_s"] / 1e3, "whole_ms": r["trace_s"] * 1e3,
                    "predicted_ms": predicted(name, r)}

@@ -91,6 +91,9 @@ pub struct Stages {
     pub hook_rays: Option<u64>,
     /// Nodes of the BVH the render went through (`None`: brute force).
     pub bvh_nodes: Option<usize>,
+    /// How a GPU kernel's rays walked the BVH: in packets (`Some(true)`) or ray by ray
+    /// (`Some(false)`); `None` on the CPU or without a BVH.
+    pub packets: Option<bool>,
     /// Bytes of the geometry as the render held it, per triangle (`None` without triangles):
     /// each triangle as laid out for the device (on the GPU 40 bytes in f32, 80 in f64; on the
     /// CPU 36 and 72), an object id of 4 bytes per sphere, plane and triangle, and the BVH (64

@@ -525,12 +525,15 @@ impl<R: GpuReal> Kernel<R> {
     }
 
     pub(crate) fn run(self, gpu: &Gpu) -> Result<Ran<R>> {
+        let packets = self.variant.uses_bvh().then(|| self.variant.uses_packets());
         let mut job = Job::new(self.variant).timed(self.timed);
         if let Some(rows) = self.rows {
             job = job.rows(rows);
         }
+        let mut rendered = gpu::run(gpu, &self.prepared, job)?;
+        rendered.stages.packets = packets;
         Ok(Ran {
-            rendered: gpu::run(gpu, &self.prepared, job)?,
+            rendered,
             prepared: self.prepared,
             timed: self.timed,
         })

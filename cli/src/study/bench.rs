@@ -433,6 +433,9 @@ pub struct Row {
     pub bytes_per_triangle: Option<f64>,
     /// BVH nodes (64 bytes each), when a BVH is used.
     pub bvh_nodes: Option<usize>,
+    /// Whether the GPU kernel's rays walked the BVH in packets (what `--traversal auto`
+    /// chose, [`raycast::Stages::packets`]); `None` on the CPU, without a BVH and for ray lists.
+    pub packets: Option<bool>,
     /// The GPU adapter's name; `None` on the CPU.
     pub adapter: Option<String>,
     /// The adapter's driver information (Mesa's version on lavapipe); `None` on the CPU.
@@ -454,6 +457,7 @@ struct Run {
     hits: usize,
     hook_rays: Option<u64>,
     bvh_nodes: Option<usize>,
+    packets: Option<bool>,
     bytes_per_triangle: Option<f64>,
 }
 
@@ -521,6 +525,7 @@ fn run_once(scene: &Scene, config: Config, gpu: Option<&Gpu>, options: &Options)
         hits: images.id().iter().filter(|&&id| id != MISS).count(),
         hook_rays: stages.hook_rays,
         bvh_nodes: stages.bvh_nodes,
+        packets: stages.packets,
         bytes_per_triangle: stages.bytes_per_triangle,
     })
 }
@@ -642,6 +647,7 @@ pub fn measure(
         peak_rss_mb,
         bytes_per_triangle: last.bytes_per_triangle,
         bvh_nodes: last.bvh_nodes,
+        packets: last.packets,
         adapter: on_gpu.as_ref().map(|i| i.name.clone()),
         driver: on_gpu.map(|i| i.driver_info),
         cpu: cpu_model(),
@@ -730,6 +736,7 @@ fn measure_rays(
         peak_rss_mb: crate::peak_rss_mib(),
         bytes_per_triangle: None,
         bvh_nodes: None,
+        packets: None,
         adapter: info.as_ref().map(|i| i.name.clone()),
         driver: info.map(|i| i.driver_info),
         cpu: cpu_model(),

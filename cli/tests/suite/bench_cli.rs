@@ -10,7 +10,7 @@ use common::repo_path;
 use raycast::Algorithm;
 
 /// Every key of a `--json` line, in order.
-const KEYS: [&str; 37] = [
+const KEYS: [&str; 38] = [
     "scene",
     "mode",
     "accel",
@@ -45,6 +45,7 @@ const KEYS: [&str; 37] = [
     "peak_rss_mb",
     "bytes_per_triangle",
     "bvh_nodes",
+    "packets",
     "adapter",
     "driver",
     "cpu",
@@ -207,9 +208,12 @@ fn json_lines_per_configuration_with_consistent_numbers() {
         let (t, s, p) = (1000.0, 0.0, number(row, "planes"));
         let bvh_bytes = if accel == "bvh" {
             assert_eq!(row["bvh_nodes"], nodes);
+            // lavapipe's choice at 2.3 rays a triangle: packets.
+            assert_eq!(row["packets"], true, "{row}");
             64.0 * nodes as f64 + 4.0 * (s + t)
         } else {
             assert!(row["bvh_nodes"].is_null());
+            assert!(row["packets"].is_null(), "{row}");
             0.0
         };
         let expected = (t * 40.0 + 4.0 * (s + p + t) + bvh_bytes) / t;

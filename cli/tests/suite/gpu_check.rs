@@ -97,6 +97,8 @@ fn gpu_check_runs_from_a_packed_folder() {
         }
     }
     for r in torus {
+        // The traversal asked for is the one the kernel took.
+        assert_eq!(r["packets"], r["traversal"] == "packets", "{r}");
         assert_eq!(r["triangles"], 518_400);
         assert_eq!(r["rays"], 640 * 360);
         assert!(r["whole_over_kernel"].as_f64().unwrap() >= 1.0, "{r}");
