@@ -178,6 +178,15 @@ pub fn describe(gpu: &Gpu) -> String {
         "host-mapped buffers: {}\n",
         has(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS)
     );
+    // What the adapter offers, not what raycast asks for: no kernel uses ray queries yet (#65).
+    let adapter_has = |f| match gpu.adapter.features().contains(f) {
+        true => "yes",
+        false => "no",
+    };
+    s += &format!(
+        "ray queries:  {} (the adapter's; raycast traverses on its own)\n",
+        adapter_has(wgpu::Features::EXPERIMENTAL_RAY_QUERY)
+    );
     // Whether `raycast bench --traversal packets` can run here (gpu-check reads `yes`), and
     // whether casts take it by default.
     let packets = match (

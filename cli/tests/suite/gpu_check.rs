@@ -72,6 +72,16 @@ fn gpu_check_runs_from_a_packed_folder() {
         "{head}"
     );
     assert!(report["device"].as_str().unwrap().contains("llvmpipe"));
+    // `raycast info` as the kit kept it: lavapipe offers ray queries (#65) and packets.
+    let info: Vec<&str> = (report["info"].as_array().unwrap().iter())
+        .map(|l| l.as_str().unwrap())
+        .collect();
+    for line in [
+        "ray queries:  yes",
+        "subgroups:    8 to 8 invocations; packet traversal: yes",
+    ] {
+        assert!(info.iter().any(|l| l.starts_with(line)), "{line}: {info:?}");
+    }
     let workloads = report["workloads"].as_array().unwrap();
     let per_ray = |w: &&serde_json::Value| w["traversal"] == "per-ray";
     assert_eq!(workloads.iter().filter(per_ray).count(), 6, "{workloads:?}");
