@@ -335,6 +335,9 @@ enum Command {
         /// The torus's triangles, about (a grid twice as long around as across).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
         triangles: Option<u64>,
+        /// The instances workload's bunnies (default 1,000).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+        count: Option<u64>,
     },
     /// Serve a live page of a scene's render on this machine: rendered again when the scene,
     /// a mesh or the hook is saved, hook errors shown on the page, the camera moved with the
@@ -715,9 +718,11 @@ fn run(command: Command) -> Result<ExitCode> {
             output,
             size,
             triangles,
+            count,
         } => {
             let triangles = triangles.map(|n| n as usize);
-            let path = study::workload::write(&name, &output, size, triangles)?;
+            let count = count.map(|n| n as usize);
+            let path = study::workload::write(&name, &output, size, triangles, count)?;
             say(format!("wrote {}", path.display()));
             Ok(ExitCode::SUCCESS)
         }

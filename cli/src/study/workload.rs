@@ -8,7 +8,10 @@
 //! - `spheres`: 100 spheres in the torus's bounding box, radii 2% to 6% of its diagonal (the
 //!   peers' distribution; drawn by raycast's own seeded generator, so not the peers' spheres);
 //! - `lit-bunny`: the course's ray-tracing bunny (scenes/ray-tracing/bunny.json and its mesh),
-//!   for `raycast bench --lit`.
+//!   for `raycast bench --lit`;
+//! - `instances`: the course's bunny declared once and placed `--count` times (1,000 by
+//!   default) at seeded random poses on a grid (rotations about random axes, non-uniform
+//!   scales), the scene of #64's measurements.
 //!
 //! Each is a scene file and, for the torus, a binary PLY mesh beside it (doubles: the formula's
 //! vertices exactly), written whole or not at all.
@@ -23,7 +26,7 @@ use raycast_files::{EncodedFile, check_writable, write_files};
 pub const TORUS_GRID: [usize; 2] = [720, 360];
 
 /// The workloads, as `raycast workload` names them, and what each writes: its help.
-pub const WORKLOADS: [(&str, &str); 3] = [
+pub const WORKLOADS: [(&str, &str); 4] = [
     (
         "torus",
         "the peers' displaced torus, 518,400 triangles (or --triangles), in a binary PLY beside \
@@ -34,7 +37,15 @@ pub const WORKLOADS: [(&str, &str); 3] = [
         "lit-bunny",
         "the course's ray-tracing bunny (its scene and mesh, its own camera), for `bench --lit`",
     ),
+    (
+        "instances",
+        "the course's bunny placed --count times (1,000) at random poses on a grid, one mesh \
+         declared once",
+    ),
 ];
+
+/// Bunnies the `instances` workload places unless `--count` says.
+pub const INSTANCES: usize = 1000;
 
 /// The workloads' names, comma-separated.
 fn names() -> String {
@@ -143,13 +154,57 @@ pub fn spheres(n: usize, lo: [f64; 3], hi: [f64; 3], seed: u64) -> Vec<serde_jso
         .collect()
 }
 
-/// Writes workload `name` into `dir` at `resolution` (`triangles`: the torus's size) and
-/// returns the scene file's path.
+/// The `instances` workload's scene: `mesh` (its file name and triangles) placed `count` times
+/// at seeded random poses on a cubic grid, seen from beyond the grid's +z face.
+fn instances_scene(
+    mesh: (&str, &[raycast::Triangle]),
+    count: usize,
+    resolution: [u32; 2],
+) -> serde_json::Value {
+    let corners = mesh.1.iter().flatten();
+    let lo: [f64; 3] =
+        std::array::from_fn(|a| corners.clone().map(|p| p[a]).fold(f64::MAX, f64::min));
+    let hi: [f64; 3] =
+        std::array::from_fn(|a| corners.clone().map(|p| p[a]).fold(f64::MIN, f64::max));
+    let size = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+    let centre: [f64; 3] = std::array::from_fn(|a| (lo[a] + hi[a]) / 2.0);
+    let side = (1..)
+        .find(|n| n * n * n >= count)
+        .expect("a grid holds them");
+    let step = 1.5 * size;
+    let mut rng = Rng(64);
+    let objects: Vec<serde_json::Value> = (0..count)
+        .map(|k| {
+            let cell = [k % side, k / side % side, k / (side * side)];
+            let translate: Vec<f64> = (0..3)
+                .map(|a| cell[a] as f64 * step - centre[a] + rng.range(-0.1, 0.1) * step)
+                .collect();
+            let axis = rng.point(-1.0, 1.0);
+            let degrees = rng.range(0.0, 360.0);
+            let scale: Vec<f64> = (0..3).map(|_| rng.range(0.6, 1.2)).collect();
+            serde_json::json!({"type": "instance", "mesh": "bunny", "transform": {
+                "translate": translate, "rotate": {"axis": axis, "degrees": degrees}, "scale": scale}})
+        })
+        .collect();
+    let middle = (side - 1) as f64 * step / 2.0;
+    let eye = [middle, middle, side as f64 * step * 1.5 + 2.0 * size];
+    serde_json::json!({
+        "comment": format!("the course's bunny placed {count} times at random poses (raycast workload)"),
+        "camera": {"eye": eye, "look_at": [middle, middle, middle], "up": [0, 1, 0], "fov": 50,
+                   "resolution": resolution},
+        "meshes": {"bunny": {"stl": mesh.0}},
+        "objects": objects,
+    })
+}
+
+/// Writes workload `name` into `dir` at `resolution` (`triangles`: the torus's size; `count`:
+/// the instances') and returns the scene file's path.
 pub fn write(
     name: &str,
     dir: &Path,
     resolution: [u32; 2],
     triangles: Option<usize>,
+    count: Option<usize>,
 ) -> Result<PathBuf> {
     let [nu, nv] = triangles.map_or(TORUS_GRID, torus_grid);
     let scene = |comment: String, objects: Vec<serde_json::Value>| {
@@ -197,6 +252,24 @@ pub fn write(
             };
             vec![file("bunny.stl")?, file("bunny.json")?]
         }
+        "instances" => {
+            let bytes = super::selftest::data::file("scenes/course/bunny.stl")?.to_vec();
+            let parts = raycast::parse_mesh(&bytes, Path::new("bunny.stl"), Default::default())?;
+            let mesh: Vec<raycast::Triangle> =
+                parts.into_iter().flat_map(|p| p.triangles).collect();
+            let json =
+                instances_scene(("bunny.stl", &mesh), count.unwrap_or(INSTANCES), resolution);
+            vec![
+                EncodedFile {
+                    name: "bunny.stl",
+                    bytes,
+                },
+                EncodedFile {
+                    name: "instances.json",
+                    bytes: serde_json::to_vec_pretty(&json).expect("a scene serialises"),
+                },
+            ]
+        }
         _ => {
             return Err(Error::Argument {
                 option: "workload".into(),
@@ -239,8 +312,29 @@ mod tests {
     fn every_listed_workload_is_written() {
         let dir = tempfile::tempdir().unwrap();
         for (name, _) in WORKLOADS {
-            write(name, dir.path(), [8, 8], Some(8)).unwrap();
+            write(name, dir.path(), [8, 8], Some(8), Some(3)).unwrap();
         }
-        assert!(write("cube", dir.path(), [8, 8], None).is_err());
+        assert!(write("cube", dir.path(), [8, 8], None, None).is_err());
+    }
+
+    /// The instances workload loads as `count` objects of the bunny's triangles each, every
+    /// one placed differently.
+    #[test]
+    fn the_instances_workload_places_count_bunnies() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write("instances", dir.path(), [16, 9], None, Some(27)).unwrap();
+        let scene = raycast::Scene::load(&path).unwrap();
+        assert!(scene.warnings.is_empty());
+        let meshes: Vec<&Vec<raycast::Triangle>> = (scene.objects.iter())
+            .map(|o| match o {
+                raycast::Object::Soup { triangles, .. } => triangles,
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(meshes.len(), 27);
+        assert!(meshes.iter().all(|t| t.len() == 1000));
+        let firsts: std::collections::BTreeSet<String> =
+            meshes.iter().map(|t| format!("{:?}", t[0])).collect();
+        assert_eq!(firsts.len(), 27);
     }
 }
