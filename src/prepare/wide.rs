@@ -9,6 +9,7 @@
 //! nodes name them. Triangles only: a tree with spheres keeps the binary form.
 
 use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
 
 use super::bvh::{Bvh, BvhNode, Child, LEAF_BIT, SPHERE_LEAF, leaf_len};
 
@@ -111,26 +112,31 @@ impl WideBvh {
         {
             return None;
         }
+        // Breadth first, level by level, so that a node's internal children are consecutive;
+        // each level's nodes drafted in parallel, then given their places in turn.
         let mut wide = WideBvh::default();
-        // Breadth first, so that a node's internal children are consecutive.
-        let mut queue = std::collections::VecDeque::from([(root_child(root), 1usize)]);
-        wide.nodes.push(WideNode::zeroed());
-        let mut index = 0;
-        while let Some((binary, depth)) = queue.pop_front() {
-            let children = open(&bvh.nodes, binary);
-            let (node, internal) = wide.node_of(&children);
-            for c in internal {
-                queue.push_back((c, depth + 1));
+        let mut level = vec![root_child(root)];
+        while !level.is_empty() {
+            let drafts: Vec<Draft> = (level.par_iter())
+                .map(|&binary| draft(&open(&bvh.nodes, binary)))
+                .collect();
+            let mut child_base = (wide.nodes.len() + drafts.len()) as u32;
+            let mut next = Vec::new();
+            for d in drafts {
+                let node = WideNode {
+                    child_base,
+                    primitive_base: wide.primitives.len() as u32,
+                    ..d.node
+                };
+                for (first, count) in d.leaves {
+                    wide.primitives.extend(first..first + count);
+                }
+                child_base += d.internal.len() as u32;
+                next.extend(d.internal);
+                wide.nodes.push(node);
             }
-            wide.nodes[index] = WideNode {
-                child_base: wide.nodes.len() as u32,
-                ..node
-            };
-            let added = node.internal.count_ones() as usize;
-            wide.nodes
-                .extend(std::iter::repeat_n(WideNode::zeroed(), added));
-            wide.depth = wide.depth.max(depth);
-            index += 1;
+            wide.depth += 1;
+            level = next;
         }
         Some(wide)
     }
@@ -139,46 +145,56 @@ impl WideBvh {
     pub(crate) fn bytes(&self) -> usize {
         size_of_val(&self.nodes[..]) + 4 * self.primitives.len()
     }
+}
 
-    /// The node over `children` (their slots, leaves, boxes), and the binary children that are
-    /// nodes, in slot order.
-    fn node_of(&mut self, children: &[Child]) -> (WideNode, Vec<Child>) {
-        let slots = assign_slots(children);
-        let mut node = WideNode {
-            primitive_base: self.primitives.len() as u32,
+/// A node before its place in the tree: its slots and boxes (its leaves' offsets counted
+/// from its first primitive), its leaves' primitives (first, count) and its children that are
+/// nodes, in slot order.
+struct Draft {
+    node: WideNode,
+    leaves: Vec<(u32, u32)>,
+    internal: Vec<Child>,
+}
+
+/// The node over `children`.
+fn draft(children: &[Child]) -> Draft {
+    let slots = assign_slots(children);
+    let (origin, exponents) = grid(children);
+    let mut d = Draft {
+        node: WideNode {
+            origin,
+            exponents,
             ..WideNode::zeroed()
+        },
+        leaves: Vec::new(),
+        internal: Vec::new(),
+    };
+    let mut offset = 0;
+    for (s, slot) in slots.iter().enumerate() {
+        // A leaf of no primitives (a tree over one) needs no slot.
+        let Some(c) = slot
+            .map(|i| children[i])
+            .filter(|c| !is_leaf(c) || leaf_len(c.count) > 0)
+        else {
+            continue;
         };
-        let (origin, exponents) = grid(children);
-        node.origin = origin;
-        node.exponents = exponents;
-        let mut internal = Vec::new();
-        for (s, slot) in slots.iter().enumerate() {
-            // A leaf of no primitives (a tree over one) needs no slot.
-            let Some(c) = slot
-                .map(|i| children[i])
-                .filter(|c| !is_leaf(c) || leaf_len(c.count) > 0)
-            else {
-                continue;
-            };
-            for a in 0..3 {
-                let step = step_of(exponents[a]);
-                node.lo[a][s] = quantize_down(origin[a], step, c.lo[a]);
-                node.hi[a][s] = quantize_up(origin[a], step, c.hi[a]);
-            }
-            if is_leaf(&c) {
-                let offset = self.primitives.len() as u32 - node.primitive_base;
-                let first = c.reference & !LEAF_BIT;
-                let count = leaf_len(c.count);
-                self.primitives.extend(first..first + count);
-                node.meta[s] = (((count - 1) << 5) | (offset + 1)) as u8;
-            } else {
-                node.internal |= 1 << s;
-                node.meta[s] = NODE_META;
-                internal.push(c);
-            }
+        for a in 0..3 {
+            let step = step_of(exponents[a]);
+            d.node.lo[a][s] = quantize_down(origin[a], step, c.lo[a]);
+            d.node.hi[a][s] = quantize_up(origin[a], step, c.hi[a]);
         }
-        (node, internal)
+        if is_leaf(&c) {
+            let count = leaf_len(c.count);
+            d.leaves.push((c.reference & !LEAF_BIT, count));
+            d.node.meta[s] = (((count - 1) << 5) | (offset + 1)) as u8;
+            offset += count;
+        } else {
+            d.node.internal |= 1 << s;
+            d.node.meta[s] = NODE_META;
+            d.internal.push(c);
+        }
     }
+    d
 }
 
 fn is_leaf(c: &Child) -> bool {
@@ -374,8 +390,7 @@ mod tests {
                         child(lo, hi)
                     })
                     .collect();
-                let mut wide = WideBvh::default();
-                let (node, _) = wide.node_of(&children);
+                let node = draft(&children).node;
                 let slots = assign_slots(&children);
                 for (s, slot) in slots.iter().enumerate() {
                     let c = children[slot.unwrap()];
