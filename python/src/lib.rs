@@ -312,10 +312,17 @@ impl Scene {
         Scene::with(Geometry::new(), None)
     }
 
-    /// A scene file's objects (and its camera, for `render`).
+    /// A scene file's objects (and its camera, for `render`). What the file holds that is
+    /// likely a mistake (a mesh declared and never placed) comes as a `UserWarning`.
     #[staticmethod]
-    fn load(path: PathBuf) -> PyResult<Self> {
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let scene = raycast::Scene::load(&path).map_err(to_py)?;
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        for warning in &scene.warnings {
+            let message = std::ffi::CString::new(warning.as_str())
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            PyErr::warn(py, &category, &message, 1)?;
+        }
         Ok(Scene::with(Geometry::from_scene(&scene), Some(scene)))
     }
 

@@ -1,6 +1,7 @@
 """The Python package against exact answers, the CPU reference and its own invariants (run by
 .ci/run on lavapipe; Open3D itself is compared in benches/open3d_rays.py, outside CI)."""
 
+import json
 import math
 import pathlib
 import threading
@@ -195,6 +196,28 @@ def test_load_and_render_a_scene_file():
     assert np.all(np.isfinite(images["distance"]))
     bunny = images["id"] == 0
     assert 0.01 < np.mean(bunny) < 0.5
+
+
+def test_instances_of_a_scene_file_are_objects_and_an_unplaced_mesh_warns(tmp_path):
+    course = ROOT / "scenes" / "course"
+    (tmp_path / "bunny.stl").write_bytes((course / "bunny.stl").read_bytes())
+    scene = json.loads((course / "bunny.json").read_text())
+    scene["meshes"] = {"bunny": {"stl": "bunny.stl"}, "spare": {"stl": "bunny.stl"}}
+    scene["objects"] = [
+        {"type": "instance", "mesh": "bunny", "transform": {"translate": [-0.6, 0, 0], "scale": 0.5}},
+        {"type": "instance", "mesh": "bunny",
+         "transform": [[-0.5, 0, 0, 0.6], [0, 0.5, 0, 0], [0, 0, 0.5, 0], [0, 0, 0, 1]]},
+    ]
+    path = tmp_path / "instances.json"
+    path.write_text(json.dumps(scene))
+    with pytest.warns(UserWarning, match="meshes.spare is declared but no instance places it"):
+        loaded = raycast.load(path)
+    images = loaded.render(precision="f32", device="gpu")
+    ids = images["id"]
+    # Each copy seen, one the other's mirror image: as many pixels of each, nearly.
+    left, right = np.sum(ids == 0), np.sum(ids == 1)
+    assert left > 100 and abs(left - right) <= 0.02 * left
+    assert set(np.unique(ids)) == {-1, 0, 1}
 
 
 def test_a_lit_render_of_a_scene_file():
