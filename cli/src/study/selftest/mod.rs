@@ -261,6 +261,21 @@ impl Adapter {
                 if f64_support { "yes" } else { "no" },
                 fusion.describe()
             ),
+            format!(
+                "BVH traversal by default: {}; ray queries: {} (unused: the checks are raycast's own traversal)",
+                match gpu.info().packet_rays_per_primitive {
+                    Some(r) => format!("packets from {r} rays a sphere or triangle, else per ray"),
+                    None => "per ray".into(),
+                },
+                match gpu
+                    .adapter
+                    .features()
+                    .contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY)
+                {
+                    true => "the adapter has them",
+                    false => "the adapter has none",
+                }
+            ),
         ];
         Ok(Adapter { lines, rule })
     }
