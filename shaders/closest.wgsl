@@ -209,8 +209,8 @@ fn closest_in_bvh(p: vec3<real>, best: ptr<function, Hit>) {
         let q3 = w.q3;
         let d0 = box_distance2(p, bitcast<vec3<f32>>(q0.xyz), bitcast<vec3<f32>>(q1.xyz));
         let d1 = box_distance2(p, bitcast<vec3<f32>>(q2.xyz), bitcast<vec3<f32>>(q3.xyz));
-        let leaf0 = (q0.w & LEAF_BIT) != 0u;
-        let leaf1 = (q2.w & LEAF_BIT) != 0u;
+        let leaf0 = is_leaf(q0.w);
+        let leaf1 = is_leaf(q2.w);
         if (leaf0 && may_hold(d0, *best)) {
             closest_in_leaf(p, q0.w & ~LEAF_BIT, q1.w, best);
         }

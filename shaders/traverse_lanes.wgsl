@@ -276,8 +276,8 @@ fn traverse_bvh_lanes(rays: LaneRays, min_t: real, hits: ptr<function, LaneHits>
             t1 = interval_entry(bitcast<vec3<f32>>(w.q2.xyz), bitcast<vec3<f32>>(w.q3.xyz), packet, min_t, cull);
         }
         let n = Visit(t0, t1, w.q0.w, w.q1.w, w.q2.w, w.q3.w);
-        let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
-        let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
+        let leaf0 = is_leaf(n.reference0);
+        let leaf1 = is_leaf(n.reference1);
         let run = leaf_run(n, leaf0 && t0 != NO_HIT, leaf1 && t1 != NO_HIT);
         if (run.length != 0u) {
 #each_ray

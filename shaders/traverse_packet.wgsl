@@ -263,8 +263,8 @@ fn traverse_bvh_packet(ray: Ray, min_t: real, best: ptr<function, Hit>) {
         let n = visit_shared(node, ray, ri, min_t, cull_t(*best));
         let t0 = n.t0;
         let t1 = n.t1;
-        let leaf0 = (n.reference0 & LEAF_BIT) != 0u;
-        let leaf1 = (n.reference1 & LEAF_BIT) != 0u;
+        let leaf0 = is_leaf(n.reference0);
+        let leaf1 = is_leaf(n.reference1);
         // Only the rays that reach a leaf test it (as per ray), but the subgroup enters it
         // together so its primitives are fetched once.
         let run = leaf_run(n, leaf0 && packet_any(t0 != NO_HIT), leaf1 && packet_any(t1 != NO_HIT));

@@ -153,20 +153,24 @@ impl Workload {
         }
     }
 
-    /// The geometry's bytes a triangle on the device with `traversal`'s tree: each triangle
-    /// (40 bytes in f32, 80 in f64), its object id (4) and the tree (as
-    /// `raycast::Stages::bytes_per_triangle` counts them); `None` without triangles.
+    /// The geometry's bytes a triangle on the device with `traversal`'s tree, as
+    /// `raycast::Stages::bytes_per_triangle` counts them; `None` without triangles.
     pub fn bytes_per_triangle(&self, traversal: Traversal) -> Option<f64> {
-        let (triangles, tree, f64) = match &self.prepared {
-            Precision::F32(p) => (p.primitives.triangles.len(), p.bvh()?.bytes(), false),
-            Precision::F64(p) => (p.primitives.triangles.len(), p.bvh()?.bytes(), true),
-        };
         let tree = match traversal {
             Traversal::Wide => self.wide_tree()?.bytes(),
-            _ => tree,
+            _ => match &self.prepared {
+                Precision::F32(p) => p.bvh()?.bytes(),
+                Precision::F64(p) => p.bvh()?.bytes(),
+            },
         };
-        let bytes = triangles * (triangle_bytes(f64) as usize + 4) + tree;
-        (triangles > 0).then(|| bytes as f64 / triangles as f64)
+        match &self.prepared {
+            Precision::F32(p) => {
+                (p.primitives).bytes_per_triangle(triangle_bytes(false) as usize, tree)
+            }
+            Precision::F64(p) => {
+                (p.primitives).bytes_per_triangle(triangle_bytes(true) as usize, tree)
+            }
+        }
     }
 
     /// Whether the scene has a wide tree (#62): triangles only.

@@ -4,7 +4,7 @@
 
 use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE};
 use super::nearest::keep;
-use super::traverse::{BVH_STACK, box_slack, keep_ordered};
+use super::traverse::{BVH_STACK, box_slack, is_leaf, keep_ordered};
 use crate::kernel::types::{Plane, Sphere, Triangle, t_far};
 use crate::math::{Real, Vec3, dot, length, vec3};
 use crate::prepare::Primitives;
@@ -229,8 +229,8 @@ fn closest_in_bvh<T: Real>(
         let n = &nodes[node as usize];
         let d0 = box_distance2(p, n.lo0, n.hi0);
         let d1 = box_distance2(p, n.lo1, n.hi1);
-        let leaf0 = n.reference0 & LEAF_BIT != 0;
-        let leaf1 = n.reference1 & LEAF_BIT != 0;
+        let leaf0 = is_leaf(n.reference0);
+        let leaf1 = is_leaf(n.reference1);
         if leaf0 && may_hold(d0, best) {
             closest_in_leaf(p, prims, n.reference0 & !LEAF_BIT, n.count0, best);
         }

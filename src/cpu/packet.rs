@@ -4,7 +4,9 @@
 //! answer ([`super::traverse::traverse_bvh`]) by a longer path.
 
 use super::hit::Hit;
-use super::traverse::{RayInverse, Trail, cull_t, intersect_primitive, ray_inverse, visit};
+use super::traverse::{
+    RayInverse, Trail, cull_t, intersect_primitive, is_leaf, ray_inverse, visit,
+};
 use crate::kernel::types::{Ray, Shear, no_hit, shear_of};
 use crate::math::Real;
 use crate::prepare::Primitives;
@@ -49,8 +51,8 @@ pub(crate) fn traverse_bvh_packet<T: Real, const ROBUST: bool>(
             let v = visit(nodes, node, ray, &inverse[l], min_t, cull_t(&best[l]));
             t[l] = (v.t0, v.t1);
         }
-        let leaf0 = n.reference0 & LEAF_BIT != 0;
-        let leaf1 = n.reference1 & LEAF_BIT != 0;
+        let leaf0 = is_leaf(n.reference0);
+        let leaf1 = is_leaf(n.reference1);
         let hits0 = lanes_where(rays.len(), |l| t[l].0 != no_hit());
         let hits1 = lanes_where(rays.len(), |l| t[l].1 != no_hit());
         let leaves = [

@@ -1,10 +1,10 @@
 //! The traversal of the compressed 8-wide BVH (src/prepare/wide.rs, #62), ray by ray: the
 //! reference a WGSL traversal of it is to mirror, and what the GPU cost model replays
 //! (`--traversal wide`). A node's eight boxes are decoded and tested in the order the ray's
-//! octant gives its slots (nearer first, mostly); the leaves it enters are tested at once, the
-//! nodes pushed farthest first with their entry distances, each skipped when popped if a hit
-//! nearer than its entry has been found. The same nodes' primitives as the binary tree's, boxes
-//! only larger, so the same nearest hit.
+//! octant gives its slots; the children it enters, leaves and nodes alike, go onto one stack
+//! with their entry distances, the nearest on top, each skipped when popped if a hit nearer
+//! than its entry has been found. The same nodes' primitives as the binary tree's, boxes only
+//! larger, so the same nearest hit.
 
 use super::hit::Hit;
 use super::traverse::{Trail, box_entry, cull_t, intersect_primitive, ray_inverse};
@@ -73,7 +73,7 @@ pub(crate) fn traverse_wide_traced<T: Real, const ROBUST: bool>(
             };
             hits.push((child, t));
         }
-        // Farthest first onto the stack (a stable sort: ties keep the octant's order).
+        // Farthest first onto the stack, so that the nearest is popped first.
         hits.sort_by(|a, b| b.1.partial_cmp(&a.1).expect("entries are numbers"));
         stack.extend(hits);
         next = None;

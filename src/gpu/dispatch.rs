@@ -268,6 +268,7 @@ pub(crate) fn run<R: GpuReal>(
     check_job(&variant, sink.is_some(), prepared)?;
     let mut stages = Stages {
         build_s: prepared.build_s,
+        packets: variant.uses_bvh().then(|| variant.uses_packets()),
         ..Stages::default()
     };
     let plan = Plan::new(gpu, prepared, &variant, rays, max_rows)?;

@@ -190,7 +190,7 @@ pub(crate) struct Child {
 }
 
 impl BvhNode {
-    fn new(c0: Child, c1: Child) -> BvhNode {
+    pub(crate) fn new(c0: Child, c1: Child) -> BvhNode {
         BvhNode {
             lo0: c0.lo,
             reference0: c0.reference,

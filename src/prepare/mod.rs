@@ -157,6 +157,9 @@ pub(crate) struct Primitives<T> {
     pub bvh: Option<Arc<Bvh>>,
 }
 
+/// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
+const OBJECT_ID_BYTES: usize = 4;
+
 /// The binary exponent `e` of the camera's size, `max(focal length, width, height)`, so that
 /// the scene scaled by `2^-e` has a camera of size in `[1, 2)`. Scaling a scene by `2^k` adds
 /// exactly `k`, so every render sees the same numbers at every power-of-two scale: products of
@@ -350,6 +353,22 @@ impl<T: Real> Primitives<T> {
         self.bvh
             .as_ref()
             .map_or(k, |b| b.triangle_order[k as usize])
+    }
+}
+
+impl<T> Primitives<T> {
+    /// `raycast::Stages::bytes_per_triangle`: each triangle taking `triangle_bytes`, an
+    /// object id for every sphere, plane and triangle, and the tree `tree_bytes`; `None`
+    /// without triangles.
+    pub(crate) fn bytes_per_triangle(
+        &self,
+        triangle_bytes: usize,
+        tree_bytes: usize,
+    ) -> Option<f64> {
+        let t = self.triangles.len();
+        let ids = OBJECT_ID_BYTES * (self.spheres.len() + self.planes.len() + t);
+        let bytes = t * triangle_bytes + ids + tree_bytes;
+        (t > 0).then(|| bytes as f64 / t as f64)
     }
 }
 

@@ -19,6 +19,8 @@ pub(crate) const WIDTH: usize = 8;
 /// The most primitives a node's leaves hold together: a leaf's offset among them is 5 bits
 /// (`meta`, stored plus one so that 0 marks an empty slot).
 const NODE_PRIMITIVES: u32 = 31;
+/// The most primitives a leaf slot holds: its count less one is `meta`'s top 3 bits.
+const LEAF_PRIMITIVES: u32 = 8;
 
 /// One node: its children's boxes on a grid anchored at `origin` with a step of
 /// `2^(exponents[a] - 127)` along axis `a`, child `s` spanning `origin + step * lo[a][s]` to
@@ -101,15 +103,15 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// The binary tree `bvh` collapsed; `None` where it holds spheres.
+    /// The binary tree `bvh` collapsed; `None` where it holds spheres, or a leaf longer than
+    /// a slot's count holds (only a leaf at the binary tree's deepest level can be).
     pub(crate) fn collapse(bvh: &Bvh) -> Option<WideBvh> {
         let root = bvh.nodes.first()?;
-        let kinds = (bvh.nodes.iter()).flat_map(|n| [n.child(0), n.child(1)]);
-        if !bvh.sphere_order.is_empty()
-            || kinds
-                .clone()
-                .any(|c| is_leaf(&c) && c.count & SPHERE_LEAF != 0)
-        {
+        let mut children = (bvh.nodes.iter()).flat_map(|n| [n.child(0), n.child(1)]);
+        let unfit = |c: Child| {
+            is_leaf(&c) && (c.count & SPHERE_LEAF != 0 || leaf_len(c.count) > LEAF_PRIMITIVES)
+        };
+        if !bvh.sphere_order.is_empty() || children.any(unfit) {
             return None;
         }
         // Breadth first, level by level, so that a node's internal children are consecutive;
@@ -404,6 +406,28 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A leaf longer than a slot holds (as at the binary tree's deepest level) leaves the
+    /// scene to the binary tree rather than being cut short.
+    #[test]
+    fn a_leaf_too_long_for_a_slot_keeps_the_binary_tree() {
+        let tree = |count: u32| {
+            let leaf = |first| Child {
+                lo: [0.0; 3],
+                hi: [1.0; 3],
+                reference: LEAF_BIT | first,
+                count,
+            };
+            Bvh {
+                nodes: vec![BvhNode::new(leaf(0), leaf(20))],
+                triangle_order: (0..40).collect(),
+                depth: 1,
+                ..Bvh::default()
+            }
+        };
+        assert!(WideBvh::collapse(&tree(8)).is_some());
+        assert!(WideBvh::collapse(&tree(crate::prepare::bvh::MANY_LEAF | 20)).is_none());
     }
 
     /// A ray heading towards +x, +y, +z visits the child nearest the low corner first, and

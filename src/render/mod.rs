@@ -525,15 +525,12 @@ impl<R: GpuReal> Kernel<R> {
     }
 
     pub(crate) fn run(self, gpu: &Gpu) -> Result<Ran<R>> {
-        let packets = self.variant.uses_bvh().then(|| self.variant.uses_packets());
         let mut job = Job::new(self.variant).timed(self.timed);
         if let Some(rows) = self.rows {
             job = job.rows(rows);
         }
-        let mut rendered = gpu::run(gpu, &self.prepared, job)?;
-        rendered.stages.packets = packets;
         Ok(Ran {
-            rendered,
+            rendered: gpu::run(gpu, &self.prepared, job)?,
             prepared: self.prepared,
             timed: self.timed,
         })
@@ -616,9 +613,6 @@ pub(crate) fn on_gpu<R: GpuReal>(
         .laid_out())
 }
 
-/// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
-const OBJECT_ID_BYTES: usize = 4;
-
 /// `stages` with the layout of `primitives` ([`Stages::bvh_nodes`],
 /// [`Stages::bytes_per_triangle`]), each triangle taking `triangle_bytes`.
 fn with_layout<T>(stages: Stages, primitives: &Primitives<T>, triangle_bytes: usize) -> Stages {
@@ -627,12 +621,9 @@ fn with_layout<T>(stages: Stages, primitives: &Primitives<T>, triangle_bytes: us
         .bvh
         .as_deref()
         .filter(|_| p.spheres.len() + p.triangles.len() > 0);
-    let t = p.triangles.len();
-    let ids = OBJECT_ID_BYTES * (p.spheres.len() + p.planes.len() + t);
-    let bytes = t * triangle_bytes + ids + bvh.map_or(0, Bvh::bytes);
     Stages {
         bvh_nodes: bvh.map(|b| b.nodes.len()),
-        bytes_per_triangle: (t > 0).then(|| bytes as f64 / t as f64),
+        bytes_per_triangle: p.bytes_per_triangle(triangle_bytes, bvh.map_or(0, Bvh::bytes)),
         ..stages
     }
 }
