@@ -20,6 +20,9 @@ use crate::algorithm::Algorithm;
 use crate::math::{Vec3, length};
 use crate::scene::{Object, Scene};
 
+mod two_level;
+pub(crate) use two_level::MeshTree;
+
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
 pub(crate) const MAX_DEPTH: usize = 40;
@@ -657,9 +660,17 @@ fn grown(boxes: Vec<(Vec3<f64>, Vec3<f64>)>, eye: f64) -> Vec<Item> {
 pub(crate) struct Topology(Bvh);
 
 impl Topology {
-    /// The topology of `scene`'s BVH (the binned SAH build over its primitives' boxes).
+    /// The topology of `scene`'s BVH: where the scene places meshes (instances), their own
+    /// trees under a tree over the instances ([`two_level`]); else, or where that tree would
+    /// be too deep, the binned SAH build over its primitives' boxes.
     pub(crate) fn build(scene: &Scene) -> Topology {
-        let (spheres, triangles) = primitive_boxes(scene, Vec3::splat(0.0));
+        two_level::build(scene).unwrap_or_else(|| Topology::of_objects(&scene.objects))
+    }
+
+    /// The binned SAH build over the boxes of `objects`' spheres and triangles, measured from
+    /// the centre of their bounds.
+    fn of_objects(objects: &[Object]) -> Topology {
+        let (spheres, triangles) = primitive_boxes(objects, Vec3::splat(0.0));
         let centre = spheres
             .iter()
             .chain(&triangles)
@@ -686,7 +697,7 @@ impl Topology {
                 })
                 .collect()
         };
-        let ids = ObjectIds::of(scene);
+        let ids = ObjectIds::of_objects(objects);
         Topology(Bvh::from_boxes(
             around(spheres),
             around(triangles),
@@ -704,16 +715,16 @@ impl Topology {
     }
 }
 
-/// The boxes of `scene`'s spheres and triangles measured from `origin`, each kind in the
+/// The boxes of `objects`' spheres and triangles measured from `origin`, each kind in the
 /// scene's order.
 #[allow(clippy::type_complexity)]
 fn primitive_boxes(
-    scene: &Scene,
+    objects: &[Object],
     origin: Vec3<f64>,
 ) -> (Vec<(Vec3<f64>, Vec3<f64>)>, Vec<(Vec3<f64>, Vec3<f64>)>) {
     let mut spheres = Vec::new();
     let mut triangles = Vec::new();
-    for object in &scene.objects {
+    for object in objects {
         match object {
             Object::Sphere { center, radius } => {
                 let c = Vec3::from(*center) - origin;
@@ -747,7 +758,7 @@ impl Bvh {
     pub(crate) fn fit(topology: &Topology, kernel: &Scene, algorithm: Algorithm) -> Bvh {
         let origin = kernel_origin(kernel, algorithm);
         let eye = length(kernel_frame(kernel, algorithm).eye);
-        let (spheres, triangles) = primitive_boxes(kernel, origin);
+        let (spheres, triangles) = primitive_boxes(&kernel.objects, origin);
         let (spheres, triangles) = (grown(spheres, eye), grown(triangles, eye));
         let mut bvh = topology.0.clone();
         let (sphere_order, triangle_order) = (&bvh.sphere_order, &bvh.triangle_order);
@@ -920,7 +931,7 @@ mod tests {
     /// (each child's box inside the box its parent was reached by, the primitive inside its
     /// leaf's), and a leaf names an object exactly when all its primitives are of it
     /// (`objects`: the triangles' objects by index).
-    fn check(bvh: &Bvh, boxes: &[Item], objects: &[u32]) {
+    pub(super) fn check(bvh: &Bvh, boxes: &[Item], objects: &[u32]) {
         let inside = |lo: [f32; 3], hi: [f32; 3], outer: &Child| {
             (0..3).all(|a| outer.lo[a] <= lo[a] && hi[a] <= outer.hi[a])
         };
@@ -1062,7 +1073,7 @@ mod tests {
             scene.camera.eye = glam::DVec3::from_array(eye);
             let origin = kernel_origin(&scene, Algorithm::Robust);
             let far = length(kernel_frame(&scene, Algorithm::Robust).eye);
-            let (spheres, triangles) = primitive_boxes(&scene, origin);
+            let (spheres, triangles) = primitive_boxes(&scene.objects, origin);
             let (spheres, triangles) = (grown(spheres, far), grown(triangles, far));
             let bvh = Bvh::fit(&topology, &scene, Algorithm::Robust);
             assert_eq!(bvh.nodes.len(), topology.0.nodes.len());

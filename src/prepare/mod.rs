@@ -245,12 +245,16 @@ pub(crate) struct ObjectIds {
 
 impl ObjectIds {
     pub(crate) fn of(scene: &Scene) -> ObjectIds {
+        ObjectIds::of_objects(&scene.objects)
+    }
+
+    pub(crate) fn of_objects(objects: &[Object]) -> ObjectIds {
         let mut ids = ObjectIds {
             spheres: Vec::new(),
             planes: Vec::new(),
             triangles: Vec::new(),
         };
-        for (id, object) in scene.objects.iter().enumerate() {
+        for (id, object) in objects.iter().enumerate() {
             let id = id as u32;
             match object {
                 Object::Sphere { .. } => ids.spheres.push(id),

@@ -5,8 +5,8 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 
-use super::bvh::Topology;
-use crate::scene::Scene;
+use super::bvh::{MeshTree, Topology};
+use crate::scene::{Mesh, Scene};
 
 /// What the renders of one scene's objects share, each part made at the first render that
 /// needs it and kept for the next ([`sharing`]): the shape of its BVH, and the largest
@@ -16,6 +16,8 @@ use crate::scene::Scene;
 pub(crate) struct Shared {
     topology: Option<Arc<Topology>>,
     magnitude: Option<f64>,
+    /// The trees of the meshes the objects place, which outlive a change of pose.
+    meshes: Vec<(Arc<Mesh>, Arc<MeshTree>)>,
 }
 
 impl Shared {
@@ -52,16 +54,30 @@ pub(crate) fn sharing<R>(scene: &Scene, shared: &mut Shared, f: impl FnOnce() ->
 }
 
 /// `part` of what is shared for `scene`'s objects, made by `make` unless it is there, and kept
-/// there where they are shared; `make`'s value where they are not.
+/// there where they are shared; `make`'s value where they are not. `make` runs outside the
+/// borrow of what is shared, which it may use itself ([`mesh_tree`]).
 fn shared<T: Clone>(
     scene: &Scene,
-    part: impl FnOnce(&mut Shared) -> &mut Option<T>,
+    part: impl Fn(&mut Shared) -> &mut Option<T>,
     make: impl FnOnce() -> T,
 ) -> T {
-    SHARED.with_borrow_mut(|sharing| match sharing {
-        Some((k, shared)) if *k == key(scene) => part(shared).get_or_insert_with(make).clone(),
-        _ => make(),
-    })
+    let is_shared = |sharing: &Option<Sharing>| matches!(sharing, Some((k, _)) if *k == key(scene));
+    let kept = SHARED.with_borrow_mut(|sharing| match sharing {
+        Some((k, shared)) if *k == key(scene) => part(shared).clone(),
+        _ => None,
+    });
+    if let Some(kept) = kept {
+        return kept;
+    }
+    let made = make();
+    SHARED.with_borrow_mut(|sharing| {
+        if is_shared(sharing)
+            && let Some((_, shared)) = sharing
+        {
+            *part(shared) = Some(made.clone());
+        }
+    });
+    made
 }
 
 /// [`Topology::build`] of `scene`, or the one shared for its objects.
@@ -76,4 +92,23 @@ pub(crate) fn topology(scene: &Scene) -> Arc<Topology> {
 /// [`Scene::objects_magnitude`], or the one shared for `scene`'s objects.
 pub(crate) fn objects_magnitude(scene: &Scene) -> f64 {
     shared(scene, |s| &mut s.magnitude, || scene.objects_magnitude())
+}
+
+/// The own tree of `mesh`, or the one shared for it: built once for all its placements and
+/// poses ([`crate::Viewer`] keeps it while the instances move).
+pub(crate) fn mesh_tree(mesh: &Arc<Mesh>) -> Arc<MeshTree> {
+    let kept = SHARED.with_borrow(|sharing| {
+        let (_, shared) = sharing.as_ref()?;
+        let (_, tree) = (shared.meshes.iter()).find(|(m, _)| Arc::ptr_eq(m, mesh))?;
+        Some(tree.clone())
+    });
+    kept.unwrap_or_else(|| {
+        let tree = Arc::new(MeshTree::build(mesh));
+        SHARED.with_borrow_mut(|sharing| {
+            if let Some((_, shared)) = sharing {
+                shared.meshes.push((mesh.clone(), tree.clone()));
+            }
+        });
+        tree
+    })
 }

@@ -339,6 +339,7 @@ impl RayScene {
                 objects: geometry.objects.clone(),
                 lighting: Default::default(),
                 warnings: Vec::new(),
+                instances: Vec::new(),
             },
             extent: extent(bounds),
             cache: Mutex::default(),

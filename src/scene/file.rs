@@ -9,11 +9,12 @@ use glam::DVec3;
 
 use super::instance::{self, TransformFile};
 use super::{
-    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, MeshPart, OBJECT_VALUES, Object,
-    Projection, Scene, Split, Triangle, camera,
+    Camera, DEFAULT_RESOLUTION, Lens, Light, Lighting, Material, Mesh, MeshPart, OBJECT_VALUES,
+    Object, Placement, Projection, Scene, Split, Triangle, camera,
 };
 use crate::error::{Error, Result};
 use crate::math::{Vec3, length, normalize};
+use std::sync::Arc;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -219,6 +220,7 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
     let mut meshes = Meshes {
         declared: &raw.meshes,
         loaded: HashMap::new(),
+        placed: Vec::new(),
     };
     let objects = raw
         .objects
@@ -237,6 +239,16 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
         .collect();
     let counts: Vec<usize> = objects.iter().map(Vec::len).collect();
     let objects: Vec<Object> = objects.into_iter().flatten().collect();
+    let firsts: Vec<usize> = (counts.iter())
+        .scan(0, |next, n| Some(std::mem::replace(next, *next + n)))
+        .collect();
+    let instances = (meshes.placed.into_iter())
+        .map(|(i, mesh, transform)| Placement {
+            object: firsts[i],
+            mesh,
+            transform,
+        })
+        .collect();
     let camera = checker.camera(&raw.camera, &objects)?;
     let lighting = checker.lighting(&raw, &counts)?;
     Ok(Scene {
@@ -244,6 +256,7 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
         objects,
         lighting,
         warnings,
+        instances,
     })
 }
 
@@ -333,6 +346,7 @@ pub(super) fn mesh_scene(
         },
         objects,
         warnings: Vec::new(),
+        instances: Vec::new(),
     })
 }
 
@@ -758,13 +772,12 @@ impl Checker<'_> {
                     Some(t) => self.transform(&field("transform"), t)?,
                     None => glam::DAffine3::IDENTITY,
                 };
-                let (path, triangles) = meshes.load(mesh, self, &field("mesh"), load_mesh)?;
-                let triangles = instance::place(triangles, &m);
+                let mesh = meshes.load(mesh, self, &field("mesh"), load_mesh)?;
+                let triangles = instance::place(&mesh.triangles, &m);
                 self.mesh_values(&format!("objects[{i}] "), &triangles)?;
-                Object::Soup {
-                    path: path.clone(),
-                    triangles,
-                }
+                let path = mesh.path.clone();
+                meshes.placed.push((i, mesh, m));
+                Object::Soup { path, triangles }
             }
         }])
     }
@@ -925,10 +938,12 @@ impl Checker<'_> {
     }
 }
 
-/// The meshes a scene declares, each loaded when an instance first places it.
+/// The meshes a scene declares, each loaded when an instance first places it, and the
+/// instances placed so far: the file's object index, the mesh and the transform.
 struct Meshes<'a> {
     declared: &'a BTreeMap<String, MeshFile>,
-    loaded: HashMap<String, (PathBuf, Vec<Triangle>)>,
+    loaded: HashMap<String, Arc<Mesh>>,
+    placed: Vec<(usize, Arc<Mesh>, glam::DAffine3)>,
 }
 
 impl Meshes<'_> {
@@ -939,7 +954,7 @@ impl Meshes<'_> {
         checker: &Checker,
         field: &str,
         load_mesh: &mut LoadMesh,
-    ) -> Result<&(PathBuf, Vec<Triangle>)> {
+    ) -> Result<Arc<Mesh>> {
         if !self.loaded.contains_key(name) {
             let Some(declared) = self.declared.get(name) else {
                 let known: Vec<&str> = self.declared.keys().map(String::as_str).collect();
@@ -971,10 +986,13 @@ impl Meshes<'_> {
                 .flat_map(|part| part.triangles)
                 .collect();
             checker.mesh_values(&format!("{place} "), &triangles)?;
-            self.loaded
-                .insert(name.to_owned(), (PathBuf::from(file), triangles));
+            let mesh = Mesh {
+                path: PathBuf::from(file),
+                triangles,
+            };
+            self.loaded.insert(name.to_owned(), Arc::new(mesh));
         }
-        Ok(&self.loaded[name])
+        Ok(self.loaded[name].clone())
     }
 }
 

@@ -82,6 +82,26 @@ pub struct Scene {
     /// What the scene file holds that is allowed but likely a mistake (a mesh declared and
     /// never placed), a line each, for the caller to show.
     pub warnings: Vec<String>,
+    /// The objects that are a declared mesh placed by a transform (`instance` objects), each
+    /// also in `objects` as the soup it places: the BVH is built from the meshes' own trees.
+    pub(crate) instances: Vec<Placement>,
+}
+
+/// A mesh a scene file declares once (`"meshes"`), in its own coordinates.
+#[derive(Debug, PartialEq)]
+pub(crate) struct Mesh {
+    /// Its file, as the scene names it.
+    pub path: PathBuf,
+    pub triangles: Vec<Triangle>,
+}
+
+/// Object `object` of a scene is `mesh` moved by `transform` into world space: the soup
+/// [`instance::place`] makes of them.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Placement {
+    pub object: usize,
+    pub mesh: std::sync::Arc<Mesh>,
+    pub transform: glam::DAffine3,
 }
 
 /// A material of the course's ray-tracing assignment (Blinn-Phong with a mirror term): RGB

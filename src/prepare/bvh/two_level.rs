@@ -1,0 +1,510 @@
+//! The shape of the BVH of a scene that places meshes (#64's instances): each mesh's own tree,
+//! built once in the mesh's coordinates whatever its placements, and a tree over the
+//! instances' boxes above them, one tree in the kernel's layout ([`Bvh`]) whose boxes are then
+//! fitted as any topology's are ([`Bvh::fit`]). A new pose of the instances builds only the top
+//! tree; the triangles, in world space, are the flattened scene's, so every hit is its hit.
+
+use std::sync::Arc;
+
+use bytemuck::Zeroable;
+use glam::DVec3;
+
+use super::{
+    Aabb, Bvh, BvhNode, Child, Extent, Item, LEAF_BIT, MANY_LEAF, MAX_DEPTH, Policy, SPHERE_LEAF,
+    Topology, Tree, build_tree, depth_of, leaf_len, leaf_word, round_down, round_up,
+};
+use crate::prepare::shared;
+use crate::scene::{Mesh, Object, Placement, Scene};
+
+/// A mesh's own tree (triangles only, object 0) and its bounds, in the mesh's coordinates.
+#[derive(Debug)]
+pub(crate) struct MeshTree {
+    bvh: Bvh,
+    bounds: Option<(DVec3, DVec3)>,
+}
+
+impl MeshTree {
+    pub(crate) fn build(mesh: &Mesh) -> MeshTree {
+        let soup = [Object::Soup {
+            path: mesh.path.clone(),
+            triangles: mesh.triangles.clone(),
+        }];
+        MeshTree {
+            bvh: Topology::of_objects(&soup).0,
+            bounds: crate::scene::bounds(&soup),
+        }
+    }
+}
+
+/// A subtree of `bvh` joined into the tree, its leaves over `bvh.triangle_order`, whose entries are `global` indices, and `object`, where all its
+/// triangles are one object's.
+struct Group<'a> {
+    bvh: &'a Bvh,
+    root: Subtree,
+    global: Global<'a>,
+    object: Option<u32>,
+}
+
+/// How a group's triangle indices map to the scene's: an instance's from its object's first
+/// triangle on, the other objects' through a list.
+#[derive(Clone, Copy)]
+enum Global<'a> {
+    From(u32),
+    Listed(&'a [u32]),
+}
+
+/// The topology of `scene`'s BVH built from its meshes' trees, or none where it places no mesh
+/// or the joined tree would be deeper than [`MAX_DEPTH`].
+pub(super) fn build(scene: &Scene) -> Option<Topology> {
+    let placed = placements(scene);
+    if placed.is_empty() {
+        return None;
+    }
+    // Each mesh's tree once, however many instances place it.
+    let mut built: Vec<(&Arc<Mesh>, Arc<MeshTree>)> = Vec::new();
+    let trees: Vec<Arc<MeshTree>> = (placed.iter())
+        .map(
+            |p| match built.iter().find(|(m, _)| Arc::ptr_eq(m, &p.mesh)) {
+                Some((_, tree)) => tree.clone(),
+                None => {
+                    let tree = shared::mesh_tree(&p.mesh);
+                    built.push((&p.mesh, tree.clone()));
+                    tree
+                }
+            },
+        )
+        .collect();
+    // The other objects, in a scene where each placed soup is empty: their ids, and the
+    // spheres' indices, are the scene's.
+    let mut placed_at = vec![false; scene.objects.len()];
+    placed.iter().for_each(|p| placed_at[p.object] = true);
+    let rest: Vec<Object> = (scene.objects.iter().zip(&placed_at))
+        .map(|(o, &placed)| match (o, placed) {
+            (Object::Soup { path, .. }, true) => Object::Soup {
+                path: path.clone(),
+                triangles: Vec::new(),
+            },
+            _ => o.clone(),
+        })
+        .collect();
+    let rest = Topology::of_objects(&rest).0;
+    let (firsts, rest_global) = triangle_indices(scene, &placed_at);
+    let [rest_spheres, rest_triangles] = kind_roots(&rest);
+
+    let mut groups: Vec<Group> = (placed.iter().zip(&trees))
+        .map(|(p, tree)| Group {
+            bvh: &tree.bvh,
+            root: kind_roots(&tree.bvh)[1].expect("a placed mesh has triangles"),
+            global: Global::From(firsts[p.object]),
+            object: Some(p.object as u32),
+        })
+        .collect();
+    let mut boxes: Vec<(DVec3, DVec3)> = (placed.iter().zip(&trees))
+        .map(|(p, tree)| placed_bounds(tree.bounds.expect("a placed mesh has triangles"), p))
+        .collect();
+    if let Some(root) = rest_triangles {
+        groups.push(Group {
+            bvh: &rest,
+            root,
+            global: Global::Listed(&rest_global),
+            object: None,
+        });
+        boxes.push(triangle_bounds(scene, &placed_at));
+    }
+
+    let mut joined = Joined {
+        nodes: Vec::new(),
+        triangle_order: Vec::new(),
+    };
+    let top = top_tree(&boxes);
+    let one_inner = groups.len() > 1 || groups[0].root.root.reference & LEAF_BIT == 0;
+    let pair = rest_spheres.is_some() || !one_inner;
+    if pair {
+        joined.nodes.push(BvhNode::zeroed());
+    }
+    let spheres = rest_spheres.map(|root| joined.copy(&rest, root, 0, None));
+    let triangles = joined.flatten_top(&top, &groups);
+    if pair {
+        let empty = Child {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            reference: LEAF_BIT,
+            count: 0,
+        };
+        joined.nodes[0] = BvhNode::new(spheres.unwrap_or(empty), triangles);
+    }
+    let depth = depth_of(&joined.nodes, 0);
+    (depth <= MAX_DEPTH).then(|| {
+        Topology(Bvh {
+            nodes: joined.nodes,
+            sphere_order: rest.sphere_order.clone(),
+            triangle_order: joined.triangle_order,
+            depth,
+        })
+    })
+}
+
+/// The placements of `scene` whose object is the soup its mesh places (a caller may have
+/// changed the objects since), one an object, of meshes with triangles.
+fn placements(scene: &Scene) -> Vec<&Placement> {
+    let mut seen = vec![false; scene.objects.len()];
+    (scene.instances.iter())
+        .filter(|p| {
+            let fits = matches!(scene.objects.get(p.object),
+                Some(Object::Soup { triangles, .. }) if triangles.len() == p.mesh.triangles.len());
+            let first = fits && !std::mem::replace(&mut seen[p.object], true);
+            first && !p.mesh.triangles.is_empty()
+        })
+        .collect()
+}
+
+/// Each object's first triangle index in the scene's order, and the indices of the
+/// triangles of the objects not `placed`, in order.
+fn triangle_indices(scene: &Scene, placed: &[bool]) -> (Vec<u32>, Vec<u32>) {
+    let mut firsts = Vec::with_capacity(scene.objects.len());
+    let mut rest = Vec::new();
+    let mut next = 0u32;
+    for (object, &placed) in scene.objects.iter().zip(placed) {
+        firsts.push(next);
+        let n = match object {
+            Object::Triangle { .. } => 1,
+            Object::Soup { triangles, .. } => triangles.len() as u32,
+            Object::Sphere { .. } | Object::Plane { .. } => 0,
+        };
+        if !placed {
+            rest.extend(next..next + n);
+        }
+        next += n;
+    }
+    (firsts, rest)
+}
+
+/// The subtrees of `bvh`'s spheres and triangles (as [`Bvh::from_boxes`] lays them out), each
+/// where it has primitives.
+fn kind_roots(bvh: &Bvh) -> [Option<Subtree>; 2] {
+    let root = &bvh.nodes[0];
+    let has = |c: Child| c.reference & LEAF_BIT == 0 || leaf_len(c.count) > 0;
+    let (c0, c1) = (root.child(0), root.child(1));
+    let end = bvh.nodes.len();
+    let whole = Subtree {
+        root: Child {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            reference: 0,
+            count: 0,
+        },
+        end,
+    };
+    let one_kind = bvh.sphere_order.is_empty() || bvh.triangle_order.is_empty();
+    if one_kind && has(c0) && has(c1) {
+        // One kind's inner root is the tree's.
+        let kind = usize::from(bvh.sphere_order.is_empty());
+        let mut roots = [None, None];
+        roots[kind] = Some(whole);
+        return roots;
+    }
+    // A root over the two kinds: the spheres' nodes come first, up to the triangles' root.
+    let spheres_end = match c1.reference & LEAF_BIT {
+        0 => c1.reference as usize,
+        _ => end,
+    };
+    [
+        has(c0).then_some(Subtree {
+            root: c0,
+            end: spheres_end,
+        }),
+        has(c1).then_some(Subtree { root: c1, end }),
+    ]
+}
+
+/// A subtree of a tree: its root as the parent stores it, a leaf or `nodes[root..end]`.
+#[derive(Clone, Copy)]
+struct Subtree {
+    root: Child,
+    end: usize,
+}
+
+/// The box of the placed mesh whose own box is `bounds`: its corners' moved.
+fn placed_bounds((lo, hi): (DVec3, DVec3), p: &Placement) -> (DVec3, DVec3) {
+    (0..8)
+        .map(|k| {
+            let pick = |bit: usize, l: f64, h: f64| if k & bit == 0 { l } else { h };
+            let c = DVec3::new(
+                pick(1, lo.x, hi.x),
+                pick(2, lo.y, hi.y),
+                pick(4, lo.z, hi.z),
+            );
+            p.transform.transform_point3(c)
+        })
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| {
+            (l.min(c), h.max(c))
+        })
+}
+
+/// The box of the triangles of the objects not `placed`.
+fn triangle_bounds(scene: &Scene, placed: &[bool]) -> (DVec3, DVec3) {
+    let others = (scene.objects.iter().zip(placed))
+        .filter(|(o, placed)| !**placed && !matches!(o, Object::Sphere { .. }))
+        .map(|(o, _)| o);
+    crate::scene::bounds(others).expect("the other objects have triangles")
+}
+
+/// The tree over the groups' `boxes` (world coordinates), a group a leaf: the SAH build,
+/// told that a split always pays, and leaves it could not split (groups centred alike, or at
+/// the depth limit) halved.
+fn top_tree(boxes: &[(DVec3, DVec3)]) -> (Aabb, Tree) {
+    let centre = boxes
+        .iter()
+        .fold(DVec3::ZERO, |c, (lo, hi)| c + 0.5 * (*lo + *hi))
+        / boxes.len() as f64;
+    let mut items: Vec<Item> = (boxes.iter().enumerate())
+        .map(|(index, (lo, hi))| Item {
+            lo: (*lo - centre).to_array().map(round_down),
+            hi: (*hi - centre).to_array().map(round_up),
+            index: index as u32,
+        })
+        .collect();
+    let policy = Policy {
+        traversal_cost: f64::NEG_INFINITY,
+        all_axes: true,
+    };
+    let extent = Extent::of(&items);
+    let (bounds, tree) = build_tree(&mut items, 0, 1, extent, policy);
+    let order: Vec<usize> = items.iter().map(|i| i.index as usize).collect();
+    (bounds, one_a_leaf(tree, &order))
+}
+
+/// `tree` with every leaf of several items halved until each holds one, and each leaf's
+/// `start` the group (`order` maps a position to it).
+fn one_a_leaf(tree: Tree, order: &[usize]) -> Tree {
+    match tree {
+        Tree::Leaf { start, len: 1 } => Tree::Leaf {
+            start: order[start],
+            len: 1,
+        },
+        Tree::Leaf { start, len } => {
+            let half = len / 2;
+            let side = |start, len| (Aabb::EMPTY, one_a_leaf(Tree::Leaf { start, len }, order));
+            Tree::Inner(Box::new([
+                side(start, half),
+                side(start + half, len - half),
+            ]))
+        }
+        Tree::Inner(children) => {
+            let [(b0, t0), (b1, t1)] = *children;
+            Tree::Inner(Box::new([
+                (b0, one_a_leaf(t0, order)),
+                (b1, one_a_leaf(t1, order)),
+            ]))
+        }
+    }
+}
+
+/// The joined tree as it is laid out.
+struct Joined {
+    nodes: Vec<BvhNode>,
+    triangle_order: Vec<u32>,
+}
+
+impl Joined {
+    /// Appends the top tree's nodes, each leaf the group it names, and returns its root as its
+    /// parent stores it. (Boxes are left to [`Bvh::fit`].)
+    fn flatten_top(&mut self, (_, tree): &(Aabb, Tree), groups: &[Group]) -> Child {
+        match tree {
+            Tree::Leaf { start, .. } => {
+                let g = &groups[*start];
+                let base = self.triangle_order.len() as u32;
+                let order = &g.bvh.triangle_order;
+                match g.global {
+                    Global::From(first) => {
+                        (self.triangle_order).extend(order.iter().map(|&k| first + k))
+                    }
+                    Global::Listed(list) => {
+                        (self.triangle_order).extend(order.iter().map(|&k| list[k as usize]))
+                    }
+                }
+                self.copy(g.bvh, g.root, base, g.object)
+            }
+            Tree::Inner(children) => {
+                let at = self.nodes.len();
+                self.nodes.push(BvhNode::zeroed());
+                let c0 = self.flatten_top(&children[0], groups);
+                let c1 = self.flatten_top(&children[1], groups);
+                self.nodes[at] = BvhNode::new(c0, c1);
+                Child {
+                    lo: [0.0; 3],
+                    hi: [0.0; 3],
+                    reference: at as u32,
+                    count: 0,
+                }
+            }
+        }
+    }
+
+    /// Appends `subtree` of `bvh`, its leaves' primitives moved on by `base`, their object set
+    /// to `object` where given; returns its root as its parent now stores it.
+    fn copy(&mut self, bvh: &Bvh, subtree: Subtree, base: u32, object: Option<u32>) -> Child {
+        let root = subtree.root;
+        let moved = |c: Child, from: u32, to: u32| -> Child {
+            if c.reference & LEAF_BIT == 0 {
+                return Child {
+                    reference: c.reference - from + to,
+                    ..c
+                };
+            }
+            let len = leaf_len(c.count);
+            if len == 0 {
+                return c;
+            }
+            let count = match object {
+                Some(o) if c.count & MANY_LEAF == 0 => {
+                    leaf_word(c.count & SPHERE_LEAF, len as usize, o)
+                }
+                _ => c.count,
+            };
+            Child {
+                reference: LEAF_BIT | ((c.reference & !LEAF_BIT) + base),
+                count,
+                ..c
+            }
+        };
+        let at = self.nodes.len() as u32;
+        if root.reference & LEAF_BIT != 0 {
+            return moved(root, 0, at);
+        }
+        let from = root.reference;
+        (self.nodes).extend(
+            bvh.nodes[from as usize..subtree.end]
+                .iter()
+                .map(|n| BvhNode::new(moved(n.child(0), from, at), moved(n.child(1), from, at))),
+        );
+        moved(root, from, at)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algorithm::Algorithm;
+    use crate::prepare::bvh::{grown, primitive_boxes};
+    use crate::prepare::{ObjectIds, kernel_frame, kernel_origin};
+    use crate::{Cpu, RenderOptions};
+
+    /// A mesh of `n` small triangles on a wavy sheet, in its own coordinates.
+    fn sheet(n: usize) -> Vec<crate::scene::Triangle> {
+        (0..n)
+            .map(|k| {
+                let (x, y) = ((k % 17) as f64 * 0.1, (k / 17) as f64 * 0.1);
+                let z = 0.3 * (3.0 * x).sin() * (2.0 * y).cos();
+                [
+                    DVec3::new(x, y, z),
+                    DVec3::new(x + 0.1, y, z),
+                    DVec3::new(x, y + 0.1, z + 0.05),
+                ]
+            })
+            .collect()
+    }
+
+    /// Instances of two meshes (a mirror among them), among spheres, a plane, a triangle and
+    /// a soup, seen from in front.
+    fn placed_scene(resolution: [u32; 2]) -> Scene {
+        let json = format!(
+            r#"{{"camera": {{"eye": [0.8, 0.8, 6], "look": [0, 0, -1], "up": [0, 1, 0],
+                "focal_length": 1, "width": 1.6, "height": 1.2, "resolution": {resolution:?}}},
+              "meshes": {{"a": {{"obj": "a.obj"}}, "b": {{"obj": "b.obj"}}}},
+              "objects": [
+                {{"type": "sphere", "center": [1.5, 1.5, -1], "radius": 0.3}},
+                {{"type": "instance", "mesh": "a", "transform": {{"translate": [-0.5, 0, 0]}}}},
+                {{"type": "plane", "point": [0, 0, -3], "normal": [0, 0, 1]}},
+                {{"type": "instance", "mesh": "b", "transform": {{"translate": [-1.2, -0.8, 0.3],
+                  "rotate": {{"axis": [1, 1, 0], "degrees": 30}}, "scale": [1, 2, 0.5]}}}},
+                {{"type": "triangle", "corners": [[0, 0, 0.5], [1, 0, 0.5], [0, 1, 0.4]]}},
+                {{"type": "instance", "mesh": "a", "transform": [[-1, 0, 0, 2], [0, 1, 0, 0.4],
+                  [0, 0, 1, -0.2], [0, 0, 0, 1]]}},
+                {{"type": "soup", "obj": "c.obj"}},
+                {{"type": "sphere", "center": [0, 1.8, 0], "radius": 0.2}}
+              ]}}"#
+        );
+        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |name, _| {
+            let n = match name {
+                "a.obj" => 300,
+                "b.obj" => 5,
+                _ => 40,
+            };
+            Ok(crate::scene::MeshPart::whole(sheet(n)))
+        })
+        .unwrap()
+    }
+
+    /// The joined tree, fitted to a camera, holds every triangle once, inside every box on its
+    /// path, its leaves naming their object; each instance's nodes are its mesh's.
+    #[test]
+    fn the_meshes_trees_join_under_the_instances_tree() {
+        let scene = placed_scene([8, 6]);
+        assert_eq!(scene.instances.len(), 3);
+        let joined = build(&scene).expect("a scene of instances is joined");
+        let flat = Topology::of_objects(&scene.objects);
+        assert_eq!(joined.0.sphere_order, flat.0.sphere_order);
+        let trees = [300, 5].map(|n| {
+            MeshTree::build(&Mesh {
+                path: "m".into(),
+                triangles: sheet(n),
+            })
+        });
+        let mesh_nodes = 2 * trees[0].bvh.nodes.len() + trees[1].bvh.nodes.len();
+        assert!(
+            joined.0.nodes.len() > mesh_nodes,
+            "{}",
+            joined.0.nodes.len()
+        );
+        let bvh = Bvh::fit(&joined, &scene, Algorithm::Robust);
+        let origin = kernel_origin(&scene, Algorithm::Robust);
+        let far = crate::math::length(kernel_frame(&scene, Algorithm::Robust).eye);
+        let (_, triangles) = primitive_boxes(&scene.objects, origin);
+        super::super::tests::check(
+            &bvh,
+            &grown(triangles, far),
+            &ObjectIds::of(&scene).triangles,
+        );
+    }
+
+    /// Renders through the joined tree are the flattened scene's, bit for bit, in both
+    /// precisions: the same triangles, found by a tree of another shape.
+    #[test]
+    fn renders_through_the_joined_tree_are_the_flattened_scenes() {
+        let scene = placed_scene([64, 48]);
+        let flattened = Scene {
+            instances: Vec::new(),
+            ..scene.clone()
+        };
+        for precision in [crate::Precision::F32, crate::Precision::F64] {
+            let options = RenderOptions {
+                precision: Some(precision),
+                ..RenderOptions::default()
+            };
+            let joined = Cpu.render(&scene, &options).unwrap();
+            let flat = Cpu.render(&flattened, &options).unwrap();
+            assert_eq!(joined, flat, "{precision:?}");
+            let ids = match &joined {
+                crate::AnyImages::F32(i) => i.id.clone(),
+                crate::AnyImages::F64(i) => i.id.clone(),
+            };
+            for object in [1, 3, 5] {
+                assert!(ids.contains(&object), "instance {object} is seen");
+            }
+        }
+    }
+
+    /// A placement whose object no longer is its mesh's soup is built as any soup.
+    #[test]
+    fn a_changed_object_is_no_longer_an_instance() {
+        let mut scene = placed_scene([8, 6]);
+        let Object::Soup { triangles, .. } = &mut scene.objects[1] else {
+            panic!("object 1 is a soup")
+        };
+        triangles.pop();
+        assert_eq!(placements(&scene).len(), 2);
+        scene.objects.truncate(1);
+        assert!(build(&scene).is_none());
+    }
+}
