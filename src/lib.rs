@@ -86,7 +86,7 @@ pub use crate::{
 pub use crate::scene::{
     Camera, CameraOverrides, DEFAULT_RESOLUTION, DEFAULT_SCENE_FILES, Lens, Light, Lighting,
     Material, MeshPart, Object, Orbit, Projection, Scene, Split, Triangle, ViewCamera, bounds,
-    is_mesh_file, load_mesh, load_viewed, parse_mesh, parse_views,
+    is_mesh_file, load_mesh, load_viewed, parse_mesh, parse_poses, parse_views,
 };
 
 // The file formats.

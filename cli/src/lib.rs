@@ -37,6 +37,7 @@ pub fn flag(name: &str) -> Option<String> {
         "orbit_radius" => "--orbit-radius",
         "orbit_elevation" => "--orbit-elevation",
         "views" => "--views",
+        "poses" => "--poses",
         "split" => "--split",
         "shard" => "--shard",
         _ => return None,

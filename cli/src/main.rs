@@ -51,6 +51,11 @@ enum Command {
         /// OUTPUT/manifest.jsonl (docs/datasets.md).
         #[arg(long, value_name = "FILE", conflicts_with = "orbit")]
         views: Option<PathBuf>,
+        /// Render every scene at each pose of this poses file (JSON lines, a frame a line:
+        /// its `name`, the `transforms` of the instances it moves, maybe a `camera`) as
+        /// --views renders views; the meshes' own trees are built once (docs/datasets.md#poses).
+        #[arg(long, value_name = "FILE", conflicts_with_all = ["views", "orbit"])]
+        poses: Option<PathBuf>,
         /// Render every scene from N views around its objects (orbit-000, ...), as --views
         /// does: a turntable about the camera's up direction (--up) from where it stands
         /// (--eye), looking at the objects' centre (--look-at), kept on the objects' side of
@@ -483,6 +488,7 @@ fn run(command: Command) -> Result<ExitCode> {
         Command::Render {
             scenes,
             views,
+            poses,
             orbit,
             orbit_radius,
             orbit_elevation,
@@ -527,6 +533,7 @@ fn run(command: Command) -> Result<ExitCode> {
                 fov,
             };
             let (views, view) = views_asked(views, orbit, orbit_radius, orbit_elevation, view)?;
+            let views = poses.map(raycast_datasets::Views::Poses).or(views);
             let batch_only = [
                 ("--force", force),
                 ("--shard", shard.is_some()),
@@ -535,7 +542,7 @@ fn run(command: Command) -> Result<ExitCode> {
             if let (None, Some((flag, _))) = (&views, batch_only.iter().find(|(_, given)| *given)) {
                 return Err(raycast::Error::Argument {
                     option: (*flag).into(),
-                    message: "renders many views: give --views or --orbit".into(),
+                    message: "renders many views: give --views, --poses or --orbit".into(),
                 });
             }
             if views.is_none() && scenes.len() > 1 {
@@ -573,6 +580,7 @@ fn run(command: Command) -> Result<ExitCode> {
                     if watch {
                         let many = match views {
                             raycast_datasets::Views::Orbit(_) => "--orbit",
+                            raycast_datasets::Views::Poses(_) => "--poses",
                             _ => "--views",
                         };
                         return Err(raycast::Error::Argument {

@@ -83,13 +83,21 @@ pub(crate) fn job_part(render: &RenderFiles) -> Result<Value> {
     }))
 }
 
-/// The record of a view of `scene` (digest [`scene_digest`]) seen by `camera`, in a job whose
-/// shared part is `job` ([`job_part`]).
-pub(crate) fn view_record(job: &Value, scene: &str, camera: &Camera) -> Value {
+/// The record of a view of `scene` (digest [`scene_digest`]) seen by `camera`, its instances
+/// moved by `transforms` (a pose's), in a job whose shared part is `job` ([`job_part`]).
+pub(crate) fn view_record(
+    job: &Value,
+    scene: &str,
+    camera: &Camera,
+    transforms: &[(usize, glam::DAffine3)],
+) -> Value {
     let mut record = job.clone();
     record["scene"] = scene.into();
     // Debug: every field of the camera (its size, depth.png's white), exact for floats.
     record["camera"] = format!("{camera:?}").into();
+    if !transforms.is_empty() {
+        record["transforms"] = format!("{transforms:?}").into();
+    }
     record
 }
 

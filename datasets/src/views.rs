@@ -49,6 +49,9 @@ pub enum Views {
     File(PathBuf),
     /// A views file's text, given in memory (named `<views>` in errors).
     Json(String),
+    /// A poses file: JSON lines, a view a line, each moving the scene's instances and maybe
+    /// giving a camera (docs/datasets.md#poses).
+    Poses(PathBuf),
     /// Views around each scene's bounded objects, named `orbit-000`, `orbit-001`, ...: a
     /// turntable about the scene camera's up direction, from where it stands, on the objects'
     /// side of every plane ([`Orbit`], docs/datasets.md#orbits).
@@ -68,7 +71,7 @@ impl Views {
     /// The name of a views file in errors.
     fn file(&self) -> &Path {
         match self {
-            Views::File(path) => path,
+            Views::File(path) | Views::Poses(path) => path,
             _ => Path::new("<views>"),
         }
     }
@@ -76,14 +79,19 @@ impl Views {
     /// The views' names, and a views file's cameras (checked but for what a scene decides).
     fn parse(&self) -> Result<(Vec<String>, Vec<ViewCamera>)> {
         let text = match self {
-            Views::File(path) => std::fs::read_to_string(path).map_err(|e| Error::Io {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })?,
+            Views::File(path) | Views::Poses(path) => {
+                std::fs::read_to_string(path).map_err(|e| Error::Io {
+                    path: path.to_path_buf(),
+                    message: e.to_string(),
+                })?
+            }
             Views::Json(text) => text.clone(),
             Views::Orbit(orbit) => return Ok((orbit.names()?, Vec::new())),
         };
-        let cameras = raycast::parse_views(&text, self.file())?;
+        let cameras = match self {
+            Views::Poses(_) => raycast::parse_poses(&text, self.file())?,
+            _ => raycast::parse_views(&text, self.file())?,
+        };
         let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
         check_names(&names, self.file())?;
         Ok((names, cameras))
@@ -103,7 +111,7 @@ impl Views {
         match self {
             Views::Orbit(orbit) => orbit.cameras(scene),
             _ => (cameras.iter())
-                .map(|c| c.camera(self.file(), &scene.objects))
+                .map(|c| c.camera(self.file(), scene))
                 .collect(),
         }
     }
@@ -182,10 +190,13 @@ struct Pairs {
     scenes: Vec<Option<PathBuf>>,
     stems: Vec<String>,
     names: Vec<String>,
-    /// The views file's cameras (for [`Views::File`]).
+    /// The views file's cameras (for [`Views::File`], [`Views::Json`] and [`Views::Poses`]).
     cameras: Vec<ViewCamera>,
     /// Each pair's estimated cost, in job order.
     costs: Vec<f64>,
+    /// Whether some view moves instances (a pose): a view is then finished before the next
+    /// is started, which moves them again.
+    posed: bool,
 }
 
 impl Pairs {
@@ -196,6 +207,11 @@ impl Pairs {
     /// The scene and view of pair `p`.
     fn pair(&self, p: usize) -> (usize, usize) {
         (p / self.names.len(), p % self.names.len())
+    }
+
+    /// The instances view `v` moves (a pose's), none for other views.
+    fn transforms(&self, v: usize) -> &[(usize, glam::DAffine3)] {
+        self.cameras.get(v).map_or(&[], |c| &c.transforms)
     }
 
     fn folder(&self, out: &Path, p: usize) -> PathBuf {
@@ -276,6 +292,7 @@ impl RenderViews {
             .flat_map(|w| pixels.iter().map(move |p| w * p))
             .collect();
         Ok(Pairs {
+            posed: cameras.iter().any(|c| !c.transforms.is_empty()),
             scenes,
             stems,
             names,
@@ -539,10 +556,11 @@ impl ViewRenderer {
         let mut in_flight: Option<InFlight> = None;
         let mut done = |position: usize| on_view(position + 1, pairs.len());
         for (position, &p) in pairs.iter().enumerate() {
-            // A view of another scene: the one in flight is finished with its own first.
+            // A view of another scene, or of another pose: the one in flight is finished with
+            // its own first.
             if in_flight
                 .as_ref()
-                .is_some_and(|f| f.view.scene != self.job.pair(p).0)
+                .is_some_and(|f| f.view.scene != self.job.pair(p).0 || self.job.posed)
             {
                 self.land(gpu, in_flight.take(), &device, writes, &mut done)?;
             }
@@ -661,7 +679,8 @@ impl ViewRenderer {
         if let Some(size) = spec.render.size {
             camera.resolution = size;
         }
-        let record = record::view_record(record, &loaded.digest, &camera);
+        let transforms = job.transforms(v);
+        let record = record::view_record(record, &loaded.digest, &camera, transforms);
         let found = match spec.force {
             true => Found::Missing,
             false => record::found(&folder, names, &record, false),
@@ -680,6 +699,7 @@ impl ViewRenderer {
         };
         let render = view.render_files(spec, job, &view.folder);
         let camera = view.camera.clone();
+        loaded.viewer.pose(transforms)?;
         let begun =
             (loaded.viewer).render(camera, |scene| render.begin_images(gpu, scene, files))?;
         let started = match begun {
@@ -803,7 +823,7 @@ fn load<'a>(
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
             index: s,
             cameras: spec.views.cameras_of(&job.cameras, &scene)?,
-            viewer: Viewer::new(scene),
+            viewer: Viewer::from(scene),
         });
     }
     Ok(loaded.as_mut().expect("loaded above"))
@@ -1041,6 +1061,7 @@ mod tests {
             stems: Vec::new(),
             names: vec!["v".into()],
             cameras: Vec::new(),
+            posed: false,
             costs,
         };
         let uneven: Vec<f64> = (0..97).map(|k| 1.0 + (k % 7) as f64 * 3.0).collect();

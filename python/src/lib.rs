@@ -265,7 +265,7 @@ impl Scene {
     fn with(geometry: Geometry, scene: Option<raycast::Scene>) -> Self {
         Scene {
             geometry,
-            scene: scene.map(|s| Arc::new(Mutex::new(Viewer::new(s)))),
+            scene: scene.map(|s| Arc::new(Mutex::new(Viewer::from(s)))),
             accels: Mutex::default(),
         }
     }
@@ -351,7 +351,7 @@ impl Scene {
             _ => return Err(PyValueError::new_err("views: give cameras or orbit")),
         };
         let named = py
-            .detach(|| views.cameras(viewer.lock().expect("the scene's lock").scene()))
+            .detach(|| views.cameras(viewer.lock().expect("the scene's lock").as_ref()))
             .map_err(cameras_error)?;
         Ok(named
             .into_iter()
@@ -601,7 +601,7 @@ fn render_view(
     options: &RenderOptions,
 ) -> raycast::Result<Rendered> {
     let mut viewer = viewer.lock().expect("the scene's lock");
-    let mut camera = camera.unwrap_or_else(|| viewer.scene().camera.clone());
+    let mut camera = camera.unwrap_or_else(|| viewer.as_ref().camera.clone());
     camera.resolution = size.unwrap_or(camera.resolution);
     let size = camera.resolution;
     let images = viewer.render(camera, |scene| match gpu {

@@ -21,6 +21,13 @@ pub(crate) struct Shared {
 }
 
 impl Shared {
+    /// Forgets what depends on where the objects are, which instances moving changes (the
+    /// BVH's shape, the extent), and keeps the meshes' own trees.
+    pub(crate) fn objects_moved(&mut self) {
+        self.topology = None;
+        self.magnitude = None;
+    }
+
     /// The BVH's shape, once a render has built it.
     #[cfg(test)]
     pub(crate) fn topology(&self) -> Option<&Arc<Topology>> {

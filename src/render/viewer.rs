@@ -1,18 +1,25 @@
 //! A scene seen from one camera after another, as an interactive viewer sees it: what the
 //! camera does not change (the BVH's shape, the objects' extent) is made at the first render and
-//! kept.
+//! kept; and its instances moved from pose to pose, which builds again only the tree over them
+//! (the meshes' own trees are kept).
 
+use glam::DAffine3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
 use crate::prepare::shared::{Shared, sharing};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Object, Scene};
 
-/// A scene rendered from camera after camera. Each render equals a render of the scene with
-/// that camera; what depends on the objects alone (the BVH's shape) is made once.
+/// A scene rendered from camera after camera, and pose after pose ([`Viewer::pose`]). Each
+/// render equals a render of the scene with that camera and those placements; what depends on
+/// the objects alone (the BVH's shape) is made once for each pose, and the meshes' own trees
+/// once.
 ///
 /// ```no_run
 /// use raycast::{Gpu, RenderOptions, Scene, Viewer};
 /// let gpu = Gpu::new()?;
-/// let mut viewer = Viewer::new(Scene::load("scenes/course/bunny.json".as_ref())?);
-/// let mut camera = viewer.scene().camera.clone();
+/// let mut viewer = Viewer::from(Scene::load("scenes/course/bunny.json".as_ref())?);
+/// let mut camera = viewer.as_ref().camera.clone();
 /// for step in 0..10 {
 ///     camera.eye.x += 0.1 * step as f64;
 ///     let images = viewer.render(camera.clone(), |scene| gpu.render(scene, &RenderOptions::default()))?;
@@ -22,20 +29,64 @@ use crate::scene::{Camera, Scene};
 pub struct Viewer {
     scene: Scene,
     shared: Shared,
+    /// Each instance's transform as the scene places it, which a pose that does not move it
+    /// keeps.
+    own: Vec<DAffine3>,
 }
 
-impl Viewer {
-    /// A viewer of `scene`.
-    pub fn new(scene: Scene) -> Viewer {
+impl From<Scene> for Viewer {
+    /// A viewer of `scene`, its instances where it places them.
+    fn from(scene: Scene) -> Viewer {
         Viewer {
+            own: scene.instances.iter().map(|p| p.transform).collect(),
             scene,
             shared: Shared::default(),
         }
     }
+}
 
-    /// The scene, with its own camera.
-    pub fn scene(&self) -> &Scene {
+impl AsRef<Scene> for Viewer {
+    /// The scene, with its own camera and its instances at the last pose.
+    fn as_ref(&self) -> &Scene {
         &self.scene
+    }
+}
+
+impl Viewer {
+    /// Places the scene's instances for the renders that follow: each of `transforms` (an
+    /// instance's object index and the map from its mesh's coordinates to the world's) where it
+    /// says, every other one where the scene places it. Only the instances whose place changes
+    /// are moved, and the BVH is joined again from the meshes' trees kept from the first render.
+    pub fn pose(&mut self, transforms: &[(usize, DAffine3)]) -> Result<()> {
+        let mut wanted = self.own.clone();
+        for &(object, m) in transforms {
+            let k = (self.scene.instances.iter().position(|p| p.object == object)).ok_or_else(
+                || Error::Argument {
+                    option: "transforms".into(),
+                    message: format!("object {object} is not an instance of the scene"),
+                },
+            )?;
+            wanted[k] = m;
+        }
+        let moved: Vec<(usize, Vec<crate::scene::Triangle>)> =
+            (self.scene.instances.par_iter_mut())
+                .zip(wanted)
+                .filter(|(p, m)| p.transform != *m)
+                .map(|(p, m)| {
+                    p.transform = m;
+                    (p.object, crate::scene::place(&p.mesh.triangles, &m))
+                })
+                .collect();
+        if moved.is_empty() {
+            return Ok(());
+        }
+        for (object, triangles) in moved {
+            if let Object::Soup { triangles: t, .. } = &mut self.scene.objects[object] {
+                *t = triangles;
+            }
+        }
+        self.shared.objects_moved();
+        Ok(())
     }
 
     /// Runs `render` (a [`crate::Gpu::render`] or [`crate::Cpu::render`] call, say) on the
@@ -63,7 +114,7 @@ mod tests {
         let mut scene = Scene::load(&path).unwrap();
         scene.camera.resolution = [48, 27];
         let options = RenderOptions::default();
-        let mut viewer = Viewer::new(scene.clone());
+        let mut viewer = Viewer::from(scene.clone());
         for step in [0.0, 0.4, -0.3] {
             let mut camera = scene.camera.clone();
             camera.eye.x += step;

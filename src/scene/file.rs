@@ -260,41 +260,94 @@ pub(super) fn parse(text: &str, file: &Path, load_mesh: &mut LoadMesh) -> Result
     })
 }
 
-/// A view of a views file (`--views`): its name and its camera, checked as a scene's camera
-/// is except for what the scene's objects decide ([`ViewCamera::camera`]).
+/// A view of a views file (`--views`) or a poses file (`--poses`): its name, its camera and
+/// the instances it moves, checked as a scene's are except for what the scene's objects
+/// decide ([`ViewCamera::camera`]).
 #[derive(Debug, Clone)]
 pub struct ViewCamera {
     /// Its name, the folder its files go in.
     pub name: String,
     /// The resolution it gives, if any.
     pub resolution: Option<[u32; 2]>,
-    /// Its place in the file, which errors name (`[3].fov`).
-    index: usize,
-    camera: CameraFile,
+    /// A pose's transforms: instances (by object index) moved from where the scene places
+    /// them, each by the map from its mesh's coordinates to the world's. The scene's other
+    /// instances stay where the scene file places them.
+    pub transforms: Vec<(usize, glam::DAffine3)>,
+    /// What errors name it by: `[3]` in a views file, `line 4` in a poses file.
+    place: String,
+    /// What its camera's fields are named under: `[3]`, or `line 4: camera`.
+    under: String,
+    /// Its camera; a pose may give none (the scene's).
+    camera: Option<CameraFile>,
+}
+
+/// A line of a poses file.
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct PoseFile {
+    name: String,
+    #[serde(default)]
+    transforms: Vec<MovedFile>,
+    camera: Option<CameraFile>,
+}
+
+/// An instance a pose moves.
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct MovedFile {
+    object: usize,
+    transform: TransformFile,
 }
 
 /// The views of a views file (`file`, which errors name): a JSON list of cameras in any form a
 /// scene's camera takes, each with a `name` (docs/datasets.md). Every camera is checked here
 /// against no objects, so a bad field is refused before anything renders.
 pub fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
-    let cameras: Vec<CameraFile> = deserialize(text, file)
-        .map_err(|e| wrong_shape(text, file, Shape::ViewsFile).unwrap_or(e))?;
-    if cameras.is_empty() {
+    checked(
+        views_of_list(text, file)?,
+        file,
+        "a list of at least one camera",
+    )
+}
+
+/// The views of a poses file (`file`, which errors name): JSON lines, a view a line, its
+/// `name`, the `transforms` of the instances it moves and maybe a `camera`
+/// (docs/datasets.md#poses). Every camera and transform is checked here against no objects.
+pub fn parse_poses(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
+    checked(poses_of_lines(text, file)?, file, "a pose a line")
+}
+
+/// `views` with their cameras checked against no objects; an error if there are none (`give`
+/// says what a file gives).
+fn checked(views: Vec<ViewCamera>, file: &Path, give: &str) -> Result<Vec<ViewCamera>> {
+    if views.is_empty() {
         return Err(Error::SceneValue {
             file: file.to_owned(),
             field: "views".into(),
-            message: "no views: give a list of at least one camera".into(),
+            message: format!("no views: give {give}"),
         });
     }
-    let views = cameras
-        .into_iter()
-        .enumerate()
+    for view in &views {
+        if let Some(camera) = &view.camera {
+            view.checker(file).camera(camera, &[])?;
+        }
+    }
+    Ok(views)
+}
+
+/// The views of a views file's list.
+fn views_of_list(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
+    let cameras: Vec<CameraFile> = deserialize(text, file)
+        .map_err(|e| wrong_shape(text, file, Shape::ViewsFile).unwrap_or(e))?;
+    (cameras.into_iter().enumerate())
         .map(|(index, camera)| match camera.name.clone() {
             Some(name) => Ok(ViewCamera {
                 name,
                 resolution: camera.resolution,
-                index,
-                camera,
+                transforms: Vec::new(),
+                place: format!("[{index}]"),
+                under: format!("[{index}]"),
+                camera: Some(camera),
             }),
             None => Err(Error::SceneValue {
                 file: file.to_owned(),
@@ -302,23 +355,113 @@ pub fn parse_views(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
                 message: "needs a `name` (the folder its images go in)".into(),
             }),
         })
-        .collect::<Result<Vec<_>>>()?;
-    for view in &views {
-        view.camera(file, &[])?;
+        .collect()
+}
+
+/// The views of a poses file's lines (blank lines skipped).
+fn poses_of_lines(text: &str, file: &Path) -> Result<Vec<ViewCamera>> {
+    let mut views = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let place = format!("line {}", k + 1);
+        let pose: PoseFile = deserialize(line, file).map_err(|e| match e {
+            Error::SceneSyntax {
+                file,
+                column,
+                message,
+                ..
+            } => Error::SceneSyntax {
+                file,
+                line: k + 1,
+                column,
+                message,
+            },
+            e => e,
+        })?;
+        let under = format!("{place}: camera");
+        let checker = Checker {
+            file,
+            camera: &under,
+        };
+        if pose.camera.as_ref().is_some_and(|c| c.name.is_some()) {
+            return Err(checker.fail("camera.name", "a pose is named by its own `name`"));
+        }
+        let transforms = (pose.transforms.iter().enumerate())
+            .map(|(i, moved)| {
+                let field = format!("{place}: transforms[{i}].transform");
+                Ok((moved.object, checker.transform(&field, &moved.transform)?))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        views.push(ViewCamera {
+            name: pose.name,
+            resolution: pose.camera.as_ref().and_then(|c| c.resolution),
+            transforms,
+            place,
+            under,
+            camera: pose.camera,
+        });
     }
     Ok(views)
 }
 
 impl ViewCamera {
-    /// The camera of this view for a scene of `objects` (which set a field-of-view or
-    /// intrinsics camera's default `near`); `file` is the views file, for errors.
-    pub fn camera(&self, file: &Path, objects: &[Object]) -> Result<Camera> {
-        let under = format!("[{}]", self.index);
+    /// The camera of this view for `scene` (whose objects set a field-of-view or intrinsics
+    /// camera's default `near`): its own, or the scene's for a pose that gives none. Also
+    /// checks that each instance it moves is one of the scene's, once; `file` is the views
+    /// file, for errors.
+    pub fn camera(&self, file: &Path, scene: &Scene) -> Result<Camera> {
+        let checker = self.checker(file);
+        let mut moved = vec![false; scene.objects.len()];
+        for (i, (object, m)) in self.transforms.iter().enumerate() {
+            let field = format!("{}: transforms[{i}].object", self.place);
+            let Some(placed) = scene.instances.iter().find(|p| p.object == *object) else {
+                let message = format!(
+                    "object {object} is not an instance of the scene (the scene's instances: {})",
+                    instance_list(scene)
+                );
+                return Err(checker.fail(field, message));
+            };
+            if std::mem::replace(&mut moved[*object], true) {
+                return Err(checker.fail(field, format!("object {object} is moved twice")));
+            }
+            // The placed mesh lies within its moved box, whose corners bound its coordinates.
+            let moved_box = placed.mesh.bounds().map(|b| super::moved_box(b, m));
+            if let Some((lo, hi)) = moved_box
+                && lo.abs().max(hi.abs()).max_element() > MAX_MAGNITUDE
+            {
+                let field = format!("{}: transforms[{i}].transform", self.place);
+                let message = format!(
+                    "places the mesh beyond {MAX_MAGNITUDE:e}, the largest coordinate a scene may hold"
+                );
+                return Err(checker.fail(field, message));
+            }
+        }
+        match &self.camera {
+            Some(camera) => checker.camera(camera, &scene.objects),
+            None => Ok(scene.camera.clone()),
+        }
+    }
+
+    fn checker<'a>(&'a self, file: &'a Path) -> Checker<'a> {
         Checker {
             file,
-            camera: &under,
+            camera: &self.under,
         }
-        .camera(&self.camera, objects)
+    }
+}
+
+/// The object indices of `scene`'s instances, as an error lists them: `none` or `1, 3, 5`
+/// (the first ten, then how many more).
+fn instance_list(scene: &Scene) -> String {
+    let mut objects: Vec<usize> = scene.instances.iter().map(|p| p.object).collect();
+    objects.sort_unstable();
+    let shown: Vec<String> = objects.iter().take(10).map(usize::to_string).collect();
+    match objects.len() {
+        0 => "none".into(),
+        n if n > 10 => format!("{}, and {} more", shown.join(", "), n - 10),
+        _ => shown.join(", "),
     }
 }
 

@@ -179,7 +179,7 @@ fn named(numbers: &mut Vec<(String, f64)>, name: &str, xs: &[f64]) {
 /// `triangles` moved by `m` into world space. Where `m` mirrors (a negative determinant) each
 /// triangle's last two corners swap, so that a normal, which follows the corners' order, keeps
 /// to the side it was on: outward stays outward.
-pub(super) fn place(triangles: &[Triangle], m: &DAffine3) -> Vec<Triangle> {
+pub(crate) fn place(triangles: &[Triangle], m: &DAffine3) -> Vec<Triangle> {
     let mirrors = m.matrix3.determinant() < 0.0;
     (triangles.iter())
         .map(|t| {
@@ -187,6 +187,23 @@ pub(super) fn place(triangles: &[Triangle], m: &DAffine3) -> Vec<Triangle> {
             if mirrors { [a, c, b] } else { [a, b, c] }
         })
         .collect()
+}
+
+/// The box `(lo, hi)` moved by `m`: the box around its moved corners, which holds whatever
+/// the box held, moved.
+pub(crate) fn moved_box((lo, hi): (DVec3, DVec3), m: &DAffine3) -> (DVec3, DVec3) {
+    (0..8)
+        .map(|k| {
+            let pick = |bit: usize, l: f64, h: f64| if k & bit == 0 { l } else { h };
+            m.transform_point3(DVec3::new(
+                pick(1, lo.x, hi.x),
+                pick(2, lo.y, hi.y),
+                pick(4, lo.z, hi.z),
+            ))
+        })
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| {
+            (l.min(c), h.max(c))
+        })
 }
 
 #[cfg(test)]

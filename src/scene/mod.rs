@@ -8,7 +8,8 @@ mod camera;
 mod file;
 mod instance;
 pub(crate) use file::MAX_MAGNITUDE;
-pub use file::{ViewCamera, parse_views};
+pub use file::{ViewCamera, parse_poses, parse_views};
+pub(crate) use instance::{moved_box, place};
 mod mesh;
 mod orbit;
 
@@ -93,6 +94,17 @@ pub(crate) struct Mesh {
     /// Its file, as the scene names it.
     pub path: PathBuf,
     pub triangles: Vec<Triangle>,
+}
+
+impl Mesh {
+    /// The box bounding its triangles, if it has any.
+    pub(crate) fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        let (lo, hi) = (self.triangles.iter().flatten())
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| {
+                (l.min(*c), h.max(*c))
+            });
+        (lo.x <= hi.x).then_some((lo, hi))
+    }
 }
 
 /// Object `object` of a scene is `mesh` moved by `transform` into world space: the soup

@@ -171,7 +171,7 @@ pub(super) struct Frame {
 /// render is refused before the page opens, and the kernel is compiled by then.
 pub(super) fn warm_up(shared: &Shared) -> raycast::Result<()> {
     let mut current = shared.current.lock().expect("the render lock");
-    let camera = current.viewer.scene().camera.clone();
+    let camera = current.viewer.as_ref().camera.clone();
     rendered(shared, &mut current, Device::Gpu, camera).map(drop)
 }
 
@@ -186,7 +186,7 @@ pub(super) fn render(shared: &Shared, query: &FrameQuery) -> Result<Frame, Failu
         ));
     }
     let mut current = shared.current.lock().expect("the render lock");
-    let mut camera = (query.view.apply(&current.viewer.scene().camera)).map_err(refused)?;
+    let mut camera = (query.view.apply(&current.viewer.as_ref().camera)).map_err(refused)?;
     if let Some(size) = query.size {
         camera.resolution = size;
     }

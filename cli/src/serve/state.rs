@@ -29,7 +29,7 @@ pub(super) struct Current {
 impl Current {
     fn new(scene: Scene, hook: Option<ShadeHook>, version: u64) -> Current {
         Current {
-            viewer: Viewer::new(scene),
+            viewer: Viewer::from(scene),
             hook,
             version,
             cache: Cache::default(),

@@ -572,7 +572,7 @@ pub fn measure(
     let scene = &loaded.scene;
     reset_peak_rss();
     // Views share one viewer, as a dataset's views of a scene share its BVH's shape.
-    let mut viewer = loaded.views.as_ref().map(|_| Viewer::new(scene.clone()));
+    let mut viewer = loaded.views.as_ref().map(|_| Viewer::from(scene.clone()));
     let warm_up = run_frames(loaded, viewer.as_mut(), config, gpu, options, tick)?;
     let mut timed = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {

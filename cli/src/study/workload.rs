@@ -11,7 +11,8 @@
 //!   for `raycast bench --lit`;
 //! - `instances`: the course's bunny declared once and placed `--count` times (1,000 by
 //!   default) at seeded random poses on a grid (rotations about random axes, non-uniform
-//!   scales), the scene of #64's measurements.
+//!   scales), the scene of #64's measurements, and `poses.jsonl`: 100 frames in which the
+//!   first 30 bunnies turn about their axes and drift (`raycast render --poses`).
 //!
 //! Each is a scene file and, for the torus, a binary PLY mesh beside it (doubles: the formula's
 //! vertices exactly), written whole or not at all.
@@ -40,7 +41,7 @@ pub const WORKLOADS: [(&str, &str); 4] = [
     (
         "instances",
         "the course's bunny placed --count times (1,000) at random poses on a grid, one mesh \
-         declared once",
+         declared once, and poses.jsonl: 100 frames moving 30 of them",
     ),
 ];
 
@@ -154,13 +155,19 @@ pub fn spheres(n: usize, lo: [f64; 3], hi: [f64; 3], seed: u64) -> Vec<serde_jso
         .collect()
 }
 
+/// Frames of the `instances` workload's poses file, and the bunnies each moves (the first).
+const POSE_FRAMES: usize = 100;
+const POSED: usize = 30;
+
 /// The `instances` workload's scene: `mesh` (its file name and triangles) placed `count` times
-/// at seeded random poses on a cubic grid, seen from beyond the grid's +z face.
+/// at seeded random poses on a cubic grid, seen from beyond the grid's +z face; and its poses
+/// file's lines, each frame turning the first [`POSED`] bunnies a further 3.6 degrees about
+/// their axes and moving them on by a hundredth of the grid's step.
 fn instances_scene(
     mesh: (&str, &[raycast::Triangle]),
     count: usize,
     resolution: [u32; 2],
-) -> serde_json::Value {
+) -> (serde_json::Value, String) {
     let corners = mesh.1.iter().flatten();
     let lo: [f64; 3] =
         std::array::from_fn(|a| corners.clone().map(|p| p[a]).fold(f64::MAX, f64::min));
@@ -173,7 +180,7 @@ fn instances_scene(
         .expect("a grid holds them");
     let step = 1.5 * size;
     let mut rng = Rng(64);
-    let objects: Vec<serde_json::Value> = (0..count)
+    let placements: Vec<_> = (0..count)
         .map(|k| {
             let cell = [k % side, k / side % side, k / (side * side)];
             let translate: Vec<f64> = (0..3)
@@ -182,19 +189,40 @@ fn instances_scene(
             let axis = rng.point(-1.0, 1.0);
             let degrees = rng.range(0.0, 360.0);
             let scale: Vec<f64> = (0..3).map(|_| rng.range(0.6, 1.2)).collect();
-            serde_json::json!({"type": "instance", "mesh": "bunny", "transform": {
-                "translate": translate, "rotate": {"axis": axis, "degrees": degrees}, "scale": scale}})
+            (translate, axis, degrees, scale)
+        })
+        .collect();
+    let transform = |(translate, axis, degrees, scale): &(Vec<f64>, [f64; 3], f64, Vec<f64>),
+                     frame: usize| {
+        let moved: Vec<f64> = translate
+            .iter()
+            .map(|x| x + 0.01 * step * frame as f64)
+            .collect();
+        serde_json::json!({"translate": moved, "rotate": {"axis": axis,
+            "degrees": degrees + 3.6 * frame as f64}, "scale": scale})
+    };
+    let objects: Vec<serde_json::Value> = (placements.iter())
+        .map(|p| serde_json::json!({"type": "instance", "mesh": "bunny", "transform": transform(p, 0)}))
+        .collect();
+    let poses: String = (0..POSE_FRAMES)
+        .map(|frame| {
+            let transforms: Vec<serde_json::Value> = (placements.iter().take(POSED).enumerate())
+                .map(|(k, p)| serde_json::json!({"object": k, "transform": transform(p, frame)}))
+                .collect();
+            let name = format!("f-{frame:03}");
+            serde_json::json!({"name": name, "transforms": transforms}).to_string() + "\n"
         })
         .collect();
     let middle = (side - 1) as f64 * step / 2.0;
     let eye = [middle, middle, side as f64 * step * 1.5 + 2.0 * size];
-    serde_json::json!({
+    let scene = serde_json::json!({
         "comment": format!("the course's bunny placed {count} times at random poses (raycast workload)"),
         "camera": {"eye": eye, "look_at": [middle, middle, middle], "up": [0, 1, 0], "fov": 50,
                    "resolution": resolution},
         "meshes": {"bunny": {"stl": mesh.0}},
         "objects": objects,
-    })
+    });
+    (scene, poses)
 }
 
 /// Writes workload `name` into `dir` at `resolution` (`triangles`: the torus's size; `count`:
@@ -257,12 +285,16 @@ pub fn write(
             let parts = raycast::parse_mesh(&bytes, Path::new("bunny.stl"), Default::default())?;
             let mesh: Vec<raycast::Triangle> =
                 parts.into_iter().flat_map(|p| p.triangles).collect();
-            let json =
+            let (json, poses) =
                 instances_scene(("bunny.stl", &mesh), count.unwrap_or(INSTANCES), resolution);
             vec![
                 EncodedFile {
                     name: "bunny.stl",
                     bytes,
+                },
+                EncodedFile {
+                    name: "poses.jsonl",
+                    bytes: poses.into_bytes(),
                 },
                 EncodedFile {
                     name: "instances.json",
@@ -336,5 +368,16 @@ mod tests {
         let firsts: std::collections::BTreeSet<String> =
             meshes.iter().map(|t| format!("{:?}", t[0])).collect();
         assert_eq!(firsts.len(), 27);
+        // Its poses: 100 frames, each moving the first 27 (fewer than 30) bunnies.
+        let poses = dir.path().join("poses.jsonl");
+        let views =
+            raycast::parse_poses(&std::fs::read_to_string(&poses).unwrap(), &poses).unwrap();
+        assert_eq!(views.len(), POSE_FRAMES);
+        for view in &views {
+            let moved: Vec<usize> = view.transforms.iter().map(|(k, _)| *k).collect();
+            assert_eq!(moved, (0..27).collect::<Vec<_>>(), "{}", view.name);
+            view.camera(&poses, &scene).unwrap();
+        }
+        assert_ne!(views[0].transforms, views[1].transforms);
     }
 }

@@ -211,3 +211,170 @@ fn bad_instances_are_one_line_naming_the_field() {
         assert_no_files(&out);
     }
 }
+
+/// The scene of three placed tetrahedra the poses below move.
+fn placed_scene(camera: &str, transforms: [&str; 3]) -> String {
+    format!(
+        r#"{{{camera}, "meshes": {{"tet": {{"obj": "tet.obj"}}}}, "objects": [
+            {{"type": "instance", "mesh": "tet", "transform": {}}},
+            {{"type": "sphere", "center": [0, 0, -2], "radius": 0.5}},
+            {{"type": "instance", "mesh": "tet", "transform": {}}},
+            {{"type": "instance", "mesh": "tet", "transform": {}}}]}}"#,
+        transforms[0], transforms[1], transforms[2]
+    )
+}
+
+const OWN: [&str; 3] = [
+    r#"[[2, 0, 0, -1.5], [0, 0.5, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]]"#,
+    r#"{"translate": [0.25, -1, 0.125], "scale": 0.5}"#,
+    r#"{"translate": [2.5, 0, 0], "scale": [-1, 1, 1]}"#,
+];
+
+/// `raycast render SCENE --poses FILE`: each frame's files are those of the scene file with its
+/// instances placed as the frame says (the others as the scene places them, whatever frame came
+/// before) and the frame's camera where it gives one; a frame rendered again alone is the same.
+#[test]
+fn each_pose_renders_as_its_scene_placed_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let tet = [("tet.obj".to_owned(), obj(&tetrahedron()))];
+    let moved = r#"{"translate": [-1, -0.5, 0.5], "rotate": {"axis": [0, 1, 1], "degrees": 40}, "scale": [0.7, 1.2, 0.9]}"#;
+    let mirrored = r#"[[0, -1, 0, 0.5], [-1, 0, 0, 1.5], [0, 0, 1, -0.5], [0, 0, 0, 1]]"#;
+    // One line: a pose is a line.
+    let eye = concat!(
+        r#""camera": {"eye": [1.5, 0.5, 6], "look": [-0.2, 0, -1], "up": [0, 1, 0], "#,
+        r#""focal_length": 2, "width": 1.6, "height": 1.2, "resolution": [64, 48]}"#
+    );
+    let frames = [
+        (CAMERA, OWN, r#"{"name": "f-000"}"#.to_owned()),
+        (
+            CAMERA,
+            [moved, OWN[1], OWN[2]],
+            format!(
+                r#"{{"name": "f-001", "transforms": [{{"object": 0, "transform": {moved}}}]}}"#
+            ),
+        ),
+        (
+            eye,
+            [OWN[0], mirrored, moved],
+            format!(
+                r#"{{"name": "f-002", "transforms": [{{"object": 3, "transform": {moved}}}, {{"object": 2, "transform": {mirrored}}}], {eye}}}"#
+            ),
+        ),
+    ];
+    let poses = dir.path().join("poses.jsonl");
+    let lines: Vec<&str> = frames.iter().map(|(_, _, line)| line.as_str()).collect();
+    std::fs::write(&poses, lines.join("\n") + "\n\n").unwrap();
+    let scene = dir.path().join("table.json");
+    std::fs::write(dir.path().join("tet.obj"), &tet[0].1).unwrap();
+    std::fs::write(&scene, placed_scene(CAMERA, OWN)).unwrap();
+    let out = dir.path().join("frames");
+    let render_poses = || {
+        let run = common::raycast()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--poses",
+                poses.to_str().unwrap(),
+            ])
+            .args(["-o", out.to_str().unwrap(), "--format", "npy"])
+            .args(["--outputs", "id,distance,normal"])
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+    };
+    render_poses();
+    let frame_files = |name: &str| {
+        ["id.npy", "distance.npy", "normal.npy"]
+            .map(|f| std::fs::read(out.join("table").join(name).join(f)).unwrap())
+            .to_vec()
+    };
+    let mut seen = Vec::new();
+    for (k, (camera, transforms, _)) in frames.iter().enumerate() {
+        let name = format!("f-00{k}");
+        let alone = render(
+            &dir,
+            &format!("alone{k}"),
+            &placed_scene(camera, *transforms),
+            &tet,
+        );
+        let framed = frame_files(&name);
+        assert_eq!(framed, alone, "{name}");
+        seen.push(framed);
+    }
+    assert_ne!(seen[0], seen[1], "the pose moved an instance");
+    // Frame 1 again, after frame 2 in the same run.
+    std::fs::remove_dir_all(out.join("table/f-001")).unwrap();
+    let lines = [frames[2].2.as_str(), frames[1].2.as_str()];
+    std::fs::write(&poses, lines.join("\n")).unwrap();
+    render_poses();
+    assert_eq!(frame_files("f-001"), seen[1]);
+}
+
+#[test]
+fn bad_poses_are_one_line_naming_the_line_and_field() {
+    let moved = r#"{"translate": [1, 0, 0]}"#;
+    let cases = [
+        (
+            format!(r#"{{"name": "a", "transforms": [{{"object": 1, "transform": {moved}}}]}}"#),
+            "poses.jsonl: line 1: transforms[0].object: object 1 is not an instance of the scene (the scene's instances: 0, 2, 3)",
+        ),
+        (
+            concat!(
+                r#"{"name": "a"}"#,
+                "\n\n",
+                r#"{"name": "b", "transforms": [{"object": 0, "transform": {"scale": 0}}]}"#
+            )
+            .to_owned(),
+            "poses.jsonl: line 3: transforms[0].transform.scale: must not be 0",
+        ),
+        (
+            r#"{"name": "a", "transforms": [{"object": 0}]}"#.to_owned(),
+            "poses.jsonl:1:",
+        ),
+        (
+            format!(
+                r#"{{"name": "a", "transforms": [{{"object": 0, "transform": {moved}}}, {{"object": 0, "transform": {moved}}}]}}"#
+            ),
+            "line 1: transforms[1].object: object 0 is moved twice",
+        ),
+        (
+            r#"{"name": "a", "transforms": [{"object": 0, "transform": {"translate": [9e17, 0, 0], "scale": 2e17}}]}"#.to_owned(),
+            "line 1: transforms[0].transform: places the mesh beyond 1e18",
+        ),
+        (
+            r#"{"name": "a", "camera": {"eye": [0, 0, 1], "look": [0, 0, -1], "up": [0, 0, 1], "fov": 60}}"#.to_owned(),
+            "line 1: camera.up",
+        ),
+    ];
+    for (poses, expected) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("tet.obj"), obj(&tetrahedron())).unwrap();
+        let scene = dir.path().join("scene.json");
+        std::fs::write(&scene, placed_scene(CAMERA, OWN)).unwrap();
+        let file = dir.path().join("poses.jsonl");
+        std::fs::write(&file, &poses).unwrap();
+        let out = dir.path().join("out");
+        let output = common::raycast()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--poses",
+                file.to_str().unwrap(),
+            ])
+            .args(["-o", out.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(expected),
+            "`{expected}` missing from: {stderr}"
+        );
+        assert_no_files(&out);
+    }
+}

@@ -14,7 +14,7 @@ use super::{
     Topology, Tree, build_tree, depth_of, leaf_len, leaf_word, round_down, round_up,
 };
 use crate::prepare::shared;
-use crate::scene::{Mesh, Object, Placement, Scene};
+use crate::scene::{Mesh, Object, Placement, Scene, moved_box};
 
 /// A mesh's own tree (triangles only, object 0) and its bounds, in the mesh's coordinates.
 #[derive(Debug)]
@@ -31,7 +31,7 @@ impl MeshTree {
         }];
         MeshTree {
             bvh: Topology::of_objects(&soup).0,
-            bounds: crate::scene::bounds(&soup),
+            bounds: mesh.bounds(),
         }
     }
 }
@@ -100,7 +100,12 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
         })
         .collect();
     let mut boxes: Vec<(DVec3, DVec3)> = (placed.iter().zip(&trees))
-        .map(|(p, tree)| placed_bounds(tree.bounds.expect("a placed mesh has triangles"), p))
+        .map(|(p, tree)| {
+            moved_box(
+                tree.bounds.expect("a placed mesh has triangles"),
+                &p.transform,
+            )
+        })
         .collect();
     if let Some(root) = rest_triangles {
         groups.push(Group {
@@ -222,23 +227,6 @@ fn kind_roots(bvh: &Bvh) -> [Option<Subtree>; 2] {
 struct Subtree {
     root: Child,
     end: usize,
-}
-
-/// The box of the placed mesh whose own box is `bounds`: its corners' moved.
-fn placed_bounds((lo, hi): (DVec3, DVec3), p: &Placement) -> (DVec3, DVec3) {
-    (0..8)
-        .map(|k| {
-            let pick = |bit: usize, l: f64, h: f64| if k & bit == 0 { l } else { h };
-            let c = DVec3::new(
-                pick(1, lo.x, hi.x),
-                pick(2, lo.y, hi.y),
-                pick(4, lo.z, hi.z),
-            );
-            p.transform.transform_point3(c)
-        })
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| {
-            (l.min(c), h.max(c))
-        })
 }
 
 /// The box of the triangles of the objects not `placed`.

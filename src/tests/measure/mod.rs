@@ -15,6 +15,7 @@ mod build_time;
 mod bvh_stats;
 mod bvh_timing;
 mod kernel_ab;
+mod pose_cost;
 mod views_cost;
 
 /// The measurement's arguments: `RAYCAST_MEASURE` split at white space.
