@@ -194,8 +194,8 @@ struct Pairs {
     cameras: Vec<ViewCamera>,
     /// Each pair's estimated cost, in job order.
     costs: Vec<f64>,
-    /// Whether some view moves instances (a pose): a view is then finished before the next
-    /// is started, which moves them again.
+    /// Whether some view moves instances (a pose): each scene then has two viewers
+    /// ([`Loaded::viewers`]).
     posed: bool,
 }
 
@@ -449,8 +449,11 @@ pub struct ViewRenderer {
 struct Loaded {
     index: usize,
     /// The scene, with what its views' preparations share: the BVH's shape, the objects'
-    /// extent.
-    viewer: Viewer,
+    /// extent. Two where views move instances (poses): a view started moves those of one
+    /// while the view before, on the device, is finished with the other, at its own pose.
+    viewers: Vec<Viewer>,
+    /// The viewer the next view started takes (they take turns).
+    turn: usize,
     /// Its views' cameras, in the job's order ([`Views::cameras`]).
     cameras: Vec<raycast::Camera>,
     /// The digest of its files, in its views' records ([`record::scene_digest`]).
@@ -556,11 +559,10 @@ impl ViewRenderer {
         let mut in_flight: Option<InFlight> = None;
         let mut done = |position: usize| on_view(position + 1, pairs.len());
         for (position, &p) in pairs.iter().enumerate() {
-            // A view of another scene, or of another pose: the one in flight is finished with
-            // its own first.
+            // A view of another scene: the one in flight is finished with its own first.
             if in_flight
                 .as_ref()
-                .is_some_and(|f| f.view.scene != self.job.pair(p).0 || self.job.posed)
+                .is_some_and(|f| f.view.scene != self.job.pair(p).0)
             {
                 self.land(gpu, in_flight.take(), &device, writes, &mut done)?;
             }
@@ -633,7 +635,8 @@ impl ViewRenderer {
         let loaded =
             (self.loaded.as_mut()).expect("a view's scene stays loaded until it is finished");
         let camera = f.view.camera.clone();
-        let images = (loaded.viewer).render(camera, |scene| ran.finish(gpu, scene))?;
+        let viewer = &mut loaded.viewers[f.view.viewer];
+        let images = viewer.render(camera, |scene| ran.finish(gpu, scene))?;
         let write = ViewWrite {
             images,
             encoding: self.spec.render.encoding.clone(),
@@ -693,15 +696,17 @@ impl ViewRenderer {
         }
         let view = ViewFiles {
             scene: s,
+            viewer: loaded.turn,
             record: record::encode(&record),
             folder,
             camera,
         };
+        loaded.turn = (loaded.turn + 1) % loaded.viewers.len();
         let render = view.render_files(spec, job, &view.folder);
         let camera = view.camera.clone();
-        loaded.viewer.pose(transforms)?;
-        let begun =
-            (loaded.viewer).render(camera, |scene| render.begin_images(gpu, scene, files))?;
+        let viewer = &mut loaded.viewers[view.viewer];
+        viewer.pose(transforms)?;
+        let begun = viewer.render(camera, |scene| render.begin_images(gpu, scene, files))?;
         let started = match begun {
             None => Started::Bands(view),
             Some(Whole::Device(work)) => Started::Device(Box::new(work), view),
@@ -721,7 +726,8 @@ impl ViewRenderer {
         raycast_files::write_folder(&view.folder, |temporary| {
             let files = view.render_files(&self.spec, &self.job, temporary);
             let camera = view.camera.clone();
-            (loaded.viewer).render(camera, |scene| files.run_loaded(gpu, None, scene))?;
+            let viewer = &mut loaded.viewers[view.viewer];
+            viewer.render(camera, |scene| files.run_loaded(gpu, None, scene))?;
             write_record(temporary, &view.record)
         })
     }
@@ -751,6 +757,8 @@ enum Started {
 /// folder its files go in (written whole: [`raycast_files::write_folder`]).
 struct ViewFiles {
     scene: usize,
+    /// Which of its scene's viewers renders it ([`Loaded::viewers`]).
+    viewer: usize,
     camera: raycast::Camera,
     record: Vec<u8>,
     folder: PathBuf,
@@ -823,7 +831,11 @@ fn load<'a>(
             stale: stale_folders(&spec.render.out_dir.join(&job.stems[s])),
             index: s,
             cameras: spec.views.cameras_of(&job.cameras, &scene)?,
-            viewer: Viewer::from(scene),
+            viewers: match job.posed {
+                true => vec![Viewer::from(scene.clone()), Viewer::from(scene)],
+                false => vec![Viewer::from(scene)],
+            },
+            turn: 0,
         });
     }
     Ok(loaded.as_mut().expect("loaded above"))
