@@ -1,7 +1,7 @@
 //! The library's tests below its API: a module per topic in the library's test binary (one
 //! process, one lavapipe device), sharing `common` with the command line's tests.
 
-mod common;
+pub(crate) mod common;
 mod kernels;
 
 mod adaptive;

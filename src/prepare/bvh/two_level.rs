@@ -483,6 +483,60 @@ mod tests {
         }
     }
 
+    /// 100 copies of a mesh at seeded random poses (rotations about random axes, non-uniform
+    /// scales, translations up to 1e3), seen from afar: the joined tree's renders are the
+    /// flattened scene's in both precisions, and most copies are seen.
+    #[test]
+    fn a_hundred_copies_far_apart_render_as_the_flattened_scene() {
+        let mut rng = crate::tests::common::Rng(7);
+        let objects: Vec<String> = (0..100)
+            .map(|_| {
+                let t: Vec<f64> = (0..3).map(|_| rng.range(-1e3, 1e3)).collect();
+                let axis: Vec<f64> = (0..3).map(|_| rng.range(-1.0, 1.0)).collect();
+                let scale: Vec<f64> = (0..3).map(|_| rng.range(60.0, 200.0)).collect();
+                format!(
+                    r#"{{"type": "instance", "mesh": "a", "transform": {{"translate": {t:?},
+                        "rotate": {{"axis": {axis:?}, "degrees": {}}}, "scale": {scale:?}}}}}"#,
+                    rng.range(0.0, 360.0)
+                )
+            })
+            .collect();
+        let json = format!(
+            r#"{{"camera": {{"eye": [0, 0, 4000], "look_at": [0, 0, 0], "up": [0, 1, 0],
+                "fov": 40, "resolution": [128, 96]}},
+              "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
+            objects.join(",")
+        );
+        let scene = Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
+            Ok(crate::scene::MeshPart::whole(sheet(60)))
+        })
+        .unwrap();
+        assert!(build(&scene).is_some());
+        let flattened = Scene {
+            instances: Vec::new(),
+            ..scene.clone()
+        };
+        for precision in [crate::Precision::F32, crate::Precision::F64] {
+            let options = RenderOptions {
+                precision: Some(precision),
+                ..RenderOptions::default()
+            };
+            let joined = Cpu.render(&scene, &options).unwrap();
+            assert_eq!(
+                joined,
+                Cpu.render(&flattened, &options).unwrap(),
+                "{precision:?}"
+            );
+            let ids = match &joined {
+                crate::AnyImages::F32(i) => i.id.clone(),
+                crate::AnyImages::F64(i) => i.id.clone(),
+            };
+            let seen: std::collections::BTreeSet<i32> =
+                ids.into_iter().filter(|&i| i >= 0).collect();
+            assert!(seen.len() >= 50, "{} copies seen", seen.len());
+        }
+    }
+
     /// A placement whose object no longer is its mesh's soup is built as any soup.
     #[test]
     fn a_changed_object_is_no_longer_an_instance() {
