@@ -14,12 +14,16 @@ scripts/install-browser.sh
 # downloads and unpacking (Ray's are the largest), which the compiler's work hides.
 venv=target/py-venv
 pip_log=target/py-venv-install.log
+pip_done=target/py-venv-install.status
 mkdir -p target
+rm -f "$pip_done"
 (
-    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree "ray[data]"
+    status=0
+    { [ -x "$venv/bin/python" ] || python3 -m venv "$venv"; } &&
+        "$venv/bin/pip" install --quiet pytest numpy OpenEXR trimesh rtree "ray[data]" ||
+        status=$?
+    echo "$status" >"$pip_done"
 ) >"$pip_log" 2>&1 &
-pip_install=$!
 # What `cargo test` builds and the Python extension, in one build: one set of features, so the
 # dependencies they share are compiled once (maturin's own build would compile them again).
 cargo build --quiet --lib --bins --tests --examples
@@ -38,6 +42,27 @@ docs_log=target/docs.log
     cargo check --quiet -p raycast-benches
 ) >"$docs_log" 2>&1 &
 docs=$!
+# The Python package as maturin lays it out (python/raycast/ with the extension inside it),
+# from the extension built above. `pip install ./python` builds the same in release. Its tests
+# run beside the Rust tests, in the time lavapipe's one-kernel-at-a-time compiles leave a core.
+package=target/py-package
+rm -rf "$package"
+mkdir -p "$package"
+cp -R python/raycast "$package/"
+extension=target/debug/lib_raycast.so
+[ "$(uname -s)" = Darwin ] && extension=target/debug/lib_raycast.dylib
+cp "$extension" "$package/raycast/_raycast.abi3.so"
+py_log=target/py-tests.log
+(
+    while [ ! -s "$pip_done" ]; do sleep 1; done
+    if [ "$(cat "$pip_done")" != 0 ]; then
+        cat "$pip_log"
+        echo "test.sh: installing the Python test packages failed"
+        exit 1
+    fi
+    PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
+) >"$py_log" 2>&1 &
+py_tests=$!
 cargo test "$@"
 echo "test.sh: Rust tests done at ${SECONDS} s" >&2
 if ! wait "$docs"; then
@@ -46,19 +71,11 @@ if ! wait "$docs"; then
     exit 1
 fi
 echo "test.sh: docs done at ${SECONDS} s" >&2
-# The Python package as maturin lays it out (python/raycast/ with the extension inside it),
-# from the extension built above. `pip install ./python` builds the same in release.
-package=target/py-package
-rm -rf "$package"
-mkdir -p "$package"
-cp -R python/raycast "$package/"
-extension=target/debug/lib_raycast.so
-[ "$(uname -s)" = Darwin ] && extension=target/debug/lib_raycast.dylib
-cp "$extension" "$package/raycast/_raycast.abi3.so"
-if ! wait "$pip_install"; then
-    cat "$pip_log" >&2
-    echo "test.sh: installing the Python test packages failed" >&2
+py_status=0
+wait "$py_tests" || py_status=$?
+cat "$py_log"
+if [ "$py_status" -ne 0 ]; then
+    echo "test.sh: the Python tests failed" >&2
     exit 1
 fi
-PYTHONPATH="$package" "$venv/bin/python" -m pytest -q python/tests
 echo "test.sh: Python tests done at ${SECONDS} s" >&2
