@@ -70,6 +70,9 @@ pub struct Geometry {
     /// The camera of the scene file it came from: its eye is where the robust kernel measures
     /// from. Without one, [`framing_camera`] places it at the objects' centre.
     camera: Option<Camera>,
+    /// The scene file's instances (meshes placed by transforms), whose meshes' own trees a
+    /// commit joins rather than building one tree over every copy.
+    instances: Vec<crate::scene::Placement>,
 }
 
 impl Geometry {
@@ -90,6 +93,7 @@ impl Geometry {
             algorithm: Algorithm::default(),
             objects: scene.objects.clone(),
             camera: Some(scene.camera.clone()),
+            instances: scene.instances.clone(),
         }
     }
 
@@ -339,7 +343,7 @@ impl RayScene {
                 objects: geometry.objects.clone(),
                 lighting: Default::default(),
                 warnings: Vec::new(),
-                instances: Vec::new(),
+                instances: geometry.instances.clone(),
             },
             extent: extent(bounds),
             cache: Mutex::default(),

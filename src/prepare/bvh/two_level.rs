@@ -537,6 +537,37 @@ mod tests {
         }
     }
 
+    /// A scene file's instances committed for queries ([`crate::Geometry::from_scene`]) give
+    /// the flattened scene's hits, ray for ray.
+    #[test]
+    fn queries_of_a_scene_of_instances_are_the_flattened_scenes() {
+        let scene = placed_scene([8, 6]);
+        let flattened = Scene {
+            instances: Vec::new(),
+            ..scene.clone()
+        };
+        let rays: Vec<crate::Ray> = (0..400)
+            .map(|k| crate::Ray {
+                origin: scene.camera.eye,
+                direction: DVec3::new(
+                    (k % 20) as f64 * 0.2 - 2.5,
+                    (k / 20) as f64 * 0.2 - 2.2,
+                    -6.0,
+                ),
+            })
+            .collect();
+        let cast = |scene: &Scene| {
+            let accel = Cpu
+                .commit(&crate::Geometry::from_scene(scene), crate::Precision::F64)
+                .unwrap();
+            let hits = accel.intersect(&rays[..]).unwrap();
+            (hits.id().to_vec(), hits.t_f64())
+        };
+        let (ids, t) = cast(&scene);
+        assert_eq!((ids.clone(), t), cast(&flattened));
+        assert!([1, 3, 5].iter().all(|o| ids.contains(o)), "{ids:?}");
+    }
+
     /// A placement whose object no longer is its mesh's soup is built as any soup.
     #[test]
     fn a_changed_object_is_no_longer_an_instance() {
