@@ -123,24 +123,50 @@ fn instances_render_as_their_copies_written_out() {
     assert!([0, 1, 2].iter().all(|k| seen.contains(k)), "{seen:?}");
 }
 
-/// Runs `raycast render` on `scene` (with the tetrahedron as tet.obj) in a scratch folder:
-/// what it printed, and where its output would be.
-fn run(scene: &str) -> (std::process::Output, std::path::PathBuf, TempDir) {
+/// Runs `raycast render` on `scene` (with the tetrahedron as tet.obj) in a scratch folder,
+/// with `poses` as `--poses poses.jsonl` where given: what it printed, and where its output
+/// would be.
+fn run(scene: &str, poses: Option<&str>) -> (std::process::Output, std::path::PathBuf, TempDir) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tet.obj"), obj(&tetrahedron())).unwrap();
     let path = dir.path().join("scene.json");
     std::fs::write(&path, scene).unwrap();
     let out = dir.path().join("out");
-    let output = common::raycast()
-        .args([
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    (output, out, dir)
+    let mut command = common::raycast();
+    command.args([
+        "render",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    if let Some(poses) = poses {
+        let file = dir.path().join("poses.jsonl");
+        std::fs::write(&file, poses).unwrap();
+        command.args(["--poses", file.to_str().unwrap()]);
+    }
+    (command.output().unwrap(), out, dir)
+}
+
+/// `output` is one `error: ` line naming `file` and saying `expected`, exit code 2, and
+/// nothing is written in `out`.
+fn assert_one_line_error(
+    output: &std::process::Output,
+    out: &std::path::Path,
+    file: &str,
+    expected: &str,
+) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with("error: ") && stderr.contains(file),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(expected),
+        "`{expected}` missing from: {stderr}"
+    );
+    assert_no_files(out);
 }
 
 #[test]
@@ -149,7 +175,7 @@ fn a_mesh_never_placed_is_a_warning() {
         r#"{{{CAMERA}, "meshes": {{"tet": {{"obj": "tet.obj"}}, "spare": {{"obj": "tet.obj"}}}},
             "objects": [{{"type": "instance", "mesh": "tet"}}]}}"#
     );
-    let (output, out, _dir) = run(&scene);
+    let (output, out, _dir) = run(&scene, None);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stderr}");
     assert!(
@@ -196,19 +222,8 @@ fn bad_instances_are_one_line_naming_the_field() {
         let scene = format!(
             r#"{{{CAMERA}, "meshes": {{"tet": {{"obj": "tet.obj"}}}}, "objects": [{object}]}}"#
         );
-        let (output, out, _dir) = run(&scene);
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(2), "{stderr}");
-        assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(
-            stderr.starts_with("error: ") && stderr.contains("scene.json"),
-            "{stderr}"
-        );
-        assert!(
-            stderr.contains(expected),
-            "`{expected}` missing from: {stderr}"
-        );
-        assert_no_files(&out);
+        let (output, out, _dir) = run(&scene, None);
+        assert_one_line_error(&output, &out, "scene.json", expected);
     }
 }
 
@@ -351,30 +366,7 @@ fn bad_poses_are_one_line_naming_the_line_and_field() {
         ),
     ];
     for (poses, expected) in cases {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("tet.obj"), obj(&tetrahedron())).unwrap();
-        let scene = dir.path().join("scene.json");
-        std::fs::write(&scene, placed_scene(CAMERA, OWN)).unwrap();
-        let file = dir.path().join("poses.jsonl");
-        std::fs::write(&file, &poses).unwrap();
-        let out = dir.path().join("out");
-        let output = common::raycast()
-            .args([
-                "render",
-                scene.to_str().unwrap(),
-                "--poses",
-                file.to_str().unwrap(),
-            ])
-            .args(["-o", out.to_str().unwrap()])
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(2), "{stderr}");
-        assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(
-            stderr.contains(expected),
-            "`{expected}` missing from: {stderr}"
-        );
-        assert_no_files(&out);
+        let (output, out, _dir) = run(&placed_scene(CAMERA, OWN), Some(&poses));
+        assert_one_line_error(&output, &out, "poses.jsonl", expected);
     }
 }

@@ -424,6 +424,30 @@ mod tests {
         .unwrap()
     }
 
+    /// The ids of `scene`'s CPU renders in f32 and in f64, each the render of the flattened
+    /// scene (its instances forgotten: one tree over every copy), bit for bit.
+    fn ids_as_flattened(scene: &Scene) -> Vec<Vec<i32>> {
+        let flattened = Scene {
+            instances: Vec::new(),
+            ..scene.clone()
+        };
+        [crate::Precision::F32, crate::Precision::F64]
+            .map(|precision| {
+                let options = RenderOptions {
+                    precision: Some(precision),
+                    ..RenderOptions::default()
+                };
+                let joined = Cpu.render(scene, &options).unwrap();
+                let flat = Cpu.render(&flattened, &options).unwrap();
+                assert_eq!(joined, flat, "{precision:?}");
+                match joined {
+                    crate::AnyImages::F32(i) => i.id,
+                    crate::AnyImages::F64(i) => i.id,
+                }
+            })
+            .to_vec()
+    }
+
     /// The joined tree, fitted to a camera, holds every triangle once, inside every box on its
     /// path, its leaves naming their object; each instance's nodes are its mesh's.
     #[test]
@@ -460,23 +484,7 @@ mod tests {
     /// precisions: the same triangles, found by a tree of another shape.
     #[test]
     fn renders_through_the_joined_tree_are_the_flattened_scenes() {
-        let scene = placed_scene([64, 48]);
-        let flattened = Scene {
-            instances: Vec::new(),
-            ..scene.clone()
-        };
-        for precision in [crate::Precision::F32, crate::Precision::F64] {
-            let options = RenderOptions {
-                precision: Some(precision),
-                ..RenderOptions::default()
-            };
-            let joined = Cpu.render(&scene, &options).unwrap();
-            let flat = Cpu.render(&flattened, &options).unwrap();
-            assert_eq!(joined, flat, "{precision:?}");
-            let ids = match &joined {
-                crate::AnyImages::F32(i) => i.id.clone(),
-                crate::AnyImages::F64(i) => i.id.clone(),
-            };
+        for ids in ids_as_flattened(&placed_scene([64, 48])) {
             for object in [1, 3, 5] {
                 assert!(ids.contains(&object), "instance {object} is seen");
             }
@@ -512,25 +520,7 @@ mod tests {
         })
         .unwrap();
         assert!(build(&scene).is_some());
-        let flattened = Scene {
-            instances: Vec::new(),
-            ..scene.clone()
-        };
-        for precision in [crate::Precision::F32, crate::Precision::F64] {
-            let options = RenderOptions {
-                precision: Some(precision),
-                ..RenderOptions::default()
-            };
-            let joined = Cpu.render(&scene, &options).unwrap();
-            assert_eq!(
-                joined,
-                Cpu.render(&flattened, &options).unwrap(),
-                "{precision:?}"
-            );
-            let ids = match &joined {
-                crate::AnyImages::F32(i) => i.id.clone(),
-                crate::AnyImages::F64(i) => i.id.clone(),
-            };
+        for ids in ids_as_flattened(&scene) {
             let seen: std::collections::BTreeSet<i32> =
                 ids.into_iter().filter(|&i| i >= 0).collect();
             assert!(seen.len() >= 50, "{} copies seen", seen.len());
