@@ -22,6 +22,8 @@ use crate::scene::{Object, Scene};
 
 mod two_level;
 pub(crate) use two_level::MeshTree;
+#[cfg(test)]
+pub(crate) use two_level::top_tree_seconds;
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).

@@ -149,6 +149,31 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
     })
 }
 
+/// Seconds to build the tree over `scene`'s instances alone (their meshes' boxes moved), the
+/// one part of a frame's work that a traversal moving rays into the meshes' coordinates would
+/// keep (#64's must-hold of 2 ms for 1,000 instances; src/tests/measure/pose_cost.rs).
+#[cfg(test)]
+pub(crate) fn top_tree_seconds(scene: &Scene) -> f64 {
+    // The meshes' own boxes are the meshes' trees' (MeshTree::bounds), made once.
+    let mut meshes: Vec<(&Arc<Mesh>, (DVec3, DVec3))> = Vec::new();
+    for p in &scene.instances {
+        if !meshes.iter().any(|(m, _)| Arc::ptr_eq(m, &p.mesh))
+            && let Some(b) = p.mesh.bounds()
+        {
+            meshes.push((&p.mesh, b));
+        }
+    }
+    let clock = std::time::Instant::now();
+    let boxes: Vec<(DVec3, DVec3)> = (scene.instances.iter())
+        .filter_map(|p| {
+            let (_, b) = meshes.iter().find(|(m, _)| Arc::ptr_eq(m, &p.mesh))?;
+            Some(moved_box(*b, &p.transform))
+        })
+        .collect();
+    std::hint::black_box(top_tree(&boxes));
+    clock.elapsed().as_secs_f64()
+}
+
 /// The placements of `scene` whose object is the soup its mesh places (a caller may have
 /// changed the objects since), one an object, of meshes with triangles.
 fn placements(scene: &Scene) -> Vec<&Placement> {

@@ -1,6 +1,7 @@
 //! What a new pose of a scene's instances costs (#64, docs/scene-format.md): the host's work
 //! for a frame (the moved instances placed, the BVH's shape joined from the meshes' trees)
-//! against building the flattened scene's tree, when a poses file's frame moves its instances
+//! (and the tree over the instances alone, all a frame would build if rays moved into the
+//! meshes' coordinates) against building the flattened scene's tree, when a poses file's frame moves its instances
 //! and when every instance moves; and the kernel's GPU time through the joined tree against the
 //! flattened scene's own tree, on the same frames. Frames interleaved.
 //!
@@ -50,9 +51,9 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
     let mut viewer = Viewer::from(scene.clone());
     viewer.render(scene.camera.clone(), Topology::of);
     println!(
-        "| frame | moved | place: ms | join: ms | flattened build: ms | kernel joined: ms | kernel flattened: ms |"
+        "| frame | moved | place: ms | join: ms | top tree alone: ms | flattened build: ms | kernel joined: ms | kernel flattened: ms |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     for what in ["pose", "all"] {
         for frame in 0..frames {
             let transforms = match what {
@@ -68,6 +69,7 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
                 Topology::of(s);
                 clock.elapsed().as_secs_f64()
             });
+            let top = crate::prepare::bvh::top_tree_seconds(viewer.as_ref());
             let flattened = Scene {
                 instances: Vec::new(),
                 ..viewer.as_ref().clone()
@@ -81,10 +83,11 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
             let flat_kernel = gpu.render(&flattened, &options)?.kernel_s();
             let ms = |s: Option<f64>| s.map_or("-".into(), |s| format!("{:.2}", 1e3 * s));
             println!(
-                "| {frame} | {what} ({}) | {:.2} | {:.2} | {:.1} | {} | {} |",
+                "| {frame} | {what} ({}) | {:.2} | {:.2} | {:.2} | {:.1} | {} | {} |",
                 transforms.len(),
                 1e3 * place,
                 1e3 * join,
+                1e3 * top,
                 1e3 * build,
                 ms(joined_kernel),
                 ms(flat_kernel),
