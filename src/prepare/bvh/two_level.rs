@@ -505,6 +505,57 @@ mod tests {
         );
     }
 
+    /// Scenes of instances alone, one or two of a mesh of one triangle (a tree that is one
+    /// leaf), three or 300: each joined tree holds every triangle once, inside its boxes, and
+    /// finds the flattened scene's hits.
+    #[test]
+    fn instances_alone_of_meshes_large_and_small_join() {
+        for (triangles, copies) in [(1, 1), (1, 2), (3, 1), (300, 1), (300, 2)] {
+            let objects: Vec<String> = (0..copies)
+                .map(|k| {
+                    format!(r#"{{"type": "instance", "mesh": "a", "transform": {{"translate": [{k}, 0, 0]}}}}"#)
+                })
+                .collect();
+            let json = format!(
+                r#"{{"camera": {{"eye": [0.5, 0.5, 4], "look": [0, 0, -1], "up": [0, 1, 0],
+                    "focal_length": 1, "width": 1.6, "height": 1.2, "resolution": [32, 24]}},
+                  "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
+                objects.join(",")
+            );
+            let scene = Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
+                Ok(crate::scene::MeshPart::whole(sheet(triangles)))
+            })
+            .unwrap();
+            let case = format!("{copies} of {triangles}");
+            let joined = build(&scene).expect(&case);
+            let bvh = Bvh::fit(&joined, &scene, Algorithm::Robust);
+            let origin = kernel_origin(&scene, Algorithm::Robust);
+            let far = crate::math::length(kernel_frame(&scene, Algorithm::Robust).eye);
+            let (_, boxes) = primitive_boxes(&scene.objects, origin);
+            let ids = ObjectIds::of(&scene).triangles;
+            super::super::tests::check(&bvh, &grown(boxes, far), &ids);
+            let options = RenderOptions {
+                precision: Some(crate::Precision::F64),
+                tuning: crate::Tuning {
+                    search: super::super::Search::Bvh,
+                    ..crate::Tuning::default()
+                },
+                ..RenderOptions::default()
+            };
+            let flattened = Scene {
+                instances: Vec::new(),
+                ..scene.clone()
+            };
+            let seen = Cpu.render(&scene, &options).unwrap();
+            assert_eq!(seen, Cpu.render(&flattened, &options).unwrap(), "{case}");
+            let crate::AnyImages::F64(images) = seen else {
+                panic!("an f64 render")
+            };
+            let hit = (0..copies as i32).filter(|k| images.id.contains(k)).count();
+            assert!(triangles < 300 || hit == copies, "{case}: {hit} seen");
+        }
+    }
+
     /// Renders through the joined tree are the flattened scene's, bit for bit, in both
     /// precisions: the same triangles, found by a tree of another shape.
     #[test]
