@@ -671,8 +671,8 @@ impl Topology {
 
     /// The binned SAH build over the boxes of `objects`' spheres and triangles, measured from
     /// the centre of their bounds.
-    fn of_objects(objects: &[Object]) -> Topology {
-        let (spheres, triangles) = primitive_boxes(objects, Vec3::splat(0.0));
+    fn of_objects<'a>(objects: impl IntoIterator<Item = &'a Object> + Clone) -> Topology {
+        let (spheres, triangles) = primitive_boxes(objects.clone(), Vec3::splat(0.0));
         let centre = spheres
             .iter()
             .chain(&triangles)
@@ -720,8 +720,8 @@ impl Topology {
 /// The boxes of `objects`' spheres and triangles measured from `origin`, each kind in the
 /// scene's order.
 #[allow(clippy::type_complexity)]
-fn primitive_boxes(
-    objects: &[Object],
+fn primitive_boxes<'a>(
+    objects: impl IntoIterator<Item = &'a Object>,
     origin: Vec3<f64>,
 ) -> (Vec<(Vec3<f64>, Vec3<f64>)>, Vec<(Vec3<f64>, Vec3<f64>)>) {
     let mut spheres = Vec::new();

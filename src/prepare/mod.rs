@@ -248,13 +248,13 @@ impl ObjectIds {
         ObjectIds::of_objects(&scene.objects)
     }
 
-    pub(crate) fn of_objects(objects: &[Object]) -> ObjectIds {
+    pub(crate) fn of_objects<'a>(objects: impl IntoIterator<Item = &'a Object>) -> ObjectIds {
         let mut ids = ObjectIds {
             spheres: Vec::new(),
             planes: Vec::new(),
             triangles: Vec::new(),
         };
-        for (id, object) in objects.iter().enumerate() {
+        for (id, object) in objects.into_iter().enumerate() {
             let id = id as u32;
             match object {
                 Object::Sphere { .. } => ids.spheres.push(id),

@@ -16,13 +16,15 @@ use crate::scene::{Mesh, Scene};
 pub(crate) struct Shared {
     topology: Option<Arc<Topology>>,
     magnitude: Option<f64>,
-    /// The trees of the meshes the objects place, which outlive a change of pose.
+    /// The trees of the meshes the objects place, and of the objects other than instances,
+    /// which outlive a change of pose.
     meshes: Vec<(Arc<Mesh>, Arc<MeshTree>)>,
+    rest: Option<Arc<Topology>>,
 }
 
 impl Shared {
     /// Forgets what depends on where the objects are, which instances moving changes (the
-    /// BVH's shape, the extent), and keeps the meshes' own trees.
+    /// BVH's shape, the extent), and keeps the meshes' own trees and the other objects' tree.
     pub(crate) fn objects_moved(&mut self) {
         self.topology = None;
         self.magnitude = None;
@@ -32,6 +34,12 @@ impl Shared {
     #[cfg(test)]
     pub(crate) fn topology(&self) -> Option<&Arc<Topology>> {
         self.topology.as_ref()
+    }
+
+    /// The tree of the objects other than instances, once a render has built it.
+    #[cfg(test)]
+    pub(crate) fn rest(&self) -> Option<&Arc<Topology>> {
+        self.rest.as_ref()
     }
 }
 
@@ -94,6 +102,12 @@ pub(crate) fn topology(scene: &Scene) -> Arc<Topology> {
         |s| &mut s.topology,
         || Arc::new(Topology::build(scene)),
     )
+}
+
+/// The tree of `scene`'s objects other than its instances (`make`), or the one shared for
+/// them: it outlives a change of pose ([`Shared::objects_moved`]).
+pub(crate) fn rest_tree(scene: &Scene, make: impl FnOnce() -> Topology) -> Arc<Topology> {
+    shared(scene, |s| &mut s.rest, || Arc::new(make()))
 }
 
 /// [`Scene::objects_magnitude`], or the one shared for `scene`'s objects.

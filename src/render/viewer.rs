@@ -53,6 +53,12 @@ impl AsRef<Scene> for Viewer {
 }
 
 impl Viewer {
+    /// What its renders share.
+    #[cfg(test)]
+    pub(crate) fn shared(&self) -> &Shared {
+        &self.shared
+    }
+
     /// Places the scene's instances for the renders that follow: each of `transforms` (an
     /// instance's object index and the map from its mesh's coordinates to the world's) where it
     /// says, every other one where the scene places it. Only the instances whose place changes

@@ -74,22 +74,12 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
             },
         )
         .collect();
-    // The other objects, in a scene where each placed soup is empty: their ids, and the
-    // spheres' indices, are the scene's.
     let mut placed_at = vec![false; scene.objects.len()];
     placed.iter().for_each(|p| placed_at[p.object] = true);
-    let rest: Vec<Object> = (scene.objects.iter().zip(&placed_at))
-        .map(|(o, &placed)| match (o, placed) {
-            (Object::Soup { path, .. }, true) => Object::Soup {
-                path: path.clone(),
-                triangles: Vec::new(),
-            },
-            _ => o.clone(),
-        })
-        .collect();
-    let rest = Topology::of_objects(&rest).0;
+    let rest = shared::rest_tree(scene, || rest_tree(scene, &placed_at));
+    let rest = &rest.0;
     let (firsts, rest_global) = triangle_indices(scene, &placed_at);
-    let [rest_spheres, rest_triangles] = kind_roots(&rest);
+    let [rest_spheres, rest_triangles] = kind_roots(rest);
 
     let mut groups: Vec<Group> = (placed.iter().zip(&trees))
         .map(|(p, tree)| Group {
@@ -109,7 +99,7 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
         .collect();
     if let Some(root) = rest_triangles {
         groups.push(Group {
-            bvh: &rest,
+            bvh: rest,
             root,
             global: Global::Listed(&rest_global),
             object: None,
@@ -127,7 +117,7 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
     if pair {
         joined.nodes.push(BvhNode::zeroed());
     }
-    let spheres = rest_spheres.map(|root| joined.copy(&rest, root, 0, None));
+    let spheres = rest_spheres.map(|root| joined.copy(rest, root, 0, None));
     let triangles = joined.flatten_top(&top, &groups);
     if pair {
         let empty = Child {
@@ -172,6 +162,21 @@ pub(crate) fn top_tree_seconds(scene: &Scene) -> f64 {
         .collect();
     std::hint::black_box(top_tree(&boxes));
     clock.elapsed().as_secs_f64()
+}
+
+/// The tree of `scene`'s other objects (all but the soups `placed`), built as if each placed
+/// soup were empty: their ids, and the spheres' indices, are the scene's. It does not change
+/// when the instances move, and is kept from pose to pose where the renders share what depends
+/// on the objects ([`shared::rest_tree`]): a large static mesh among moving ones is built once.
+fn rest_tree(scene: &Scene, placed: &[bool]) -> Topology {
+    let empty = Object::Soup {
+        path: Default::default(),
+        triangles: Vec::new(),
+    };
+    let rest: Vec<&Object> = (scene.objects.iter().zip(placed))
+        .map(|(o, &placed)| if placed { &empty } else { o })
+        .collect();
+    Topology::of_objects(rest.iter().copied())
 }
 
 /// The placements of `scene` whose object is the soup its mesh places (a caller may have
@@ -632,6 +637,48 @@ mod tests {
         let (ids, t) = cast(&scene);
         assert_eq!((ids.clone(), t), cast(&flattened));
         assert!([1, 3, 5].iter().all(|o| ids.contains(o)), "{ids:?}");
+    }
+
+    /// A pose builds the joined tree again from the trees kept: the meshes' and the other
+    /// objects', built at the first render; and renders as the scene placed so.
+    #[test]
+    fn a_pose_keeps_the_meshes_and_the_other_objects_trees() {
+        let scene = placed_scene([32, 24]);
+        let mut viewer = crate::Viewer::from(scene.clone());
+        let options = RenderOptions::default();
+        let camera = scene.camera.clone();
+        viewer
+            .render(camera.clone(), |s| Cpu.render(s, &options))
+            .unwrap();
+        let rest = viewer
+            .shared()
+            .rest()
+            .cloned()
+            .expect("the other objects' tree is kept");
+        let joined = viewer
+            .shared()
+            .topology()
+            .cloned()
+            .expect("the joined tree is kept");
+        let moved = glam::DAffine3::from_translation(DVec3::new(0.3, -0.2, 0.1));
+        viewer.pose(&[(5, moved)]).unwrap();
+        assert!(
+            viewer.shared().topology().is_none(),
+            "a pose forgets the joined tree"
+        );
+        let seen = viewer.render(camera, |s| Cpu.render(s, &options)).unwrap();
+        assert!(Arc::ptr_eq(&rest, viewer.shared().rest().unwrap()));
+        assert!(!Arc::ptr_eq(&joined, viewer.shared().topology().unwrap()));
+        let mut placed = scene.clone();
+        let p = (placed.instances.iter_mut())
+            .find(|p| p.object == 5)
+            .unwrap();
+        p.transform = moved;
+        placed.objects[5] = Object::Soup {
+            path: p.mesh.path.clone(),
+            triangles: crate::scene::place(&p.mesh.triangles, &moved),
+        };
+        assert_eq!(seen, Cpu.render(&placed, &options).unwrap());
     }
 
     /// A placement whose object no longer is its mesh's soup is built as any soup.
