@@ -21,9 +21,9 @@ use crate::math::{Vec3, length};
 use crate::scene::{Object, Scene};
 
 mod two_level;
-pub(crate) use two_level::MeshTree;
 #[cfg(test)]
 pub(crate) use two_level::top_tree_seconds;
+pub(crate) use two_level::{MeshTree, Rest};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).

@@ -5,7 +5,7 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 
-use super::bvh::{MeshTree, Topology};
+use super::bvh::{MeshTree, Rest, Topology};
 use crate::scene::{Mesh, Scene};
 
 /// What the renders of one scene's objects share, each part made at the first render that
@@ -19,7 +19,7 @@ pub(crate) struct Shared {
     /// The trees of the meshes the objects place, and of the objects other than instances,
     /// which outlive a change of pose.
     meshes: Vec<(Arc<Mesh>, Arc<MeshTree>)>,
-    rest: Option<Arc<Topology>>,
+    rest: Option<Arc<Rest>>,
 }
 
 impl Shared {
@@ -38,7 +38,7 @@ impl Shared {
 
     /// The tree of the objects other than instances, once a render has built it.
     #[cfg(test)]
-    pub(crate) fn rest(&self) -> Option<&Arc<Topology>> {
+    pub(crate) fn rest(&self) -> Option<&Arc<Rest>> {
         self.rest.as_ref()
     }
 }
@@ -104,9 +104,9 @@ pub(crate) fn topology(scene: &Scene) -> Arc<Topology> {
     )
 }
 
-/// The tree of `scene`'s objects other than its instances (`make`), or the one shared for
-/// them: it outlives a change of pose ([`Shared::objects_moved`]).
-pub(crate) fn rest_tree(scene: &Scene, make: impl FnOnce() -> Topology) -> Arc<Topology> {
+/// `scene`'s objects other than its instances, as the joined tree takes them (`make`), or the
+/// ones shared for them: they outlive a change of pose ([`Shared::objects_moved`]).
+pub(crate) fn rest_tree(scene: &Scene, make: impl FnOnce() -> Rest) -> Arc<Rest> {
     shared(scene, |s| &mut s.rest, || Arc::new(make()))
 }
 

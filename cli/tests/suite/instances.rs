@@ -39,7 +39,8 @@ fn tetrahedron() -> Vec<[[f64; 3]; 3]> {
 const CAMERA: &str = r#""camera": {"eye": [0.5, 0.5, 6], "look": [0, 0, -1], "up": [0, 1, 0],
     "focal_length": 2, "width": 1.6, "height": 1.2, "resolution": [64, 48]}"#;
 
-/// Renders `scene` (JSON, written beside `files`) to npy ids and distances; returns them.
+/// Renders `scene` (JSON, written beside `files`) to npy ids, distances and normals; returns
+/// them.
 fn render(dir: &TempDir, name: &str, scene: &str, files: &[(String, String)]) -> Vec<Vec<u8>> {
     for (file, text) in files {
         std::fs::write(dir.path().join(file), text).unwrap();
@@ -47,14 +48,22 @@ fn render(dir: &TempDir, name: &str, scene: &str, files: &[(String, String)]) ->
     let path = dir.path().join(format!("{name}.json"));
     std::fs::write(&path, scene).unwrap();
     let out = dir.path().join(name);
+    render_arrays(&path, &out, &[]);
+    arrays(&out)
+}
+
+/// `raycast render SCENE -o OUT` of npy ids, distances and normals, with `more` arguments;
+/// asserts that it succeeds.
+fn render_arrays(scene: &std::path::Path, out: &std::path::Path, more: &[&str]) {
     let run = common::raycast()
         .args([
             "render",
-            path.to_str().unwrap(),
+            scene.to_str().unwrap(),
             "-o",
             out.to_str().unwrap(),
         ])
         .args(["--format", "npy", "--outputs", "id,distance,normal"])
+        .args(more)
         .output()
         .unwrap();
     assert!(
@@ -62,8 +71,12 @@ fn render(dir: &TempDir, name: &str, scene: &str, files: &[(String, String)]) ->
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
+}
+
+/// The npy files [`render_arrays`] writes in `folder`.
+fn arrays(folder: &std::path::Path) -> Vec<Vec<u8>> {
     ["id.npy", "distance.npy", "normal.npy"]
-        .map(|f| std::fs::read(out.join(f)).unwrap())
+        .map(|f| std::fs::read(folder.join(f)).unwrap())
         .to_vec()
 }
 
@@ -283,30 +296,9 @@ fn each_pose_renders_as_its_scene_placed_so() {
     std::fs::write(dir.path().join("tet.obj"), &tet[0].1).unwrap();
     std::fs::write(&scene, placed_scene(CAMERA, OWN)).unwrap();
     let out = dir.path().join("frames");
-    let render_poses = || {
-        let run = common::raycast()
-            .args([
-                "render",
-                scene.to_str().unwrap(),
-                "--poses",
-                poses.to_str().unwrap(),
-            ])
-            .args(["-o", out.to_str().unwrap(), "--format", "npy"])
-            .args(["--outputs", "id,distance,normal"])
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
-    };
+    let render_poses = || render_arrays(&scene, &out, &["--poses", poses.to_str().unwrap()]);
     render_poses();
-    let frame_files = |name: &str| {
-        ["id.npy", "distance.npy", "normal.npy"]
-            .map(|f| std::fs::read(out.join("table").join(name).join(f)).unwrap())
-            .to_vec()
-    };
+    let frame_files = |name: &str| arrays(&out.join("table").join(name));
     let mut seen = Vec::new();
     for (k, (camera, transforms, _)) in frames.iter().enumerate() {
         let name = format!("f-00{k}");

@@ -36,8 +36,8 @@ impl MeshTree {
     }
 }
 
-/// A subtree of `bvh` joined into the tree, its leaves over `bvh.triangle_order`, whose entries are `global` indices, and `object`, where all its
-/// triangles are one object's.
+/// A subtree of `bvh` joined into the tree: its leaves over `bvh.triangle_order`, whose
+/// entries are `global` indices, and `object`, where all its triangles are one object's.
 struct Group<'a> {
     bvh: &'a Bvh,
     root: Subtree,
@@ -60,26 +60,10 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
     if placed.is_empty() {
         return None;
     }
-    // Each mesh's tree once, however many instances place it.
-    let mut built: Vec<(&Arc<Mesh>, Arc<MeshTree>)> = Vec::new();
-    let trees: Vec<Arc<MeshTree>> = (placed.iter())
-        .map(
-            |p| match built.iter().find(|(m, _)| Arc::ptr_eq(m, &p.mesh)) {
-                Some((_, tree)) => tree.clone(),
-                None => {
-                    let tree = shared::mesh_tree(&p.mesh);
-                    built.push((&p.mesh, tree.clone()));
-                    tree
-                }
-            },
-        )
-        .collect();
-    let mut placed_at = vec![false; scene.objects.len()];
-    placed.iter().for_each(|p| placed_at[p.object] = true);
-    let rest = shared::rest_tree(scene, || rest_tree(scene, &placed_at));
-    let rest = &rest.0;
-    let (firsts, rest_global) = triangle_indices(scene, &placed_at);
-    let [rest_spheres, rest_triangles] = kind_roots(rest);
+    let trees = per_mesh(placed.iter().copied(), shared::mesh_tree);
+    let firsts = first_triangles(scene);
+    let rest = shared::rest_tree(scene, || Rest::of(scene, &placed, &firsts));
+    let [rest_spheres, rest_triangles] = kind_roots(&rest.tree);
 
     let mut groups: Vec<Group> = (placed.iter().zip(&trees))
         .map(|(p, tree)| Group {
@@ -97,14 +81,14 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
             )
         })
         .collect();
-    if let Some(root) = rest_triangles {
+    if let (Some(root), Some(bounds)) = (rest_triangles, rest.bounds) {
         groups.push(Group {
-            bvh: rest,
+            bvh: &rest.tree,
             root,
-            global: Global::Listed(&rest_global),
+            global: Global::Listed(&rest.triangles),
             object: None,
         });
-        boxes.push(triangle_bounds(scene, &placed_at));
+        boxes.push(bounds);
     }
 
     let mut joined = Joined {
@@ -117,7 +101,7 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
     if pair {
         joined.nodes.push(BvhNode::zeroed());
     }
-    let spheres = rest_spheres.map(|root| joined.copy(rest, root, 0, None));
+    let spheres = rest_spheres.map(|root| joined.copy(&rest.tree, root, 0, None));
     let triangles = joined.flatten_top(&top, &groups);
     if pair {
         let empty = Child {
@@ -132,7 +116,7 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
     (depth <= MAX_DEPTH).then(|| {
         Topology(Bvh {
             nodes: joined.nodes,
-            sphere_order: rest.sphere_order.clone(),
+            sphere_order: rest.tree.sphere_order.clone(),
             triangle_order: joined.triangle_order,
             depth,
         })
@@ -145,38 +129,74 @@ pub(super) fn build(scene: &Scene) -> Option<Topology> {
 #[cfg(test)]
 pub(crate) fn top_tree_seconds(scene: &Scene) -> f64 {
     // The meshes' own boxes are the meshes' trees' (MeshTree::bounds), made once.
-    let mut meshes: Vec<(&Arc<Mesh>, (DVec3, DVec3))> = Vec::new();
-    for p in &scene.instances {
-        if !meshes.iter().any(|(m, _)| Arc::ptr_eq(m, &p.mesh))
-            && let Some(b) = p.mesh.bounds()
-        {
-            meshes.push((&p.mesh, b));
-        }
-    }
+    let bounds = per_mesh(&scene.instances, |mesh| mesh.bounds());
     let clock = std::time::Instant::now();
-    let boxes: Vec<(DVec3, DVec3)> = (scene.instances.iter())
-        .filter_map(|p| {
-            let (_, b) = meshes.iter().find(|(m, _)| Arc::ptr_eq(m, &p.mesh))?;
-            Some(moved_box(*b, &p.transform))
-        })
+    let boxes: Vec<(DVec3, DVec3)> = (scene.instances.iter().zip(bounds))
+        .filter_map(|(p, b)| Some(moved_box(b?, &p.transform)))
         .collect();
     std::hint::black_box(top_tree(&boxes));
     clock.elapsed().as_secs_f64()
 }
 
-/// The tree of `scene`'s other objects (all but the soups `placed`), built as if each placed
-/// soup were empty: their ids, and the spheres' indices, are the scene's. It does not change
-/// when the instances move, and is kept from pose to pose where the renders share what depends
-/// on the objects ([`shared::rest_tree`]): a large static mesh among moving ones is built once.
-fn rest_tree(scene: &Scene, placed: &[bool]) -> Topology {
-    let empty = Object::Soup {
-        path: Default::default(),
-        triangles: Vec::new(),
-    };
-    let rest: Vec<&Object> = (scene.objects.iter().zip(placed))
-        .map(|(o, &placed)| if placed { &empty } else { o })
-        .collect();
-    Topology::of_objects(rest.iter().copied())
+/// The objects of a scene other than its instances, as the joined tree takes them. They do not
+/// change when the instances move, so this is kept from pose to pose where the renders share
+/// what depends on the objects ([`shared::rest_tree`]): a large static mesh among moving ones
+/// is built once.
+#[derive(Debug)]
+pub(crate) struct Rest {
+    /// Their tree, built as if each instance's soup were empty: their ids, and the spheres'
+    /// indices, are the scene's.
+    tree: Bvh,
+    /// The scene's indices of their triangles, in order.
+    triangles: Vec<u32>,
+    /// The box of their triangles, if they have any.
+    bounds: Option<(DVec3, DVec3)>,
+}
+
+impl Rest {
+    /// The objects of `scene` other than the instances `placed`; `firsts`: each object's first
+    /// triangle index ([`first_triangles`]).
+    fn of(scene: &Scene, placed: &[&Placement], firsts: &[u32]) -> Rest {
+        let mut is_placed = vec![false; scene.objects.len()];
+        placed.iter().for_each(|p| is_placed[p.object] = true);
+        let empty = Object::Soup {
+            path: Default::default(),
+            triangles: Vec::new(),
+        };
+        let rest: Vec<&Object> = (scene.objects.iter().zip(&is_placed))
+            .map(|(o, &placed)| if placed { &empty } else { o })
+            .collect();
+        let triangles = (rest.iter().zip(firsts))
+            .flat_map(|(o, &first)| first..first + triangle_count(o))
+            .collect();
+        let triangle_objects =
+            (rest.iter()).filter(|o| matches!(o, Object::Triangle { .. } | Object::Soup { .. }));
+        Rest {
+            tree: Topology::of_objects(rest.iter().copied()).0,
+            triangles,
+            bounds: crate::scene::bounds(triangle_objects.copied()),
+        }
+    }
+}
+
+/// For each of `placed`, `make` of its mesh, made once for each mesh however many place it.
+fn per_mesh<'a, T: Clone>(
+    placed: impl IntoIterator<Item = &'a Placement>,
+    mut make: impl FnMut(&Arc<Mesh>) -> T,
+) -> Vec<T> {
+    let mut made: Vec<(&Arc<Mesh>, T)> = Vec::new();
+    (placed.into_iter())
+        .map(
+            |p| match made.iter().find(|(m, _)| Arc::ptr_eq(m, &p.mesh)) {
+                Some((_, t)) => t.clone(),
+                None => {
+                    let t = make(&p.mesh);
+                    made.push((&p.mesh, t.clone()));
+                    t
+                }
+            },
+        )
+        .collect()
 }
 
 /// The placements of `scene` whose object is the soup its mesh places (a caller may have
@@ -193,25 +213,22 @@ fn placements(scene: &Scene) -> Vec<&Placement> {
         .collect()
 }
 
-/// Each object's first triangle index in the scene's order, and the indices of the
-/// triangles of the objects not `placed`, in order.
-fn triangle_indices(scene: &Scene, placed: &[bool]) -> (Vec<u32>, Vec<u32>) {
-    let mut firsts = Vec::with_capacity(scene.objects.len());
-    let mut rest = Vec::new();
-    let mut next = 0u32;
-    for (object, &placed) in scene.objects.iter().zip(placed) {
-        firsts.push(next);
-        let n = match object {
-            Object::Triangle { .. } => 1,
-            Object::Soup { triangles, .. } => triangles.len() as u32,
-            Object::Sphere { .. } | Object::Plane { .. } => 0,
-        };
-        if !placed {
-            rest.extend(next..next + n);
-        }
-        next += n;
+/// Each object's first triangle index in the scene's order.
+fn first_triangles(scene: &Scene) -> Vec<u32> {
+    (scene.objects.iter())
+        .scan(0, |next, o| {
+            Some(std::mem::replace(next, *next + triangle_count(o)))
+        })
+        .collect()
+}
+
+/// How many triangles `object` adds to the scene's list.
+fn triangle_count(object: &Object) -> u32 {
+    match object {
+        Object::Triangle { .. } => 1,
+        Object::Soup { triangles, .. } => triangles.len() as u32,
+        Object::Sphere { .. } | Object::Plane { .. } => 0,
     }
-    (firsts, rest)
 }
 
 /// The subtrees of `bvh`'s spheres and triangles (as [`Bvh::from_boxes`] lays them out), each
@@ -257,14 +274,6 @@ fn kind_roots(bvh: &Bvh) -> [Option<Subtree>; 2] {
 struct Subtree {
     root: Child,
     end: usize,
-}
-
-/// The box of the triangles of the objects not `placed`.
-fn triangle_bounds(scene: &Scene, placed: &[bool]) -> (DVec3, DVec3) {
-    let others = (scene.objects.iter().zip(placed))
-        .filter(|(o, placed)| !**placed && !matches!(o, Object::Sphere { .. }))
-        .map(|(o, _)| o);
-    crate::scene::bounds(others).expect("the other objects have triangles")
 }
 
 /// The tree over the groups' `boxes` (world coordinates), a group a leaf: the SAH build,
