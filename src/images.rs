@@ -204,7 +204,7 @@ pub struct Outputs {
 
 impl Outputs {
     /// Every output.
-    pub const ALL: Outputs = Outputs {
+    pub(crate) const ALL: Outputs = Outputs {
         id: true,
         distance: true,
         normal: true,

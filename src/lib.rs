@@ -91,6 +91,7 @@ pub use crate::scene::{
 
 // The file formats.
 pub use crate::output::{Depth, Encoding, Format, Pictures, encode_png_rgb};
-/// The API's one vector type (points, directions, colours): glam's, re-exported so that a
-/// client's matches the library's version.
-pub use glam::DVec3;
+/// The API's vector type (points, directions, colours) and transform (an instance's place:
+/// [`Geometry::add_instance`], [`Viewer::pose`]): glam's, re-exported so that a client's match
+/// the library's version.
+pub use glam::{DAffine3, DVec3};

@@ -57,6 +57,12 @@ pub fn error_text(e: raycast::Error) -> String {
 }
 
 /// A point or direction written `X,Y,Z`.
+/// Pixels of `camera`'s image: its rays at one sample per pixel.
+pub fn pixels(camera: &raycast::Camera) -> u64 {
+    let [nx, ny] = camera.resolution;
+    u64::from(nx) * u64::from(ny)
+}
+
 pub fn parse_vector(s: &str) -> std::result::Result<glam::DVec3, String> {
     let parts: Vec<&str> = s.split(',').collect();
     let numbers: Vec<f64> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();

@@ -345,7 +345,7 @@ impl RenderFiles {
         scene: &Scene,
         files: &Files,
     ) -> Result<Summary> {
-        let huge = scene.camera.pixel_count() > STREAM_PIXELS;
+        let huge = pixels(&scene.camera) > STREAM_PIXELS;
         self.resolved(huge)
             .run_resolved(gpu, progress, scene, huge, files)
     }
@@ -485,7 +485,7 @@ impl RenderFiles {
         scene: &Scene,
         files: &mut Option<Files>,
     ) -> Result<Option<Whole>> {
-        let huge = scene.camera.pixel_count() > STREAM_PIXELS;
+        let huge = pixels(&scene.camera) > STREAM_PIXELS;
         let resolved = self.resolved(huge);
         if resolved.in_bands(huge) {
             return Ok(None);
@@ -522,6 +522,12 @@ fn render_whole(scene: &Scene, gpu: Option<&Gpu>, options: &RenderOptions) -> Re
         Some(g) => g.render(scene, options),
         None => Cpu.render(scene, options),
     }
+}
+
+/// Pixels of `camera`'s image.
+fn pixels(camera: &raycast::Camera) -> u64 {
+    let [nx, ny] = camera.resolution;
+    u64::from(nx) * u64::from(ny)
 }
 
 #[cfg(test)]

@@ -358,6 +358,29 @@ def _mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
     )
 
 
+def _geometry_id(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name}: expected a geometry id (an integer), got {type(value).__name__}")
+    if not 0 <= int(value) < _INVALID_ID:
+        raise ValueError(f"{name}: {int(value)} is not a geometry id")
+    return int(value)
+
+
+def _transforms(value: ArrayLike, name: str, count: Optional[int]) -> np.ndarray:
+    """4x4 or 3x4 row-major affine matrices (one, where `count` is 1) as an (n, 16) float64
+    array, 3x4 ones completed by the row [0, 0, 0, 1]."""
+    m = _float_array(value, name)
+    shape = m.shape[1:] if count is None else m.shape
+    if m.ndim != (3 if count is None else 2) or shape not in ((4, 4), (3, 4)):
+        expected = "(4, 4) or (3, 4)" if count == 1 else "(n, 4, 4) or (n, 3, 4)"
+        raise ValueError(f"{name}: expected shape {expected}, got {m.shape}")
+    m = m.reshape((-1,) + shape)
+    if shape == (3, 4):
+        last = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), (len(m), 1, 4))
+        m = np.concatenate([m, last], axis=1)
+    return np.ascontiguousarray(m.reshape(len(m), 16))
+
+
 def _triangle_indices(triangles: ArrayLike, vertex_count: int, name: str) -> np.ndarray:
     """`triangles` as a C-contiguous (M, 3) uint32 array of indices below `vertex_count`."""
     t = _as_numpy(triangles, name)
@@ -433,6 +456,34 @@ class RaycastingScene:
         """Adds an infinite plane through ``point`` facing ``normal``; returns its geometry id
         (not in Open3D)."""
         return self._scene.add_plane(_point(point, "point"), _point(normal, "normal"))
+
+    def add_instance(self, mesh: int, transform: ArrayLike) -> int:
+        """Places another copy of mesh ``mesh`` (a geometry id ``add_triangles`` returned, or a
+        loaded scene's mesh or instance) by ``transform``, a 4x4 (or 3x4) matrix, row-major,
+        from the mesh's own coordinates to the world's; returns its geometry id. The copies
+        share the mesh's one tree, built once however many place it and however often they
+        move (not in Open3D). Raises ValueError on a singular or non-finite transform, or a
+        ``mesh`` that is not a triangle mesh."""
+        return self._scene.add_instance(_geometry_id(mesh, "mesh"), _transforms(transform, "transform", 1))
+
+    def set_transforms(self, ids: ArrayLike, transforms: ArrayLike) -> None:
+        """Moves the instances ``ids`` (ids ``add_instance`` returned, or a loaded scene's
+        instances) to ``transforms``, (n, 4, 4) or (n, 3, 4), one each, each from its mesh's
+        own coordinates; the next cast or render uses them without building the meshes' trees
+        again. A loaded scene's ``render`` shows its own instances where they are moved to
+        (objects added after loading are cast at, not rendered). Nothing moves if any is
+        refused (ValueError)."""
+        id_array = _as_numpy(ids, "ids")
+        if id_array.ndim != 1:
+            raise ValueError(f"ids: expected shape (n,), got {id_array.shape}")
+        if len(id_array) and not np.issubdtype(id_array.dtype, np.integer):
+            raise TypeError(f"ids: expected integer ids, got dtype {id_array.dtype}")
+        if len(id_array) and (id_array.min() < 0 or id_array.max() > 2**32 - 2):
+            raise ValueError(f"ids: {int(id_array.min())} is not a geometry id")
+        m = _transforms(transforms, "transforms", None)
+        if len(m) != len(id_array):
+            raise ValueError(f"transforms: gives {len(m)} transforms for {len(id_array)} ids: one each")
+        self._scene.set_transforms([int(i) for i in id_array], m)
 
     def cast_rays(
         self, rays: ArrayLike, nthreads: int = 0, precision: str = "f32", device: str = "gpu"

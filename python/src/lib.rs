@@ -13,12 +13,12 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use raycast::Camera;
-use raycast::DVec3;
 use raycast::RayList;
 use raycast::{
     Accel, Algorithm, AnyHits, AnyImages, Closest, Cpu, Device, Encoding, Format, Geometry, Gpu,
     Hits, Intersections, Precision, Ray, RenderOptions, ShadeHook, Sign, Viewer,
 };
+use raycast::{DAffine3, DVec3};
 use raycast_datasets::{RenderFiles, RenderViews, ViewRenderer, Views};
 
 /// The process's GPU, opened on first use (lavapipe where there is no other).
@@ -51,6 +51,35 @@ fn to_py(e: raycast::Error) -> PyErr {
         raycast::Error::Memory { .. } => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
         _ => PyRuntimeError::new_err(e.to_string()),
     }
+}
+
+/// The affine maps of `rows` (argument `what`), each a 4x4 matrix row-major in one row of 16,
+/// its last row `[0, 0, 0, 1]`.
+fn affines(rows: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DAffine3>> {
+    let flat = rows
+        .as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{what}: expected a contiguous array")))?;
+    (flat.chunks_exact(16).enumerate())
+        .map(|(k, m)| {
+            if m[12..] != [0.0, 0.0, 0.0, 1.0] {
+                let name = if what == "transform" {
+                    what.to_string()
+                } else {
+                    format!("{what}[{k}]")
+                };
+                return Err(PyValueError::new_err(format!(
+                    "{name}: the last row must be [0, 0, 0, 1]: an affine transform"
+                )));
+            }
+            let column = |c: usize| DVec3::new(m[c], m[4 + c], m[8 + c]);
+            Ok(DAffine3::from_cols(
+                column(0),
+                column(1),
+                column(2),
+                column(3),
+            ))
+        })
+        .collect()
 }
 
 /// Where a call runs: `device` is "gpu" or "cpu", `precision` "f32", "f64" or "adaptive".
@@ -259,6 +288,8 @@ struct Scene {
     /// built once for every view `render` is given.
     scene: Option<Arc<Mutex<Viewer>>>,
     accels: Mutex<HashMap<On, Arc<Accel<'static>>>>,
+    /// The scene file's instances moved by `set_transforms`, as its viewer was last posed.
+    posed: Vec<(usize, DAffine3)>,
 }
 
 impl Scene {
@@ -267,6 +298,7 @@ impl Scene {
             geometry,
             scene: scene.map(|s| Arc::new(Mutex::new(Viewer::from(s)))),
             accels: Mutex::default(),
+            posed: Vec::new(),
         }
     }
 
@@ -377,6 +409,58 @@ impl Scene {
         let t: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let id = self.geometry.add_mesh(&v, &t);
         self.added(id)
+    }
+
+    /// Another copy of mesh `mesh` placed by `transform` (4x4, row-major, `[1, 16]`).
+    fn add_instance(&mut self, mesh: u32, transform: PyReadonlyArray2<'_, f64>) -> PyResult<u32> {
+        let m = affines(&transform, "transform")?[0];
+        let id = self.geometry.add_instance(mesh, m);
+        self.added(id)
+    }
+
+    /// Moves instances `ids` to `transforms` (`[n, 16]`, each 4x4 row-major). The scene
+    /// file's instances move in its renders too: the viewer is posed first, which refuses an
+    /// id the file does not place, then the geometry, which checks the transforms (and on
+    /// refusing them, the viewer goes back to its pose).
+    fn set_transforms(
+        &mut self,
+        py: Python<'_>,
+        ids: Vec<u32>,
+        transforms: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let ms = affines(&transforms, "transforms")?;
+        let (before, mut posed) = (self.posed.clone(), self.posed.clone());
+        if let Some(viewer) = &self.scene {
+            let objects = py.detach(|| {
+                viewer
+                    .lock()
+                    .expect("the scene's lock")
+                    .as_ref()
+                    .objects
+                    .len()
+            });
+            for (&id, &m) in ids
+                .iter()
+                .zip(&ms)
+                .filter(|(id, _)| (**id as usize) < objects)
+            {
+                posed.retain(|(o, _)| *o != id as usize);
+                posed.push((id as usize, m));
+            }
+            let pose = |p: &[(usize, DAffine3)]| {
+                py.detach(|| viewer.lock().expect("the scene's lock").pose(p))
+            };
+            pose(&posed).map_err(to_py)?;
+            if let Err(e) = self.geometry.set_transforms(&ids, &ms) {
+                pose(&before).map_err(to_py)?;
+                return Err(to_py(e));
+            }
+        } else {
+            self.geometry.set_transforms(&ids, &ms).map_err(to_py)?;
+        }
+        self.posed = posed;
+        self.accels.get_mut().expect("accels lock").clear();
+        Ok(())
     }
 
     fn add_sphere(&mut self, center: [f64; 3], radius: f64) -> PyResult<u32> {

@@ -6,7 +6,7 @@ use std::cell::RefCell;
 use std::sync::Arc;
 
 use super::bvh::{MeshTree, Rest, Topology};
-use crate::scene::{Mesh, Scene};
+use crate::scene::{Mesh, Placement, Scene};
 
 /// What the renders of one scene's objects share, each part made at the first render that
 /// needs it and kept for the next ([`sharing`]): the shape of its BVH, and the largest
@@ -28,6 +28,22 @@ impl Shared {
     pub(crate) fn objects_moved(&mut self) {
         self.topology = None;
         self.magnitude = None;
+    }
+
+    /// Forgets everything but the trees of the meshes `placed` still places: what a commit of
+    /// a [`crate::Geometry`] keeps for the next, whose other objects may have changed since.
+    pub(crate) fn keep_trees_of(&mut self, placed: &[Placement]) {
+        *self = Shared {
+            meshes: std::mem::take(&mut self.meshes),
+            ..Shared::default()
+        };
+        (self.meshes).retain(|(m, _)| placed.iter().any(|p| Arc::ptr_eq(&p.mesh, m)));
+    }
+
+    /// The meshes' own trees made so far.
+    #[cfg(test)]
+    pub(crate) fn mesh_trees(&self) -> Vec<Arc<MeshTree>> {
+        self.meshes.iter().map(|(_, t)| t.clone()).collect()
     }
 
     /// The BVH's shape, once a render has built it.

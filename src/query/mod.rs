@@ -35,12 +35,13 @@ use crate::math::{Float, Vec3};
 use crate::mode::{Device, Mode, Precision};
 use crate::prepare::Prepared;
 use crate::prepare::bvh::{Search, bounded_count};
+use crate::prepare::shared::{Shared, sharing};
 use crate::rays::{
     AnyHits, Hits, RayList, argument, check_point, check_rays, coherent, one_origin,
 };
 use crate::render::Cpu;
-use crate::scene::{self, Camera, Lens, Object, Projection, Scene};
-use glam::DVec3;
+use crate::scene::{self, Camera, Lens, Mesh, Object, Placement, Projection, Scene};
+use glam::{DAffine3, DVec3};
 
 pub(crate) mod every_hit;
 pub(crate) mod points;
@@ -70,9 +71,12 @@ pub struct Geometry {
     /// The camera of the scene file it came from: its eye is where the robust kernel measures
     /// from. Without one, [`framing_camera`] places it at the objects' centre.
     camera: Option<Camera>,
-    /// The scene file's instances (meshes placed by transforms), whose meshes' own trees a
-    /// commit joins rather than building one tree over every copy.
-    instances: Vec<crate::scene::Placement>,
+    /// The scene file's instances and those added (meshes placed by transforms), whose
+    /// meshes' own trees a commit joins rather than building one tree over every copy.
+    instances: Vec<Placement>,
+    /// The meshes' own trees, built by the first commit that needs them and kept for the
+    /// next (shared by clones: a mesh does not change).
+    trees: Arc<Mutex<Shared>>,
 }
 
 impl Geometry {
@@ -94,6 +98,7 @@ impl Geometry {
             objects: scene.objects.clone(),
             camera: Some(scene.camera.clone()),
             instances: scene.instances.clone(),
+            trees: Arc::default(),
         }
     }
 
@@ -168,6 +173,98 @@ impl Geometry {
         })
     }
 
+    /// Places another copy of the triangle mesh `mesh` (an id [`Geometry::add_mesh`] returned,
+    /// or a scene file's mesh or instance) by `transform`, the map from the mesh's own
+    /// coordinates (as added, or as its scene file's mesh file gives them) to the world's;
+    /// returns its id.
+    /// The copies share one mesh, whose tree a commit builds once however many place it.
+    ///
+    /// ```
+    /// use raycast::{Cpu, DAffine3, DVec3, Geometry, Precision, Ray};
+    /// let mut geometry = Geometry::new();
+    /// let square = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+    /// let mesh = geometry.add_mesh(&square, &[[0, 1, 2], [0, 2, 3]])?;
+    /// let lifted = geometry.add_instance(mesh, DAffine3::from_translation(DVec3::new(0.0, 0.0, 1.0)))?;
+    /// let down = Ray { origin: DVec3::new(0.75, 0.25, 2.0), direction: DVec3::NEG_Z };
+    /// let hits = Cpu.commit(&geometry, Precision::F64)?.intersect(&[down])?;
+    /// assert_eq!((hits.id()[0], hits.t_f64()[0]), (lifted as i32, 1.0));
+    /// geometry.set_transforms(&[lifted], &[DAffine3::from_translation(DVec3::new(0.0, 0.0, -1.0))])?;
+    /// let hits = Cpu.commit(&geometry, Precision::F64)?.intersect(&[down])?;
+    /// assert_eq!((hits.id()[0], hits.t_f64()[0]), (mesh as i32, 2.0));
+    /// # Ok::<(), raycast::Error>(())
+    /// ```
+    pub fn add_instance(&mut self, mesh: u32, transform: DAffine3) -> Result<u32> {
+        let mesh = self.mesh_of(mesh)?;
+        check_transform(&transform, &mesh, "transform")?;
+        let id = self.push(Object::Soup {
+            path: mesh.path.clone(),
+            triangles: scene::place(&mesh.triangles, &transform),
+        })?;
+        self.instances.push(Placement {
+            object: id as usize,
+            mesh,
+            transform,
+        });
+        Ok(id)
+    }
+
+    /// Moves the instances `ids` (ids [`Geometry::add_instance`] returned, or a scene file's
+    /// instances) to `transforms`, one each, each from its mesh's own coordinates. A commit
+    /// after it builds the tree over the instances again, not the meshes' trees.
+    pub fn set_transforms(&mut self, ids: &[u32], transforms: &[DAffine3]) -> Result<()> {
+        if ids.len() != transforms.len() {
+            let message = format!(
+                "gives {} transforms for {} ids: one each",
+                transforms.len(),
+                ids.len()
+            );
+            return Err(argument("transforms", message));
+        }
+        let mut moved = Vec::with_capacity(ids.len());
+        for (k, (&id, m)) in ids.iter().zip(transforms).enumerate() {
+            let Some(p) = self.instances.iter().position(|p| p.object == id as usize) else {
+                let message = format!("object {id} is not an instance (add_instance places one)");
+                return Err(argument(&format!("ids[{k}]"), message));
+            };
+            check_transform(m, &self.instances[p].mesh, &format!("transforms[{k}]"))?;
+            moved.push((p, *m));
+        }
+        for (p, m) in moved {
+            let placement = &mut self.instances[p];
+            placement.transform = m;
+            self.objects[placement.object] = Object::Soup {
+                path: placement.mesh.path.clone(),
+                triangles: scene::place(&placement.mesh.triangles, &m),
+            };
+        }
+        Ok(())
+    }
+
+    /// The mesh object `of` places (argument `mesh`): its instance's, or (made an instance of
+    /// itself, in place) its own triangles.
+    fn mesh_of(&mut self, of: u32) -> Result<Arc<Mesh>> {
+        if let Some(p) = self.instances.iter().find(|p| p.object == of as usize) {
+            return Ok(p.mesh.clone());
+        }
+        let Some(Object::Soup { path, triangles }) = self.objects.get(of as usize) else {
+            let message = match self.objects.len() {
+                n if of as usize >= n => format!("object {of} does not exist ({n} objects)"),
+                _ => format!("object {of} is not a triangle mesh"),
+            };
+            return Err(argument("mesh", message));
+        };
+        let mesh = Arc::new(Mesh {
+            path: path.clone(),
+            triangles: triangles.clone(),
+        });
+        self.instances.push(Placement {
+            object: of as usize,
+            mesh: mesh.clone(),
+            transform: DAffine3::IDENTITY,
+        });
+        Ok(mesh)
+    }
+
     fn push(&mut self, object: Object) -> Result<u32> {
         let id = u32::try_from(self.objects.len())
             .ok()
@@ -176,6 +273,25 @@ impl Geometry {
         self.objects.push(object);
         Ok(id)
     }
+}
+
+/// Refuses a transform (argument `what`) that is not finite, is singular, or places `mesh`
+/// beyond 1e18, a scene file's largest coordinate.
+fn check_transform(m: &DAffine3, mesh: &Mesh, what: &str) -> Result<()> {
+    if let Some(x) = (m.to_cols_array().into_iter()).find(|x| !x.is_finite()) {
+        return Err(argument(what, format!("must be finite, got {x}")));
+    }
+    if let Some(why) = scene::singular(m) {
+        return Err(argument(what, why));
+    }
+    let moved = mesh.bounds().map(|b| scene::moved_box(b, m));
+    if let Some((lo, hi)) = moved
+        && lo.abs().max(hi.abs()).max_element() > scene::MAX_MAGNITUDE
+    {
+        let message = format!("places the mesh beyond {:e}", scene::MAX_MAGNITUDE);
+        return Err(argument(what, message));
+    }
+    Ok(())
 }
 
 /// A [`Geometry`] prepared on a device in one precision: its search structure built and
@@ -239,7 +355,9 @@ impl<'d> Accel<'d> {
 
     fn with_mode(geometry: &Geometry, gpu: Option<&'d Gpu>, mode: Mode) -> Result<Accel<'d>> {
         let scene = RayScene::new(geometry);
-        scene.warm(gpu, mode)?;
+        let mut trees = geometry.trees.lock().expect("the mesh trees' lock");
+        trees.keep_trees_of(&geometry.instances);
+        sharing(&scene.scene, &mut trees, || scene.warm(gpu, mode))?;
         Ok(Accel { scene, gpu, mode })
     }
 
@@ -726,6 +844,200 @@ fn kernel_eye(centre: f64, extent: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::kernel_eye;
+    use crate::{Cpu, DAffine3, DVec3, Geometry, Precision, Ray};
+    use glam::DQuat;
+
+    /// A unit cube's corners and its 12 triangles, wound outward.
+    fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let corners = (0..8)
+            .map(|k| DVec3::new((k & 1) as f64, (k >> 1 & 1) as f64, (k >> 2 & 1) as f64))
+            .collect();
+        let faces = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = (faces.iter())
+            .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+            .collect();
+        (corners, triangles)
+    }
+
+    /// `mesh` placed by `m` as a mesh of its own: its vertices moved, and each triangle's last
+    /// two corners swapped where `m` mirrors (as an instance's are).
+    fn placed_copy(geometry: &mut Geometry, (v, t): &(Vec<DVec3>, Vec<[u32; 3]>), m: &DAffine3) {
+        let mirrors = m.matrix3.determinant() < 0.0;
+        let v: Vec<DVec3> = v.iter().map(|p| m.transform_point3(*p)).collect();
+        let t: Vec<[u32; 3]> = (t.iter())
+            .map(|&[a, b, c]| if mirrors { [a, c, b] } else { [a, b, c] })
+            .collect();
+        geometry.add_mesh(&v, &t).unwrap();
+    }
+
+    /// Rays from above the scene's objects down through a grid around them.
+    fn grid_rays() -> Vec<Ray> {
+        (0..3600)
+            .map(|k| Ray {
+                origin: DVec3::new(0.5, 0.5, 12.0),
+                direction: DVec3::new(
+                    (k % 60) as f64 * 0.02 - 0.6,
+                    (k / 60) as f64 * 0.02 - 0.6,
+                    -1.0,
+                ),
+            })
+            .collect()
+    }
+
+    /// Ids and t of `rays` at `geometry` on the CPU in `precision`, t's bits.
+    fn cast(geometry: &Geometry, precision: Precision, rays: &[Ray]) -> (Vec<i32>, Vec<u64>) {
+        let hits = Cpu
+            .commit(geometry, precision)
+            .unwrap()
+            .intersect(rays)
+            .unwrap();
+        (
+            hits.id().to_vec(),
+            hits.t_f64().iter().map(|t| t.to_bits()).collect(),
+        )
+    }
+
+    fn poses() -> [DAffine3; 3] {
+        let turn = DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+        [
+            DAffine3::from_scale_rotation_translation(
+                DVec3::new(1.5, 0.5, 2.0),
+                turn,
+                DVec3::new(3.0, -2.0, 1.0),
+            ),
+            DAffine3::from_scale_rotation_translation(
+                DVec3::new(-1.0, 1.0, 1.0),
+                turn.inverse(),
+                DVec3::new(-3.0, 2.5, 0.5),
+            ),
+            DAffine3::from_translation(DVec3::new(0.2, 3.0, -2.0)),
+        ]
+    }
+
+    /// Instances added to a mesh hit as copies of the mesh placed by their transforms, added
+    /// as meshes of their own: the same ids and t, bit for bit, in f32 and f64; and they share
+    /// the mesh's one tree, which a commit after they move builds no more.
+    #[test]
+    fn added_instances_are_their_meshes_placed_and_move_without_building_the_mesh_again() {
+        let mesh = cube();
+        let (mut instanced, mut copies) = (Geometry::new(), Geometry::new());
+        for geometry in [&mut instanced, &mut copies] {
+            geometry.add_sphere([0.5, -2.0, 0.0], 0.75).unwrap();
+            geometry.add_mesh(&mesh.0, &mesh.1).unwrap();
+        }
+        for m in poses() {
+            let id = instanced.add_instance(1, m).unwrap();
+            assert_eq!(id as usize, instanced.objects.len() - 1);
+            placed_copy(&mut copies, &mesh, &m);
+        }
+        let rays = grid_rays();
+        for precision in [Precision::F32, Precision::F64] {
+            let (ids, t) = cast(&instanced, precision, &rays);
+            assert_eq!((ids.clone(), t), cast(&copies, precision, &rays));
+            assert!(
+                (0..5).all(|o| ids.contains(&o)),
+                "every object hit: {ids:?}"
+            );
+        }
+        let trees = instanced.trees.lock().unwrap().mesh_trees();
+        assert_eq!(trees.len(), 1, "one tree for the mesh and its three copies");
+
+        let moved = [
+            DAffine3::from_translation(DVec3::new(-1.0, -1.0, 0.5)),
+            poses()[0],
+        ];
+        instanced.set_transforms(&[2, 1], &moved).unwrap();
+        let mut copies = Geometry::new();
+        copies.add_sphere([0.5, -2.0, 0.0], 0.75).unwrap();
+        for m in [moved[1], moved[0], poses()[1], poses()[2]] {
+            placed_copy(&mut copies, &mesh, &m);
+        }
+        assert_eq!(
+            cast(&instanced, Precision::F64, &rays),
+            cast(&copies, Precision::F64, &rays)
+        );
+        let after = instanced.trees.lock().unwrap().mesh_trees();
+        assert!(after.len() == 1 && std::sync::Arc::ptr_eq(&trees[0], &after[0]));
+    }
+
+    /// Instances and transforms a geometry cannot take are refused, naming the argument.
+    #[test]
+    fn bad_instances_and_transforms_name_the_argument() {
+        let (v, t) = cube();
+        let mut geometry = Geometry::new();
+        geometry.add_sphere([0.0, 0.0, 0.0], 1.0).unwrap();
+        let mesh = geometry.add_mesh(&v, &t).unwrap();
+        let id = geometry.add_instance(mesh, DAffine3::IDENTITY).unwrap();
+        let mut singular = DAffine3::IDENTITY;
+        singular.matrix3.z_axis = DVec3::new(1.0, 1.0, 0.0);
+        singular.matrix3.y_axis = DVec3::new(1.0, 1.0, 0.0);
+        let mut nan = DAffine3::IDENTITY;
+        nan.translation.x = f64::NAN;
+        let far = DAffine3::from_translation(DVec3::new(0.0, 2e18, 0.0));
+        let cases = [
+            (
+                geometry.clone().add_instance(0, DAffine3::IDENTITY).err(),
+                "mesh: object 0 is not a triangle mesh",
+            ),
+            (
+                geometry.clone().add_instance(9, DAffine3::IDENTITY).err(),
+                "mesh: object 9 does not exist (3 objects)",
+            ),
+            (
+                geometry.clone().add_instance(mesh, singular).err(),
+                "transform: is singular",
+            ),
+            (
+                geometry.clone().add_instance(mesh, nan).err(),
+                "transform: must be finite, got NaN",
+            ),
+            (
+                geometry.clone().add_instance(id, far).err(),
+                "transform: places the mesh beyond 1e18",
+            ),
+            (
+                geometry
+                    .clone()
+                    .set_transforms(&[0], &[DAffine3::IDENTITY])
+                    .err(),
+                "ids[0]: object 0 is not an instance",
+            ),
+            (
+                geometry
+                    .clone()
+                    .set_transforms(&[id, mesh], &[DAffine3::IDENTITY, far])
+                    .err(),
+                "transforms[1]: places the mesh beyond 1e18",
+            ),
+            (
+                geometry.clone().set_transforms(&[id], &[]).err(),
+                "transforms: gives 0 transforms for 1 ids",
+            ),
+        ];
+        for (k, (error, expected)) in cases.into_iter().enumerate() {
+            let message = error.map(|e| e.to_string()).unwrap_or_default();
+            assert!(message.starts_with(expected), "case {k}: {message}");
+        }
+        // A refused call changes nothing.
+        let mut refused = geometry.clone();
+        assert!(
+            refused
+                .set_transforms(&[id, 0], &[far, DAffine3::IDENTITY])
+                .is_err()
+        );
+        let rays = grid_rays();
+        assert_eq!(
+            cast(&refused, Precision::F64, &rays),
+            cast(&geometry, Precision::F64, &rays)
+        );
+    }
 
     /// f32 coordinates within half the extent of the centre differ from the kernel's eye
     /// exactly (so reach the kernel unrounded), near the origin and far from it; f64 objects

@@ -86,7 +86,7 @@ pub(crate) struct ImagePlane {
 
 impl Camera {
     /// Pixels of the image, `nx * ny`: the camera's rays at one sample per pixel.
-    pub fn pixel_count(&self) -> u64 {
+    pub(crate) fn pixel_count(&self) -> u64 {
         let [nx, ny] = self.resolution;
         nx as u64 * ny as u64
     }

@@ -115,17 +115,10 @@ impl TransformFile {
             }
             TransformFile::Parts(p) => p.affine()?,
         };
-        // Singular, or so near it that the placed mesh would be flat to f64's precision.
-        let det = m.matrix3.determinant();
-        let size = m
-            .matrix3
-            .to_cols_array()
-            .iter()
-            .fold(0.0f64, |a, x| a.max(x.abs()));
-        if det.abs() <= 1e-12 * size * size * size {
-            return Err((String::new(), format!("is singular (determinant {det:e})")));
+        match singular(&m) {
+            Some(why) => Err((String::new(), why)),
+            None => Ok(m),
         }
-        Ok(m)
     }
 }
 
@@ -165,6 +158,15 @@ impl PartsFile {
             translation,
         ))
     }
+}
+
+/// Why `m` cannot place a mesh, where its linear part is singular, or so near it that the
+/// placed mesh would be flat to f64's precision (NaN and infinite entries are singular too).
+pub(crate) fn singular(m: &DAffine3) -> Option<String> {
+    let det = m.matrix3.determinant();
+    let size = (m.matrix3.to_cols_array().iter()).fold(0.0f64, |a, x| a.max(x.abs()));
+    let flat = det.is_nan() || det.abs() <= 1e-12 * size * size * size;
+    flat.then(|| format!("is singular (determinant {det:e})"))
 }
 
 /// `xs` as the numbers of field `name`, `name[k]` each.

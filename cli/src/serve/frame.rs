@@ -255,7 +255,7 @@ fn rendered(
             Device::Cpu => Cpu.render(scene, &options),
         })?;
     let seconds = start.elapsed().as_secs_f64();
-    let rays = camera.pixel_count() + images.hook_rays().unwrap_or(0);
+    let rays = crate::pixels(&camera) + images.hook_rays().unwrap_or(0);
     let rendered = Arc::new(Rendered {
         mode: Mode {
             device,

@@ -278,7 +278,7 @@ impl Loaded {
 
     /// Primary rays of a run: one per pixel of every camera.
     pub fn rays(&self) -> u64 {
-        self.cameras().iter().map(Camera::pixel_count).sum()
+        self.cameras().iter().map(crate::pixels).sum()
     }
 }
 

@@ -128,7 +128,7 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             search,
             ..Tuning::default()
         },
-        outputs: Outputs::ALL,
+        outputs: Outputs::default(),
     };
     let tuned = |tuning: Tuning| Kernel { tuning, ..base };
     let toggle = |on: Kernel, off: Kernel, default_with: bool, spec| Plan {
@@ -184,10 +184,9 @@ fn plans(gpu: &Gpu, scene: &Scene) -> Vec<Plan> {
             })
         };
         // The device's choice for the scene's pixels and primitives (`Gpu::packets_pay`).
-        let default_with = gpu
-            .info()
-            .packet_rays_per_primitive
-            .is_some_and(|r| scene.camera.pixel_count() as f64 >= r * (spheres + triangles) as f64);
+        let default_with = gpu.info().packet_rays_per_primitive.is_some_and(|r| {
+            crate::pixels(&scene.camera) as f64 >= r * (spheres + triangles) as f64
+        });
         toggle(
             traversal(true),
             traversal(false),
@@ -623,7 +622,7 @@ pub fn crossover(
                     most_lane_rays: true,
                     ..Tuning::default()
                 },
-                outputs: Outputs::ALL,
+                outputs: Outputs::default(),
             });
             let t = interleaved_times(gpu, &scene, &variants, runs)?;
             rows.push(CrossoverRow {

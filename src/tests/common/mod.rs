@@ -169,7 +169,7 @@ pub(crate) fn gpu_scene<R: Kernel>(
     scene: &Scene,
     algorithm: Algorithm,
 ) -> raycast::Result<Images<R>> {
-    gpu_outputs(gpu, scene, algorithm, raycast::Outputs::ALL, None)
+    gpu_outputs(gpu, scene, algorithm, raycast::Outputs::default(), None)
 }
 
 /// `scene` rendered by the CPU reference in precision `R` with `algorithm`, through the API.
