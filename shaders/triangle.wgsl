@@ -242,7 +242,11 @@ fn triangle_uv(ray: Ray, shear: Shear, tri: Triangle) -> vec2<real> {
 
 // Unit normal by corner order: normalize((b - a) x (c - a)), never flipped.
 fn triangle_normal(tri: Triangle) -> vec3<real> {
-    let n = cross(tri.b - tri.a, tri.c - tri.a);
+    return unit_normal(cross(tri.b - tri.a, tri.c - tri.a));
+}
+
+// `n` normalised; zero where it is zero.
+fn unit_normal(n: vec3<real>) -> vec3<real> {
 #if ROBUST
     // Scale first: the squared length of a tiny triangle's normal can underflow to zero.
     let m = max_component(n);

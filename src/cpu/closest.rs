@@ -2,7 +2,7 @@
 //! and the rest through the BVH where there is one, nearer boxes first. A candidate's [`Hit`]
 //! holds its squared distance in `t`, so that the nearest-hit order decides ties.
 
-use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE};
+use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, NO_INSTANCE};
 use super::nearest::keep;
 use super::traverse::{BVH_STACK, box_slack, is_leaf, keep_ordered};
 use crate::kernel::types::{Plane, Sphere, Triangle, t_far};
@@ -122,6 +122,7 @@ pub(crate) fn closest_to<T: Real>(p: Vec3<T>, prims: &Primitives<T>) -> Hit<T> {
         object: -1,
         kind: 0,
         index: 0,
+        instance: NO_INSTANCE,
     };
     for (k, plane) in prims.planes.iter().enumerate() {
         let h = plane_height(p, plane);

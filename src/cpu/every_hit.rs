@@ -5,7 +5,7 @@
 //! does not list them.
 
 use super::count::for_each_leaf;
-use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE};
+use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, NO_INSTANCE};
 use super::nearest::{hit_details, primitive_key};
 use super::plane::intersect_plane;
 use super::sphere::{intersect_sphere, sphere_crossings};
@@ -43,6 +43,7 @@ pub(crate) fn every_hit<T: Real, const ROBUST: bool>(
                 object: objects[index as usize] as i32,
                 kind,
                 index,
+                instance: NO_INSTANCE,
             };
             let details = hit_details::<T, ROBUST>(ray, &hit, prims);
             let key = primitive_key(&hit, prims);

@@ -15,7 +15,13 @@ pub(crate) struct Hit<T> {
     pub kind: u32,
     /// Into the list of its kind.
     pub index: u32,
+    /// The instance whose mesh holds the triangle, in its list (`Primitives::instances`), or
+    /// [`NO_INSTANCE`] (`hit_instance` in WGSL, a private variable beside the hit).
+    pub instance: u32,
 }
+
+/// [`Hit::instance`] of a primitive no instance places.
+pub(crate) const NO_INSTANCE: u32 = u32::MAX;
 
 /// Ties in t go to the lower object id, then the lower primitive index, so the answer does not
 /// depend on the order primitives are visited.

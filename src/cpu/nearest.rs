@@ -1,12 +1,12 @@
 //! Mirror of shaders/nearest.wgsl: the nearest hit over every primitive (brute force), or the
 //! planes by brute force and the rest through the BVH (src/cpu/traverse.rs).
 
-pub(crate) use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, is_closer};
+pub(crate) use super::hit::{Hit, KIND_PLANE, KIND_SPHERE, KIND_TRIANGLE, NO_INSTANCE, is_closer};
 use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
-use super::triangle::{intersect_triangle, plane_t, triangle_normal, triangle_uv};
-use crate::kernel::types::{Ray, shear_of, t_far};
+use super::triangle::{intersect_triangle, plane_t, triangle_normal, triangle_uv, unit_normal};
+use crate::kernel::types::{Ray, instance_normal, instance_ray, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 
@@ -20,6 +20,7 @@ pub(crate) fn keep<T: Real>(t: T, kind: u32, index: usize, objects: &[u32], best
             object: object as i32,
             kind,
             index: index as u32,
+            instance: NO_INSTANCE,
         };
     }
 }
@@ -45,6 +46,7 @@ pub(crate) fn before_bvh<T: Real, const ROBUST: bool>(
         object: -1,
         kind: 0,
         index: 0,
+        instance: NO_INSTANCE,
     };
     if prims.bvh.is_none() {
         nearest_sphere::<T, ROBUST>(ray, min_t, prims, &mut best);
@@ -108,7 +110,24 @@ pub(crate) fn hit_normal<T: Real, const ROBUST: bool>(
     match hit.kind {
         KIND_SPHERE => sphere_normal::<T, ROBUST>(ray, hit.t, &prims.spheres[k]),
         KIND_PLANE => plane_normal(&prims.planes[k]),
-        _ => triangle_normal::<T, ROBUST>(&prims.triangles[k]),
+        _ => placed_normal::<T, ROBUST>(
+            hit,
+            triangle_normal::<T, ROBUST>(&prims.triangles[k]),
+            prims,
+        ),
+    }
+}
+
+/// The normal `n` of the triangle `hit` hit, in the kernel's coordinates: as it is, or where an
+/// instance places the triangle, moved out of its mesh's coordinates (`placed_normal`).
+fn placed_normal<T: Real, const ROBUST: bool>(
+    hit: &Hit<T>,
+    n: Vec3<T>,
+    prims: &Primitives<T>,
+) -> Vec3<T> {
+    match hit.instance {
+        NO_INSTANCE => n,
+        k => unit_normal::<T, ROBUST>(instance_normal(n, &prims.instances[k as usize])),
     }
 }
 
@@ -144,8 +163,13 @@ pub(crate) fn hit_details<T: Real, const ROBUST: bool>(
         };
     }
     let tri = &prims.triangles[hit.index as usize];
+    // Barycentrics and t are the same in an instance's mesh coordinates.
+    let ray = &match hit.instance {
+        NO_INSTANCE => *ray,
+        k => instance_ray(ray, &prims.instances[k as usize]),
+    };
     HitDetails {
-        normal: triangle_normal::<T, ROBUST>(tri),
+        normal: placed_normal::<T, ROBUST>(hit, triangle_normal::<T, ROBUST>(tri), prims),
         t: if ROBUST {
             plane_t(ray, tri, hit.t)
         } else {

@@ -2,14 +2,15 @@
 //! traversal ray by ray): the nearest hit over the spheres and triangles through the BVH built by
 //! src/prepare/bvh.rs; and, for tests, of the packets' intervals (traverse_lanes.wgsl).
 
-use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE};
+use super::hit::{Hit, KIND_SPHERE, KIND_TRIANGLE, NO_INSTANCE};
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
-use crate::kernel::types::{Ray, Shear, no_hit, shear_of, t_far};
+use crate::kernel::types::{Ray, Shear, instance_ray, no_hit, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{
-    BvhNode, LEAF_BIT, MAX_DEPTH, MIXED_OBJECTS, SPHERE_LEAF, leaf_len, leaf_object,
+    BvhNode, INSTANCE_BIT, LEAF_BIT, LEAF_COUNT, LEAF_OBJECT_SHIFT, MAX_DEPTH, MIXED_OBJECTS,
+    SPHERE_LEAF, leaf_len, leaf_object,
 };
 
 /// The traversal stack's size (`BVH_STACK` in WGSL).
@@ -292,6 +293,7 @@ pub(crate) fn keep_ordered<T: Real>(
                 object: object as i32,
                 kind,
                 index,
+                instance: NO_INSTANCE,
             };
         }
     }
@@ -402,18 +404,39 @@ pub(crate) fn traverse_bvh_traced<T: Real, const ROBUST: bool>(
     best: &mut Hit<T>,
     trail: &mut impl Trail,
 ) {
-    let ri = ray_inverse(ray);
-    let shear = shear_of(ray.direction);
+    let world = ray;
+    let mut ray = *world;
+    let mut ri = ray_inverse(&ray);
+    let mut shear = shear_of(ray.direction);
     let mut stack = Stack {
         node: [0u32; BVH_STACK],
         t: [T::ZERO; BVH_STACK],
         sp: 0,
     };
     let mut node = 0u32;
+    let mut inside = Inside::default();
     loop {
         let (n, run) = loop {
+            // Back in the world where a node waiting from before the instance is popped; into an
+            // instance's mesh where a reference names one (INSTANCE_BIT).
+            if inside.instance != NO_INSTANCE && stack.sp < inside.sp {
+                (ray, inside.instance) = (*world, NO_INSTANCE);
+                (ri, shear) = (ray_inverse(&ray), shear_of(ray.direction));
+            }
+            if node & INSTANCE_BIT != 0 {
+                let k = node & !INSTANCE_BIT;
+                let instance = &prims.instances[k as usize];
+                ray = instance_ray(world, instance);
+                (ri, shear) = (ray_inverse(&ray), shear_of(ray.direction));
+                inside = Inside {
+                    instance: k,
+                    object: instance.object,
+                    sp: stack.sp,
+                };
+                node = instance.root;
+            }
             trail.node(node, 1);
-            let n = visit(nodes, node, ray, &ri, min_t, cull_t(best));
+            let n = visit(nodes, node, &ray, &ri, min_t, cull_t(best));
             let run = leaf_run(
                 &n,
                 n.t0 != no_hit() && is_leaf(n.reference0),
@@ -439,17 +462,50 @@ pub(crate) fn traverse_bvh_traced<T: Real, const ROBUST: bool>(
                 n.count0
             };
             intersect_primitive::<T, ROBUST>(
-                ray,
+                &ray,
                 &shear,
                 min_t,
                 prims,
                 run_primitive(&run, i),
-                count,
+                inside.count(count),
                 best,
             );
         }
+        // Each instance is one object: a nearest hit of its object is in its mesh.
+        if inside.instance != NO_INSTANCE && best.object == inside.object as i32 {
+            best.instance = inside.instance;
+        }
         if !next_node(&n, best, &mut stack, &mut node) {
             break;
+        }
+    }
+}
+
+/// The instance a traversal is in (`instance`, [`NO_INSTANCE`] in the world), its object, and
+/// the stack's depth when it entered: nodes waiting below it are the world's.
+struct Inside {
+    instance: u32,
+    object: u32,
+    sp: usize,
+}
+
+impl Default for Inside {
+    fn default() -> Inside {
+        Inside {
+            instance: NO_INSTANCE,
+            object: 0,
+            sp: 0,
+        }
+    }
+}
+
+impl Inside {
+    /// A leaf's `count` as the traversal takes it: in an instance, its primitives the
+    /// instance's object (a mesh's leaves name object 0, whichever instance places them).
+    fn count(&self, count: u32) -> u32 {
+        match self.instance {
+            NO_INSTANCE => count,
+            _ => (count & LEAF_COUNT) | (self.object.min(MIXED_OBJECTS) << LEAF_OBJECT_SHIFT),
         }
     }
 }

@@ -194,7 +194,11 @@ pub(crate) fn triangle_uv<T: Real, const ROBUST: bool>(
 /// Unit normal by corner order: normalize((b - a) x (c - a)), never flipped. The robust set
 /// scales first, since the squared length of a tiny triangle's normal can underflow.
 pub(crate) fn triangle_normal<T: Real, const ROBUST: bool>(tri: &Triangle<T>) -> Vec3<T> {
-    let n = cross(tri.b - tri.a, tri.c - tri.a);
+    unit_normal::<T, ROBUST>(cross(tri.b - tri.a, tri.c - tri.a))
+}
+
+/// `n` normalised; zero where it is zero (`unit_normal`).
+pub(crate) fn unit_normal<T: Real, const ROBUST: bool>(n: Vec3<T>) -> Vec3<T> {
     if ROBUST {
         let m = n.x.abs().max(n.y.abs().max(n.z.abs()));
         if m == T::ZERO {

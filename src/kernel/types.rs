@@ -1,7 +1,7 @@
 //! Mirror of shaders/types.wgsl: the kernel's value types. The scene's primitives in these
 //! types are made by [`crate::prepare`].
 
-use crate::math::{Real, Vec3};
+use crate::math::{Real, Vec3, vec3};
 
 pub(crate) use crate::kernel::frame::Frame;
 
@@ -86,4 +86,37 @@ pub(crate) struct Triangle<T> {
     pub a: Vec3<T>,
     pub b: Vec3<T>,
     pub c: Vec3<T>,
+}
+
+/// An instance as a traversal enters it (`instance_transforms` and `instance_words` in WGSL,
+/// shaders/bindings.wgsl): the map from the kernel's coordinates to its mesh's (each row
+/// `[x, y, z, w]` gives one mesh coordinate, `x k.x + y k.y + z k.z + w`), the node its mesh's
+/// tree starts at, and its object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Instance<T> {
+    pub rows: [[T; 4]; 3],
+    pub root: u32,
+    pub object: u32,
+}
+
+/// `ray` in `instance`'s mesh coordinates (`instance_ray`): its direction moved but not
+/// normalised, so that the point at t along it is the kernel ray's point at t, placed.
+pub(crate) fn instance_ray<T: Real>(ray: &Ray<T>, instance: &Instance<T>) -> Ray<T> {
+    let [r0, r1, r2] = instance.rows;
+    let point = |r: [T; 4], p: Vec3<T>| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3];
+    let vector = |r: [T; 4], v: Vec3<T>| r[0] * v.x + r[1] * v.y + r[2] * v.z;
+    let (o, d) = (ray.origin, ray.direction);
+    Ray {
+        origin: vec3(point(r0, o), point(r1, o), point(r2, o)),
+        direction: vec3(vector(r0, d), vector(r1, d), vector(r2, d)),
+    }
+}
+
+/// A normal `n` in `instance`'s mesh coordinates as a direction in the kernel's, not
+/// normalised (`instance_normal`): by the transpose of the rows' map, the inverse transpose of
+/// the placement's, which keeps it perpendicular to the placed triangle.
+pub(crate) fn instance_normal<T: Real>(n: Vec3<T>, instance: &Instance<T>) -> Vec3<T> {
+    let [r0, r1, r2] = instance.rows;
+    let column = |j: usize| r0[j] * n.x + r1[j] * n.y + r2[j] * n.z;
+    vec3(column(0), column(1), column(2))
 }

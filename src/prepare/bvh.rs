@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::{ObjectIds, kernel_frame, kernel_origin};
 use crate::algorithm::Algorithm;
 use crate::math::{Vec3, length};
-use crate::scene::{Object, Scene};
+use crate::scene::{Object, Scene, moved_box};
 
 mod two_level;
 #[cfg(test)]
@@ -102,6 +102,10 @@ pub(crate) fn bounded_count(scene: &Scene) -> usize {
 
 /// Set in a child's `reference` when it is a leaf (the rest is its first primitive).
 pub(crate) const LEAF_BIT: u32 = 1 << 31;
+/// Set, without [`LEAF_BIT`], in a child's `reference` that names an instance, the rest its
+/// index in [`Instanced::instances`]: the ray moves into its mesh's coordinates and walks its
+/// mesh's tree (#64; never set in a node's index, which would need 2^30 nodes).
+pub(crate) const INSTANCE_BIT: u32 = 1 << 30;
 /// Set in a leaf's `count` when its primitives are spheres (else triangles).
 pub(crate) const SPHERE_LEAF: u32 = 1 << 31;
 /// Set in a leaf's `count` when it holds more primitives than [`LEAF_COUNT`] counts (only a
@@ -240,6 +244,40 @@ pub(crate) struct Bvh {
     /// [`Bvh::depth`], found once when the tree is built: every dispatch asks for it
     /// ([`Bvh::stack_entries`]), and walking every node for it would dominate a one-ray cast.
     pub depth: usize,
+    /// Where the tree names instances ([`INSTANCE_BIT`]) rather than holding their triangles:
+    /// each mesh's tree and triangles once, in the mesh's coordinates.
+    pub instanced: Option<Instanced>,
+}
+
+/// The instances of a tree whose references name them ([`INSTANCE_BIT`]), and its meshes.
+/// `triangle_order` holds the other objects' triangles first (their indices in the scene's
+/// order), then each mesh's (their indices in the mesh).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Instanced {
+    /// Per instance, as references number them.
+    pub instances: Vec<InstanceRoot>,
+    /// Per mesh laid out: a placement of it, and its triangles' positions.
+    pub meshes: Vec<MeshSpan>,
+    /// The other objects' triangles, before the meshes'.
+    pub rest_triangles: u32,
+}
+
+/// An instance of an [`Instanced`] tree: its placement (index in `Scene::instances`), the
+/// node its mesh's tree starts at and the mesh (index in [`Instanced::meshes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct InstanceRoot {
+    pub placement: u32,
+    pub root: u32,
+    pub mesh: u32,
+}
+
+/// A mesh of an [`Instanced`] tree: a placement of it (index in `Scene::instances`) and the
+/// positions `first..first + len` of its triangles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MeshSpan {
+    pub placement: u32,
+    pub first: u32,
+    pub len: u32,
 }
 
 /// A primitive's box while building, and its index in its kind's list.
@@ -669,6 +707,12 @@ impl Topology {
         two_level::build(scene).unwrap_or_else(|| Topology::of_objects(&scene.objects))
     }
 
+    /// The topology of `scene`'s BVH naming its instances rather than holding their triangles
+    /// ([`two_level::instanced`]), where it places meshes and the tree is shallow enough.
+    pub(crate) fn instanced(scene: &Scene) -> Option<Topology> {
+        two_level::instanced(scene)
+    }
+
     /// The binned SAH build over the boxes of `objects`' spheres and triangles, measured from
     /// the centre of their bounds.
     fn of_objects<'a>(objects: impl IntoIterator<Item = &'a Object> + Clone) -> Topology {
@@ -717,6 +761,60 @@ impl Topology {
     }
 }
 
+/// Fits every leaf child's box to its primitives' (`sphere` and `triangle`: the item at a
+/// position of their order), in parallel. The empty child of a root over one kind keeps its
+/// zero box.
+fn fit_leaves<'a>(
+    nodes: &mut [BvhNode],
+    sphere: impl Fn(usize) -> &'a Item + Sync,
+    triangle: impl Fn(usize) -> &'a Item + Sync,
+) {
+    nodes.par_iter_mut().for_each(|node| {
+        let mut children = [node.child(0), node.child(1)];
+        for c in &mut children {
+            if c.reference & LEAF_BIT == 0 || leaf_len(c.count) == 0 {
+                continue;
+            }
+            let first = (c.reference & !LEAF_BIT) as usize;
+            let item: &dyn Fn(usize) -> &'a Item = match c.count & SPHERE_LEAF != 0 {
+                true => &sphere,
+                false => &triangle,
+            };
+            let mut b = Aabb::EMPTY;
+            for k in first..first + leaf_len(c.count) as usize {
+                b.grow(item(k).lo, item(k).hi);
+            }
+            (c.lo, c.hi) = (b.lo, b.hi);
+        }
+        *node = BvhNode::new(children[0], children[1]);
+    });
+}
+
+/// Fits every inner node's box to its children's, once the leaves' are fitted; a child naming
+/// an instance ([`INSTANCE_BIT`]) gets `instance_box` of it. Children come after their parents
+/// (`flatten`), so a backward pass meets every node's children before the node.
+fn fit_nodes(nodes: &mut [BvhNode], instance_box: impl Fn(u32) -> Aabb) {
+    let mut node_boxes = vec![Aabb::EMPTY; nodes.len()];
+    for n in (0..nodes.len()).rev() {
+        let mut children = [nodes[n].child(0), nodes[n].child(1)];
+        let mut node_box = Aabb::EMPTY;
+        for c in &mut children {
+            if c.reference & LEAF_BIT == 0 {
+                let b = match c.reference & INSTANCE_BIT != 0 {
+                    true => instance_box(c.reference & !INSTANCE_BIT),
+                    false => node_boxes[c.reference as usize],
+                };
+                (c.lo, c.hi) = (b.lo, b.hi);
+            } else if leaf_len(c.count) == 0 {
+                continue;
+            }
+            node_box.grow(c.lo, c.hi);
+        }
+        nodes[n] = BvhNode::new(children[0], children[1]);
+        node_boxes[n] = node_box;
+    }
+}
+
 /// The boxes of `objects`' spheres and triangles measured from `origin`, each kind in the
 /// scene's order.
 #[allow(clippy::type_complexity)]
@@ -760,51 +858,73 @@ impl Bvh {
     pub(crate) fn fit(topology: &Topology, kernel: &Scene, algorithm: Algorithm) -> Bvh {
         let origin = kernel_origin(kernel, algorithm);
         let eye = length(kernel_frame(kernel, algorithm).eye);
+        let mut bvh = topology.0.clone();
+        if let Some(instanced) = bvh.instanced.take() {
+            bvh.fit_instanced(&instanced, kernel, origin, eye);
+            bvh.instanced = Some(instanced);
+            return bvh;
+        }
         let (spheres, triangles) = primitive_boxes(&kernel.objects, origin);
         let (spheres, triangles) = (grown(spheres, eye), grown(triangles, eye));
-        let mut bvh = topology.0.clone();
         let (sphere_order, triangle_order) = (&bvh.sphere_order, &bvh.triangle_order);
-        // The leaves' boxes first, in parallel: each the union of its primitives' boxes. (The
-        // empty child of a root over one kind keeps its zero box.)
-        bvh.nodes.par_iter_mut().for_each(|node| {
-            let mut children = [node.child(0), node.child(1)];
-            for c in &mut children {
-                if c.reference & LEAF_BIT == 0 || leaf_len(c.count) == 0 {
-                    continue;
-                }
-                let first = (c.reference & !LEAF_BIT) as usize;
-                let range = first..first + leaf_len(c.count) as usize;
-                let (order, items) = match c.count & SPHERE_LEAF != 0 {
-                    true => (sphere_order, &spheres),
-                    false => (triangle_order, &triangles),
-                };
-                let mut b = Aabb::EMPTY;
-                for &k in &order[range] {
-                    b.grow(items[k as usize].lo, items[k as usize].hi);
-                }
-                (c.lo, c.hi) = (b.lo, b.hi);
-            }
-            *node = BvhNode::new(children[0], children[1]);
-        });
-        // Then the inner nodes' boxes. Children come after their parents (`flatten`), so a
-        // backward pass meets every node's children before the node.
-        let mut node_boxes = vec![Aabb::EMPTY; bvh.nodes.len()];
-        for n in (0..bvh.nodes.len()).rev() {
-            let mut children = [bvh.nodes[n].child(0), bvh.nodes[n].child(1)];
-            let mut node_box = Aabb::EMPTY;
-            for c in &mut children {
-                if c.reference & LEAF_BIT == 0 {
-                    let b = node_boxes[c.reference as usize];
-                    (c.lo, c.hi) = (b.lo, b.hi);
-                } else if leaf_len(c.count) == 0 {
-                    continue;
-                }
-                node_box.grow(c.lo, c.hi);
-            }
-            bvh.nodes[n] = BvhNode::new(children[0], children[1]);
-            node_boxes[n] = node_box;
-        }
+        let sphere = |k: usize| &spheres[sphere_order[k] as usize];
+        let triangle = |k: usize| &triangles[triangle_order[k] as usize];
+        fit_leaves(&mut bvh.nodes, sphere, triangle);
+        fit_nodes(&mut bvh.nodes, |_| unreachable!("no instances"));
         bvh
+    }
+
+    /// [`Bvh::fit`] of a tree naming instances: the other objects' leaves fitted to their
+    /// primitives in the kernel's coordinates (from `origin`, the eye `eye` from it), the
+    /// meshes' to their triangles in the mesh's own, and each instance's child to its mesh's
+    /// box moved to where it is placed.
+    fn fit_instanced(
+        &mut self,
+        instanced: &Instanced,
+        kernel: &Scene,
+        origin: Vec3<f64>,
+        eye: f64,
+    ) {
+        let spheres = (kernel.objects.iter()).filter(|o| matches!(o, Object::Sphere { .. }));
+        let spheres = grown(primitive_boxes(spheres, origin).0, eye);
+        let scene_triangles: Vec<&crate::scene::Triangle> = (kernel.objects.iter())
+            .flat_map(|o| match o {
+                Object::Triangle { corners } => std::slice::from_ref(corners),
+                Object::Soup { triangles, .. } => &triangles[..],
+                _ => &[],
+            })
+            .collect();
+        let order = &self.triangle_order;
+        let rest = (order[..instanced.rest_triangles as usize].iter())
+            .map(|&k| triangle_box(scene_triangles[k as usize], origin))
+            .collect();
+        let mut triangles = grown(rest, eye);
+        let mut meshes = Vec::with_capacity(instanced.meshes.len());
+        for m in &instanced.meshes {
+            let mesh = &kernel.instances[m.placement as usize].mesh;
+            let span = &order[m.first as usize..(m.first + m.len) as usize];
+            let boxes = (span.iter())
+                .map(|&k| triangle_box(&mesh.triangles[k as usize], Vec3::splat(0.0)))
+                .collect();
+            triangles.extend(grown(boxes, 0.0));
+            meshes.push(mesh.bounds().expect("a placed mesh has triangles"));
+        }
+        let sphere_order = &self.sphere_order;
+        let sphere = |k: usize| &spheres[sphere_order[k] as usize];
+        fit_leaves(&mut self.nodes, sphere, |k| &triangles[k]);
+        let instance_box = |i: u32| {
+            let instance = &instanced.instances[i as usize];
+            let placement = &kernel.instances[instance.placement as usize];
+            let (lo, hi) = moved_box(meshes[instance.mesh as usize], &placement.transform);
+            let item = &grown(
+                vec![(Vec3::from(lo) - origin, Vec3::from(hi) - origin)],
+                eye,
+            )[0];
+            let mut b = Aabb::EMPTY;
+            b.grow(item.lo, item.hi);
+            b
+        };
+        fit_nodes(&mut self.nodes, instance_box);
     }
 
     /// The BVH over the boxes of each kind, whose objects (by the items' `index`) are
@@ -861,6 +981,7 @@ impl Bvh {
             nodes,
             sphere_order: spheres.iter().map(|i| i.index).collect(),
             triangle_order: triangles.iter().map(|i| i.index).collect(),
+            instanced: None,
         }
     }
 

@@ -23,7 +23,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::algorithm::Algorithm;
-use crate::kernel::types::{Frame, Plane, Ray, Sphere, Triangle};
+use crate::kernel::types::{Frame, Instance, Plane, Ray, Sphere, Triangle};
 use crate::math::{Real, Vec3, dot, vec3};
 use crate::scene::{Lighting, Object, Scene};
 use bvh::{Bvh, Search, Topology};
@@ -58,6 +58,20 @@ impl<T: Real> Prepared<T> {
         let kernel = in_kernel_units(scene);
         let bvh = kernel_bvh(scene, &kernel.0, algorithm, accel).map(Arc::new);
         Prepared::assemble(scene, kernel, algorithm, bvh).timed(clock)
+    }
+
+    /// `scene` prepared for `algorithm` through a BVH that names its instances, each mesh's
+    /// tree and triangles held once in the mesh's coordinates ([`bvh::Instanced`]; #64), for
+    /// the traversal ray by ray of a nearest hit; through the BVH of [`Prepared::new`] where
+    /// the scene places no mesh.
+    pub(crate) fn instanced(scene: &Scene, algorithm: Algorithm) -> Prepared<T> {
+        let clock = Instant::now();
+        let kernel = in_kernel_units(scene);
+        let bvh = match Topology::instanced(scene) {
+            Some(topology) => Some(Bvh::fit(&topology, &kernel.0, algorithm)),
+            None => kernel_bvh(scene, &kernel.0, algorithm, Search::Bvh),
+        };
+        Prepared::assemble(scene, kernel, algorithm, bvh.map(Arc::new)).timed(clock)
     }
 
     /// `scene` prepared for `algorithm` with a BVH already built by [`Prepared::new`] for the
@@ -155,6 +169,10 @@ pub(crate) struct Primitives<T> {
     pub triangle_objects: Vec<u32>,
     /// The BVH the spheres and triangles are ordered by, if the render uses one.
     pub bvh: Option<Arc<Bvh>>,
+    /// Where the BVH names instances ([`bvh::Instanced`]): each one's map into its mesh's
+    /// coordinates. The triangles are then the other objects', then each mesh's once, in the
+    /// mesh's coordinates.
+    pub instances: Vec<Instance<T>>,
 }
 
 /// Bytes of one object id (`objects` in shaders/bindings.wgsl, `u32`).
@@ -318,14 +336,31 @@ impl<T: Real> Primitives<T> {
         fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
             order.par_iter().map(|&k| list[k as usize]).collect()
         }
-        let (spheres, sphere_objects, triangles, triangle_objects) = match &bvh {
-            None => (
+        let instanced = bvh.as_ref().and_then(|b| b.instanced.as_ref());
+        let (spheres, sphere_objects, triangles, triangle_objects) = match (&bvh, instanced) {
+            (Some(bvh), Some(instanced)) => {
+                let (triangles, objects) = instanced_triangles(
+                    scene,
+                    bvh,
+                    instanced,
+                    &scene_triangles,
+                    &ids.triangles,
+                    origin,
+                );
+                (
+                    permute(&spheres, &bvh.sphere_order),
+                    permute(&ids.spheres, &bvh.sphere_order),
+                    triangles,
+                    objects,
+                )
+            }
+            (None, _) => (
                 spheres,
                 ids.spheres,
                 scene_triangles.par_iter().map(|t| round(t)).collect(),
                 ids.triangles,
             ),
-            Some(bvh) => (
+            (Some(bvh), None) => (
                 permute(&spheres, &bvh.sphere_order),
                 permute(&ids.spheres, &bvh.sphere_order),
                 bvh.triangle_order
@@ -335,6 +370,7 @@ impl<T: Real> Primitives<T> {
                 permute(&ids.triangles, &bvh.triangle_order),
             ),
         };
+        let instances = instanced.map_or(Vec::new(), |i| instance_maps(scene, i, origin));
         Primitives {
             spheres,
             planes,
@@ -343,6 +379,7 @@ impl<T: Real> Primitives<T> {
             plane_objects: ids.planes,
             triangle_objects,
             bvh,
+            instances,
         }
     }
 
@@ -374,6 +411,62 @@ impl<T> Primitives<T> {
         let bytes = t * triangle_bytes + ids + tree_bytes;
         (t > 0).then(|| bytes as f64 / t as f64)
     }
+}
+
+/// The triangles of a tree naming instances, rounded to `T`, and their objects: the other
+/// objects' (from `scene_triangles`, in the scene's order, whose objects are `objects`)
+/// measured from `origin`, then each mesh's in its own coordinates (object 0: a traversal
+/// takes an instance's object from the instance).
+fn instanced_triangles<T: Real>(
+    scene: &Scene,
+    bvh: &Bvh,
+    instanced: &bvh::Instanced,
+    scene_triangles: &[&crate::scene::Triangle],
+    objects: &[u32],
+    origin: Vec3<f64>,
+) -> (Vec<Triangle<T>>, Vec<u32>) {
+    let rest = &bvh.triangle_order[..instanced.rest_triangles as usize];
+    let mut triangles: Vec<Triangle<T>> = (rest.par_iter())
+        .map(|&k| triangle_at(scene_triangles[k as usize], origin))
+        .collect();
+    let mut ids: Vec<u32> = rest.iter().map(|&k| objects[k as usize]).collect();
+    for m in &instanced.meshes {
+        let mesh = &scene.instances[m.placement as usize].mesh;
+        let span = &bvh.triangle_order[m.first as usize..(m.first + m.len) as usize];
+        let zero = Vec3::splat(0.0);
+        triangles.par_extend(
+            span.par_iter()
+                .map(|&k| triangle_at(&mesh.triangles[k as usize], zero)),
+        );
+        ids.resize(triangles.len(), 0);
+    }
+    (triangles, ids)
+}
+
+/// Each instance's map from the kernel's coordinates (measured from `origin`, in `scene`'s
+/// units) into its mesh's: the inverse of its placement, composed in f64 and rounded to `T`.
+fn instance_maps<T: Real>(
+    scene: &Scene,
+    instanced: &bvh::Instanced,
+    origin: Vec3<f64>,
+) -> Vec<Instance<T>> {
+    let origin = glam::DVec3::from(origin);
+    (instanced.instances.iter())
+        .map(|i| {
+            let placement = &scene.instances[i.placement as usize];
+            let inverse = placement.transform.inverse();
+            let c = inverse.transform_point3(origin);
+            let row = |k: usize| {
+                let r = inverse.matrix3.row(k);
+                [r.x, r.y, r.z, c[k]].map(T::from_f64)
+            };
+            Instance {
+                rows: [row(0), row(1), row(2)],
+                root: i.root,
+                object: placement.object as u32,
+            }
+        })
+        .collect()
 }
 
 /// Triangle `t` measured from `origin`, rounded to `T`.

@@ -684,7 +684,12 @@ fn cpu_render<T: crate::math::Real>(
     lit: bool,
     timed: bool,
 ) -> Images<T> {
-    let prepared = Prepared::<T>::new(scene, algorithm, search);
+    // The CPU traverses ray by ray: a scene's instances are walked in their meshes' own
+    // coordinates, each mesh held once.
+    let prepared = match !scene.instances.is_empty() && search.uses_bvh(scene) {
+        true => Prepared::<T>::instanced(scene, algorithm),
+        false => Prepared::<T>::new(scene, algorithm, search),
+    };
     let start = Instant::now();
     let unwatched = Progress::default();
     let progress = progress.unwrap_or(&unwatched);
@@ -746,6 +751,7 @@ mod tests {
             plane_objects: vec![0; 1],
             triangle_objects: vec![0; 10],
             bvh: None,
+            instances: Vec::new(),
         };
         // 10 * 48 + 4 * 13 = 532 bytes without a BVH.
         let stages = with_layout(Stages::default(), &primitives, 48);
@@ -758,6 +764,7 @@ mod tests {
             sphere_order: vec![0; 2],
             triangle_order: vec![0; 10],
             depth: 1,
+            instanced: None,
         }));
         // + 3 * 64 + 4 * 12 = 240.
         let stages = with_layout(Stages::default(), &primitives, 48);

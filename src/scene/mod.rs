@@ -344,6 +344,10 @@ impl Scene {
                 *position = v(*position);
             }
         }
+        // A mesh keeps its own coordinates: its placement scales instead.
+        for p in &mut scene.instances {
+            p.transform = glam::DAffine3::from_scale(DVec3::splat(f)) * p.transform;
+        }
         scene
     }
 
