@@ -238,6 +238,17 @@ const NODE_ELEMENTS: u32 = 4u;
 #endif
 // Per primitive, in the order of `objects`: its index in the scene's own order (ties).
 @group(0) @binding(10) var<storage, read> prim_order: array<u32>;
+#if INSTANCES
+// The instances the tree names (INSTANCE_BIT, src/prepare/bvh.rs; #64): three rows each of the
+// map into its mesh's coordinates, and its mesh's root node and its object.
+@group(0) @binding(28) var<storage, read> instance_transforms: array<vec4<real>>;
+@group(0) @binding(29) var<storage, read> instance_words: array<vec2<u32>>;
+
+fn instance_at(k: u32) -> Instance {
+    let words = instance_words[k];
+    return Instance(instance_transforms[3u * k], instance_transforms[3u * k + 1u], instance_transforms[3u * k + 2u], words.x, words.y);
+}
+#endif
 
 // Element e (0 to NODE_ELEMENTS - 1) of node `node`, from the chunk it lies in.
 fn node_element(node: u32, e: u32) -> NodeElement {

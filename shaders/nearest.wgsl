@@ -151,13 +151,41 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
 #endif
 #if TRIANGLES
         case KIND_TRIANGLE: {
-            return triangle_normal(triangle_at(hit.index));
+            return placed_normal(hit, triangle_normal(triangle_at(hit.index)));
         }
 #endif
         default: {
             return vec3<real>(0.0);
         }
     }
+}
+
+// The normal `n` of the triangle `hit` hit, in the kernel's coordinates: as it is, or where an
+// instance places the triangle (hit_instance), moved out of its mesh's coordinates.
+fn placed_normal(hit: Hit, n: vec3<real>) -> vec3<real> {
+#if INSTANCES
+    if (hit_instance != NO_INSTANCE) {
+        let instance = instance_at(hit_instance);
+        if (i32(instance.object) == hit.object) {
+            return unit_normal(instance_normal(n, instance));
+        }
+    }
+#endif
+    return n;
+}
+
+// The ray as the primitive `hit` hit sees it: in its instance's mesh coordinates where an
+// instance places it (barycentrics and t are the same there).
+fn placed_ray(ray: Ray, hit: Hit) -> Ray {
+#if INSTANCES
+    if (hit_instance != NO_INSTANCE && hit.kind == KIND_TRIANGLE) {
+        let instance = instance_at(hit_instance);
+        if (i32(instance.object) == hit.object) {
+            return instance_ray(ray, instance);
+        }
+    }
+#endif
+    return ray;
 }
 
 // The hit primitive's index among the primitives of its kind in the scene's order (the BVH
@@ -206,7 +234,7 @@ fn hit_t(ray: Ray, hit: Hit) -> real {
 #if TRIANGLES
 #if RECHECK_F64
     if (hit.kind == KIND_TRIANGLE) {
-        return triangle_hit_t(ray, triangle_at(hit.index), hit.t);
+        return triangle_hit_t(placed_ray(ray, hit), triangle_at(hit.index), hit.t);
     }
 #endif
 #endif
@@ -217,8 +245,9 @@ fn hit_details(ray: Ray, hit: Hit) -> HitDetails {
 #if TRIANGLES
     if (hit.kind == KIND_TRIANGLE) {
         let tri = triangle_at(hit.index);
-        let t = triangle_hit_t(ray, tri, hit.t);
-        return HitDetails(triangle_normal(tri), t, triangle_uv(ray, shear_of(ray.direction), tri));
+        let placed = placed_ray(ray, hit);
+        let t = triangle_hit_t(placed, tri, hit.t);
+        return HitDetails(placed_normal(hit, triangle_normal(tri)), t, triangle_uv(placed, shear_of(placed.direction), tri));
     }
 #endif
     return HitDetails(hit_normal(ray, hit), hit.t, vec2<real>(0.0));

@@ -20,6 +20,16 @@
 // BVH_STACK, the traversal stack's entries, comes with the precision module: at least the
 // tree's depth, one entry per level at most is waiting (Bvh::stack_entries in src/prepare/bvh.rs).
 const LEAF_BIT: u32 = 0x80000000u;
+#if INSTANCES
+// Set, without LEAF_BIT, in a child's reference naming an instance (its index below):
+// traverse_ray.wgsl moves the ray into the instance's mesh there.
+const INSTANCE_BIT: u32 = 0x40000000u;
+const NO_INSTANCE: u32 = 0xFFFFFFFFu;
+// The instance whose mesh held the triangle of the nearest hit when it was found, or
+// NO_INSTANCE; the hit is that instance's where its object is the hit's (placed_normal in
+// nearest.wgsl). CPU mirror: Hit::instance in src/cpu/hit.rs.
+var<private> hit_instance: u32;
+#endif
 // A leaf's count word (leaf_word in src/prepare/bvh.rs): SPHERE_LEAF, and either MANY_LEAF
 // and its count, or its count in the low LEAF_COUNT bits and above them the object all its
 // primitives belong to (MIXED_OBJECTS: several).

@@ -14,17 +14,45 @@
 // the lanes of a subgroup, which reach leaves at different steps, wait for each other and test
 // their leaves together rather than each lane's leaf loop stalling the others at every node.
 // The nodes and primitives, and their order, are those of one loop doing both.
-fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
-    let ri = ray_inverse(ray);
-    let shear = shear_of(ray.direction);
+// With INSTANCES, a reference naming an instance moves the ray into its mesh's coordinates
+// (instance_ray; t is the same) to walk its mesh's tree, and the ray is the world's again once a
+// node waiting from before is popped.
+fn traverse_bvh(world: Ray, min_t: real, best: ptr<function, Hit>) {
+    var ray = world;
+    var ri = ray_inverse(ray);
+    var shear = shear_of(ray.direction);
     var stack_node: array<u32, BVH_STACK>;
     var stack_t: array<real, BVH_STACK>;
     var sp = 0u;
     var node = 0u;
+#if INSTANCES
+    hit_instance = NO_INSTANCE;
+    var inside = NO_INSTANCE;
+    var inside_object = 0u;
+    var inside_sp = 0u;
+#endif
     loop {
         var n: Visit;
         var run: LeafRun;
         loop {
+#if INSTANCES
+            if (inside != NO_INSTANCE && sp < inside_sp) {
+                ray = world;
+                ri = ray_inverse(ray);
+                shear = shear_of(ray.direction);
+                inside = NO_INSTANCE;
+            }
+            if ((node & INSTANCE_BIT) != 0u) {
+                inside = node & ~INSTANCE_BIT;
+                let instance = instance_at(inside);
+                ray = instance_ray(world, instance);
+                ri = ray_inverse(ray);
+                shear = shear_of(ray.direction);
+                inside_object = instance.object;
+                inside_sp = sp;
+                node = instance.root;
+            }
+#endif
             n = visit(node, ray, ri, min_t, cull_t(*best));
             run = leaf_run(n, n.t0 != NO_HIT && is_leaf(n.reference0), n.t1 != NO_HIT && is_leaf(n.reference1));
             if (run.length != 0u || !next_node(n, *best, &stack_node, &stack_t, &sp, &node)) {
@@ -35,8 +63,19 @@ fn traverse_bvh(ray: Ray, min_t: real, best: ptr<function, Hit>) {
             break;
         }
         for (var i = 0u; i < run.length; i++) {
-            intersect_primitive(ray, shear, min_t, run_primitive(run, i), select(n.count0, n.count1, in_leaf1(run, i)), best);
+            let count = select(n.count0, n.count1, in_leaf1(run, i));
+#if INSTANCES
+            intersect_primitive(ray, shear, min_t, run_primitive(run, i), in_instance(count, inside, inside_object), best);
+#else
+            intersect_primitive(ray, shear, min_t, run_primitive(run, i), count, best);
+#endif
         }
+#if INSTANCES
+        // Each instance is one object: a nearest hit of its object is in its mesh.
+        if (inside != NO_INSTANCE && (*best).object == i32(inside_object)) {
+            hit_instance = inside;
+        }
+#endif
         if (!next_node(n, *best, &stack_node, &stack_t, &sp, &node)) {
             break;
         }
@@ -75,3 +114,12 @@ fn next_node(n: Visit, best: Hit, stack_node: ptr<function, array<u32, BVH_STACK
     }
     return false;
 }
+#if INSTANCES
+
+// A leaf's count word as the traversal takes it: in an instance (`inside`), its primitives
+// the instance's `object` (a mesh's leaves name object 0, whichever instance places them).
+fn in_instance(count: u32, inside: u32, object: u32) -> u32 {
+    let placed = (count & LEAF_COUNT) | (min(object, MIXED_OBJECTS) << LEAF_OBJECT_SHIFT);
+    return select(count, placed, inside != NO_INSTANCE);
+}
+#endif

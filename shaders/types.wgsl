@@ -44,6 +44,41 @@ struct Ray {
     direction: vec3<real>,
 }
 
+// An instance as a traversal enters it (instance_at, shaders/bindings.wgsl): the rows of the
+// map from the kernel's coordinates to its mesh's (a row [x, y, z, w] gives one mesh
+// coordinate, x k.x + y k.y + z k.z + w), the node its mesh's tree starts at, and its object.
+struct Instance {
+    r0: vec4<real>,
+    r1: vec4<real>,
+    r2: vec4<real>,
+    root: u32,
+    object: u32,
+}
+
+// `ray` in `instance`'s mesh coordinates: its direction moved but not normalised, so that the
+// point at t along it is the kernel ray's point at t, placed.
+fn instance_ray(ray: Ray, instance: Instance) -> Ray {
+    let o = ray.origin;
+    let d = ray.direction;
+    let origin = vec3<real>(row_point(instance.r0, o), row_point(instance.r1, o), row_point(instance.r2, o));
+    let direction = vec3<real>(row_vector(instance.r0, d), row_vector(instance.r1, d), row_vector(instance.r2, d));
+    return Ray(origin, direction);
+}
+
+fn row_point(r: vec4<real>, p: vec3<real>) -> real {
+    return r.x * p.x + r.y * p.y + r.z * p.z + r.w;
+}
+
+fn row_vector(r: vec4<real>, v: vec3<real>) -> real {
+    return r.x * v.x + r.y * v.y + r.z * v.z;
+}
+
+// A normal `n` in `instance`'s mesh coordinates as a direction in the kernel's, not
+// normalised: by the transpose of the rows' map (the inverse transpose of the placement's).
+fn instance_normal(n: vec3<real>, instance: Instance) -> vec3<real> {
+    return instance.r0.xyz * n.x + instance.r1.xyz * n.y + instance.r2.xyz * n.z;
+}
+
 // A ray's frame for the watertight triangle test (triangle.wgsl), the same for every triangle,
 // so computed once per ray: the axes permuted so that z is the direction's largest component,
 // and the shear that takes the direction to +z.

@@ -191,14 +191,20 @@ pub(crate) struct Rendered<R> {
 /// buffers again).
 pub(crate) fn prepare<R: GpuReal>(scene: &Scene, variant: &Variant) -> Result<Prepared<R>> {
     check_capacity(scene, variant)?;
-    Ok(Prepared::new(scene, variant.algorithm, variant.search()))
+    Ok(match variant.instances {
+        true => Prepared::instanced(scene, variant.algorithm),
+        false => Prepared::new(scene, variant.algorithm, variant.search()),
+    })
 }
 
 /// `variant` as [`run`] compiles it for `scene`: its traversal stack sized to the scene's BVH,
 /// which is built again here, and its plane loops to the scene's planes (for `--emit-shader`,
 /// which writes the kernel a render ran).
 pub(crate) fn as_run(scene: &Scene, variant: Variant) -> Variant {
-    let bvh = crate::prepare::bvh_of(scene, variant.algorithm, variant.search());
+    let bvh = match variant.instances {
+        true => crate::prepare::instanced_bvh_of(scene, variant.algorithm),
+        false => crate::prepare::bvh_of(scene, variant.algorithm, variant.search()),
+    };
     variant
         .with_stack_for(bvh.as_ref())
         .with_planes(scene.primitive_counts()[1])
@@ -1023,6 +1029,10 @@ struct Layout<'a, R: GpuReal> {
     objects: Vec<u32>,
     nodes: &'a [crate::prepare::bvh::BvhNode],
     order: Vec<u32>,
+    /// The instances' maps into their meshes (three rows each) and their words (the mesh's
+    /// root node, the object).
+    instance_transforms: Vec<[R; 4]>,
+    instance_words: Vec<[u32; 2]>,
 }
 
 impl<'a, R: GpuReal> Layout<'a, R> {
@@ -1049,6 +1059,8 @@ impl<'a, R: GpuReal> Layout<'a, R> {
             objects: [&p.sphere_objects[..], &p.plane_objects, &p.triangle_objects].concat(),
             nodes,
             order,
+            instance_transforms: p.instances.iter().flat_map(|i| i.rows).collect(),
+            instance_words: p.instances.iter().map(|i| [i.root, i.object]).collect(),
         }
     }
 
@@ -1072,6 +1084,18 @@ impl<'a, R: GpuReal> Layout<'a, R> {
             ),
         ];
         named.extend(chunk_names("triangles").zip(triangles));
+        for (name, buffer) in [
+            (
+                "instance_transforms",
+                storage_buffer(gpu, "instance_transforms", &self.instance_transforms),
+            ),
+            (
+                "instance_words",
+                storage_buffer(gpu, "instance_words", &self.instance_words),
+            ),
+        ] {
+            named.push((name.to_owned(), buffer));
+        }
         let nodes = chunked_upload(gpu, "bvh_nodes", self.nodes, variant);
         named.extend(chunk_names("bvh_nodes").zip(nodes));
         named

@@ -111,6 +111,7 @@ impl Gpu {
             list_origin: false,
             kinds: shader::Kinds::ALL,
             bvh: false,
+            instances: false,
             packets,
             eight_lanes: packets && self.adapter.get_info().subgroup_max_size == PACKET_LANES,
             lane_rays_limit: shader::MAX_LANE_RAYS,

@@ -67,10 +67,7 @@ impl<T: Real> Prepared<T> {
     pub(crate) fn instanced(scene: &Scene, algorithm: Algorithm) -> Prepared<T> {
         let clock = Instant::now();
         let kernel = in_kernel_units(scene);
-        let bvh = match Topology::instanced(scene) {
-            Some(topology) => Some(Bvh::fit(&topology, &kernel.0, algorithm)),
-            None => kernel_bvh(scene, &kernel.0, algorithm, Search::Bvh),
-        };
+        let bvh = instanced_bvh(scene, &kernel.0, algorithm);
         Prepared::assemble(scene, kernel, algorithm, bvh.map(Arc::new)).timed(clock)
     }
 
@@ -211,6 +208,20 @@ fn binary_exponent(x: f64) -> i32 {
 /// of the preparation.
 pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Search) -> Option<Bvh> {
     kernel_bvh(scene, &in_kernel_units(scene).0, algorithm, accel)
+}
+
+/// The BVH [`Prepared::instanced`] builds for `scene`, without the rest of the preparation.
+pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bvh> {
+    instanced_bvh(scene, &in_kernel_units(scene).0, algorithm)
+}
+
+/// The BVH over `kernel`, `scene` in kernel units, that names `scene`'s instances
+/// ([`Topology::instanced`]), or where it places no mesh its own.
+fn instanced_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm) -> Option<Bvh> {
+    match Topology::instanced(scene) {
+        Some(topology) => Some(Bvh::fit(&topology, kernel, algorithm)),
+        None => kernel_bvh(scene, kernel, algorithm, Search::Bvh),
+    }
 }
 
 /// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one: the topology of
@@ -398,9 +409,10 @@ impl<T: Real> Primitives<T> {
 }
 
 impl<T> Primitives<T> {
-    /// `raycast::Stages::bytes_per_triangle`: each triangle taking `triangle_bytes`, an
-    /// object id for every sphere, plane and triangle, and the tree `tree_bytes`; `None`
-    /// without triangles.
+    /// `raycast::Stages::bytes_per_triangle`: each triangle held taking `triangle_bytes`, an
+    /// object id for every sphere, plane and triangle held, the instances' maps and words, and
+    /// the tree `tree_bytes`, over the scene's triangles (each instance's mesh counted once
+    /// for every instance, though held once); `None` without triangles.
     pub(crate) fn bytes_per_triangle(
         &self,
         triangle_bytes: usize,
@@ -408,8 +420,22 @@ impl<T> Primitives<T> {
     ) -> Option<f64> {
         let t = self.triangles.len();
         let ids = OBJECT_ID_BYTES * (self.spheres.len() + self.planes.len() + t);
-        let bytes = t * triangle_bytes + ids + tree_bytes;
-        (t > 0).then(|| bytes as f64 / t as f64)
+        let instances = self.instances.len() * (12 * size_of::<T>() + 8);
+        let bytes = t * triangle_bytes + ids + instances + tree_bytes;
+        let scene = self.scene_triangles();
+        (scene > 0).then(|| bytes as f64 / scene as f64)
+    }
+
+    /// How many triangles the scene has: those held, or where the BVH names instances, the
+    /// other objects' and each instance's mesh's.
+    fn scene_triangles(&self) -> usize {
+        match self.bvh.as_ref().and_then(|b| b.instanced.as_ref()) {
+            None => self.triangles.len(),
+            Some(i) => {
+                let placed = i.instances.iter().map(|k| i.meshes[k.mesh as usize].len as usize);
+                i.rest_triangles as usize + placed.sum::<usize>()
+            }
+        }
     }
 }
 

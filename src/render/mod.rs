@@ -198,7 +198,9 @@ impl Request {
         if let Some(hook) = &self.shade {
             variant = variant.with_shade(hook.key, hook.traces);
         }
-        let variant = variant.with_outputs(self.kernel_outputs());
+        let variant = variant
+            .with_outputs(self.kernel_outputs())
+            .with_instances(scene);
         match &self.kernel {
             Some(kernel) => kernel.for_variant(variant),
             None => Ok(variant),

@@ -183,7 +183,7 @@ impl RenderOptions {
         }
     }
 
-    fn request(&self) -> Request {
+    pub(crate) fn request(&self) -> Request {
         Request {
             outputs: self.outputs,
             shade: self.shade.clone(),

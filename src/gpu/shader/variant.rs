@@ -103,6 +103,10 @@ pub(crate) struct Variant {
     pub kinds: Kinds,
     /// Spheres and triangles are found through a BVH (src/prepare/bvh.rs) instead of brute force.
     pub bvh: bool,
+    /// The BVH names the scene's instances, each mesh held once in its own coordinates, and
+    /// the traversal (ray by ray) moves rays into them (`INSTANCES`; #64,
+    /// [`Variant::with_instances`]).
+    pub instances: bool,
     /// The device has subgroups of at least 8 invocations: the rays of a subgroup traverse the
     /// BVH together, sharing node fetches ([`Variant::uses_packets`]).
     pub packets: bool,
@@ -204,6 +208,7 @@ impl Variant {
             list_origin: false,
             kinds: Kinds::ALL,
             bvh: false,
+            instances: false,
             packets: false,
             eight_lanes: false,
             lane_rays_limit: MAX_LANE_RAYS,
@@ -334,6 +339,9 @@ impl Variant {
         }
         if self.uses_bvh() {
             d.push("BVH");
+            if self.instances {
+                d.push("INSTANCES");
+            }
             if !self.uses_packets() || hook_rays {
                 d.push("RAY_BY_RAY");
             }
@@ -408,7 +416,23 @@ impl Variant {
             Casts::Rays => !self.count && !self.closest,
             Casts::Pixels => false,
         };
-        self.packets && self.uses_bvh() && coherent
+        self.packets && self.uses_bvh() && coherent && !self.instances
+    }
+
+    /// This variant walking `scene`'s instances in their meshes' coordinates
+    /// ([`Variant::instances`]) where it places meshes and the kernel finds the nearest hits of
+    /// the camera's rays ray by ray: neither packets (which would have to move every lane's ray
+    /// at once), nor the certainty pass (whose bounds do not yet count the instance's map), nor
+    /// a user's hook or kernel, nor a query kernel.
+    pub(crate) fn with_instances(self, scene: &crate::scene::Scene) -> Variant {
+        let instances = !scene.instances.is_empty()
+            && self.uses_bvh()
+            && !self.uses_packets()
+            && !self.certainty
+            && self.is_ours()
+            && self.casts == Casts::Camera
+            && !(self.count || self.closest || self.occluded);
+        Variant { instances, ..self }
     }
 
     /// Whether the kernel loads BVH nodes, and in f32 triangles, as 64-bit words (`WIDE_LOADS`,
@@ -524,6 +548,7 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                         list_origin,
                         kinds: Kinds::ALL,
                         bvh: false,
+                        instances: false,
                         packets: false,
                         eight_lanes: false,
                         lane_rays_limit: MAX_LANE_RAYS,
@@ -572,6 +597,18 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                                 packets,
                                 eight_lanes,
                                 lane_rays_limit,
+                                ..plain
+                            });
+                        }
+                    }
+                    if casts == Casts::Camera && !certainty {
+                        // Instances walked in their meshes' coordinates, ray by ray, in one
+                        // chunk and in all (#64).
+                        for chunks in [1, MAX_CHUNKS] {
+                            v.push(Variant {
+                                bvh: true,
+                                instances: true,
+                                chunks,
                                 ..plain
                             });
                         }

@@ -766,6 +766,76 @@ mod tests {
         }
     }
 
+    /// The GPU kernel walking instances in their meshes' coordinates ray by ray (`INSTANCES`)
+    /// renders as its CPU mirror: in f32 the same object on every pixel, distances within
+    /// 1e-5 relative and normals within 1e-4 (the kernel may fuse what the mirror rounds
+    /// twice); in f64 within 1e-12. And each mesh's triangles are held once: fewer bytes a
+    /// scene triangle than one tree over every copy.
+    #[test]
+    fn the_kernel_walks_instances_as_its_mirror_does() {
+        let gpu = crate::tests::common::gpu();
+        let scene = placed_scene([64, 48]);
+        let mut precisions = vec![(crate::Precision::F32, 1e-5, 1e-4)];
+        if gpu.has_f64() {
+            precisions.push((crate::Precision::F64, 1e-12, 1e-12));
+        }
+        for (precision, distance, normal) in precisions {
+            let options = RenderOptions {
+                precision: Some(precision),
+                tuning: crate::Tuning {
+                    packets: Some(false),
+                    ..crate::Tuning::default()
+                },
+                timed: true,
+                ..RenderOptions::default()
+            };
+            let variant = options
+                .request()
+                .kernel_variant(gpu, &scene, options.mode(crate::Device::Gpu))
+                .unwrap();
+            assert!(variant.instances, "{precision:?}");
+            let on_gpu = gpu.render(&scene, &options).unwrap();
+            let on_cpu = Cpu.render(&scene, &options).unwrap();
+            let (a, b) = (widened(on_gpu), widened(on_cpu));
+            assert_eq!(a.0, b.0, "{precision:?}");
+            for k in (0..a.0.len()).filter(|&k| a.0[k] >= 0) {
+                let d = b.1[k];
+                assert!(
+                    (a.1[k] - d).abs() <= distance * d,
+                    "{precision:?} pixel {k}"
+                );
+                let off = (0..3)
+                    .map(|j| (a.2[k][j] - b.2[k][j]).abs())
+                    .fold(0.0, f64::max);
+                assert!(
+                    off <= normal,
+                    "{precision:?} pixel {k}: {:?} {:?}",
+                    a.2[k],
+                    b.2[k]
+                );
+            }
+            for object in [1, 3, 5] {
+                assert!(
+                    a.0.contains(&object),
+                    "{precision:?}: instance {object} seen"
+                );
+            }
+        }
+    }
+
+    /// A render's ids, distances and normals, in f64.
+    #[allow(clippy::type_complexity)]
+    fn widened(images: crate::AnyImages) -> (Vec<i32>, Vec<f64>, Vec<[f64; 3]>) {
+        match images {
+            crate::AnyImages::F32(i) => (
+                i.id,
+                i.distance.into_iter().map(f64::from).collect(),
+                i.normal.into_iter().map(|n| n.map(f64::from)).collect(),
+            ),
+            crate::AnyImages::F64(i) => (i.id, i.distance, i.normal),
+        }
+    }
+
     /// 100 copies of a 60-triangle mesh at seeded random poses (rotations about random axes,
     /// non-uniform scales, translations up to 1e3), seen from 4,000 away.
     fn hundred_copies() -> Scene {
