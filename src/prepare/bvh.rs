@@ -887,16 +887,10 @@ impl Bvh {
     ) {
         let spheres = (kernel.objects.iter()).filter(|o| matches!(o, Object::Sphere { .. }));
         let spheres = grown(primitive_boxes(spheres, origin).0, eye);
-        let scene_triangles: Vec<&crate::scene::Triangle> = (kernel.objects.iter())
-            .flat_map(|o| match o {
-                Object::Triangle { corners } => std::slice::from_ref(corners),
-                Object::Soup { triangles, .. } => &triangles[..],
-                _ => &[],
-            })
-            .collect();
+        let scene_triangles = crate::prepare::SceneTriangles::of(kernel);
         let order = &self.triangle_order;
         let rest = (order[..instanced.rest_triangles as usize].iter())
-            .map(|&k| triangle_box(scene_triangles[k as usize], origin))
+            .map(|&k| triangle_box(scene_triangles.get(k).0, origin))
             .collect();
         let mut triangles = grown(rest, eye);
         let mut meshes = Vec::with_capacity(instanced.meshes.len());
@@ -912,16 +906,17 @@ impl Bvh {
         let sphere_order = &self.sphere_order;
         let sphere = |k: usize| &spheres[sphere_order[k] as usize];
         fit_leaves(&mut self.nodes, sphere, |k| &triangles[k]);
+        let placed = (instanced.instances.iter())
+            .map(|i| {
+                let placement = &kernel.instances[i.placement as usize];
+                let (lo, hi) = moved_box(meshes[i.mesh as usize], &placement.transform);
+                (Vec3::from(lo) - origin, Vec3::from(hi) - origin)
+            })
+            .collect();
+        let placed = grown(placed, eye);
         let instance_box = |i: u32| {
-            let instance = &instanced.instances[i as usize];
-            let placement = &kernel.instances[instance.placement as usize];
-            let (lo, hi) = moved_box(meshes[instance.mesh as usize], &placement.transform);
-            let item = &grown(
-                vec![(Vec3::from(lo) - origin, Vec3::from(hi) - origin)],
-                eye,
-            )[0];
             let mut b = Aabb::EMPTY;
-            b.grow(item.lo, item.hi);
+            b.grow(placed[i as usize].lo, placed[i as usize].hi);
             b
         };
         fit_nodes(&mut self.nodes, instance_box);

@@ -317,6 +317,9 @@ impl<T: Real> Primitives<T> {
     /// into the BVH's order, one pass over them rather than a rounding and then a permutation
     /// (docs/performance.md#bvh).
     fn ordered(scene: &Scene, algorithm: Algorithm, bvh: Option<Arc<Bvh>>) -> Primitives<T> {
+        if let Some(bvh) = bvh.as_ref().filter(|b| b.instanced.is_some()) {
+            return Primitives::instanced(scene, algorithm, bvh.clone());
+        }
         let origin = kernel_origin(scene, algorithm);
         let ids = ObjectIds::of(scene);
         let mut spheres = Vec::new();
@@ -344,34 +347,14 @@ impl<T: Real> Primitives<T> {
             }
         }
         let round = |t: &crate::scene::Triangle| triangle_at(t, origin);
-        fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
-            order.par_iter().map(|&k| list[k as usize]).collect()
-        }
-        let instanced = bvh.as_ref().and_then(|b| b.instanced.as_ref());
-        let (spheres, sphere_objects, triangles, triangle_objects) = match (&bvh, instanced) {
-            (Some(bvh), Some(instanced)) => {
-                let (triangles, objects) = instanced_triangles(
-                    scene,
-                    bvh,
-                    instanced,
-                    &scene_triangles,
-                    &ids.triangles,
-                    origin,
-                );
-                (
-                    permute(&spheres, &bvh.sphere_order),
-                    permute(&ids.spheres, &bvh.sphere_order),
-                    triangles,
-                    objects,
-                )
-            }
-            (None, _) => (
+        let (spheres, sphere_objects, triangles, triangle_objects) = match &bvh {
+            None => (
                 spheres,
                 ids.spheres,
                 scene_triangles.par_iter().map(|t| round(t)).collect(),
                 ids.triangles,
             ),
-            (Some(bvh), None) => (
+            Some(bvh) => (
                 permute(&spheres, &bvh.sphere_order),
                 permute(&ids.spheres, &bvh.sphere_order),
                 bvh.triangle_order
@@ -381,7 +364,6 @@ impl<T: Real> Primitives<T> {
                 permute(&ids.triangles, &bvh.triangle_order),
             ),
         };
-        let instances = instanced.map_or(Vec::new(), |i| instance_maps(scene, i, origin));
         Primitives {
             spheres,
             planes,
@@ -390,7 +372,28 @@ impl<T: Real> Primitives<T> {
             plane_objects: ids.planes,
             triangle_objects,
             bvh,
-            instances,
+            instances: Vec::new(),
+        }
+    }
+
+    /// [`Primitives::ordered`] with a BVH naming `scene`'s instances ([`bvh::Instanced`]): the
+    /// other objects' triangles in the kernel's coordinates, each mesh's once in its own, and
+    /// the instances' maps. Only the other objects' triangles are read, not the copies the
+    /// scene holds of each instance's.
+    fn instanced(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
+        let origin = kernel_origin(scene, algorithm);
+        let instanced = bvh.instanced.as_ref().expect("a tree naming instances");
+        let solid = Primitives::<T>::ordered(&only_spheres_and_planes(scene), algorithm, None);
+        let (triangles, triangle_objects) = instanced_triangles(scene, &bvh, instanced, origin);
+        Primitives {
+            spheres: permute(&solid.spheres, &bvh.sphere_order),
+            sphere_objects: permute(&solid.sphere_objects, &bvh.sphere_order),
+            planes: solid.planes,
+            plane_objects: solid.plane_objects,
+            triangles,
+            triangle_objects,
+            instances: instance_maps(scene, instanced, origin),
+            bvh: Some(bvh),
         }
     }
 
@@ -439,23 +442,47 @@ impl<T> Primitives<T> {
     }
 }
 
+/// `list` in `order` (`list[order[k]]` at k).
+fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
+    order.par_iter().map(|&k| list[k as usize]).collect()
+}
+
+/// `scene` with only its spheres and planes, at their places among its objects (the others
+/// are empty soups): their ids are the scene's.
+fn only_spheres_and_planes(scene: &Scene) -> Scene {
+    let objects = (scene.objects.iter())
+        .map(|o| match o {
+            Object::Sphere { .. } | Object::Plane { .. } => o.clone(),
+            _ => Object::Soup {
+                path: Default::default(),
+                triangles: Vec::new(),
+            },
+        })
+        .collect();
+    Scene {
+        objects,
+        camera: scene.camera.clone(),
+        lighting: Default::default(),
+        warnings: Vec::new(),
+        instances: Vec::new(),
+    }
+}
+
 /// The triangles of a tree naming instances, rounded to `T`, and their objects: the other
-/// objects' (from `scene_triangles`, in the scene's order, whose objects are `objects`)
-/// measured from `origin`, then each mesh's in its own coordinates (object 0: a traversal
-/// takes an instance's object from the instance).
+/// objects' (in the scene's order) measured from `origin`, then each mesh's in its own
+/// coordinates (object 0: a traversal takes an instance's object from the instance).
 fn instanced_triangles<T: Real>(
     scene: &Scene,
     bvh: &Bvh,
     instanced: &bvh::Instanced,
-    scene_triangles: &[&crate::scene::Triangle],
-    objects: &[u32],
     origin: Vec3<f64>,
 ) -> (Vec<Triangle<T>>, Vec<u32>) {
     let rest = &bvh.triangle_order[..instanced.rest_triangles as usize];
+    let scene_triangles = SceneTriangles::of(scene);
     let mut triangles: Vec<Triangle<T>> = (rest.par_iter())
-        .map(|&k| triangle_at(scene_triangles[k as usize], origin))
+        .map(|&k| triangle_at(scene_triangles.get(k).0, origin))
         .collect();
-    let mut ids: Vec<u32> = rest.iter().map(|&k| objects[k as usize]).collect();
+    let mut ids: Vec<u32> = rest.iter().map(|&k| scene_triangles.get(k).1).collect();
     for m in &instanced.meshes {
         let mesh = &scene.instances[m.placement as usize].mesh;
         let span = &bvh.triangle_order[m.first as usize..(m.first + m.len) as usize];
@@ -467,6 +494,38 @@ fn instanced_triangles<T: Real>(
         ids.resize(triangles.len(), 0);
     }
     (triangles, ids)
+}
+
+/// A scene's triangles by their index in its order (a soup's all under its one id), found
+/// through each object's first index: without a list of every triangle, which for a scene of
+/// instances would hold every copy's.
+pub(crate) struct SceneTriangles<'a> {
+    /// Each triangle-holding object's first index, its id and its triangles.
+    starts: Vec<(u32, u32, &'a [crate::scene::Triangle])>,
+}
+
+impl<'a> SceneTriangles<'a> {
+    pub(crate) fn of(scene: &'a Scene) -> SceneTriangles<'a> {
+        let mut next = 0u32;
+        let mut starts = Vec::new();
+        for (id, object) in scene.objects.iter().enumerate() {
+            let triangles = match object {
+                Object::Triangle { corners } => std::slice::from_ref(corners),
+                Object::Soup { triangles, .. } => &triangles[..],
+                _ => continue,
+            };
+            starts.push((next, id as u32, triangles));
+            next += triangles.len() as u32;
+        }
+        SceneTriangles { starts }
+    }
+
+    /// Triangle `k` of the scene's order, and its object's id.
+    pub(crate) fn get(&self, k: u32) -> (&'a crate::scene::Triangle, u32) {
+        let at = self.starts.partition_point(|(first, _, _)| *first <= k) - 1;
+        let (first, id, triangles) = self.starts[at];
+        (&triangles[(k - first) as usize], id)
+    }
 }
 
 /// Each instance's map from the kernel's coordinates (measured from `origin`, in `scene`'s

@@ -2,8 +2,10 @@
 //! for a frame (the moved instances placed, the BVH's shape joined from the meshes' trees)
 //! (and the tree over the instances alone, all a frame would build if rays moved into the
 //! meshes' coordinates) against building the flattened scene's tree, when a poses file's frame moves its instances
-//! and when every instance moves; and the kernel's GPU time through the joined tree against the
-//! flattened scene's own tree, on the same frames. Frames interleaved.
+//! and when every instance moves; the whole preparation of a tree naming the instances (rays
+//! moved into the meshes: top tree, boxes, triangles rounded, maps); and the kernel's GPU time
+//! through the joined tree against the flattened scene's own tree, and ray by ray through the
+//! tree naming the instances. Frames interleaved.
 //!
 //!     RAYCAST_MEASURE="SCENE POSES [--frames N]" \
 //!         cargo test --release -p raycast --lib pose_cost -- --ignored --nocapture
@@ -33,6 +35,13 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
         timed: true,
         ..RenderOptions::default()
     };
+    let per_ray = RenderOptions {
+        tuning: crate::Tuning {
+            packets: Some(false),
+            ..crate::Tuning::default()
+        },
+        ..options.clone()
+    };
     let triangles: usize = scene.primitive_counts()[2];
     println!(
         "adapter: {}; {scene_path}: {} instances, {triangles} triangles; {frames} frames of {poses_path}",
@@ -51,9 +60,9 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
     let mut viewer = Viewer::from(scene.clone());
     viewer.render(scene.camera.clone(), Topology::of);
     println!(
-        "| frame | moved | place: ms | join: ms | top tree alone: ms | flattened build: ms | kernel joined: ms | kernel flattened: ms |"
+        "| frame | moved | place: ms | join: ms | top tree alone: ms | instanced preparation: ms | flattened build: ms | kernel joined: ms | kernel flattened: ms | kernel instanced, per ray: ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for what in ["pose", "all"] {
         for frame in 0..frames {
             let transforms = match what {
@@ -70,6 +79,11 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
                 clock.elapsed().as_secs_f64()
             });
             let top = crate::prepare::bvh::top_tree_seconds(viewer.as_ref());
+            let instanced = viewer.render(camera.clone(), |s| {
+                let clock = Instant::now();
+                crate::prepare::Prepared::<f32>::instanced(s, crate::Algorithm::Robust);
+                clock.elapsed().as_secs_f64()
+            });
             let flattened = Scene {
                 instances: Vec::new(),
                 ..viewer.as_ref().clone()
@@ -78,19 +92,24 @@ fn pose_cost() -> Result<(), Box<dyn std::error::Error>> {
             Topology::build(&flattened);
             let build = clock.elapsed().as_secs_f64();
             let joined_kernel = viewer
-                .render(camera, |s| gpu.render(s, &options))?
+                .render(camera.clone(), |s| gpu.render(s, &options))?
+                .kernel_s();
+            let instanced_kernel = viewer
+                .render(camera, |s| gpu.render(s, &per_ray))?
                 .kernel_s();
             let flat_kernel = gpu.render(&flattened, &options)?.kernel_s();
             let ms = |s: Option<f64>| s.map_or("-".into(), |s| format!("{:.2}", 1e3 * s));
             println!(
-                "| {frame} | {what} ({}) | {:.2} | {:.2} | {:.2} | {:.1} | {} | {} |",
+                "| {frame} | {what} ({}) | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} |",
                 transforms.len(),
                 1e3 * place,
                 1e3 * join,
                 1e3 * top,
+                1e3 * instanced,
                 1e3 * build,
                 ms(joined_kernel),
                 ms(flat_kernel),
+                ms(instanced_kernel),
             );
         }
     }
