@@ -23,7 +23,7 @@ use crate::scene::{Object, Scene, moved_box};
 mod two_level;
 #[cfg(test)]
 pub(crate) use two_level::top_tree_seconds;
-pub(crate) use two_level::{MeshTree, Rest};
+pub(crate) use two_level::{MeshTree, Rest, placements};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
@@ -260,6 +260,9 @@ pub(crate) struct Instanced {
     pub meshes: Vec<MeshSpan>,
     /// The other objects' triangles, before the meshes'.
     pub rest_triangles: u32,
+    /// Each object's first triangle in the scene's order: the other objects' are found by it
+    /// ([`crate::prepare::SceneTriangles`]) in a scene that holds no copy of the instances'.
+    pub firsts: Vec<u32>,
 }
 
 /// An instance of an [`Instanced`] tree: its placement (index in `Scene::instances`), the
@@ -887,7 +890,7 @@ impl Bvh {
     ) {
         let spheres = (kernel.objects.iter()).filter(|o| matches!(o, Object::Sphere { .. }));
         let spheres = grown(primitive_boxes(spheres, origin).0, eye);
-        let scene_triangles = crate::prepare::SceneTriangles::of(kernel);
+        let scene_triangles = crate::prepare::SceneTriangles::of(kernel, &instanced.firsts);
         let order = &self.triangle_order;
         let rest = (order[..instanced.rest_triangles as usize].iter())
             .map(|&k| triangle_box(scene_triangles.get(k).0, origin))

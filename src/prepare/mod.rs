@@ -66,7 +66,7 @@ impl<T: Real> Prepared<T> {
     /// the scene places no mesh.
     pub(crate) fn instanced(scene: &Scene, algorithm: Algorithm) -> Prepared<T> {
         let clock = Instant::now();
-        let kernel = in_kernel_units(scene);
+        let kernel = instanced_kernel_units(scene);
         let bvh = instanced_bvh(scene, &kernel.0, algorithm);
         Prepared::assemble(scene, kernel, algorithm, bvh.map(Arc::new)).timed(clock)
     }
@@ -212,7 +212,39 @@ pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Search) -> Opti
 
 /// The BVH [`Prepared::instanced`] builds for `scene`, without the rest of the preparation.
 pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bvh> {
-    instanced_bvh(scene, &in_kernel_units(scene).0, algorithm)
+    instanced_bvh(scene, &instanced_kernel_units(scene).0, algorithm)
+}
+
+/// [`in_kernel_units`] for a tree naming `scene`'s instances: the scene without its copies
+/// of the instances' triangles (their meshes are read instead), so that a frame scales and
+/// copies only the other objects, at `scene`'s unit.
+fn instanced_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
+    // The objects the tree names as instances (a caller may have changed others since).
+    let mut is_copy = vec![false; scene.objects.len()];
+    for p in bvh::placements(scene) {
+        is_copy[p.object] = true;
+    }
+    let objects = (scene.objects.iter().zip(is_copy))
+        .map(|(object, copy)| match copy {
+            true => Object::Soup {
+                path: Default::default(),
+                triangles: Vec::new(),
+            },
+            false => object.clone(),
+        })
+        .collect();
+    let light = Scene {
+        camera: scene.camera.clone(),
+        objects,
+        lighting: Default::default(),
+        warnings: Vec::new(),
+        instances: scene.instances.clone(),
+    };
+    let kernel = match unit_exponent(scene) {
+        0 => light,
+        e => light.scaled_by_pow2(-e),
+    };
+    (Cow::Owned(kernel), kernel_unit(scene))
 }
 
 /// The BVH over `kernel`, `scene` in kernel units, that names `scene`'s instances
@@ -435,7 +467,10 @@ impl<T> Primitives<T> {
         match self.bvh.as_ref().and_then(|b| b.instanced.as_ref()) {
             None => self.triangles.len(),
             Some(i) => {
-                let placed = i.instances.iter().map(|k| i.meshes[k.mesh as usize].len as usize);
+                let placed = i
+                    .instances
+                    .iter()
+                    .map(|k| i.meshes[k.mesh as usize].len as usize);
                 i.rest_triangles as usize + placed.sum::<usize>()
             }
         }
@@ -478,7 +513,7 @@ fn instanced_triangles<T: Real>(
     origin: Vec3<f64>,
 ) -> (Vec<Triangle<T>>, Vec<u32>) {
     let rest = &bvh.triangle_order[..instanced.rest_triangles as usize];
-    let scene_triangles = SceneTriangles::of(scene);
+    let scene_triangles = SceneTriangles::of(scene, &instanced.firsts);
     let mut triangles: Vec<Triangle<T>> = (rest.par_iter())
         .map(|&k| triangle_at(scene_triangles.get(k).0, origin))
         .collect();
@@ -505,17 +540,18 @@ pub(crate) struct SceneTriangles<'a> {
 }
 
 impl<'a> SceneTriangles<'a> {
-    pub(crate) fn of(scene: &'a Scene) -> SceneTriangles<'a> {
-        let mut next = 0u32;
+    /// The triangles of `scene`'s objects, object k's from `firsts[k]` on (a scene's own
+    /// order, or another's whose objects held more: the copies an instanced preparation
+    /// leaves out).
+    pub(crate) fn of(scene: &'a Scene, firsts: &[u32]) -> SceneTriangles<'a> {
         let mut starts = Vec::new();
-        for (id, object) in scene.objects.iter().enumerate() {
+        for ((id, object), &first) in scene.objects.iter().enumerate().zip(firsts) {
             let triangles = match object {
                 Object::Triangle { corners } => std::slice::from_ref(corners),
-                Object::Soup { triangles, .. } => &triangles[..],
+                Object::Soup { triangles, .. } if !triangles.is_empty() => &triangles[..],
                 _ => continue,
             };
-            starts.push((next, id as u32, triangles));
-            next += triangles.len() as u32;
+            starts.push((first, id as u32, triangles));
         }
         SceneTriangles { starts }
     }

@@ -132,7 +132,10 @@ fn join(scene: &Scene, by_reference: bool) -> Option<Topology> {
         };
         joined.nodes[0] = BvhNode::new(spheres.unwrap_or(empty), triangles);
     }
-    let instanced = by_reference.then(|| joined.meshes_once(scene, &placed, &groups));
+    let instanced = by_reference.then(|| Instanced {
+        firsts: firsts.clone(),
+        ..joined.meshes_once(scene, &placed, &groups)
+    });
     let depth = match &instanced {
         Some(i) => instanced_depth(&joined.nodes, i, 0),
         None => depth_of(&joined.nodes, 0),
@@ -243,7 +246,7 @@ fn per_mesh<'a, T: Clone>(
 
 /// The placements of `scene` whose object is the soup its mesh places (a caller may have
 /// changed the objects since), one an object, of meshes with triangles.
-fn placements(scene: &Scene) -> Vec<&Placement> {
+pub(crate) fn placements(scene: &Scene) -> Vec<&Placement> {
     let mut seen = vec![false; scene.objects.len()];
     (scene.instances.iter())
         .filter(|p| {
@@ -467,6 +470,7 @@ impl Joined {
             instances,
             meshes: meshes.into_iter().map(|(m, _)| m).collect(),
             rest_triangles,
+            firsts: Vec::new(),
         }
     }
 
