@@ -23,7 +23,7 @@ use crate::scene::{Object, Scene, moved_box};
 mod two_level;
 #[cfg(test)]
 pub(crate) use two_level::top_tree_seconds;
-pub(crate) use two_level::{MeshTree, Rest, placements};
+pub(crate) use two_level::{MeshTree, Rest, placed_magnitude, placements};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).

@@ -185,12 +185,15 @@ const OBJECT_ID_BYTES: usize = 4;
 /// f64's range for a camera near 1e-300: `e` is then raised to keep every kernel coordinate
 /// within 2^61, which also adds exactly `k` under scaling.
 pub(crate) fn unit_exponent(scene: &Scene) -> i32 {
+    exponent_for(scene, shared::objects_magnitude(scene))
+}
+
+/// [`unit_exponent`] of `scene` whose objects' largest coordinate is at most `objects`.
+fn exponent_for(scene: &Scene, objects: f64) -> i32 {
     let c = &scene.camera;
     let plane = c.image_plane();
     let camera = binary_exponent(c.focal_length.max(plane.width).max(plane.height));
-    let largest = scene
-        .camera_magnitude()
-        .max(shared::objects_magnitude(scene));
+    let largest = scene.camera_magnitude().max(objects);
     camera.max(binary_exponent(largest) - MAX_KERNEL_EXPONENT)
 }
 
@@ -217,7 +220,7 @@ pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bv
 
 /// [`in_kernel_units`] for a tree naming `scene`'s instances: the scene without its copies
 /// of the instances' triangles (their meshes are read instead), so that a frame scales and
-/// copies only the other objects, at `scene`'s unit.
+/// copies only the other objects.
 fn instanced_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
     // The objects the tree names as instances (a caller may have changed others since).
     let mut is_copy = vec![false; scene.objects.len()];
@@ -240,11 +243,17 @@ fn instanced_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
         warnings: Vec::new(),
         instances: scene.instances.clone(),
     };
-    let kernel = match unit_exponent(scene) {
+    // The instances' coordinates bounded by their meshes' boxes moved: not a pass over every
+    // copy's.
+    let e = exponent_for(
+        scene,
+        light.objects_magnitude().max(bvh::placed_magnitude(scene)),
+    );
+    let kernel = match e {
         0 => light,
         e => light.scaled_by_pow2(-e),
     };
-    (Cow::Owned(kernel), kernel_unit(scene))
+    (Cow::Owned(kernel), 2f64.powi(e))
 }
 
 /// The BVH over `kernel`, `scene` in kernel units, that names `scene`'s instances

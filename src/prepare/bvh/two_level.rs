@@ -183,6 +183,17 @@ pub(crate) fn top_tree_seconds(scene: &Scene) -> f64 {
     clock.elapsed().as_secs_f64()
 }
 
+/// The largest coordinate of `scene`'s instances' boxes ([`placements`]): their meshes' boxes
+/// (from the meshes' trees, made once) moved, which hold every placed triangle.
+pub(crate) fn placed_magnitude(scene: &Scene) -> f64 {
+    let placed = placements(scene);
+    let trees = per_mesh(placed.iter().copied(), shared::mesh_tree);
+    (placed.iter().zip(trees))
+        .filter_map(|(p, tree)| Some(moved_box(tree.bounds?, &p.transform)))
+        .map(|(lo, hi)| lo.abs().max(hi.abs()).max_element())
+        .fold(0.0, f64::max)
+}
+
 /// The objects of a scene other than its instances, as the joined tree takes them. They do not
 /// change when the instances move, so this is kept from pose to pose where the renders share
 /// what depends on the objects ([`shared::rest_tree`]): a large static mesh among moving ones
