@@ -847,25 +847,6 @@ mod tests {
     use crate::{Cpu, DAffine3, DVec3, Geometry, Precision, Ray};
     use glam::DQuat;
 
-    /// A unit cube's corners and its 12 triangles, wound outward.
-    fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
-        let corners = (0..8)
-            .map(|k| DVec3::new((k & 1) as f64, (k >> 1 & 1) as f64, (k >> 2 & 1) as f64))
-            .collect();
-        let faces = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let triangles = (faces.iter())
-            .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
-            .collect();
-        (corners, triangles)
-    }
-
     /// `mesh` placed by `m` as a mesh of its own: its vertices moved, and each triangle's last
     /// two corners swapped where `m` mirrors (as an instance's are).
     fn placed_copy(geometry: &mut Geometry, (v, t): &(Vec<DVec3>, Vec<[u32; 3]>), m: &DAffine3) {
@@ -926,7 +907,7 @@ mod tests {
     /// the mesh's one tree, which a commit after they move builds no more.
     #[test]
     fn added_instances_are_their_meshes_placed_and_move_without_building_the_mesh_again() {
-        let mesh = cube();
+        let mesh = crate::tests::common::unit_cube_mesh();
         let (mut instanced, mut copies) = (Geometry::new(), Geometry::new());
         for geometry in [&mut instanced, &mut copies] {
             geometry.add_sphere([0.5, -2.0, 0.0], 0.75).unwrap();
@@ -970,7 +951,7 @@ mod tests {
     /// Instances and transforms a geometry cannot take are refused, naming the argument.
     #[test]
     fn bad_instances_and_transforms_name_the_argument() {
-        let (v, t) = cube();
+        let (v, t) = crate::tests::common::unit_cube_mesh();
         let mut geometry = Geometry::new();
         geometry.add_sphere([0.0, 0.0, 0.0], 1.0).unwrap();
         let mesh = geometry.add_mesh(&v, &t).unwrap();

@@ -395,23 +395,9 @@ fn bad_point_queries_name_their_argument() {
 
 /// The unit cube as 12 outward-facing triangles, each face split along a diagonal.
 fn unit_cube() -> Geometry {
-    let v: Vec<[f64; 3]> = (0..8)
-        .map(|k| [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64])
-        .collect();
-    let faces = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let triangles: Vec<[u32; 3]> = faces
-        .iter()
-        .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
-        .collect();
+    let (vertices, triangles) = common::unit_cube_mesh();
     let mut geometry = Geometry::new();
-    geometry.add_mesh(common::dvec3s(&v), &triangles).unwrap();
+    geometry.add_mesh(&vertices, &triangles).unwrap();
     geometry
 }
 

@@ -525,3 +525,23 @@ impl std::ops::DerefMut for Target {
         &mut self.geometry
     }
 }
+
+/// The unit cube [0, 1]^3: its 8 corners and 12 outward-facing triangles, each face split
+/// along a diagonal.
+pub(crate) fn unit_cube_mesh() -> (Vec<glam::DVec3>, Vec<[u32; 3]>) {
+    let corners = (0..8)
+        .map(|k| glam::DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64))
+        .collect();
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles = (faces.iter())
+        .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+        .collect();
+    (corners, triangles)
+}
