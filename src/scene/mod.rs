@@ -388,20 +388,24 @@ impl Scene {
     /// The largest magnitude of any coordinate or radius of the objects (0 without any).
     pub(crate) fn objects_magnitude(&self) -> f64 {
         let largest = |v: &DVec3| v.x.abs().max(v.y.abs()).max(v.z.abs());
+        let triangle = |t: &Triangle| t.iter().map(largest).fold(0.0, f64::max);
+        // In parallel over the objects, and within a large mesh: a pass over every coordinate,
+        // made once per scene and pose (prepare::shared). A mesh's own parallel pass each,
+        // for many small meshes, cost more than the pass.
         self.objects
-            .iter()
+            .par_iter()
             .map(|object| match object {
                 Object::Sphere { center, radius } => largest(center).max(*radius),
                 Object::Plane { point, .. } => largest(point),
-                Object::Triangle { corners } => corners.iter().map(largest).fold(0.0, f64::max),
-                // In parallel: a pass over a large mesh's coordinates, made once per scene
-                // (prepare::shared).
-                Object::Soup { triangles, .. } => triangles
-                    .par_iter()
-                    .map(|t| t.iter().map(largest).fold(0.0, f64::max))
+                Object::Triangle { corners } => triangle(corners),
+                Object::Soup { triangles, .. } if triangles.len() < 1 << 14 => {
+                    triangles.iter().map(triangle).fold(0.0, f64::max)
+                }
+                Object::Soup { triangles, .. } => (triangles.par_iter())
+                    .map(triangle)
                     .reduce(|| 0.0, f64::max),
             })
-            .fold(0.0, f64::max)
+            .reduce(|| 0.0, f64::max)
     }
 }
 
