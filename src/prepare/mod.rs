@@ -63,12 +63,15 @@ impl<T: Real> Prepared<T> {
     /// `scene` prepared for `algorithm` through a BVH that names its instances, each mesh's
     /// tree and triangles held once in the mesh's coordinates ([`bvh::Instanced`]; #64), for
     /// the traversal ray by ray of a nearest hit; through the BVH of [`Prepared::new`] where
-    /// the scene places no mesh.
+    /// the scene places no mesh or that tree would be too deep.
     pub(crate) fn instanced(scene: &Scene, algorithm: Algorithm) -> Prepared<T> {
         let clock = Instant::now();
+        let Some(topology) = Topology::instanced(scene) else {
+            return Prepared::new(scene, algorithm, Search::Bvh);
+        };
         let kernel = instanced_kernel_units(scene);
-        let bvh = instanced_bvh(scene, &kernel.0, algorithm);
-        Prepared::assemble(scene, kernel, algorithm, bvh.map(Arc::new)).timed(clock)
+        let bvh = Arc::new(Bvh::fit(&topology, &kernel.0, algorithm));
+        Prepared::assemble(scene, kernel, algorithm, Some(bvh)).timed(clock)
     }
 
     /// `scene` prepared for `algorithm` with a BVH already built by [`Prepared::new`] for the
@@ -215,7 +218,14 @@ pub(crate) fn bvh_of(scene: &Scene, algorithm: Algorithm, accel: Search) -> Opti
 
 /// The BVH [`Prepared::instanced`] builds for `scene`, without the rest of the preparation.
 pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bvh> {
-    instanced_bvh(scene, &instanced_kernel_units(scene).0, algorithm)
+    match Topology::instanced(scene) {
+        Some(topology) => Some(Bvh::fit(
+            &topology,
+            &instanced_kernel_units(scene).0,
+            algorithm,
+        )),
+        None => bvh_of(scene, algorithm, Search::Bvh),
+    }
 }
 
 /// [`in_kernel_units`] for a tree naming `scene`'s instances: the scene without its copies
@@ -254,15 +264,6 @@ fn instanced_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
         e => light.scaled_by_pow2(-e),
     };
     (Cow::Owned(kernel), 2f64.powi(e))
-}
-
-/// The BVH over `kernel`, `scene` in kernel units, that names `scene`'s instances
-/// ([`Topology::instanced`]), or where it places no mesh its own.
-fn instanced_bvh(scene: &Scene, kernel: &Scene, algorithm: Algorithm) -> Option<Bvh> {
-    match Topology::instanced(scene) {
-        Some(topology) => Some(Bvh::fit(&topology, kernel, algorithm)),
-        None => kernel_bvh(scene, kernel, algorithm, Search::Bvh),
-    }
 }
 
 /// The BVH over `kernel`, `scene` in kernel units, where `accel` asks for one: the topology of
