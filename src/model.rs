@@ -112,6 +112,20 @@ impl Workload {
             false => Precision::F32(Prepared::new(scene, Algorithm::Robust, Search::Auto)),
             true => Precision::F64(Prepared::new(scene, Algorithm::Robust, Search::Auto)),
         };
+        Workload::of(prepared, rays)
+    }
+
+    /// [`Workload::new`] through the tree naming the scene's instances, each mesh held once
+    /// (#64's `INSTANCES`): for the per-ray traversals only.
+    pub fn instanced(scene: &Scene, rays: Option<Vec<Ray>>, f64: bool) -> Option<Workload> {
+        let prepared = match f64 {
+            false => Precision::F32(Prepared::instanced(scene, Algorithm::Robust)),
+            true => Precision::F64(Prepared::instanced(scene, Algorithm::Robust)),
+        };
+        Workload::of(prepared, rays)
+    }
+
+    fn of(prepared: Precision, rays: Option<Vec<Ray>>) -> Option<Workload> {
         let bvh = match &prepared {
             Precision::F32(p) => p.bvh().is_some(),
             Precision::F64(p) => p.bvh().is_some(),

@@ -86,6 +86,7 @@ pub fn run(bench: &Path) -> ExitCode {
             size: Some(m.size),
             rays: m.rays,
             f64: m.f64,
+            instanced: false,
         };
         match model(&job, &h200, m.traversal) {
             Ok(f) => {

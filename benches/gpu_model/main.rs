@@ -3,7 +3,10 @@
 //! predicted from the device's parameters.
 //!
 //!     gpu_model SCENE [--size WxH] [--rays N] [--f64] [--device h200|rtx4090 (h200)]
-//!               [--traversal packets|per-ray|if-if|wide|both|all] [--json]
+//!               [--traversal packets|per-ray|if-if|wide|both|all] [--instanced] [--json]
+//!
+//! `--instanced`: a scene's instances walked in their meshes' coordinates, each mesh held once
+//! (#64), per ray only.
 //!     gpu_model --calibrate --bench DIR   # the H200 report's workloads against its figures
 
 mod cache;
@@ -46,12 +49,19 @@ pub struct Job {
     pub size: Option<[u32; 2]>,
     pub rays: Option<usize>,
     pub f64: bool,
+    /// Through the tree naming the scene's instances (per ray only).
+    pub instanced: bool,
 }
 
 /// Subgroups traced at once (in parallel) before they run through the caches in order.
 const CHUNK: usize = 4096;
 
 pub fn model(job: &Job, device: &Device, traversal: Traversal) -> Result<Figures, String> {
+    if job.instanced && !matches!(traversal, Traversal::PerRay | Traversal::IfIf) {
+        return Err(format!(
+            "--instanced: the tree naming instances is walked ray by ray, not by {traversal:?}"
+        ));
+    }
     let workload = workload(job)?;
     if traversal == Traversal::Wide && !workload.has_wide_tree() {
         return Err(format!(
@@ -100,8 +110,11 @@ fn workload(job: &Job) -> Result<Workload, String> {
     let rays = job
         .rays
         .map(|n| raycast_cli::study::bench::incoherent_rays(&scene, n));
-    Workload::new(&scene, rays, job.f64)
-        .ok_or_else(|| format!("{}: the scene is searched without a BVH", job.scene))
+    let made = match job.instanced {
+        true => Workload::instanced(&scene, rays, job.f64),
+        false => Workload::new(&scene, rays, job.f64),
+    };
+    made.ok_or_else(|| format!("{}: the scene is searched without a BVH", job.scene))
 }
 
 pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
@@ -117,10 +130,11 @@ pub fn json_line(job: &Job, device: &Device, f: &Figures) -> String {
         (None, None) => r#""size": "scene""#.to_owned(),
     };
     format!(
-        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}", "node_steps_per_ray": {:.1}, "node_l2_bytes_per_ray": {:.1}, "bytes_per_triangle": {}}}"#,
+        r#"{{"scene": "{}", {workload}, "precision": "{}", "device": "{}", "traversal": "{traversal}", "instanced": {}, "rays": {}, "steps_per_ray": {:.1}, "simd_efficiency": {:.3}, "l2_bytes_per_ray": {:.1}, "dram_bytes_per_ray": {:.1}, "predicted_ms": {:.3}, "bound": "{}", "node_steps_per_ray": {:.1}, "node_l2_bytes_per_ray": {:.1}, "bytes_per_triangle": {}}}"#,
         job.scene.replace('\\', "\\\\").replace('"', "\\\""),
         if job.f64 { "f64" } else { "f32" },
         device.name,
+        job.instanced,
         f.rays,
         f.steps_per_ray,
         f.simd_efficiency,
@@ -146,6 +160,7 @@ struct Args {
 fn parse(args: &[String]) -> Result<Args, String> {
     let mut scene = None;
     let (mut size, mut rays, mut f64, mut json) = (None, None, false, false);
+    let mut instanced = false;
     let mut device = None;
     let mut traversals = vec![Traversal::Packets, Traversal::PerRay];
     let mut calibrate = None;
@@ -201,6 +216,7 @@ fn parse(args: &[String]) -> Result<Args, String> {
                 };
             }
             "--f64" => f64 = true,
+            "--instanced" => instanced = true,
             "--json" => json = true,
             "--calibrate" => calibrate = Some(calibrate.unwrap_or_default()),
             "--bench" => calibrate = Some(value("--bench")?),
@@ -225,6 +241,7 @@ fn parse(args: &[String]) -> Result<Args, String> {
             size,
             rays,
             f64,
+            instanced,
         }),
         device: device.unwrap_or(device::H200),
         traversals,
