@@ -716,15 +716,23 @@ mod tests {
     /// 1e-12 relative and the normal within 1e-12; in f32 the f64 object on every pixel whose
     /// f32 decisions are certain ([`crate::Cpu::certain_in_f32`]), the distance within 1e-5
     /// relative and the normal within 1e-4. On instances of two meshes (one of 5 triangles: a
-    /// tree of one leaf, a mirror among them) among spheres, a plane, a triangle and a soup;
-    /// and 100 copies at random poses, far from the camera.
+    /// tree of one leaf, a mirror among them) among spheres, a plane, a triangle and a soup,
+    /// also scaled by 2^40 (a kernel unit other than 1: the instances' maps compose it); and
+    /// 100 copies at random poses, far from the camera.
     #[test]
     fn rays_moved_into_the_meshes_find_the_flattened_scenes_hits() {
         use crate::prepare::Prepared;
         use std::sync::atomic::AtomicU32;
+        let scaled = placed_scene([64, 48]).scaled_by_pow2(40);
+        assert_eq!(
+            crate::prepare::unit_exponent(&scaled),
+            40,
+            "a kernel unit of 2^40"
+        );
         for (name, scene) in [
             ("placed", placed_scene([64, 48])),
             ("hundred", hundred_copies()),
+            ("scaled", scaled),
         ] {
             let flattened = Scene {
                 instances: Vec::new(),
@@ -784,17 +792,24 @@ mod tests {
     /// The GPU kernel walking instances in their meshes' coordinates ray by ray (`INSTANCES`)
     /// renders as its CPU mirror: in f32 the same object on every pixel, distances within
     /// 1e-5 relative and normals within 1e-4 (the kernel may fuse what the mirror rounds
-    /// twice); in f64 within 1e-12. And each mesh's triangles are held once: fewer bytes a
-    /// scene triangle than one tree over every copy.
+    /// twice); in f64 within 1e-12; also scaled by 2^40.
     #[test]
     fn the_kernel_walks_instances_as_its_mirror_does() {
         let gpu = crate::tests::common::gpu();
-        let scene = placed_scene([64, 48]);
         let mut precisions = vec![(crate::Precision::F32, 1e-5, 1e-4)];
         if gpu.has_f64() {
             precisions.push((crate::Precision::F64, 1e-12, 1e-12));
         }
-        for (precision, distance, normal) in precisions {
+        // Also at a kernel unit of 2^40, which the instances' maps compose.
+        let scenes = [
+            placed_scene([64, 48]),
+            placed_scene([64, 48]).scaled_by_pow2(40),
+        ];
+        let cases = scenes
+            .iter()
+            .flat_map(|s| precisions.iter().map(move |p| (s, *p)));
+        for (scene, (precision, distance, normal)) in cases {
+            let scene = scene.clone();
             let options = RenderOptions {
                 precision: Some(precision),
                 tuning: crate::Tuning {
