@@ -160,15 +160,20 @@ fn hit_normal(ray: Ray, hit: Hit) -> vec3<real> {
     }
 }
 
+#if INSTANCES
+// Whether an instance places the triangle `hit` hit: hit_instance, where its object is the
+// hit's (a nearest hit found after it in the world is another object's).
+fn is_placed(hit: Hit) -> bool {
+    return hit_instance != NO_INSTANCE && hit.kind == KIND_TRIANGLE && i32(instance_words[hit_instance].y) == hit.object;
+}
+#endif
+
 // The normal `n` of the triangle `hit` hit, in the kernel's coordinates: as it is, or where an
-// instance places the triangle (hit_instance), moved out of its mesh's coordinates.
+// instance places the triangle, moved out of its mesh's coordinates.
 fn placed_normal(hit: Hit, n: vec3<real>) -> vec3<real> {
 #if INSTANCES
-    if (hit_instance != NO_INSTANCE) {
-        let instance = instance_at(hit_instance);
-        if (i32(instance.object) == hit.object) {
-            return unit_normal(instance_normal(n, instance));
-        }
+    if (is_placed(hit)) {
+        return unit_normal(instance_normal(n, instance_at(hit_instance)));
     }
 #endif
     return n;
@@ -178,11 +183,8 @@ fn placed_normal(hit: Hit, n: vec3<real>) -> vec3<real> {
 // instance places it (barycentrics and t are the same there).
 fn placed_ray(ray: Ray, hit: Hit) -> Ray {
 #if INSTANCES
-    if (hit_instance != NO_INSTANCE && hit.kind == KIND_TRIANGLE) {
-        let instance = instance_at(hit_instance);
-        if (i32(instance.object) == hit.object) {
-            return instance_ray(ray, instance);
-        }
+    if (is_placed(hit)) {
+        return instance_ray(ray, instance_at(hit_instance));
     }
 #endif
     return ray;

@@ -9,8 +9,8 @@ use crate::kernel::types::{Ray, Shear, instance_ray, no_hit, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 use crate::prepare::bvh::{
-    BvhNode, INSTANCE_BIT, LEAF_BIT, LEAF_COUNT, LEAF_OBJECT_SHIFT, MAX_DEPTH, MIXED_OBJECTS,
-    SPHERE_LEAF, leaf_len, leaf_object,
+    BvhNode, INSTANCE_BIT, LEAF_BIT, MAX_DEPTH, MIXED_OBJECTS, SPHERE_LEAF, leaf_len, leaf_object,
+    leaf_word,
 };
 
 /// The traversal stack's size (`BVH_STACK` in WGSL).
@@ -501,11 +501,12 @@ impl Default for Inside {
 
 impl Inside {
     /// A leaf's `count` as the traversal takes it: in an instance, its primitives the
-    /// instance's object (a mesh's leaves name object 0, whichever instance places them).
+    /// instance's object (a mesh's leaves name object 0, whichever instance places them; no
+    /// tree names instances of a mesh with a [`MANY_LEAF`](crate::prepare::bvh::MANY_LEAF)).
     fn count(&self, count: u32) -> u32 {
         match self.instance {
             NO_INSTANCE => count,
-            _ => (count & LEAF_COUNT) | (self.object.min(MIXED_OBJECTS) << LEAF_OBJECT_SHIFT),
+            _ => leaf_word(count & SPHERE_LEAF, leaf_len(count) as usize, self.object),
         }
     }
 }

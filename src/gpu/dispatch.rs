@@ -1084,17 +1084,17 @@ impl<'a, R: GpuReal> Layout<'a, R> {
             ),
         ];
         named.extend(chunk_names("triangles").zip(triangles));
-        for (name, buffer) in [
-            (
-                "instance_transforms",
-                storage_buffer(gpu, "instance_transforms", &self.instance_transforms),
-            ),
-            (
-                "instance_words",
-                storage_buffer(gpu, "instance_words", &self.instance_words),
-            ),
-        ] {
-            named.push((name.to_owned(), buffer));
+        if variant.instances {
+            let transforms = &self.instance_transforms;
+            let words = &self.instance_words;
+            named.push((
+                "instance_transforms".to_owned(),
+                storage_buffer(gpu, "instance_transforms", transforms),
+            ));
+            named.push((
+                "instance_words".to_owned(),
+                storage_buffer(gpu, "instance_words", words),
+            ));
         }
         let nodes = chunked_upload(gpu, "bvh_nodes", self.nodes, variant);
         named.extend(chunk_names("bvh_nodes").zip(nodes));

@@ -23,7 +23,7 @@ use crate::scene::{Object, Scene, moved_box};
 mod two_level;
 #[cfg(test)]
 pub(crate) use two_level::top_tree_seconds;
-pub(crate) use two_level::{MeshTree, Rest, placed_magnitude, placements};
+pub(crate) use two_level::{MeshTree, Rest};
 
 /// The deepest a leaf may lie (root at depth 0). The traversal's stack holds at most one entry
 /// per level, so a stack of this many entries holds any tree's ([`Bvh::stack_entries`]).
@@ -123,7 +123,7 @@ pub(crate) const MIXED_OBJECTS: u32 = (1 << 26) - 1;
 
 /// The `count` of a leaf of `len` primitives of `kind` ([`SPHERE_LEAF`] or 0), all of `object`
 /// or of several ([`MIXED_OBJECTS`]).
-fn leaf_word(kind: u32, len: usize, object: u32) -> u32 {
+pub(crate) fn leaf_word(kind: u32, len: usize, object: u32) -> u32 {
     let len = len as u32;
     match len > LEAF_COUNT {
         true => kind | MANY_LEAF | len,
@@ -274,13 +274,30 @@ pub(crate) struct InstanceRoot {
     pub mesh: u32,
 }
 
-/// A mesh of an [`Instanced`] tree: a placement of it (index in `Scene::instances`) and the
-/// positions `first..first + len` of its triangles.
+/// A mesh of an [`Instanced`] tree: a placement of it (index in `Scene::instances`), the
+/// positions `first..first + len` of its triangles, the node its tree starts at, and its box in
+/// its own coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct MeshSpan {
     pub placement: u32,
     pub first: u32,
     pub len: u32,
+    pub root: u32,
+    pub bounds: (glam::DVec3, glam::DVec3),
+}
+
+impl Instanced {
+    /// Each instance's box in `scene`'s coordinates: its mesh's box moved, which holds every
+    /// placed triangle.
+    pub(crate) fn boxes<'a>(
+        &'a self,
+        scene: &'a Scene,
+    ) -> impl Iterator<Item = (glam::DVec3, glam::DVec3)> + 'a {
+        (self.instances.iter()).map(|i| {
+            let transform = &scene.instances[i.placement as usize].transform;
+            moved_box(self.meshes[i.mesh as usize].bounds, transform)
+        })
+    }
 }
 
 /// A primitive's box while building, and its index in its kind's list.
@@ -716,6 +733,11 @@ impl Topology {
         two_level::instanced(scene)
     }
 
+    /// The instances it names, where it is [`Topology::instanced`]'s.
+    pub(crate) fn named_instances(&self) -> Option<&Instanced> {
+        self.0.instanced.as_ref()
+    }
+
     /// The binned SAH build over the boxes of `objects`' spheres and triangles, measured from
     /// the centre of their bounds.
     fn of_objects<'a>(objects: impl IntoIterator<Item = &'a Object> + Clone) -> Topology {
@@ -779,18 +801,25 @@ fn fit_leaves<'a>(
                 continue;
             }
             let first = (c.reference & !LEAF_BIT) as usize;
-            let item: &dyn Fn(usize) -> &'a Item = match c.count & SPHERE_LEAF != 0 {
-                true => &sphere,
-                false => &triangle,
+            let range = first..first + leaf_len(c.count) as usize;
+            let b = match c.count & SPHERE_LEAF != 0 {
+                true => union(range, &sphere),
+                false => union(range, &triangle),
             };
-            let mut b = Aabb::EMPTY;
-            for k in first..first + leaf_len(c.count) as usize {
-                b.grow(item(k).lo, item(k).hi);
-            }
             (c.lo, c.hi) = (b.lo, b.hi);
         }
         *node = BvhNode::new(children[0], children[1]);
     });
+}
+
+/// The box of the items at `positions`.
+fn union<'a>(positions: std::ops::Range<usize>, item: impl Fn(usize) -> &'a Item) -> Aabb {
+    let mut b = Aabb::EMPTY;
+    for k in positions {
+        let i = item(k);
+        b.grow(i.lo, i.hi);
+    }
+    b
 }
 
 /// Fits every inner node's box to its children's, once the leaves' are fitted; a child naming
@@ -896,7 +925,6 @@ impl Bvh {
             .map(|&k| triangle_box(scene_triangles.get(k).0, origin))
             .collect();
         let mut triangles = grown(rest, eye);
-        let mut meshes = Vec::with_capacity(instanced.meshes.len());
         for m in &instanced.meshes {
             let mesh = &kernel.instances[m.placement as usize].mesh;
             let span = &order[m.first as usize..(m.first + m.len) as usize];
@@ -904,17 +932,12 @@ impl Bvh {
                 .map(|&k| triangle_box(&mesh.triangles[k as usize], Vec3::splat(0.0)))
                 .collect();
             triangles.extend(grown(boxes, 0.0));
-            meshes.push(mesh.bounds().expect("a placed mesh has triangles"));
         }
         let sphere_order = &self.sphere_order;
         let sphere = |k: usize| &spheres[sphere_order[k] as usize];
         fit_leaves(&mut self.nodes, sphere, |k| &triangles[k]);
-        let placed = (instanced.instances.iter())
-            .map(|i| {
-                let placement = &kernel.instances[i.placement as usize];
-                let (lo, hi) = moved_box(meshes[i.mesh as usize], &placement.transform);
-                (Vec3::from(lo) - origin, Vec3::from(hi) - origin)
-            })
+        let placed = (instanced.boxes(kernel))
+            .map(|(lo, hi)| (Vec3::from(lo) - origin, Vec3::from(hi) - origin))
             .collect();
         let placed = grown(placed, eye);
         let instance_box = |i: u32| {

@@ -69,7 +69,7 @@ impl<T: Real> Prepared<T> {
         let Some(topology) = Topology::instanced(scene) else {
             return Prepared::new(scene, algorithm, Search::Bvh);
         };
-        let kernel = instanced_kernel_units(scene);
+        let kernel = instanced_kernel_units(scene, &topology);
         let bvh = Arc::new(Bvh::fit(&topology, &kernel.0, algorithm));
         Prepared::assemble(scene, kernel, algorithm, Some(bvh)).timed(clock)
     }
@@ -221,7 +221,7 @@ pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bv
     match Topology::instanced(scene) {
         Some(topology) => Some(Bvh::fit(
             &topology,
-            &instanced_kernel_units(scene).0,
+            &instanced_kernel_units(scene, &topology).0,
             algorithm,
         )),
         None => bvh_of(scene, algorithm, Search::Bvh),
@@ -231,34 +231,17 @@ pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bv
 /// [`in_kernel_units`] for a tree naming `scene`'s instances: the scene without its copies
 /// of the instances' triangles (their meshes are read instead), so that a frame scales and
 /// copies only the other objects.
-fn instanced_kernel_units(scene: &Scene) -> (Cow<'_, Scene>, f64) {
-    // The objects the tree names as instances (a caller may have changed others since).
+fn instanced_kernel_units<'a>(scene: &'a Scene, topology: &Topology) -> (Cow<'a, Scene>, f64) {
+    let instanced = topology.named_instances().expect("a tree naming instances");
     let mut is_copy = vec![false; scene.objects.len()];
-    for p in bvh::placements(scene) {
-        is_copy[p.object] = true;
+    for i in &instanced.instances {
+        is_copy[scene.instances[i.placement as usize].object] = true;
     }
-    let objects = (scene.objects.iter().zip(is_copy))
-        .map(|(object, copy)| match copy {
-            true => Object::Soup {
-                path: Default::default(),
-                triangles: Vec::new(),
-            },
-            false => object.clone(),
-        })
-        .collect();
-    let light = Scene {
-        camera: scene.camera.clone(),
-        objects,
-        lighting: Default::default(),
-        warnings: Vec::new(),
-        instances: scene.instances.clone(),
-    };
-    // The instances' coordinates bounded by their meshes' boxes moved: not a pass over every
-    // copy's.
-    let e = exponent_for(
-        scene,
-        light.objects_magnitude().max(bvh::placed_magnitude(scene)),
-    );
+    let light = emptied(scene, |k, _| is_copy[k], scene.instances.clone());
+    // The instances' coordinates bounded by their boxes: not a pass over every copy's.
+    let placed = (instanced.boxes(scene)).map(|(lo, hi)| lo.abs().max(hi.abs()).max_element());
+    let magnitude = light.objects_magnitude().max(placed.fold(0.0, f64::max));
+    let e = exponent_for(scene, magnitude);
     let kernel = match e {
         0 => light,
         e => light.scaled_by_pow2(-e),
@@ -425,7 +408,13 @@ impl<T: Real> Primitives<T> {
     fn instanced(scene: &Scene, algorithm: Algorithm, bvh: Arc<Bvh>) -> Primitives<T> {
         let origin = kernel_origin(scene, algorithm);
         let instanced = bvh.instanced.as_ref().expect("a tree naming instances");
-        let solid = Primitives::<T>::ordered(&only_spheres_and_planes(scene), algorithm, None);
+        // The spheres and planes alone (their ids the scene's): the triangles follow.
+        let solid = emptied(
+            scene,
+            |_, o| matches!(o, Object::Triangle { .. } | Object::Soup { .. }),
+            Vec::new(),
+        );
+        let solid = Primitives::<T>::ordered(&solid, algorithm, None);
         let (triangles, triangle_objects) = instanced_triangles(scene, &bvh, instanced, origin);
         Primitives {
             spheres: permute(&solid.spheres, &bvh.sphere_order),
@@ -492,24 +481,28 @@ fn permute<X: Copy + Send + Sync>(list: &[X], order: &[u32]) -> Vec<X> {
     order.par_iter().map(|&k| list[k as usize]).collect()
 }
 
-/// `scene` with only its spheres and planes, at their places among its objects (the others
-/// are empty soups): their ids are the scene's.
-fn only_spheres_and_planes(scene: &Scene) -> Scene {
-    let objects = (scene.objects.iter())
-        .map(|o| match o {
-            Object::Sphere { .. } | Object::Plane { .. } => o.clone(),
-            _ => Object::Soup {
+/// `scene`'s camera and objects, those `empty` says emptied (an empty soup at their place, so
+/// that every object keeps its id), and `instances`.
+fn emptied(
+    scene: &Scene,
+    empty: impl Fn(usize, &Object) -> bool,
+    instances: Vec<crate::scene::Placement>,
+) -> Scene {
+    let objects = (scene.objects.iter().enumerate())
+        .map(|(k, o)| match empty(k, o) {
+            true => Object::Soup {
                 path: Default::default(),
                 triangles: Vec::new(),
             },
+            false => o.clone(),
         })
         .collect();
     Scene {
-        objects,
         camera: scene.camera.clone(),
+        objects,
         lighting: Default::default(),
         warnings: Vec::new(),
-        instances: Vec::new(),
+        instances,
     }
 }
 

@@ -22,6 +22,9 @@ use crate::scene::{Mesh, Object, Placement, Scene, moved_box};
 pub(crate) struct MeshTree {
     bvh: Bvh,
     bounds: Option<(DVec3, DVec3)>,
+    /// A leaf holds more triangles than a count word names with an object ([`MANY_LEAF`]):
+    /// a traversal could not give them an instance's object, so no tree names its instances.
+    many_leaf: bool,
 }
 
 impl MeshTree {
@@ -30,9 +33,13 @@ impl MeshTree {
             path: mesh.path.clone(),
             triangles: mesh.triangles.clone(),
         }];
+        let bvh = Topology::of_objects(&soup).0;
+        let many_leaf =
+            (bvh.nodes.iter()).any(|n| [n.count0, n.count1].iter().any(|c| c & MANY_LEAF != 0));
         MeshTree {
-            bvh: Topology::of_objects(&soup).0,
+            bvh,
             bounds: mesh.bounds(),
+            many_leaf,
         }
     }
 }
@@ -77,6 +84,9 @@ fn join(scene: &Scene, by_reference: bool) -> Option<Topology> {
         return None;
     }
     let trees = per_mesh(placed.iter().copied(), shared::mesh_tree);
+    if by_reference && trees.iter().any(|t| t.many_leaf) {
+        return None;
+    }
     let firsts = first_triangles(scene);
     let rest = shared::rest_tree(scene, || Rest::of(scene, &placed, &firsts));
     let [rest_spheres, rest_triangles] = kind_roots(&rest.tree);
@@ -134,10 +144,16 @@ fn join(scene: &Scene, by_reference: bool) -> Option<Topology> {
     }
     let instanced = by_reference.then(|| Instanced {
         firsts: firsts.clone(),
-        ..joined.meshes_once(scene, &placed, &groups)
+        ..joined.meshes_once(scene, &placed, &groups, &trees)
     });
     let depth = match &instanced {
-        Some(i) => instanced_depth(&joined.nodes, i, 0),
+        Some(i) => {
+            // Each mesh's depth once, not once an instance.
+            let mesh_depths: Vec<usize> = (i.meshes.iter())
+                .map(|m| depth_of(&joined.nodes, m.root as usize))
+                .collect();
+            instanced_depth(&joined.nodes, i, &mesh_depths, 0)
+        }
         None => depth_of(&joined.nodes, 0),
     };
     (depth <= MAX_DEPTH).then(|| {
@@ -152,17 +168,22 @@ fn join(scene: &Scene, by_reference: bool) -> Option<Topology> {
 }
 
 /// [`depth_of`] of a tree naming instances: an instance's child as deep as its mesh's tree
-/// under a node.
-fn instanced_depth(nodes: &[BvhNode], instanced: &Instanced, node: usize) -> usize {
+/// (`mesh_depths`) under a node.
+fn instanced_depth(
+    nodes: &[BvhNode],
+    instanced: &Instanced,
+    mesh_depths: &[usize],
+    node: usize,
+) -> usize {
     (0..2)
         .map(|k| nodes[node].child(k).reference)
         .map(|r| match (r & LEAF_BIT != 0, r & INSTANCE_BIT != 0) {
             (true, _) => 1,
             (false, true) => {
-                let root = instanced.instances[(r & !INSTANCE_BIT) as usize].root;
-                1 + depth_of(nodes, root as usize)
+                let mesh = instanced.instances[(r & !INSTANCE_BIT) as usize].mesh;
+                1 + mesh_depths[mesh as usize]
             }
-            (false, false) => 1 + instanced_depth(nodes, instanced, r as usize),
+            (false, false) => 1 + instanced_depth(nodes, instanced, mesh_depths, r as usize),
         })
         .max()
         .unwrap_or(0)
@@ -181,17 +202,6 @@ pub(crate) fn top_tree_seconds(scene: &Scene) -> f64 {
         .collect();
     std::hint::black_box(top_tree(&boxes));
     clock.elapsed().as_secs_f64()
-}
-
-/// The largest coordinate of `scene`'s instances' boxes ([`placements`]): their meshes' boxes
-/// (from the meshes' trees, made once) moved, which hold every placed triangle.
-pub(crate) fn placed_magnitude(scene: &Scene) -> f64 {
-    let placed = placements(scene);
-    let trees = per_mesh(placed.iter().copied(), shared::mesh_tree);
-    (placed.iter().zip(trees))
-        .filter_map(|(p, tree)| Some(moved_box(tree.bounds?, &p.transform)))
-        .map(|(lo, hi)| lo.abs().max(hi.abs()).max_element())
-        .fold(0.0, f64::max)
 }
 
 /// The objects of a scene other than its instances, as the joined tree takes them. They do not
@@ -257,7 +267,7 @@ fn per_mesh<'a, T: Clone>(
 
 /// The placements of `scene` whose object is the soup its mesh places (a caller may have
 /// changed the objects since), one an object, of meshes with triangles.
-pub(crate) fn placements(scene: &Scene) -> Vec<&Placement> {
+fn placements(scene: &Scene) -> Vec<&Placement> {
     let mut seen = vec![false; scene.objects.len()];
     (scene.instances.iter())
         .filter(|p| {
@@ -434,18 +444,25 @@ impl Joined {
 
     /// Lays out, after the top tree, each mesh `placed` places once: its tree (under a node of
     /// its own where it is one leaf) and its triangles' indices in the mesh. `groups` are the
-    /// instances' (then the other objects').
-    fn meshes_once(&mut self, scene: &Scene, placed: &[&Placement], groups: &[Group]) -> Instanced {
+    /// instances' (then the other objects'), `trees` their meshes' trees.
+    fn meshes_once(
+        &mut self,
+        scene: &Scene,
+        placed: &[&Placement],
+        groups: &[Group],
+        trees: &[Arc<MeshTree>],
+    ) -> Instanced {
         let rest_triangles = self.triangle_order.len() as u32;
-        let mut meshes: Vec<(MeshSpan, u32)> = Vec::new();
+        let mut meshes: Vec<MeshSpan> = Vec::new();
         let mut instances = Vec::with_capacity(placed.len());
-        for (p, g) in placed.iter().zip(groups) {
-            let placement = (scene.instances.iter())
-                .position(|q| std::ptr::eq(q, *p))
-                .expect("a placement of the scene") as u32;
-            let same = |(m, _): &(MeshSpan, u32)| {
-                Arc::ptr_eq(&scene.instances[m.placement as usize].mesh, &p.mesh)
-            };
+        let index: std::collections::HashMap<*const Placement, u32> = (scene.instances.iter())
+            .enumerate()
+            .map(|(k, q)| (q as *const Placement, k as u32))
+            .collect();
+        for ((p, g), tree) in placed.iter().zip(groups).zip(trees) {
+            let placement = index[&(*p as *const Placement)];
+            let same =
+                |m: &MeshSpan| Arc::ptr_eq(&scene.instances[m.placement as usize].mesh, &p.mesh);
             let mesh = match meshes.iter().position(same) {
                 Some(k) => k,
                 None => {
@@ -461,25 +478,25 @@ impl Joined {
                         self.nodes.push(BvhNode::new(root, empty));
                         root.reference = self.nodes.len() as u32 - 1;
                     }
-                    let len = g.bvh.triangle_order.len() as u32;
-                    let span = MeshSpan {
+                    meshes.push(MeshSpan {
                         placement,
                         first,
-                        len,
-                    };
-                    meshes.push((span, root.reference));
+                        len: g.bvh.triangle_order.len() as u32,
+                        root: root.reference,
+                        bounds: tree.bounds.expect("a placed mesh has triangles"),
+                    });
                     meshes.len() - 1
                 }
             };
             instances.push(InstanceRoot {
                 placement,
-                root: meshes[mesh].1,
+                root: meshes[mesh].root,
                 mesh: mesh as u32,
             });
         }
         Instanced {
             instances,
-            meshes: meshes.into_iter().map(|(m, _)| m).collect(),
+            meshes,
             rest_triangles,
             firsts: Vec::new(),
         }
