@@ -7,8 +7,11 @@
 # On the machine that builds (bundles the script, a stripped binary and the Vulkan loader; with
 # --mitsuba also peer_bench.py and Mitsuba 3's wheels for that python, trimmed to cuda_ad_rgb
 # by scripts/trim-mitsuba.py: about 35 MB, PyPI needed):
-#   scripts/gpu-check.sh --pack DIR [--mitsuba [--python 3.12]] [BINARY]
+#   scripts/gpu-check.sh --pack DIR [--mitsuba [--python 3.12]] [--lib-tests] [BINARY]
 #                                              (BINARY: default target/release/raycast)
+#   --lib-tests   also the library's release test binary (`cargo test --release -p raycast
+#                 --lib --no-run`, beside BINARY in deps/): the kit then times each torus's
+#                 kernel over buffers kept across casts (its kernel_ab measurement)
 # On the machine with the GPU:
 #   DIR/gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench peer_bench.py] DIR/raycast
 #
@@ -23,7 +26,7 @@
 set -uo pipefail
 
 say() { printf '%s\n' "$*" >&2; }
-usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench FILE] BINARY | --pack DIR [--mitsuba [--python X.Y]] [BINARY]"; exit 2; }
+usage() { say "usage: gpu-check.sh [--quick] [--out OUT] [--runs N] [--peer-bench FILE] BINARY | --pack DIR [--mitsuba [--python X.Y]] [--lib-tests] [BINARY]"; exit 2; }
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
@@ -32,8 +35,8 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 kit_libs=(libvulkan.so.1 libGLdispatch.so.0 libGLX.so.0 libEGL.so.1 libGL.so.1 libOpenGL.so.0 libGLESv2.so.2)
 
 # --- packing -------------------------------------------------------------------------------
-pack() { # DIR BINARY MITSUBA PYTHON_VERSION
-    local dir=$1 binary=${2:-$here/../target/release/raycast} mitsuba=$3 python=$4
+pack() { # DIR BINARY MITSUBA PYTHON_VERSION LIB_TESTS
+    local dir=$1 binary=${2:-$here/../target/release/raycast} mitsuba=$3 python=$4 lib_tests=$5
     [[ -x $binary ]] || { say "gpu-check: no binary at $binary (cargo build --release)"; exit 2; }
     mkdir -p "$dir/lib" || exit 2
     cp "${BASH_SOURCE[0]}" "$dir/gpu-check.sh" && cp "$binary" "$dir/raycast" || exit 2
@@ -53,8 +56,17 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION
     else
         say "gpu-check: no gpu_model beside $binary: the report will have no predictions"
     fi
+    if [[ $lib_tests == 1 ]]; then
+        # The newest test binary of the library: the one with the kernel_ab measurement.
+        local exe
+        exe=$(ls -t "$(dirname "$binary")"/deps/raycast-???????????????? 2>/dev/null |
+            while read -r f; do [[ -x $f ]] && "$f" --list 2>/dev/null | grep -q 'kernel_ab: test' && { echo "$f"; break; }; done)
+        [[ -n $exe ]] || { say "gpu-check: no library test binary beside $binary (cargo test --release -p raycast --lib --no-run)"; exit 2; }
+        cp "$exe" "$dir/raycast-lib-tests" || exit 2
+    fi
     if command -v strip >/dev/null; then
         strip "$dir/raycast"
+        [[ -x $dir/raycast-lib-tests ]] && strip "$dir/raycast-lib-tests"
         [[ -x $dir/gpu_model ]] && strip "$dir/gpu_model"
     else
         say "gpu-check: no strip; the binaries keep their symbols"
@@ -82,11 +94,12 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION
     say "packed $dir: $(du -sh "$dir" | cut -f1)"
 }
 
-quick=0 out=gpu-check runs="" peer_bench="" binary="" pack_dir="" mitsuba=0 python=3.12
+quick=0 out=gpu-check runs="" peer_bench="" binary="" pack_dir="" mitsuba=0 python=3.12 lib_tests=0
 while [[ $# -gt 0 ]]; do
     case $1 in
         --pack) [[ $# -ge 2 ]] || usage; pack_dir=$2; shift ;;
         --mitsuba) mitsuba=1 ;;
+        --lib-tests) lib_tests=1 ;;
         --python) [[ $# -ge 2 && $2 =~ ^3\.[0-9]+$ ]] || usage; python=$2; shift ;;
         --quick) quick=1 ;;
         --out) [[ $# -ge 2 ]] || usage; out=$2; shift ;;
@@ -98,7 +111,7 @@ while [[ $# -gt 0 ]]; do
     shift
 done
 if [[ -n $pack_dir ]]; then
-    pack "$pack_dir" "$binary" "$mitsuba" "$python"
+    pack "$pack_dir" "$binary" "$mitsuba" "$python" "$lib_tests"
     exit 0
 fi
 [[ -n $binary ]] || usage
@@ -169,20 +182,32 @@ bench() { # NAME ARGS...
     local name=$1; shift
     step "bench-$name" "$raw/bench-$name.jsonl" "$binary" bench --json --runs "$runs" "$@"
 }
+# Each mode and traversal in a process of its own: on the H200 a configuration measured after
+# another in one process ran up to 6x slower on a large scene (docs/gpu.md, 2026-11-29).
+bench_each() { # NAME MODES TRAVERSALS ARGS...
+    local name=$1 modes=$2 traversals=$3; shift 3
+    step "bench-$name" "$raw/bench-$name.jsonl" bash -c '
+        binary=$1 runs=$2 modes=$3 traversals=$4; shift 4
+        for mode in ${modes//,/ }; do
+            for traversal in ${traversals//,/ }; do
+                "$binary" bench --json --runs "$runs" --mode "$mode" --traversal "$traversal" "$@" || exit
+            done
+        done' bench "$binary" "$runs" "$modes" "$traversals" "$@"
+}
 # f64 where the adapter has it (raycast info: `shader f64: yes`).
 torus_modes=gpu:f32
 grep -q '^shader f64: *yes' "$raw/info.txt" && torus_modes=gpu:f32,gpu:f64
 # Both BVH traversals where the adapter has packets (raycast info: `packet traversal: yes`).
 traversals=per-ray
 grep -q 'packet traversal: *yes' "$raw/info.txt" && traversals=packets,per-ray
-bench torus "$work/torus/torus.json" --mode "$torus_modes" --traversal "$traversals"
-bench big "$work/big/torus.json" --traversal "$traversals"
+bench_each torus "$torus_modes" "$traversals" "$work/torus/torus.json"
+bench_each big gpu:f32 "$traversals" "$work/big/torus.json"
 # A quarter of the size each way: where packets cost what the triangles seen do, not the rays
 # (the H200's 5M torus took about 8.4 ms from 960x540 to 1920x1080, docs/gpu.md).
-bench big-small "$work/big/torus.json" --size "$((${size%x*} / 4))x$((${size#*x} / 4))" --traversal "$traversals"
-bench spheres "$work/torus/spheres.json" --traversal "$traversals"
+bench_each big-small gpu:f32 "$traversals" "$work/big/torus.json" --size "$((${size%x*} / 4))x$((${size#*x} / 4))"
+bench_each spheres gpu:f32 "$traversals" "$work/torus/spheres.json"
 bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
-bench lit "$work/lit/bunny.json" --lit --traversal "$traversals"
+bench_each lit gpu:f32 "$traversals" "$work/lit/bunny.json" --lit
 
 # The cost model's predictions for the same workloads, where the kit has gpu_model and the
 # model has the device's parameters (GPU_MODEL_DEVICE names them: h200, rtx4090).
@@ -241,6 +266,23 @@ views_times() {
 }
 step views "$raw/views.txt" views_times
 bench views "$work/lit/bunny.json" --orbit "$views" --size 640x360
+
+# The kernel over buffers kept across casts, as a session of queries or a viewer has them,
+# against bench's frames, each of which uploads the scene into new buffers: on the H200 the 5M
+# torus cost about 7.5 ms whatever its rays (docs/gpu.md, 2026-11-29).
+kept_times() {
+    local name scene flag line
+    for name in torus torus-f64 big; do
+        scene=$work/torus/torus.json flag=""
+        [[ $name == big ]] && scene=$work/big/torus.json
+        [[ $name == torus-f64 ]] && { grep -q '^shader f64: *yes' "$raw/info.txt" || continue; flag=--f64; }
+        line=$(RAYCAST_MEASURE="$scene $flag --rounds $runs builtin" "$here/raycast-lib-tests" kernel_ab \
+            --ignored --nocapture 2>&1 | grep '^builtin: median') || return 1
+        set -- $line
+        echo "$name $3"
+    done
+}
+[[ -x $here/raycast-lib-tests ]] && step kept "$raw/kept.txt" kept_times
 
 [[ -z $peer_bench && -f $here/peer_bench.py ]] && peer_bench=$here/peer_bench.py
 if [[ -n $peer_bench ]]; then
@@ -347,6 +389,8 @@ report = {
         "batch_over_kernel": bench["views"][0]["rays"] / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
             if views["batch"] and bench["views"] else None,
     },
+    "kept_kernel_ms": {name: float(s) * 1e3 for name, s in
+                       (l.split() for l in text("kept.txt").splitlines())},
     "cost": {
         "f64_over_f32_kernel": f64["trace_gpu_s"] / f32["trace_gpu_s"]
             if f32 and f64 and f32["trace_gpu_s"] and f64["trace_gpu_s"] else None,
@@ -416,6 +460,11 @@ md += ["", "The trace (`trace_s`, wall) against its kernel (GPU timestamps); of 
        "written, the host's wait for the device and the conversion of what was read back; the GPU's "
        "copy to host-mapped memory where measured. Medians of the runs; the dataset's row sums its "
        "views. Ray lists (`--rays`) report no parts."]
+if report["kept_kernel_ms"]:
+    md += ["", "The kernel over buffers kept across casts (the library's `kernel_ab`, the device's "
+           "default traversal, median of %s rounds): %s; in the tables above each frame uploads the "
+           "scene into new buffers." % (runs, "; ".join(
+               "%s %.2f ms" % (name, ms) for name, ms in report["kept_kernel_ms"].items()))]
 predictions = [w for w in report["workloads"] if w["predicted_ms"] is not None]
 if predictions:
     device = next((m["device"] for rs in model.values() for m in rs), "?")
