@@ -52,10 +52,57 @@ fn t_error(c: real) -> real {
 // The largest coordinate of a ray's origin (kernel coordinates): a corner or centre stored in
 // f32 is off by up to EPS times its own size, which is at most its size relative to the origin
 // plus this (0 for a camera's rays, which start at the kernel's origin). The bounds of
-// triangle.wgsl and sphere.wgsl, relative to the origin, add it.
+// triangle.wgsl and sphere.wgsl, relative to the origin, add it. In an instance's mesh the
+// origin is also off by what moving it there rounded (placed_origin).
 fn origin_size(ray: Ray) -> real {
+#if INSTANCES
+    return max_component(ray.origin) + placed_origin;
+#else
     return max_component(ray.origin);
+#endif
 }
+#if INSTANCES
+
+// A ray moved into an instance's mesh (instance_ray) carries the rounding of that move, which
+// exact arithmetic on the placed mesh does not: each component of its origin is off by up to
+// EPS placed_origin, and its shear (the direction's two smaller components over its largest)
+// by up to EPS placed_skew, which shifts a sheared corner by EPS placed_skew |z| (triangle.wgsl's
+// edge_scales). Both 0 in the world's coordinates.
+var<private> placed_origin: real;
+var<private> placed_skew: real;
+
+// The most a placed ray's shear may be off, relative: 2^-17, 4x below the slack of the box test
+// (BOX_ENTRY_SHRINK), so that the mesh's boxes still cull only what the exact ray misses.
+const PLACED_SKEW_LIMIT: real = 7.62939453125e-6;
+
+// The rounding `placed` (`world` moved into `instance`'s mesh) carries: each of its components
+// is a dot product of a stored row, itself rounded once, with the world ray's, so off by up to
+// 2 EPS (four roundings of EPS / 2) times the sum of its terms' magnitudes. The shear's error
+// is at most twice the largest direction component's over the largest. Where that exceeds
+// PLACED_SKEW_LIMIT, nothing in the instance is certain: an uncertain miss of its object at 0,
+// nearer than any hit, leaves the pixel uncertain unless its nearest hit is this instance's.
+fn place_certainty(world: Ray, placed: Ray, instance: Instance, best: Hit) {
+    let d = abs(world.direction);
+    let o = abs(world.origin);
+    let r0 = abs(instance.r0);
+    let r1 = abs(instance.r1);
+    let r2 = abs(instance.r2);
+    let spread = vec3<real>(dot(r0.xyz, d), dot(r1.xyz, d), dot(r2.xyz, d));
+    let reach = vec3<real>(dot(r0.xyz, o) + r0.w, dot(r1.xyz, o) + r1.w, dot(r2.xyz, o) + r2.w);
+    placed_skew = 4.0 * max_component(spread) / max_component(placed.direction);
+    placed_origin = 2.0 * max_component(reach);
+    if (!(placed_skew * EPS <= PLACED_SKEW_LIMIT) || !is_finite_real(placed_origin)) {
+        decide(false, 0.0, 1.0);
+        record(NO_HIT, instance.object, false, best);
+    }
+}
+
+// Back in the world's coordinates.
+fn unplace_certainty() {
+    placed_origin = 0.0;
+    placed_skew = 0.0;
+}
+#endif
 
 // The conservative start test decides as exact arithmetic would.
 fn start_certain(t: real, min_t: real, t_condition: real) -> bool {
@@ -114,6 +161,9 @@ fn start_certainty(ray: Ray) {
     let d = abs(ray.direction);
     let invertible = all((d == vec3<real>(0.0)) | (d >= vec3<real>(SMALLEST_INVERTIBLE)));
     certainty = Certainty(false, true, false, 1.0, none, none, none, T_FAR, invertible);
+#if INSTANCES
+    unplace_certainty();
+#endif
 }
 
 // Keeps `d` if it is nearer than `first` or `second`, `first` and `second` being of

@@ -41,6 +41,9 @@ fn traverse_bvh(world: Ray, min_t: real, best: ptr<function, Hit>) {
                 ri = ray_inverse(ray);
                 shear = shear_of(ray.direction);
                 inside = NO_INSTANCE;
+#if CERTAINTY
+                unplace_certainty();
+#endif
             }
             if ((node & INSTANCE_BIT) != 0u) {
                 inside = node & ~INSTANCE_BIT;
@@ -51,6 +54,9 @@ fn traverse_bvh(world: Ray, min_t: real, best: ptr<function, Hit>) {
                 inside_object = instance.object;
                 inside_sp = sp;
                 node = instance.root;
+#if CERTAINTY
+                place_certainty(world, ray, instance, *best);
+#endif
             }
 #endif
             n = visit(node, ray, ri, min_t, cull_t(*best));
@@ -80,6 +86,12 @@ fn traverse_bvh(world: Ray, min_t: real, best: ptr<function, Hit>) {
             break;
         }
     }
+#if INSTANCES
+#if CERTAINTY
+    // The planes, tested after, are in the world's coordinates.
+    unplace_certainty();
+#endif
+#endif
 }
 
 // Where a ray goes after visiting `n` and testing its leaves: to the inner child it enters

@@ -69,7 +69,8 @@ impl<T: Real> Prepared<T> {
         let Some(topology) = Topology::instanced(scene) else {
             return Prepared::new(scene, algorithm, Search::Bvh);
         };
-        let kernel = instanced_kernel_units(scene, &topology);
+        let instanced = topology.named_instances().expect("a tree naming instances");
+        let kernel = instanced_kernel_units(scene, instanced);
         let bvh = Arc::new(Bvh::fit(&topology, &kernel.0, algorithm));
         Prepared::assemble(scene, kernel, algorithm, Some(bvh)).timed(clock)
     }
@@ -82,7 +83,18 @@ impl<T: Real> Prepared<T> {
         bvh: Option<Arc<Bvh>>,
     ) -> Prepared<T> {
         let clock = Instant::now();
-        Prepared::assemble(scene, in_kernel_units(scene), algorithm, bvh).timed(clock)
+        // A tree naming instances was fitted in the units of its instances' boxes.
+        let kernel = match bvh.as_ref().and_then(|b| b.instanced.as_ref()) {
+            Some(instanced) => instanced_kernel_units(scene, instanced),
+            None => in_kernel_units(scene),
+        };
+        Prepared::assemble(scene, kernel, algorithm, bvh).timed(clock)
+    }
+
+    /// Whether its BVH names instances, which the kernel walks in their meshes' coordinates
+    /// ([`Prepared::instanced`]).
+    pub(crate) fn walks_instances(&self) -> bool {
+        self.bvh().is_some_and(|b| b.instanced.is_some())
     }
 
     /// The preparation of `scene`, given as it is in kernel units, `kernel`.
@@ -221,7 +233,7 @@ pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bv
     match Topology::instanced(scene) {
         Some(topology) => Some(Bvh::fit(
             &topology,
-            &instanced_kernel_units(scene, &topology).0,
+            &instanced_kernel_units(scene, topology.named_instances()?).0,
             algorithm,
         )),
         None => bvh_of(scene, algorithm, Search::Bvh),
@@ -231,8 +243,10 @@ pub(crate) fn instanced_bvh_of(scene: &Scene, algorithm: Algorithm) -> Option<Bv
 /// [`in_kernel_units`] for a tree naming `scene`'s instances: the scene without its copies
 /// of the instances' triangles (their meshes are read instead), so that a frame scales and
 /// copies only the other objects.
-fn instanced_kernel_units<'a>(scene: &'a Scene, topology: &Topology) -> (Cow<'a, Scene>, f64) {
-    let instanced = topology.named_instances().expect("a tree naming instances");
+fn instanced_kernel_units<'a>(
+    scene: &'a Scene,
+    instanced: &bvh::Instanced,
+) -> (Cow<'a, Scene>, f64) {
     let mut is_copy = vec![false; scene.objects.len()];
     for i in &instanced.instances {
         is_copy[scene.instances[i.placement as usize].object] = true;

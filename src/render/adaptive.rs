@@ -78,6 +78,7 @@ pub(crate) fn certainty_variant(gpu: &Gpu, scene: &Scene) -> Variant {
         ..gpu.scene_variant(scene, Float::F32, Algorithm::Robust)
     }
     .for_rays(scene.camera.pixel_count())
+    .with_instances(scene)
 }
 
 /// The first pass alone: a robust f32 render of `scene` that also says, per pixel, whether its
@@ -88,7 +89,17 @@ pub(crate) fn certainty_pass(
     scene: &Scene,
     timed: bool,
 ) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
-    let variant = certainty_variant(gpu, scene);
+    certainty_pass_as(gpu, scene, certainty_variant(gpu, scene), timed)
+}
+
+/// [`certainty_pass`] through `variant`, a [`certainty_variant`] of `scene` tuned otherwise.
+#[cfg(test)]
+pub(crate) fn certainty_pass_as(
+    gpu: &Gpu,
+    scene: &Scene,
+    variant: Variant,
+    timed: bool,
+) -> Result<(gpu::Rendered<f32>, Prepared<f32>)> {
     let ran = super::Kernel::<f32>::prepare(scene, variant, timed, None)?.run(gpu)?;
     Ok((ran.rendered, ran.prepared))
 }
@@ -135,10 +146,13 @@ pub(crate) fn recast(
             kernel_s: first_s,
         });
     }
-    // The f64 pass walks the same BVH.
+    // The f64 pass walks the same BVH, its instances too where it names them.
     let exact = Prepared::<f64>::with_bvh(scene, Algorithm::Robust, prepared.bvh().cloned());
     let (pixels, kernel_s): (Vec<Pixel<f64>>, _) = if recast_on_gpu {
-        let variant = gpu.scene_variant(scene, Float::F64, Algorithm::Robust);
+        let variant = Variant {
+            instances: exact.walks_instances(),
+            ..gpu.scene_variant(scene, Float::F64, Algorithm::Robust)
+        };
         let job = Job::new(variant).pixels(&uncertain).timed(timed);
         let second = gpu::run(gpu, &exact, job)?;
         let pixels = (0..uncertain.len()).map(|k| second.images.pixel(k));

@@ -421,14 +421,13 @@ impl Variant {
 
     /// This variant walking `scene`'s instances in their meshes' coordinates
     /// ([`Variant::instances`]) where it places meshes and the kernel finds the nearest hits of
-    /// the camera's rays ray by ray: neither packets (which would have to move every lane's ray
-    /// at once), nor the certainty pass (whose bounds do not yet count the instance's map), nor
-    /// a user's hook or kernel, nor a query kernel.
+    /// the camera's rays ray by ray (the certainty pass too: certainty.wgsl's `place_certainty`
+    /// counts the map's rounding): neither packets (which would have to move every lane's ray
+    /// at once), nor a user's hook or kernel, nor a query kernel.
     pub(crate) fn with_instances(self, scene: &crate::scene::Scene) -> Variant {
         let instances = !scene.instances.is_empty()
             && self.uses_bvh()
             && !self.uses_packets()
-            && !self.certainty
             && self.is_ours()
             && self.casts == Casts::Camera
             && !(self.count || self.closest || self.occluded);

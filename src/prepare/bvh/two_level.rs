@@ -911,6 +911,87 @@ mod tests {
         .unwrap()
     }
 
+    /// 40 copies of a sheet, each squashed along one axis by 10^-1 to 10^-4 and turned at
+    /// random: maps whose rounding moves a ray's shear far more than a rotation's does, some
+    /// beyond what certainty.wgsl's `PLACED_SKEW_LIMIT` lets the mesh's boxes absorb.
+    fn squashed_copies() -> Scene {
+        let mut rng = crate::tests::common::Rng(11);
+        let objects: Vec<String> = (0..40)
+            .map(|k| {
+                let t: Vec<f64> = (0..3).map(|_| rng.range(-1.5, 1.5)).collect();
+                let axis: Vec<f64> = (0..3).map(|_| rng.range(-1.0, 1.0)).collect();
+                let mut scale = [1.0; 3];
+                scale[k % 3] = 10f64.powi(-1 - (k as i32 / 3) % 4);
+                format!(
+                    r#"{{"type": "instance", "mesh": "a", "transform": {{"translate": {t:?},
+                        "rotate": {{"axis": {axis:?}, "degrees": {}}}, "scale": {scale:?}}}}}"#,
+                    rng.range(0.0, 360.0)
+                )
+            })
+            .collect();
+        let json = format!(
+            r#"{{"camera": {{"eye": [0.3, 0.2, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
+                "fov": 45, "resolution": [96, 72]}},
+              "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
+            objects.join(",")
+        );
+        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
+            Ok(crate::scene::MeshPart::whole(sheet(80)))
+        })
+        .unwrap()
+    }
+
+    /// Adaptive precision walks the instances in their meshes, its certainty pass counting the
+    /// maps' rounding, and gives the flattened scene's f64 ids on every pixel, its uncertain
+    /// pixels cast again on the CPU and, where the GPU has f64, on the GPU.
+    #[test]
+    fn adaptive_renders_through_instances_give_the_flattened_scenes_f64_ids() {
+        use crate::render::adaptive;
+        let gpu = crate::tests::common::gpu();
+        let scenes = [
+            ("placed", placed_scene([64, 48])),
+            ("hundred", hundred_copies()),
+            ("scaled", placed_scene([64, 48]).scaled_by_pow2(40)),
+            ("squashed", squashed_copies()),
+        ];
+        for (name, scene) in scenes {
+            // Ray by ray, as hardware GPUs cast (lavapipe casts these many rays in packets).
+            let variant = crate::gpu::shader::Variant {
+                packets: false,
+                ..adaptive::certainty_variant(gpu, &scene)
+            }
+            .with_instances(&scene);
+            assert!(variant.instances, "{name}");
+            let flattened = Scene {
+                instances: Vec::new(),
+                ..scene.clone()
+            };
+            let flat: Images<f64> = crate::cpu::render_prepared(
+                &crate::prepare::Prepared::new(&flattened, Algorithm::Robust, Search::Bvh),
+                &std::sync::atomic::AtomicU32::new(0),
+            );
+            let on_gpu = gpu.has_f64().then_some(0);
+            for cpu_recast in [Some(usize::MAX), on_gpu].into_iter().flatten() {
+                let (first, prepared) =
+                    adaptive::certainty_pass_as(gpu, &scene, variant, false).unwrap();
+                assert!(prepared.walks_instances(), "{name}");
+                let a = adaptive::recast(gpu, &scene, first, &prepared, false, cpu_recast).unwrap();
+                let wrong = (0..flat.id.len()).filter(|&k| a.images.id[k] != flat.id[k]);
+                assert_eq!(
+                    wrong.count(),
+                    0,
+                    "{name}, recast on the GPU: {}",
+                    a.recast_on_gpu
+                );
+                println!(
+                    "{name}: {:.4} recast (on the GPU: {})",
+                    a.recast_fraction(),
+                    a.recast_on_gpu
+                );
+            }
+        }
+    }
+
     /// A scene file's instances committed for queries ([`crate::Geometry::from_scene`]) give
     /// the flattened scene's hits, ray for ray.
     #[test]
