@@ -941,6 +941,30 @@ mod tests {
         .unwrap()
     }
 
+    /// Triangles squashed to slivers 10^-3 high, turned 40 degrees about their long edge and
+    /// seen face on, so closely that a pixel is about 10^-7 of the distance: moving a ray into
+    /// its mesh stretches the rounding of the ray's height by 10^3, and the pixels along the
+    /// edge decide hit or miss by less than that.
+    fn zoomed_sliver() -> Scene {
+        let (sin, cos) = 40f64.to_radians().sin_cos();
+        let json = format!(
+            r#"{{"camera": {{"eye": [0.5, {}, {}], "look_at": [0.5, 0, 0], "up": [0, {cos}, {sin}],
+                "fov": 0.00009, "resolution": [64, 48]}},
+              "meshes": {{"a": {{"obj": "a.obj"}}}},
+              "objects": [{{"type": "instance", "mesh": "a", "transform": {{
+                "rotate": {{"axis": [1, 0, 0], "degrees": 40}}, "scale": [1, 0.001, 1]}}}}]}}"#,
+            -3.0 * sin,
+            3.0 * cos
+        );
+        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
+            // Sixteen along the edge: enough for a tree.
+            let along = |k: usize| DVec3::X * (k as f64 / 16.0);
+            let fan = (0..16).map(|k| [along(k), along(k + 1), along(k) + DVec3::Y]);
+            Ok(crate::scene::MeshPart::whole(fan.collect()))
+        })
+        .unwrap()
+    }
+
     /// Adaptive precision walks the instances in their meshes, its certainty pass counting the
     /// maps' rounding, and gives the flattened scene's f64 ids on every pixel, its uncertain
     /// pixels cast again on the CPU and, where the GPU has f64, on the GPU.
@@ -953,6 +977,7 @@ mod tests {
             ("hundred", hundred_copies()),
             ("scaled", placed_scene([64, 48]).scaled_by_pow2(40)),
             ("squashed", squashed_copies()),
+            ("sliver", zoomed_sliver()),
         ];
         for (name, scene) in scenes {
             // Ray by ray, as hardware GPUs cast (lavapipe casts these many rays in packets).
