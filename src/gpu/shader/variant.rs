@@ -600,9 +600,10 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                             });
                         }
                     }
-                    if casts == Casts::Camera && !certainty {
+                    if casts != Casts::Rays && !(count || closest || occluded) {
                         // Instances walked in their meshes' coordinates, ray by ray, in one
-                        // chunk and in all (#64).
+                        // chunk and in all (#64): camera renders, adaptive precision's
+                        // certainty pass and its listed pixels cast again.
                         for chunks in [1, MAX_CHUNKS] {
                             v.push(Variant {
                                 bvh: true,

@@ -1000,6 +1000,9 @@ mod tests {
                 let (first, prepared) =
                     adaptive::certainty_pass_as(gpu, &scene, variant, false).unwrap();
                 assert!(prepared.walks_instances(), "{name}");
+                // The sliver's f32 pass alone gets some pixels wrong: its certainty is tested.
+                let f32_wrong = (0..flat.id.len()).filter(|&k| first.images.id[k] != flat.id[k]);
+                assert!(name != "sliver" || f32_wrong.count() > 0);
                 let a = adaptive::recast(gpu, &scene, first, &prepared, false, cpu_recast).unwrap();
                 let wrong = (0..flat.id.len()).filter(|&k| a.images.id[k] != flat.id[k]);
                 assert_eq!(
