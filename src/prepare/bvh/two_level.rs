@@ -886,42 +886,42 @@ mod tests {
     /// 100 copies of a 60-triangle mesh at seeded random poses (rotations about random axes,
     /// non-uniform scales, translations up to 1e3), seen from 4,000 away.
     fn hundred_copies() -> Scene {
-        let mut rng = crate::tests::common::Rng(7);
-        let objects: Vec<String> = (0..100)
-            .map(|_| {
-                let t: Vec<f64> = (0..3).map(|_| rng.range(-1e3, 1e3)).collect();
-                let axis: Vec<f64> = (0..3).map(|_| rng.range(-1.0, 1.0)).collect();
-                let scale: Vec<f64> = (0..3).map(|_| rng.range(60.0, 200.0)).collect();
-                format!(
-                    r#"{{"type": "instance", "mesh": "a", "transform": {{"translate": {t:?},
-                        "rotate": {{"axis": {axis:?}, "degrees": {}}}, "scale": {scale:?}}}}}"#,
-                    rng.range(0.0, 360.0)
-                )
-            })
-            .collect();
-        let json = format!(
-            r#"{{"camera": {{"eye": [0, 0, 4000], "look_at": [0, 0, 0], "up": [0, 1, 0],
-                "fov": 40, "resolution": [128, 96]}},
-              "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
-            objects.join(",")
-        );
-        Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
-            Ok(crate::scene::MeshPart::whole(sheet(60)))
-        })
-        .unwrap()
+        let camera = r#"{"eye": [0, 0, 4000], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40,
+            "resolution": [128, 96]}"#;
+        let scale = |_, rng: &mut crate::tests::common::Rng| [0; 3].map(|_| rng.range(60.0, 200.0));
+        sheet_copies([100, 60], 7, 1e3, scale, camera)
     }
 
     /// 40 copies of a sheet, each squashed along one axis by 10^-1 to 10^-4 and turned at
     /// random: maps whose rounding moves a ray's shear far more than a rotation's does, some
     /// beyond what certainty.wgsl's `PLACED_SKEW_LIMIT` lets the mesh's boxes absorb.
     fn squashed_copies() -> Scene {
-        let mut rng = crate::tests::common::Rng(11);
-        let objects: Vec<String> = (0..40)
+        let camera = r#"{"eye": [0.3, 0.2, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 45,
+            "resolution": [96, 72]}"#;
+        let scale = |k: usize, _: &mut crate::tests::common::Rng| {
+            let mut scale = [1.0; 3];
+            scale[k % 3] = 10f64.powi(-1 - (k as i32 / 3) % 4);
+            scale
+        };
+        sheet_copies([40, 80], 11, 1.5, scale, camera)
+    }
+
+    /// `count` copies of a sheet of `triangles` triangles, seen by `camera` (the scene
+    /// format's): copy k turned about a random axis, scaled by `scale(k, ..)` and moved by up
+    /// to `reach` along each axis, from the seed `seed`.
+    fn sheet_copies(
+        [count, triangles]: [usize; 2],
+        seed: u64,
+        reach: f64,
+        scale: impl Fn(usize, &mut crate::tests::common::Rng) -> [f64; 3],
+        camera: &str,
+    ) -> Scene {
+        let mut rng = crate::tests::common::Rng(seed);
+        let objects: Vec<String> = (0..count)
             .map(|k| {
-                let t: Vec<f64> = (0..3).map(|_| rng.range(-1.5, 1.5)).collect();
+                let t: Vec<f64> = (0..3).map(|_| rng.range(-reach, reach)).collect();
                 let axis: Vec<f64> = (0..3).map(|_| rng.range(-1.0, 1.0)).collect();
-                let mut scale = [1.0; 3];
-                scale[k % 3] = 10f64.powi(-1 - (k as i32 / 3) % 4);
+                let scale = scale(k, &mut rng);
                 format!(
                     r#"{{"type": "instance", "mesh": "a", "transform": {{"translate": {t:?},
                         "rotate": {{"axis": {axis:?}, "degrees": {}}}, "scale": {scale:?}}}}}"#,
@@ -930,13 +930,11 @@ mod tests {
             })
             .collect();
         let json = format!(
-            r#"{{"camera": {{"eye": [0.3, 0.2, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
-                "fov": 45, "resolution": [96, 72]}},
-              "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
+            r#"{{"camera": {camera}, "meshes": {{"a": {{"obj": "a.obj"}}}}, "objects": [{}]}}"#,
             objects.join(",")
         );
         Scene::from_json(&json, std::path::Path::new("s.json"), &mut |_, _| {
-            Ok(crate::scene::MeshPart::whole(sheet(80)))
+            Ok(crate::scene::MeshPart::whole(sheet(triangles)))
         })
         .unwrap()
     }
