@@ -179,6 +179,17 @@ fn placed_normal(hit: Hit, n: vec3<real>) -> vec3<real> {
     return n;
 }
 
+// The barycentrics `uv` of the triangle `hit` hit as the flattened scene's: an instance that
+// mirrors swaps its triangles' last two corners (docs/scene-format.md), so u and v trade places.
+fn placed_uv(hit: Hit, uv: vec2<real>) -> vec2<real> {
+#if INSTANCES
+    if (is_placed(hit) && mirrors(instance_at(hit_instance))) {
+        return uv.yx;
+    }
+#endif
+    return uv;
+}
+
 // The ray as the primitive `hit` hit sees it: in its instance's mesh coordinates where an
 // instance places it (barycentrics and t are the same there).
 fn placed_ray(ray: Ray, hit: Hit) -> Ray {
@@ -249,7 +260,7 @@ fn hit_details(ray: Ray, hit: Hit) -> HitDetails {
         let tri = triangle_at(hit.index);
         let placed = placed_ray(ray, hit);
         let t = triangle_hit_t(placed, tri, hit.t);
-        return HitDetails(placed_normal(hit, triangle_normal(tri)), t, triangle_uv(placed, shear_of(placed.direction), tri));
+        return HitDetails(placed_normal(hit, triangle_normal(tri)), t, placed_uv(hit, triangle_uv(placed, shear_of(placed.direction), tri)));
     }
 #endif
     return HitDetails(hit_normal(ray, hit), hit.t, vec2<real>(0.0));

@@ -73,6 +73,11 @@ fn row_vector(r: vec4<real>, v: vec3<real>) -> real {
     return r.x * v.x + r.y * v.y + r.z * v.z;
 }
 
+// Whether `instance`'s placement mirrors (its map's determinant is negative, as its inverse's is).
+fn mirrors(instance: Instance) -> bool {
+    return dot(instance.r0.xyz, cross(instance.r1.xyz, instance.r2.xyz)) < 0.0;
+}
+
 // A normal `n` in `instance`'s mesh coordinates as a direction in the kernel's, not
 // normalised: by the transpose of the rows' map (the inverse transpose of the placement's).
 fn instance_normal(n: vec3<real>, instance: Instance) -> vec3<real> {

@@ -6,7 +6,7 @@ use super::plane::{intersect_plane, plane_normal};
 use super::sphere::{intersect_sphere, sphere_normal};
 use super::traverse::traverse_bvh;
 use super::triangle::{intersect_triangle, plane_t, triangle_normal, triangle_uv, unit_normal};
-use crate::kernel::types::{Ray, instance_normal, instance_ray, shear_of, t_far};
+use crate::kernel::types::{Ray, instance_normal, instance_ray, mirrors, shear_of, t_far};
 use crate::math::{Real, Vec3};
 use crate::prepare::Primitives;
 
@@ -175,6 +175,19 @@ pub(crate) fn hit_details<T: Real, const ROBUST: bool>(
         } else {
             hit.t
         },
-        uv: triangle_uv::<T, ROBUST>(ray, &shear_of(ray.direction), tri),
+        uv: placed_uv(
+            hit,
+            triangle_uv::<T, ROBUST>(ray, &shear_of(ray.direction), tri),
+            prims,
+        ),
+    }
+}
+
+/// The barycentrics `uv` of the triangle `hit` hit as the flattened scene's (`placed_uv`): an
+/// instance that mirrors swaps its triangles' last two corners, so u and v trade places.
+fn placed_uv<T: Real>(hit: &Hit<T>, [u, v]: [T; 2], prims: &Primitives<T>) -> [T; 2] {
+    match hit.instance {
+        k if k != NO_INSTANCE && mirrors(&prims.instances[k as usize]) => [v, u],
+        _ => [u, v],
     }
 }

@@ -1,7 +1,7 @@
 //! Mirror of shaders/types.wgsl: the kernel's value types. The scene's primitives in these
 //! types are made by [`crate::prepare`].
 
-use crate::math::{Real, Vec3, vec3};
+use crate::math::{Real, Vec3, cross, dot, vec3};
 
 pub(crate) use crate::kernel::frame::Frame;
 
@@ -110,6 +110,13 @@ pub(crate) fn instance_ray<T: Real>(ray: &Ray<T>, instance: &Instance<T>) -> Ray
         origin: vec3(point(r0, o), point(r1, o), point(r2, o)),
         direction: vec3(vector(r0, d), vector(r1, d), vector(r2, d)),
     }
+}
+
+/// Whether `instance`'s placement mirrors (`mirrors`): its map's determinant is negative, as
+/// its inverse's, the rows', is.
+pub(crate) fn mirrors<T: Real>(instance: &Instance<T>) -> bool {
+    let [r0, r1, r2] = instance.rows.map(|r| vec3(r[0], r[1], r[2]));
+    dot(r0, cross(r1, r2)) < T::ZERO
 }
 
 /// A normal `n` in `instance`'s mesh coordinates as a direction in the kernel's, not
