@@ -68,9 +68,17 @@ def test_instances_hit_as_their_copies_and_move(precision, device):
         hits = s.cast_rays(rays, precision=precision, device=device)
         return hits["geometry_ids"], hits["t_hit"]
 
+    def same_hits(got, want):
+        np.testing.assert_array_equal(got[0], want[0])
+        if precision == "f32" and device == "gpu":
+            # The GPU casts ray by ray through the instances, in their meshes' coordinates,
+            # where f32 rounds otherwise than at the placed copies: t to a few ulps.
+            np.testing.assert_allclose(got[1], want[1], rtol=2e-6)
+        else:
+            np.testing.assert_array_equal(got[1], want[1])
+
     got, want = cast(scene), cast(copies(vertices, triangles, [np.eye(4)] + POSES))
-    np.testing.assert_array_equal(got[0], want[0])
-    np.testing.assert_array_equal(got[1], want[1])
+    same_hits(got, want)
     assert set(np.unique(got[0])) == {0, 1, 2, 3, 4, INVALID}
 
     # Moved, by 4x4 and by 3x4 matrices: as the copies placed there.
@@ -78,9 +86,7 @@ def test_instances_hit_as_their_copies_and_move(precision, device):
     scene.set_transforms(np.array([3, 4]), np.stack([moved, POSES[0]]))
     scene.set_transforms([1], POSES[1][None, :3])
     placed = [POSES[1], POSES[0], moved, POSES[0]]
-    got, want = cast(scene), cast(copies(vertices, triangles, placed))
-    np.testing.assert_array_equal(got[0], want[0])
-    np.testing.assert_array_equal(got[1], want[1])
+    same_hits(cast(scene), cast(copies(vertices, triangles, placed)))
 
 
 def test_a_loaded_scenes_instances_move_in_its_renders(tmp_path):

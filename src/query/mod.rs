@@ -690,10 +690,12 @@ impl RayScene {
             job = job.t_far(t_far);
         }
         let mut rendered = gpu::run(gpu, &prepared, job)?;
-        if prepared.walks_instances() {
-            if let Some(hits) = &mut rendered.hits {
-                self.in_scene_order(hits);
-            }
+        if let Some(hits) = rendered
+            .hits
+            .as_mut()
+            .filter(|_| prepared.walks_instances())
+        {
+            self.in_scene_order(hits);
         }
         Ok(rendered)
     }
