@@ -937,11 +937,10 @@ mod tests {
         ]
     }
 
-    /// Instances added to a mesh hit as copies of the mesh placed by their transforms, added
-    /// as meshes of their own: the same ids and t, bit for bit, in f32 and f64; and they share
-    /// the mesh's one tree, which a commit after they move builds no more.
-    #[test]
-    fn added_instances_are_their_meshes_placed_and_move_without_building_the_mesh_again() {
+    /// A sphere and a cube mesh with the cube placed at [`poses`] twice over: as instances of
+    /// it, and as meshes of their own (the copies). The mesh, then both geometries.
+    #[allow(clippy::type_complexity)]
+    fn placed_cubes() -> ((Vec<DVec3>, Vec<[u32; 3]>), Geometry, Geometry) {
         let mesh = crate::tests::common::unit_cube_mesh();
         let (mut instanced, mut copies) = (Geometry::new(), Geometry::new());
         for geometry in [&mut instanced, &mut copies] {
@@ -953,6 +952,15 @@ mod tests {
             assert_eq!(id as usize, instanced.objects.len() - 1);
             placed_copy(&mut copies, &mesh, &m);
         }
+        (mesh, instanced, copies)
+    }
+
+    /// Instances added to a mesh hit as copies of the mesh placed by their transforms, added
+    /// as meshes of their own: the same ids and t, bit for bit, in f32 and f64; and they share
+    /// the mesh's one tree, which a commit after they move builds no more.
+    #[test]
+    fn added_instances_are_their_meshes_placed_and_move_without_building_the_mesh_again() {
+        let (mesh, mut instanced, copies) = placed_cubes();
         let rays = grid_rays();
         for precision in [Precision::F32, Precision::F64] {
             let (ids, t) = cast(&instanced, precision, &rays);
@@ -993,16 +1001,7 @@ mod tests {
     fn gpu_casts_walk_instances_and_find_the_copies_hits() {
         use crate::rays::AnyHits;
         let gpu = crate::tests::common::gpu();
-        let mesh = crate::tests::common::unit_cube_mesh();
-        let (mut instanced, mut copies) = (Geometry::new(), Geometry::new());
-        for geometry in [&mut instanced, &mut copies] {
-            geometry.add_sphere([0.5, -2.0, 0.0], 0.75).unwrap();
-            geometry.add_mesh(&mesh.0, &mesh.1).unwrap();
-        }
-        for m in poses() {
-            instanced.add_instance(1, m).unwrap();
-            placed_copy(&mut copies, &mesh, &m);
-        }
+        let (_, instanced, copies) = placed_cubes();
         // Incoherent (ray by ray), many starting inside the instances' boxes.
         let rays = crate::tests::common::incoherent_rays(3000, 4.0, 5);
         let exact = Cpu.commit(&copies, Precision::F64).unwrap();
