@@ -420,16 +420,16 @@ impl Variant {
     }
 
     /// This variant walking `scene`'s instances in their meshes' coordinates
-    /// ([`Variant::instances`]) where it places meshes and the kernel finds the nearest hits of
-    /// the camera's rays ray by ray (the certainty pass too: certainty.wgsl's `place_certainty`
-    /// counts the map's rounding): neither packets (which would have to move every lane's ray
-    /// at once), nor a user's hook or kernel, nor a query kernel.
+    /// ([`Variant::instances`]) where it places meshes and the kernel finds nearest hits ray by
+    /// ray: the camera's, listed pixels' and a caller's rays, the certainty pass too
+    /// (certainty.wgsl's `place_certainty` counts the map's rounding). Not packets (which would
+    /// have to move every lane's ray at once), a user's hook or kernel, or a count, closest-point
+    /// or occlusion kernel.
     pub(crate) fn with_instances(self, scene: &crate::scene::Scene) -> Variant {
         let instances = !scene.instances.is_empty()
             && self.uses_bvh()
             && !self.uses_packets()
             && self.is_ours()
-            && self.casts == Casts::Camera
             && !(self.count || self.closest || self.occluded);
         Variant { instances, ..self }
     }
@@ -600,10 +600,10 @@ pub(crate) fn all_variants() -> Vec<Variant> {
                             });
                         }
                     }
-                    if casts != Casts::Rays && !(count || closest || occluded) {
+                    if !(count || closest || occluded) {
                         // Instances walked in their meshes' coordinates, ray by ray, in one
                         // chunk and in all (#64): camera renders, adaptive precision's
-                        // certainty pass and its listed pixels cast again.
+                        // certainty pass and its listed pixels cast again, a caller's rays.
                         for chunks in [1, MAX_CHUNKS] {
                             v.push(Variant {
                                 bvh: true,
