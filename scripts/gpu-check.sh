@@ -267,19 +267,22 @@ views_times() {
 step views "$raw/views.txt" views_times
 bench views "$work/lit/bunny.json" --orbit "$views" --size 640x360
 
-# The kernel over buffers kept across casts, as a session of queries or a viewer has them,
-# against bench's frames, each of which uploads the scene into new buffers: on the H200 the 5M
-# torus cost about 7.5 ms whatever its rays (docs/gpu.md, 2026-11-29).
+# The kernel over buffers kept across casts and dispatched back to back, as a session of
+# queries or a viewer has them: each of bench's frames builds and uploads the scene first, and
+# an H200 left idle that long (a second for the 5M torus) ran the next kernel up to 5x slower
+# (docs/gpu.md, 2026-11-30).
 kept_times() {
-    local name scene flag line
+    local name scene flag line traversal
     for name in torus torus-f64 big; do
         scene=$work/torus/torus.json flag=""
         [[ $name == big ]] && scene=$work/big/torus.json
         [[ $name == torus-f64 ]] && { grep -q '^shader f64: *yes' "$raw/info.txt" || continue; flag=--f64; }
-        line=$(RAYCAST_MEASURE="$scene $flag --rounds $runs builtin" "$here/raycast-lib-tests" kernel_ab \
-            --ignored --nocapture 2>&1 | grep '^builtin: median') || return 1
-        set -- $line
-        echo "$name $3"
+        for traversal in ${traversals//,/ }; do
+            line=$(RAYCAST_MEASURE="$scene $flag --traversal $traversal --rounds $runs builtin" \
+                "$here/raycast-lib-tests" kernel_ab --ignored --nocapture 2>&1 | grep '^builtin: median') || return 1
+            set -- $line
+            echo "$name $traversal $3"
+        done
     done
 }
 [[ -x $here/raycast-lib-tests ]] && step kept "$raw/kept.txt" kept_times
@@ -389,7 +392,7 @@ report = {
         "batch_over_kernel": bench["views"][0]["rays"] / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
             if views["batch"] and bench["views"] else None,
     },
-    "kept_kernel_ms": {name: float(s) * 1e3 for name, s in
+    "kept_kernel_ms": {"%s %s" % (name, traversal): float(s) * 1e3 for name, traversal, s in
                        (l.split() for l in text("kept.txt").splitlines())},
     "cost": {
         "f64_over_f32_kernel": f64["trace_gpu_s"] / f32["trace_gpu_s"]
@@ -461,9 +464,9 @@ md += ["", "The trace (`trace_s`, wall) against its kernel (GPU timestamps); of 
        "copy to host-mapped memory where measured. Medians of the runs; the dataset's row sums its "
        "views. Ray lists (`--rays`) report no parts."]
 if report["kept_kernel_ms"]:
-    md += ["", "The kernel over buffers kept across casts (the library's `kernel_ab`, the device's "
-           "default traversal, median of %s rounds): %s; in the tables above each frame uploads the "
-           "scene into new buffers." % (runs, "; ".join(
+    md += ["", "The kernel over buffers kept across casts, dispatched back to back (the library's "
+           "`kernel_ab`, each traversal the device has, median of %s rounds): %s; in the tables "
+           "above each frame builds and uploads the scene first." % (runs, "; ".join(
                "%s %.2f ms" % (name, ms) for name, ms in report["kept_kernel_ms"].items()))]
 predictions = [w for w in report["workloads"] if w["predicted_ms"] is not None]
 if predictions:

@@ -394,24 +394,6 @@ struct Part {
     count: u32,
 }
 
-/// Parts of a job below this many rays are not split further: each dispatch and readback has
-/// a fixed cost.
-const MIN_PART_RAYS: u64 = 1 << 16;
-/// A job on a GPU is split into about this many parts, so that all but the last part's
-/// readback overlaps the device's work on the next.
-const PARTS: u64 = 8;
-
-/// How many parts a job on `gpu` is split into: [`PARTS`], or one where the host maps the
-/// kernel's buffers itself (a CPU adapter, lavapipe): nothing is copied there, and the kernel
-/// runs on the host's own cores, so a part's conversion would slow the next part's kernel as
-/// much as it overlaps it, while each dispatch costs its own start.
-fn parts_on(gpu: &Gpu) -> u64 {
-    match gpu.host_memory() {
-        true => 1,
-        false => PARTS,
-    }
-}
-
 /// How a job's rays are split into dispatches ([`Plan::new`]).
 struct Plan<'a> {
     rays: Rays<'a>,
@@ -425,11 +407,14 @@ struct Plan<'a> {
 }
 
 impl<'a> Plan<'a> {
-    /// The parts of `rays`: at most `max_rows` image rows (and what the device's limits allow)
-    /// a part, about [`parts_on`] the device parts of at least [`MIN_PART_RAYS`] rays, each a whole number of
-    /// bands of 8 rows where packets trace 8x8 blocks (`grid_slot` in shaders/entry.wgsl).
-    /// Two parts' buffers are in use at once: where more than one part is needed, each holds at
-    /// most half of what one dispatch may, so the job holds no more than one such dispatch.
+    /// The parts of `rays`: one, unless the job is more than one dispatch may hold (at most
+    /// `max_rows` image rows and what the device's limits allow), each a whole number of bands
+    /// of 8 rows where packets trace 8x8 blocks (`grid_slot` in shaders/entry.wgsl). Two parts'
+    /// buffers are in use at once: where more than one part is needed, each holds at most half
+    /// of what one dispatch may, so the job holds no more than one such dispatch. Smaller parts
+    /// would overlap a part's readback with the next part's kernel, but on a GPU they cost more
+    /// than that saves: each dispatch leaves the device part empty at its end, and the host's
+    /// conversion slows (docs/performance.md#large-scenes-and-images).
     fn new<R: GpuReal>(
         gpu: &Gpu,
         prepared: &Prepared<R>,
@@ -463,12 +448,7 @@ impl<'a> Plan<'a> {
                 (n, unit, list_capacity)
             }
         };
-        // Rays a unit of parts holds: an image row for the camera, a list entry otherwise.
-        let per_count = match rays {
-            Rays::Camera => nx as u64,
-            _ => 1,
-        };
-        let step = part_step(total, unit, most, per_count, parts_on(gpu));
+        let step = part_step(total, unit, most);
         let parts: Vec<Part> = (0..total)
             .step_by(step as usize)
             .map(|first| Part {
@@ -512,25 +492,17 @@ impl<'a> Plan<'a> {
     }
 }
 
-/// Rows or entries a part covers: about `total / parts`, at least [`MIN_PART_RAYS`] rays
-/// (`per_count` rays each), a multiple of `unit` where `most` allows, and at most `most`,
-/// halved where one part cannot hold everything (module docs of [`Plan::new`]).
-fn part_step(total: u32, unit: u32, most: u32, per_count: u64, parts: u64) -> u32 {
+/// Rows or entries a part covers: all `total` where `most` allows, else half of `most` (two
+/// parts' buffers are in use at once), a multiple of `unit` where that allows.
+fn part_step(total: u32, unit: u32, most: u32) -> u32 {
     let most = most.max(1);
-    if total <= most && (total as u64 * per_count) < 2 * MIN_PART_RAYS {
+    if total <= most {
         return total.max(1);
     }
-    let most = match total <= most {
-        true => most,
-        false => (most / 2).max(1),
-    };
-    let min = MIN_PART_RAYS.div_ceil(per_count).min(u32::MAX as u64) as u32;
-    let wanted = (total as u64).div_ceil(parts) as u32;
-    let step = wanted.max(min).next_multiple_of(unit);
-    match step <= most {
-        true => step,
-        false if most >= unit => most / unit * unit,
-        false => most,
+    let half = (most / 2).max(1);
+    match half >= unit {
+        true => half / unit * unit,
+        false => half,
     }
 }
 
@@ -1305,8 +1277,8 @@ mod tests {
     use super::*;
 
     /// The parts of `total` rows or entries by [`part_step`], as [`Plan::new`] makes them.
-    fn parts(total: u32, unit: u32, most: u32, per_count: u64, parts: u64) -> Vec<u32> {
-        let step = part_step(total, unit, most, per_count, parts);
+    fn parts(total: u32, unit: u32, most: u32) -> Vec<u32> {
+        let step = part_step(total, unit, most);
         (0..total)
             .step_by(step as usize)
             .map(|first| step.min(total - first))
@@ -1315,16 +1287,12 @@ mod tests {
 
     #[test]
     fn parts_cover_the_job_in_whole_units_within_the_device_limit() {
-        // A 1920x1080 image on a GPU: eight parts of 136 rows, bands of 8 rows each.
-        let image = parts(1080, 8, 1080, 1920, PARTS);
-        assert_eq!(image, [136, 136, 136, 136, 136, 136, 136, 128]);
-        // One part on a CPU adapter; a small image in one part either way.
-        assert_eq!(parts(1080, 8, 1080, 1920, 1), [1080]);
-        assert_eq!(parts(36, 8, 36, 64, PARTS), [36]);
-        // 2,073,600 listed rays of a 1920-wide image: bands of 8 rows of it.
-        let list = parts(2_073_600, 8 * 1920, u32::MAX, 1, PARTS);
-        assert_eq!(list.len(), 8);
-        assert!(list[..7].iter().all(|&n| n % (8 * 1920) == 0), "{list:?}");
+        // A job one dispatch holds is one part: a 1920x1080 image, 2,073,600 listed rays.
+        assert_eq!(parts(1080, 8, 1080), [1080]);
+        assert_eq!(parts(36, 8, 36), [36]);
+        assert_eq!(parts(2_073_600, 8 * 1920, u32::MAX), [2_073_600]);
+        // An empty list still has a part (its buffers may not be empty).
+        assert_eq!(part_step(0, 64, 1000), 1);
         // More than one dispatch holds: two parts in flight hold at most one dispatch's worth.
         for (total, most, unit) in [
             (16384, 256, 8),
@@ -1332,7 +1300,7 @@ mod tests {
             (1000, 1, 8),
             (5_000_000, 1 << 20, 64),
         ] {
-            let p = parts(total, unit, most, 16384, PARTS);
+            let p = parts(total, unit, most);
             assert_eq!(p.iter().map(|&n| n as u64).sum::<u64>(), total as u64);
             assert!(
                 p.iter().all(|&n| n <= (most / 2).max(1)),
@@ -1341,12 +1309,12 @@ mod tests {
         }
         // Every part but the last a whole number of units, where the limit allows one.
         for total in [1, 7, 8, 100, 1079, 1080, 4321] {
-            for per_count in [1, 640, 1920, 16384] {
-                let p = parts(total, 8, u32::MAX, per_count, PARTS);
+            for most in [16, 100, 1000] {
+                let p = parts(total, 8, most);
                 assert_eq!(p.iter().sum::<u32>(), total);
                 assert!(
                     p[..p.len() - 1].iter().all(|&n| n % 8 == 0),
-                    "{total}: {p:?}"
+                    "{total} {most}: {p:?}"
                 );
             }
         }

@@ -1,6 +1,7 @@
 //! Times kernels against each other on one prepared scene, the way docs/experiments.md's
-//! kernel steps were measured: `RAYCAST_MEASURE="SCENE [--f64]" cargo test --release -p raycast --lib kernel_ab -- --ignored --nocapture
-//! [--rounds N] [--no-check] KERNEL...`, each KERNEL `builtin` (the kernel `render` assembles)
+//! kernel steps were measured: `RAYCAST_MEASURE="SCENE [--f64] [--traversal per-ray|packets]
+//! [--rounds N] [--no-check] KERNEL..." cargo test --release -p raycast --lib kernel_ab --
+//! --ignored --nocapture`, each KERNEL `builtin` (the kernel `render` assembles)
 //! or a WGSL file as `render --kernel` takes one (`render --emit-shader` writes the assembled
 //! one, to edit). The kernels run in turn, in alternating order, every round (one warm-up
 //! round first); it prints each one's median kernel time (timestamp queries) and the median
@@ -29,6 +30,8 @@ use raycast::rays::RayList;
 struct Options {
     scene: String,
     precision: Float,
+    /// Packets (`--traversal packets`) or ray by ray; the device's choice where not given.
+    packets: Option<bool>,
     rounds: usize,
     check: bool,
     list: bool,
@@ -37,12 +40,13 @@ struct Options {
 }
 
 fn options() -> Options {
-    let usage = "RAYCAST_MEASURE=\"SCENE [--f64] [--list] [--rounds N] [--no-check] \
-                 [--emit FILE] KERNEL...\"";
+    let usage = "RAYCAST_MEASURE=\"SCENE [--f64] [--traversal per-ray|packets] [--list] \
+                 [--rounds N] [--no-check] [--emit FILE] KERNEL...\"";
     let mut args = super::args().into_iter();
     let mut o = Options {
         scene: args.next().expect(usage),
         precision: Float::F32,
+        packets: None,
         rounds: 15,
         check: true,
         list: false,
@@ -53,6 +57,13 @@ fn options() -> Options {
         match a.as_str() {
             "--f64" => o.precision = Float::F64,
             "--no-check" => o.check = false,
+            "--traversal" => {
+                o.packets = match args.next().as_deref() {
+                    Some("packets") => Some(true),
+                    Some("per-ray") => Some(false),
+                    _ => panic!("{usage}"),
+                }
+            }
             "--list" => o.list = true,
             "--emit" => o.emit = Some(args.next().expect(usage)),
             "--rounds" => o.rounds = args.next().and_then(|n| n.parse().ok()).expect(usage),
@@ -150,7 +161,15 @@ fn kernel_ab() {
     let o = options();
     let scene = raycast::Scene::load(Path::new(&o.scene)).unwrap();
     let gpu = Gpu::new().unwrap();
-    let base = gpu.scene_variant(&scene, o.precision, raycast::Algorithm::Robust);
+    let mut base = gpu.scene_variant(&scene, o.precision, raycast::Algorithm::Robust);
+    if let Some(packets) = o.packets {
+        let general = gpu.variant(o.precision, raycast::Algorithm::Robust);
+        assert!(
+            !packets || general.packets,
+            "this device has no packet traversal"
+        );
+        base.packets = packets;
+    }
     let times = match o.precision {
         Float::F32 => time_kernels::<f32>(&gpu, &scene, base, &o),
         Float::F64 => time_kernels::<f64>(&gpu, &scene, base, &o),
@@ -171,7 +190,7 @@ fn kernel_ab() {
     for (name, t) in o.kernels.iter().zip(&times) {
         let ratios: Vec<f64> = t.iter().zip(&times[0]).map(|(a, b)| a / b).collect();
         println!(
-            "{name}: median {:.4} s, time / first kernel's {:.4} (median of {} rounds)",
+            "{name}: median {:.6} s, time / first kernel's {:.4} (median of {} rounds)",
             median(t),
             median(&ratios),
             ratios.len()
