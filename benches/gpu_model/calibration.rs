@@ -39,19 +39,18 @@ const fn camera(
 
 use Traversal::{Packets, PerRay};
 
-/// The H200 report of 2026-11-29 at 9aaaf8c: each configuration's kernel in a process of its
-/// own where it was measured so (per ray: `raycast bench --traversal per-ray`, the torus and the
-/// 5M torus), else the gpu-check run's.
+/// The H200 report of 2026-11-30 at da72079: each kernel over buffers kept across casts and
+/// dispatched back to back (`kernel_ab --traversal`, median of 5 rounds), a cast in one part.
 pub const REPORT: &[Measured] = &[
-    camera("torus/torus.json", [3840, 2160], false, PerRay, 1.95),
-    camera("torus/torus.json", [3840, 2160], true, PerRay, 2.87),
-    camera("torus/torus.json", [3840, 2160], false, Packets, 2.66),
-    camera("torus5m/torus.json", [3840, 2160], false, PerRay, 16.5),
-    camera("torus5m/torus.json", [3840, 2160], false, Packets, 31.2),
-    camera("torus5m/torus.json", [960, 540], false, PerRay, 8.03),
-    camera("torus5m/torus.json", [960, 540], false, Packets, 51.7),
-    camera("spheres/spheres.json", [3840, 2160], false, PerRay, 0.38),
-    camera("spheres/spheres.json", [3840, 2160], false, Packets, 0.46),
+    camera("torus/torus.json", [3840, 2160], false, PerRay, 1.256),
+    camera("torus/torus.json", [3840, 2160], true, PerRay, 1.869),
+    camera("torus/torus.json", [3840, 2160], false, Packets, 1.743),
+    camera("torus5m/torus.json", [3840, 2160], false, PerRay, 1.857),
+    camera("torus5m/torus.json", [3840, 2160], false, Packets, 3.261),
+    camera("torus5m/torus.json", [960, 540], false, PerRay, 0.376),
+    camera("torus5m/torus.json", [960, 540], false, Packets, 2.088),
+    camera("spheres/spheres.json", [3840, 2160], false, PerRay, 0.299),
+    camera("spheres/spheres.json", [3840, 2160], false, Packets, 0.364),
 ];
 
 /// Two measured times closer than this are a tie: their order is not checked.
