@@ -432,7 +432,7 @@ for name, rs in bench.items():
             fmt(r["trace_gpu_s"] and r["trace_gpu_s"] * 1e3, ".2f"), fmt(r["trace_s"] * 1e3, ".2f"),
             fmt(secondary and secondary / 1e3, ".3g"), 100 * r["hit_fraction"]))
 md += ["", "Grays/s from GPU timestamps where the device has them (kernel time), else wall time "
-       "(incoherent rays: wall time of the cast, upload and readback included).", "",
+       "(the wall ms of incoherent rays: the cast, upload and readback included).", "",
        "Cost against f32: f64 kernel %s x (torus); adaptive whole render %s x (torus, %s, "
        "medians of %d and %d renders)." % (
            fmt(report["cost"]["f64_over_f32_kernel"], ".2f"),

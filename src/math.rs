@@ -140,7 +140,7 @@ impl std::str::FromStr for Float {
 
 /// A 3-vector of [`Real`]s with WGSL's `vec3` semantics (component-wise operators).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct Vec3<T> {
+pub(crate) struct Vec3<T> {
     pub x: T,
     pub y: T,
     pub z: T,
@@ -163,7 +163,7 @@ impl<T: Real> Vec3<T> {
     pub(crate) fn from_array(a: [T; 3]) -> Self {
         vec3(a[0], a[1], a[2])
     }
-    pub fn to_array(self) -> [T; 3] {
+    pub(crate) fn to_array(self) -> [T; 3] {
         [self.x, self.y, self.z]
     }
     pub(crate) fn splat(s: T) -> Self {

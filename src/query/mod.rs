@@ -361,6 +361,21 @@ impl<'d> Accel<'d> {
         Ok(Accel { scene, gpu, mode })
     }
 
+    /// This `Accel` with its GPU queries' kernels timed from now on, by the device's timestamp
+    /// queries (each cast reads them back too: a small cost), for [`Accel::kernel_seconds`].
+    pub fn timed(mut self) -> Accel<'d> {
+        self.scene.kernel_s.get_or_insert_with(Mutex::default);
+        self
+    }
+
+    /// The GPU seconds of the kernels of every query since [`Accel::timed`], each pass of a
+    /// query counted (adaptive precision's f64 re-cast too); `None` before a GPU pass was timed,
+    /// on the CPU, or where the device has no timestamp queries.
+    pub fn kernel_seconds(&self) -> Option<f64> {
+        let total = self.scene.kernel_s.as_ref()?;
+        *total.lock().expect("the kernel time's lock")
+    }
+
     /// The nearest hit of every ray (`t >= 0`). Rays are traced one by one, or where the
     /// device takes packets ([`crate::GpuInfo::packet_rays_per_primitive`]: lavapipe, for lists
     /// of many rays for the scene's primitives) and they are coherent (neighbours in the list
@@ -412,6 +427,9 @@ struct RayScene {
     /// The largest side of the objects' bounds: what [`coherent`] measures ray origins by.
     extent: f64,
     cache: Mutex<Cache>,
+    /// Where the GPU's kernels are timed ([`Accel::timed`]): their seconds so far, `None` until
+    /// a pass reported some.
+    kernel_s: Option<Mutex<Option<f64>>>,
 }
 
 /// Preparations by precision, algorithm and acceleration, and their buffers on a device.
@@ -469,6 +487,7 @@ impl RayScene {
             },
             extent: extent(bounds),
             cache: Mutex::default(),
+            kernel_s: None,
         }
     }
 
@@ -685,11 +704,16 @@ impl RayScene {
         .with_instances(&self.scene);
         let prepared = self.prepared::<R>(mode.algorithm, Some(&variant))?;
         let resident = self.resident(gpu, &prepared, &variant)?;
-        let mut job = Job::new(variant).rays(rays, t_near).resident(&resident);
+        let mut job = (Job::new(variant).rays(rays, t_near).resident(&resident))
+            .timed(self.kernel_s.is_some());
         if let Query::Occluded(t_far) = query {
             job = job.t_far(t_far);
         }
         let mut rendered = gpu::run(gpu, &prepared, job)?;
+        if let (Some(total), Some(k)) = (&self.kernel_s, rendered.stages.kernel_s) {
+            let mut total = total.lock().expect("the kernel time's lock");
+            *total = Some(total.unwrap_or(0.0) + k);
+        }
         if let Some(hits) = rendered
             .hits
             .as_mut()

@@ -263,7 +263,7 @@ fn the_public_api_reader_sees_grouped_imports() {
 }
 
 /// At most 132 public declarations: every `pub` declaration in src/ is part of the API
-/// (everything else is `pub(crate)` or private), counted as lines that open one: the 120
+/// (everything else is `pub(crate)` or private), counted as lines that open one: the 122
 /// items `scripts/public-items.py` counts (#63's cap) as declared, a ratchet that fails when a
 /// new one is added without another leaving. The cap is on the default API, so a module that
 /// only a cargo feature compiles (declared in lib.rs under `#[cfg(feature = ...)]`, such as

@@ -105,3 +105,44 @@ fn a_render_reads_back_only_the_outputs_asked_for() {
         assert!(images.normal == *normal, "{outputs:?}");
     }
 }
+
+/// A timed `Accel` casts the same hits and adds each GPU query's kernel seconds; an untimed one
+/// and the CPU's report none.
+#[test]
+fn timed_queries_change_no_hit_and_add_their_kernel_times() {
+    let gpu = super::common::gpu();
+    let timestamps = gpu
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let scene = super::common::course_scene("bunny");
+    let geometry = raycast::Geometry::from_scene(&scene);
+    let rays: Vec<raycast::Ray> = (0..300)
+        .map(|k| raycast::Ray {
+            origin: scene.camera.eye,
+            direction: (scene.camera.look.normalize()
+                + raycast::DVec3::new((k % 20) as f64 * 0.01, (k / 20) as f64 * 0.01, 0.0))
+            .normalize(),
+        })
+        .collect();
+    for precision in [raycast::Precision::F32, raycast::Precision::Adaptive] {
+        let plain = gpu.commit(&geometry, precision).unwrap();
+        let timed = gpu.commit(&geometry, precision).unwrap().timed();
+        assert_eq!(timed.kernel_seconds(), None, "no query yet");
+        let hits = timed.intersect(&rays[..]).unwrap();
+        assert_eq!(hits, plain.intersect(&rays[..]).unwrap(), "{precision:?}");
+        assert_eq!(plain.kernel_seconds(), None);
+        let first = timed.kernel_seconds();
+        assert_eq!(first.is_some(), timestamps, "{precision:?}");
+        timed.occluded(&rays[..], 0.0, 1e9).unwrap();
+        if let (Some(first), Some(both)) = (first, timed.kernel_seconds()) {
+            assert!(first > 0.0 && both > first && both < 60.0, "{first} {both}");
+        }
+    }
+    let cpu = raycast::Cpu
+        .commit(&geometry, raycast::Precision::F64)
+        .unwrap()
+        .timed();
+    cpu.intersect(&rays[..]).unwrap();
+    assert_eq!(cpu.kernel_seconds(), None);
+}

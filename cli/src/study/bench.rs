@@ -670,7 +670,7 @@ pub fn incoherent_rays(scene: &Scene, n: usize) -> Vec<raycast::Ray> {
 
 /// Measures `n` incoherent rays cast at `loaded` in `mode` ([`raycast::Accel::intersect`]): one
 /// warm-up cast (after the commit, which builds and uploads; it compiles), then `runs` timed
-/// ones, wall time.
+/// ones: wall time, and on a GPU with timestamp queries the kernel's ([`raycast::Accel::timed`]).
 fn measure_rays(
     loaded: &Loaded,
     mode: Mode,
@@ -684,20 +684,30 @@ fn measure_rays(
     let mut geometry = raycast::Geometry::from_scene(&loaded.scene);
     geometry.algorithm = mode.algorithm;
     let accel = match (mode.device, gpu) {
-        (Device::Gpu, Some(gpu)) => gpu.commit(&geometry, mode.precision)?,
+        (Device::Gpu, Some(gpu)) => gpu.commit(&geometry, mode.precision)?.timed(),
         (Device::Gpu, None) => return Err(Error::Device("a gpu: cast needs a GPU".into())),
         (Device::Cpu, _) => Cpu.commit(&geometry, mode.precision)?,
     };
     let warm_up = accel.intersect(&rays[..])?;
     tick();
     let mut times = Vec::with_capacity(runs);
+    let mut kernel_times = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
+        let before = accel.kernel_seconds();
         let (cast, time) = crate::render::timed(|| accel.intersect(&rays[..]));
         cast?;
         times.push(time.as_secs_f64());
+        if let (Some(b), Some(a)) = (before, accel.kernel_seconds()) {
+            kernel_times.push(a - b);
+        }
         tick();
     }
     let trace_s = median(&times);
+    let trace_gpu_s = (kernel_times.len() == times.len()).then(|| median(&kernel_times));
+    let (kernel_or_wall_s, mrays_from) = match trace_gpu_s {
+        Some(k) if k > 0.0 => (k, "gpu_timestamps"),
+        _ => (trace_s, "wall"),
+    };
     let counts = Counts::of(&loaded.scene);
     let hits = warm_up.id().iter().filter(|&&id| id != MISS).count();
     let info = gpu.map(|g| g.info().adapter);
@@ -721,17 +731,17 @@ fn measure_rays(
         compile_s: None,
         upload_s: None,
         trace_s,
-        trace_gpu_s: None,
+        trace_gpu_s,
         write_s: None,
         wait_s: None,
         convert_s: None,
         copy_s: None,
         readback_bytes: None,
         whole_over_kernel: None,
-        mrays_per_s: n as f64 / trace_s * 1e-6,
+        mrays_per_s: n as f64 / kernel_or_wall_s * 1e-6,
         mrays_per_s_wall: n as f64 / trace_s * 1e-6,
         secondary_mrays_per_s: None,
-        mrays_from: "wall",
+        mrays_from,
         hit_fraction: hits as f64 / n as f64,
         peak_rss_mb: crate::peak_rss_mib(),
         bytes_per_triangle: None,
