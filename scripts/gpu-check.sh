@@ -201,9 +201,19 @@ grep -q '^shader f64: *yes' "$raw/info.txt" && torus_modes=gpu:f32,gpu:f64
 traversals=per-ray
 grep -q 'packet traversal: *yes' "$raw/info.txt" && traversals=packets,per-ray
 bench_each torus "$torus_modes" "$traversals" "$work/torus/torus.json"
+# The device's clocks every 50 ms through the big torus's frames, where nvidia-smi is there: a
+# GPU idle through a frame's second-long build ran its kernel up to 5x slower (docs/gpu.md,
+# 2026-11-30), most likely at lower clocks.
+sampler=""
+if command -v nvidia-smi >/dev/null; then
+    nvidia-smi --query-gpu=timestamp,pstate,clocks.sm,clocks.mem,power.draw --format=csv,noheader \
+        -lms 50 >"$raw/clocks.csv" 2>/dev/null &
+    sampler=$!
+fi
 bench_each big gpu:f32 "$traversals" "$work/big/torus.json"
+[[ -n $sampler ]] && kill "$sampler" 2>/dev/null
 # A quarter of the size each way: where packets cost what the triangles seen do, not the rays
-# (the H200's 5M torus took about 8.4 ms from 960x540 to 1920x1080, docs/gpu.md).
+# (the H200's 5M torus at 960x540: 2.1 ms in packets, 0.38 per ray, docs/gpu.md).
 bench_each big-small gpu:f32 "$traversals" "$work/big/torus.json" --size "$((${size%x*} / 4))x$((${size#*x} / 4))"
 bench_each spheres gpu:f32 "$traversals" "$work/torus/spheres.json"
 bench incoherent "$work/torus/torus.json" --rays "$rays" --mode gpu:f32
@@ -392,6 +402,7 @@ report = {
         "batch_over_kernel": bench["views"][0]["rays"] / views["batch"][0] / 1e6 / bench["views"][0]["mrays_per_s"]
             if views["batch"] and bench["views"] else None,
     },
+    "clocks": [[field.strip() for field in line.split(",")] for line in text("clocks.csv").splitlines()],
     "kept_kernel_ms": {"%s %s" % (name, traversal): float(s) * 1e3 for name, traversal, s in
                        (l.split() for l in text("kept.txt").splitlines())},
     "cost": {
