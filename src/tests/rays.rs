@@ -9,7 +9,6 @@ use common::{Rng, f32_hits, gpu, indexed, moved_along, pinhole_rays, random_scen
 use raycast::math::{Vec3, cross, dot, length, normalize};
 use raycast::rays::{AnyHits, Hits, INVALID_ID, Ray, RayList, coherent, one_origin};
 use raycast::render::Mode;
-use raycast::scene::Object;
 
 fn mode(s: &str) -> Mode {
     s.parse().unwrap()
@@ -144,18 +143,9 @@ fn reopened_gpu(
 fn coherent_rays_in_packets_equal_cpu_rays() {
     let gpu = gpu();
     let staging = staging_gpu(gpu);
-    // With a plane behind everything, and with one behind the camera (misses): the same
-    // primitive kinds, and seeds whose trees take the same stack, so that the two share their
-    // kernels (each costs lavapipe a compile).
-    for seed in [2, 5] {
-        let mut scene = random_scene(seed, [4, 4]);
-        let background = (scene.objects.iter()).any(|o| matches!(o, Object::Plane { .. }));
-        if !background {
-            scene.objects.push(Object::Plane {
-                point: scene.camera.eye + glam::DVec3::Z,
-                normal: glam::DVec3::Z,
-            });
-        }
+    // With a plane behind everything, and without one (misses): two scenes, one set of kernels.
+    for seed in common::LIST_SEEDS {
+        let (scene, background) = common::list_scene(seed);
         let eye = scene.camera.eye.to_array();
         let scene = Target::from_scene(scene);
         let w = 90;

@@ -80,8 +80,9 @@ fn sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu() {
     let test = "sixteen_lane_subgroups_render_textbook_and_cast_as_the_cpu";
     with_sixteen_lanes(test, || {
         every_camera_render_agrees(Textbook);
-        ray_lists_agree(2);
-        ray_lists_agree(3);
+        for seed in common::LIST_SEEDS {
+            ray_lists_agree(seed);
+        }
     });
 }
 
@@ -206,7 +207,7 @@ fn lit_renders_agree() {
 /// the CPU's hits bit for bit in f32, and its f64 ids in f64 and adaptive precision.
 fn ray_lists_agree(seed: u64) {
     let gpu = discrete_like();
-    let scene = common::random_scene(seed, [4, 4]);
+    let (scene, background) = common::list_scene(seed);
     let eye = scene.camera.eye.to_array();
     let scene = Target::from_scene(scene);
     let w = 90;
@@ -224,6 +225,7 @@ fn ray_lists_agree(seed: u64) {
             let on_gpu = common::f32_hits(scene.cast(Some(gpu), f32_mode, list).unwrap());
             let hit = on_gpu.id.iter().filter(|&&id| id >= 0).count();
             assert!(hit > 100, "{hit} rays hit ({label})");
+            assert!(background || hit < rays.len(), "no ray misses ({label})");
             for k in 0..rays.len() {
                 let get = |h: &Hits<f32>| (h.id[k], h.t[k], h.primitive[k], h.uv[k], h.normal[k]);
                 assert_eq!(get(&on_gpu), get(&cpu), "ray {k}, {label}");

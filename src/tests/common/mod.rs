@@ -296,6 +296,27 @@ pub(crate) use selftest_scenes::{
     Rng, incoherent_rays, moved_along, pinhole_rays, random_scene, sphere_mesh,
 };
 
+/// Seeds of [`list_scene`] whose two scenes take the same kernels: one with a plane behind
+/// everything, one whose rays miss (with a plane behind the camera), and trees that take the
+/// same traversal stack. lavapipe compiles each kernel at its first dispatch, one at a time.
+pub(crate) const LIST_SEEDS: [u64; 2] = [2, 5];
+
+/// `random_scene(seed, [4, 4])` for ray lists, with a plane behind its camera where it has none
+/// (its rays still miss there; the kernels are those of a scene with planes), and whether it
+/// had one (a background).
+pub(crate) fn list_scene(seed: u64) -> (raycast::Scene, bool) {
+    use raycast::Object;
+    let mut scene = random_scene(seed, [4, 4]);
+    let background = (scene.objects.iter()).any(|o| matches!(o, Object::Plane { .. }));
+    if !background {
+        scene.objects.push(Object::Plane {
+            point: scene.camera.eye + glam::DVec3::Z,
+            normal: glam::DVec3::Z,
+        });
+    }
+    (scene, background)
+}
+
 /// The scene files (`*.json`) of the repository folder `dir`, sorted by name.
 pub(crate) fn scene_files(dir: &str) -> Vec<PathBuf> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(repo_path(dir))
