@@ -1,15 +1,19 @@
 //! Timing a render changes no pixel; the kernel times are positive where the device has
 //! timestamp queries (the times `raycast tradeoff` and `bench` report).
 
+/// Whether `gpu` can time its kernels (timestamp queries).
+fn has_timestamps(gpu: &raycast::gpu::Gpu) -> bool {
+    gpu.device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY)
+}
+
 #[test]
 fn kernel_timing_changes_no_pixel_and_reports_positive_times() {
     use raycast::Algorithm::Robust;
     use raycast::render::{self, AnyImages};
     let gpu = super::common::gpu();
-    let timestamps = gpu
-        .device
-        .features()
-        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let timestamps = has_timestamps(gpu);
     let mut scene = super::common::course_scene("bunny");
     scene.camera.resolution = [48, 27];
     let plain = super::kernels::gpu_scene::<f32>(gpu, &scene, Robust).unwrap();
@@ -111,10 +115,7 @@ fn a_render_reads_back_only_the_outputs_asked_for() {
 #[test]
 fn timed_queries_change_no_hit_and_add_their_kernel_times() {
     let gpu = super::common::gpu();
-    let timestamps = gpu
-        .device
-        .features()
-        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let timestamps = has_timestamps(gpu);
     let scene = super::common::course_scene("bunny");
     let geometry = raycast::Geometry::from_scene(&scene);
     let rays: Vec<raycast::Ray> = (0..300)
