@@ -60,7 +60,7 @@ pack() { # DIR BINARY MITSUBA PYTHON_VERSION LIB_TESTS
         # The newest test binary of the library: the one with the kernel_ab measurement.
         local exe
         exe=$(ls -t "$(dirname "$binary")"/deps/raycast-???????????????? 2>/dev/null |
-            while read -r f; do [[ -x $f ]] && "$f" --list 2>/dev/null | grep -q 'kernel_ab: test' && { echo "$f"; break; }; done)
+            while read -r f; do [[ -x $f ]] && "$f" --list 2>/dev/null | grep 'kernel_ab: test' >/dev/null && { echo "$f"; break; }; done)
         [[ -n $exe ]] || { say "gpu-check: no library test binary beside $binary (cargo test --release -p raycast --lib --no-run)"; exit 2; }
         cp "$exe" "$dir/raycast-lib-tests" || exit 2
     fi

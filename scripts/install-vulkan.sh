@@ -11,8 +11,10 @@ as_root() {
     fi
 }
 
+# grep reads all of ldconfig's output: `grep -q` would stop at the first match, and ldconfig,
+# still writing, would die of SIGPIPE, which pipefail reports as a failure (now and then).
 have_driver() {
-    ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' &&
+    ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null &&
         compgen -G '/usr/share/vulkan/icd.d/*.json' >/dev/null
 }
 
