@@ -74,23 +74,31 @@ impl Viewer {
             )?;
             wanted[k] = m;
         }
-        let moved: Vec<(usize, Vec<crate::scene::Triangle>)> =
-            (self.scene.instances.par_iter_mut())
-                .zip(wanted)
-                .filter(|(p, m)| p.transform != *m)
-                .map(|(p, m)| {
-                    p.transform = m;
-                    (p.object, crate::scene::place(&p.mesh.triangles, &m))
-                })
-                .collect();
-        if moved.is_empty() {
-            return Ok(());
-        }
-        for (object, triangles) in moved {
-            if let Object::Soup { triangles: t, .. } = &mut self.scene.objects[object] {
-                *t = triangles;
+        // Each moved copy placed again in its own soup's memory, the objects in parallel: new
+        // memory for every copy, each frame, cost more than the placing.
+        let mut moves = vec![None; self.scene.objects.len()];
+        for (p, m) in self.scene.instances.iter_mut().zip(wanted) {
+            if p.transform != m {
+                p.transform = m;
+                moves[p.object] = Some((p.mesh.clone(), m));
             }
         }
+        if moves.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        (self.scene.objects.par_iter_mut())
+            .zip(moves)
+            .for_each(|(object, moved)| match (object, moved) {
+                (Object::Soup { triangles, .. }, Some((mesh, m)))
+                    if triangles.len() == mesh.triangles.len() =>
+                {
+                    crate::scene::place_into(triangles, &mesh.triangles, &m)
+                }
+                (Object::Soup { triangles, .. }, Some((mesh, m))) => {
+                    *triangles = crate::scene::place(&mesh.triangles, &m)
+                }
+                _ => {}
+            });
         self.shared.objects_moved();
         Ok(())
     }

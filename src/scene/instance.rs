@@ -182,13 +182,18 @@ fn named(numbers: &mut Vec<(String, f64)>, name: &str, xs: &[f64]) {
 /// triangle's last two corners swap, so that a normal, which follows the corners' order, keeps
 /// to the side it was on: outward stays outward.
 pub(crate) fn place(triangles: &[Triangle], m: &DAffine3) -> Vec<Triangle> {
+    let mut placed = vec![[DVec3::ZERO; 3]; triangles.len()];
+    place_into(&mut placed, triangles, m);
+    placed
+}
+
+/// [`place`] into `placed` (as long as `triangles`), the memory of a copy placed before.
+pub(crate) fn place_into(placed: &mut [Triangle], triangles: &[Triangle], m: &DAffine3) {
     let mirrors = m.matrix3.determinant() < 0.0;
-    (triangles.iter())
-        .map(|t| {
-            let [a, b, c] = t.map(|p| m.transform_point3(p));
-            if mirrors { [a, c, b] } else { [a, b, c] }
-        })
-        .collect()
+    for (out, t) in placed.iter_mut().zip(triangles) {
+        let [a, b, c] = t.map(|p| m.transform_point3(p));
+        *out = if mirrors { [a, c, b] } else { [a, b, c] };
+    }
 }
 
 /// The box `(lo, hi)` moved by `m`: the box around its moved corners, which holds whatever

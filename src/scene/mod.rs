@@ -9,7 +9,7 @@ mod file;
 mod instance;
 pub(crate) use file::MAX_MAGNITUDE;
 pub use file::{ViewCamera, parse_poses, parse_views};
-pub(crate) use instance::{moved_box, place, singular};
+pub(crate) use instance::{moved_box, place, place_into, singular};
 mod mesh;
 mod orbit;
 
