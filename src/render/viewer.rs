@@ -88,16 +88,10 @@ impl Viewer {
         }
         (self.scene.objects.par_iter_mut())
             .zip(moves)
-            .for_each(|(object, moved)| match (object, moved) {
-                (Object::Soup { triangles, .. }, Some((mesh, m)))
-                    if triangles.len() == mesh.triangles.len() =>
-                {
-                    crate::scene::place_into(triangles, &mesh.triangles, &m)
+            .for_each(|(object, moved)| {
+                if let (Object::Soup { triangles, .. }, Some((mesh, m))) = (object, moved) {
+                    crate::scene::place_into(triangles, &mesh.triangles, &m);
                 }
-                (Object::Soup { triangles, .. }, Some((mesh, m))) => {
-                    *triangles = crate::scene::place(&mesh.triangles, &m)
-                }
-                _ => {}
             });
         self.shared.objects_moved();
         Ok(())

@@ -182,18 +182,23 @@ fn named(numbers: &mut Vec<(String, f64)>, name: &str, xs: &[f64]) {
 /// triangle's last two corners swap, so that a normal, which follows the corners' order, keeps
 /// to the side it was on: outward stays outward.
 pub(crate) fn place(triangles: &[Triangle], m: &DAffine3) -> Vec<Triangle> {
-    let mut placed = vec![[DVec3::ZERO; 3]; triangles.len()];
-    place_into(&mut placed, triangles, m);
-    placed
+    let mirrors = m.matrix3.determinant() < 0.0;
+    (triangles.iter()).map(|t| placed(t, m, mirrors)).collect()
 }
 
-/// [`place`] into `placed` (as long as `triangles`), the memory of a copy placed before.
-pub(crate) fn place_into(placed: &mut [Triangle], triangles: &[Triangle], m: &DAffine3) {
+/// [`place`] into `placed_copy`, the memory of a copy placed before (resized to `triangles`).
+pub(crate) fn place_into(placed_copy: &mut Vec<Triangle>, triangles: &[Triangle], m: &DAffine3) {
     let mirrors = m.matrix3.determinant() < 0.0;
-    for (out, t) in placed.iter_mut().zip(triangles) {
-        let [a, b, c] = t.map(|p| m.transform_point3(p));
-        *out = if mirrors { [a, c, b] } else { [a, b, c] };
+    placed_copy.resize(triangles.len(), [DVec3::ZERO; 3]);
+    for (out, t) in placed_copy.iter_mut().zip(triangles) {
+        *out = placed(t, m, mirrors);
     }
+}
+
+/// Triangle `t` moved by `m`, its last two corners swapped where `m` mirrors.
+fn placed(t: &Triangle, m: &DAffine3, mirrors: bool) -> Triangle {
+    let [a, b, c] = t.map(|p| m.transform_point3(p));
+    if mirrors { [a, c, b] } else { [a, b, c] }
 }
 
 /// The box `(lo, hi)` moved by `m`: the box around its moved corners, which holds whatever
